@@ -1,0 +1,156 @@
+"""The robot: a Pinocchio model plus what identification needs beside it (limits, friction, names)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pinocchio as pin
+
+from lwrlab.model.inertia import LINK_PARAMETER_NAMES, from_pin_inertia, to_pin_inertia
+
+FRICTION_TERMS: dict[str, str] = {"coulomb": "FC", "viscous": "FV", "offset": "FO"}
+"""Friction terms a joint may carry, with the prefix of their parameter names.
+
+Coulomb: ``FC_j·sign(q̇_j)`` (N·m); viscous: ``FV_j·q̇_j`` (N·m·s/rad); offset: ``FO_j`` (N·m), a
+constant torque-sensor or current offset.
+"""
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Symmetric or two-sided limits of each joint (arrays of length N_J)."""
+
+    position_lower: np.ndarray
+    """Lowest joint position (rad)."""
+    position_upper: np.ndarray
+    """Highest joint position (rad)."""
+    velocity: np.ndarray
+    """Largest absolute joint velocity (rad/s)."""
+    acceleration: np.ndarray
+    """Largest absolute joint acceleration (rad/s²)."""
+    torque: np.ndarray
+    """Largest absolute joint torque (N·m)."""
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Joint friction values (arrays of length N_J); the model is ``Σ_term value·basis(q̇)``."""
+
+    coulomb: np.ndarray
+    """Coulomb friction FC (N·m)."""
+    viscous: np.ndarray
+    """Viscous friction FV (N·m·s/rad)."""
+    offset: np.ndarray
+    """Constant offset FO (N·m)."""
+
+    def values(self, terms: tuple[str, ...]) -> np.ndarray:
+        """Stacked friction parameters for ``terms``, e.g. ``[FC_1..FC_n, FV_1..FV_n]``."""
+        return np.concatenate([getattr(self, term) for term in terms]) if terms else np.zeros(0)
+
+    def torque(self, dq: np.ndarray, terms: tuple[str, ...]) -> np.ndarray:
+        """Friction torque (N·m) for joint velocities ``dq`` (..., N_J) with the chosen terms."""
+        tau = np.zeros_like(dq, dtype=float)
+        if "coulomb" in terms:
+            tau = tau + self.coulomb * np.sign(dq)
+        if "viscous" in terms:
+            tau = tau + self.viscous * dq
+        if "offset" in terms:
+            tau = tau + self.offset
+        return tau
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """A fixed-base serial manipulator.
+
+    ``model`` is a Pinocchio model whose joint ``j`` (1-based) moves segment ``j``; the segment's
+    inertia is expressed in the joint frame, which for robots built from a modified DH table is the
+    Khalil–Kleinfinger frame ``j``. The standard parameter vector is ``[φ_1 … φ_NL, friction]``
+    with ``φ_j`` in :data:`lwrlab.model.inertia.LINK_PARAMETER_NAMES` order and the friction terms
+    in ``friction_terms`` order, each for joints 1…N_J. The fixed base segment carries no
+    identifiable parameter and is left out, so ``N_L = N_J`` here (the paper counts it: N_L = 8).
+    """
+
+    name: str
+    model: pin.Model
+    limits: JointLimits
+    friction: Friction
+    friction_terms: tuple[str, ...] = ("coulomb", "viscous")
+    link_labels: tuple[str, ...] = field(default=())
+    """Short labels of the moving segments used in parameter names (default "1", "2", …)."""
+
+    def __post_init__(self) -> None:
+        unknown = set(self.friction_terms) - set(FRICTION_TERMS)
+        if unknown:
+            raise ValueError(f"unknown friction terms {sorted(unknown)}; valid: {sorted(FRICTION_TERMS)}")
+        if not self.link_labels:
+            object.__setattr__(self, "link_labels", tuple(str(j) for j in range(1, self.n_joints + 1)))
+        if self.model.nq != self.model.nv:
+            raise ValueError(f"{self.name}: only joints with nq == nv are supported (got nq={self.model.nq}, nv={self.model.nv})")
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints N_J."""
+        return self.model.nv
+
+    @property
+    def n_links(self) -> int:
+        """Number of moving segments carrying inertial parameters."""
+        return self.model.njoints - 1
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """Gravity acceleration in the base frame (m/s²)."""
+        return np.array(self.model.gravity.linear)
+
+    @property
+    def n_friction(self) -> int:
+        """Number of friction parameters."""
+        return len(self.friction_terms) * self.n_joints
+
+    @property
+    def n_parameters(self) -> int:
+        """Length of the standard parameter vector (10·N_L + friction)."""
+        return 10 * self.n_links + self.n_friction
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the standard parameters, e.g. ``("M1", "MSX1", …, "FC1", …, "FV7")``."""
+        inertial = [f"{p}{label}" for label in self.link_labels for p in LINK_PARAMETER_NAMES]
+        friction = [f"{FRICTION_TERMS[t]}{j}" for t in self.friction_terms for j in range(1, self.n_joints + 1)]
+        return tuple(inertial + friction)
+
+    @property
+    def link_parameters(self) -> np.ndarray:
+        """Standard inertial parameters, shape (N_L, 10)."""
+        return np.stack([from_pin_inertia(self.model.inertias[j]) for j in range(1, self.model.njoints)])
+
+    @property
+    def parameters(self) -> np.ndarray:
+        """The full standard parameter vector (inertial then friction)."""
+        return np.concatenate([self.link_parameters.ravel(), self.friction.values(self.friction_terms)])
+
+    def with_parameters(self, parameters: np.ndarray) -> RobotModel:
+        """A copy carrying other standard parameters (inertial, and friction if given)."""
+        parameters = np.asarray(parameters, dtype=float)
+        n_inertial = 10 * self.n_links
+        if parameters.shape not in ((n_inertial,), (self.n_parameters,)):
+            raise ValueError(f"expected {n_inertial} or {self.n_parameters} parameters, got shape {parameters.shape}")
+        model = self.model.copy()
+        for j, phi in enumerate(parameters[:n_inertial].reshape(self.n_links, 10), start=1):
+            model.inertias[j] = to_pin_inertia(phi)
+        friction = self.friction
+        if parameters.shape[0] == self.n_parameters:
+            values = parameters[n_inertial:].reshape(len(self.friction_terms), self.n_joints)
+            friction = replace(friction, **dict(zip(self.friction_terms, values, strict=True)))
+        return replace(self, model=model, friction=friction)
+
+    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, with_friction: bool = True) -> np.ndarray:
+        """Joint torques (N·m) for N samples (arrays (N, N_J)) by Pinocchio's RNEA, plus friction."""
+        q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
+        data = self.model.createData()
+        tau = np.stack([pin.rnea(self.model, data, q[k], dq[k], ddq[k]) for k in range(q.shape[0])])
+        if with_friction:
+            tau += self.friction.torque(dq, self.friction_terms)
+        return tau
