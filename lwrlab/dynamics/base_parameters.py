@@ -103,9 +103,11 @@ def compute_base_parameters(
     """
     rng = np.random.default_rng(seed)
     w = regressor(robot, *random_states(robot, n_samples, rng))
-    # Scale columns to unit norm so the tolerance does not depend on units (kg vs kg·m²).
+    # Scale columns to unit norm so the tolerance does not depend on units (kg vs kg·m²); columns
+    # that are zero up to round-off (e.g. MSZ2 of the LWR, whose frame 2 origin lies on axis 1)
+    # must stay zero rather than be blown up to unit-norm noise.
     norms = np.linalg.norm(w, axis=0)
-    nonzero = norms > 0
+    nonzero = norms > rank_tolerance * norms.max()
     scaled = np.where(nonzero, w / np.where(nonzero, norms, 1.0), 0.0)
     _, r_pivoted, _ = scipy.linalg.qr(scaled, mode="economic", pivoting=True)
     diag = np.abs(np.diag(r_pivoted))

@@ -126,18 +126,20 @@ def random_consistent_parameters(rng: np.random.Generator, scale_m: float = 0.2,
 
 
 def perturb_consistent(phi: np.ndarray, relative_spread: float, rng: np.random.Generator) -> np.ndarray:
-    """Perturb a consistent segment by ``relative_spread`` while keeping it consistent.
+    """Perturb a consistent segment by about ``relative_spread`` while keeping it consistent.
 
-    The Cholesky factor ``U`` of the pseudo-inertia (``J = U Uᵀ``, after a tiny regularisation so a
-    point mass or a massless segment can be factored) is scaled entry-wise by ``1 + s·ε``, ε ~ N(0, 1):
-    every entry of J then moves by about ``s`` relative, and ``U' U'ᵀ`` is positive semi-definite
-    whatever ε. A massless segment stays massless.
+    The Cholesky factor ``L`` of the pseudo-inertia (``J = L Lᵀ``, after a tiny regularisation so a
+    point mass can be factored) moves by ``s·ε_ij·sqrt(L_ii·L_jj)``, ε ~ N(0, 1): entries that are
+    zero in the nominal model (products of inertia of a CAD part aligned with its frame) move too,
+    every entry of J changes by about ``s`` relative to the segment's own scale, and ``L' L'ᵀ`` is
+    positive semi-definite whatever ε. A massless segment stays massless.
     """
     if phi[0] <= 0.0 or relative_spread == 0.0:
         return np.array(phi, dtype=float)
     j = pseudo_inertia(phi)
     j_reg = j + 1e-12 * max(1.0, phi[0]) * np.eye(4)
-    u = np.linalg.cholesky(j_reg)
-    factors = 1.0 + relative_spread * rng.normal(size=u.shape)
-    perturbed = u * np.tril(factors)
+    factor = np.linalg.cholesky(j_reg)
+    diagonal = np.sqrt(np.abs(np.diag(factor)))
+    scale = np.tril(np.outer(diagonal, diagonal))
+    perturbed = factor + relative_spread * rng.normal(size=factor.shape) * scale
     return from_pseudo_inertia(perturbed @ perturbed.T)

@@ -1,0 +1,39 @@
+"""The identified model: what a user takes away from an identification."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lwrlab.dynamics.base_parameters import BaseParameters
+
+
+@dataclass(frozen=True)
+class IdentifiedModel:
+    """Identified base parameters with their uncertainty, and a full standard set that reproduces them."""
+
+    base_names: tuple[str, ...]
+    """Names of the base parameters (``ZZ1R``, ``XX2R``, …, ``FC1``, …)."""
+    base_values: np.ndarray
+    """(N_B,) identified base parameters (SI units: kg, kg·m, kg·m², N·m, N·m·s/rad)."""
+    base_std: np.ndarray
+    """(N_B,) standard deviations of the base parameters (same units)."""
+    standard_names: tuple[str, ...]
+    """Names of the standard parameters."""
+    standard_values: np.ndarray
+    """(P,) a standard parameter vector whose base parameters equal ``base_values``: the prior
+    (CAD) set moved by the least change that matches the identified combinations. It is not
+    guaranteed physically consistent (the SDP estimator gives that)."""
+
+    @property
+    def base_relative_std(self) -> np.ndarray:
+        """%σ of each base parameter."""
+        with np.errstate(divide="ignore"):
+            return np.where(self.base_values != 0, 100 * self.base_std / np.abs(self.base_values), np.inf)
+
+
+def standard_from_base(base: BaseParameters, base_values: np.ndarray, prior: np.ndarray) -> np.ndarray:
+    """The standard vector closest to ``prior`` (Euclidean) with ``K·φ = base_values``."""
+    correction, *_ = np.linalg.lstsq(base.regrouping, base_values - base.regrouping @ prior, rcond=None)
+    return prior + correction

@@ -1,0 +1,1 @@
+"""Reading and writing the value objects (trajectories, measurements, identified models, tables)."""

@@ -1,0 +1,87 @@
+"""Artifact files: CSV for arrays a robot or a spreadsheet reads, YAML for models, npz for exactness.
+
+Nothing here unpickles: npz files are read with ``allow_pickle=False`` and YAML with ``safe_load``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from lwrlab.identification.identified import IdentifiedModel
+from lwrlab.plants.core import Measurement
+from lwrlab.trajectory.core import Trajectory
+
+
+def _joint_columns(prefix: str, n: int) -> list[str]:
+    return [f"{prefix}{j}" for j in range(1, n + 1)]
+
+
+def trajectory_frame(trajectory: Trajectory) -> pd.DataFrame:
+    """Columns ``t`` (s), ``q1…`` (rad), ``dq1…`` (rad/s), ``ddq1…`` (rad/s²)."""
+    n = trajectory.q.shape[1]
+    data = {"t": trajectory.t}
+    for prefix, array in (("q", trajectory.q), ("dq", trajectory.dq), ("ddq", trajectory.ddq)):
+        data.update(dict(zip(_joint_columns(prefix, n), array.T, strict=True)))
+    return pd.DataFrame(data)
+
+
+def save_trajectory_csv(trajectory: Trajectory, path: Path) -> Path:
+    """Write the motion as CSV (one row per sample), playable by a robot controller."""
+    trajectory_frame(trajectory).to_csv(path, index=False, float_format="%.10g")
+    return path
+
+
+def load_trajectory_csv(path: Path) -> Trajectory:
+    """Read a CSV written by :func:`save_trajectory_csv`."""
+    frame = pd.read_csv(path)
+    n = sum(1 for c in frame.columns if c.startswith("q") and c[1:].isdigit())
+    pick = lambda prefix: frame[_joint_columns(prefix, n)].to_numpy()  # noqa: E731
+    return Trajectory(t=frame["t"].to_numpy(), q=pick("q"), dq=pick("dq"), ddq=pick("ddq"), metadata={"source": str(path)})
+
+
+def save_measurement(measurement: Measurement, path: Path) -> Path:
+    """Write a measurement as npz (t, q, tau, and the metadata as a YAML string)."""
+    np.savez_compressed(path, t=measurement.t, q=measurement.q, tau=measurement.tau, metadata=yaml.safe_dump(measurement.metadata))
+    return path
+
+
+def load_measurement(path: Path) -> Measurement:
+    """Read a measurement written by :func:`save_measurement` (no pickle)."""
+    with np.load(path, allow_pickle=False) as data:
+        return Measurement(t=data["t"], q=data["q"], tau=data["tau"], metadata=yaml.safe_load(str(data["metadata"])))
+
+
+def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], path: Path) -> Path:
+    """Write an identified model as YAML, with the robot description it refines (to rebuild it)."""
+    document = {
+        "robot": robot_config,
+        "base_parameters": {
+            name: {"value": float(v), "std": float(s)}
+            for name, v, s in zip(model.base_names, model.base_values, model.base_std, strict=True)
+        },
+        "standard_parameters": {name: float(v) for name, v in zip(model.standard_names, model.standard_values, strict=True)},
+    }
+    path.write_text(yaml.safe_dump(document, sort_keys=False))
+    return path
+
+
+def load_identified_model(path: Path) -> tuple[IdentifiedModel, dict[str, Any]]:
+    """Read an identified model and its robot description written by :func:`save_identified_model`."""
+    document = yaml.safe_load(Path(path).read_text())
+    missing = {"robot", "base_parameters", "standard_parameters"} - set(document or {})
+    if missing:
+        raise ValueError(f"{path}: not an identified model, missing keys {sorted(missing)}")
+    base, standard = document["base_parameters"], document["standard_parameters"]
+    model = IdentifiedModel(
+        base_names=tuple(base),
+        base_values=np.array([entry["value"] for entry in base.values()]),
+        base_std=np.array([entry["std"] for entry in base.values()]),
+        standard_names=tuple(standard),
+        standard_values=np.array(list(standard.values()), dtype=float),
+    )
+    return model, document["robot"]

@@ -1,0 +1,1 @@
+"""Stages that wire the core from configured objects and write their artifacts."""

@@ -1,0 +1,207 @@
+"""Identification stage: motion → plant → processing → base-parameter estimation → cross-validation.
+
+``identify`` is pure computation on configured objects and returns an :class:`IdentificationReport`;
+``write_report`` puts its tables, arrays and figures on disk. The tracking callback logs that
+directory to MLflow, so nothing here knows about MLflow or Hydra.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
+from lwrlab.dynamics.regressor import regressor
+from lwrlab.identification.core import Estimator, torque_errors
+from lwrlab.identification.identified import IdentifiedModel, standard_from_base
+from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory_csv
+from lwrlab.model.robot import RobotModel
+from lwrlab.plants.core import Measurement, Plant
+from lwrlab.signal.processing import ProcessedData, process
+from lwrlab.tracking.figures import error_per_joint, torque_overlay
+from lwrlab.trajectory.core import MotionSource, Trajectory, check_limits
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class IdentificationReport:
+    """Everything an identification produced, in memory."""
+
+    robot: RobotModel
+    base: BaseParameters
+    identified: IdentifiedModel
+    motion: Trajectory
+    validation_motion: Trajectory
+    measurement: Measurement
+    validation_measurement: Measurement
+    parameters: pd.DataFrame
+    """Per base parameter: cad, truth (simulation), estimate, std, %σ, relative error."""
+    validation: pd.DataFrame
+    """Per joint: RMS (N·m) and NRMS (%) on the cross-validation motion, noise σ_τ if known."""
+    validation_times: np.ndarray
+    validation_measured: np.ndarray
+    validation_estimated: np.ndarray
+    metrics: dict[str, float] = field(default_factory=dict)
+
+
+def _sample_checked(source: MotionSource, robot: RobotModel, rate_hz: float, what: str) -> Trajectory:
+    motion = source.sample(robot, rate_hz)
+    check_limits(motion, robot, torque=robot.inverse_dynamics(motion.q, motion.dq, motion.ddq), what=what)
+    return motion
+
+
+def _base_regressor(robot: RobotModel, base: BaseParameters, data: ProcessedData) -> np.ndarray:
+    return base.base_regressor(regressor(robot, data.q, data.dq, data.ddq))
+
+
+def identify(
+    robot: RobotModel,
+    motion_source: MotionSource,
+    validation_source: MotionSource,
+    plant: Plant,
+    estimator: Estimator,
+    rate_hz: float = 1000.0,
+    processing: dict[str, Any] | None = None,
+) -> IdentificationReport:
+    """Identify the base parameters of the robot behind ``plant`` and cross-validate them.
+
+    Parameters
+    ----------
+    robot : the nominal (CAD) model: its structure gives the base parameters, its torques check
+        the motions against the limits, its values are the prior of the standard set.
+    motion_source, validation_source : the exciting motion and the cross-validation motion.
+    plant : the robot (simulated or replayed) that executes them.
+    estimator : fits base parameters to the processed data.
+    rate_hz : sampling rate of the measurement (Hz).
+    processing : keyword arguments of :func:`lwrlab.signal.processing.process`.
+    """
+    processing = dict(processing or {})
+    base = compute_base_parameters(robot)
+    log.info("%s: %d base parameters", robot.name, base.count)
+    motion = _sample_checked(motion_source, robot, rate_hz, "exciting motion")
+    validation_motion = _sample_checked(validation_source, robot, rate_hz, "cross-validation motion")
+
+    measurement = plant.measure(motion)
+    data = process(measurement.t, measurement.q, measurement.tau, **processing)
+    w_base = _base_regressor(robot, base, data)
+    estimator.fit(w_base, data.tau.ravel())
+    standard = standard_from_base(base, estimator.phi_, robot.parameters)
+    identified = IdentifiedModel(base.names, estimator.phi_.copy(), estimator.std_.copy(), robot.parameter_names, standard)
+
+    validation_measurement = plant.measure(validation_motion)
+    validation_data = process(validation_measurement.t, validation_measurement.q, validation_measurement.tau, **processing)
+    estimated = estimator.predict(_base_regressor(robot, base, validation_data)).reshape(-1, robot.n_joints)
+    measured = validation_measurement.tau[validation_data.index]  # raw: the noise floor is σ_τ
+    errors = torque_errors(measured, estimated)
+
+    noise = validation_measurement.metadata.get("torque_noise_std")
+    validation = pd.DataFrame(
+        {"rms": errors["rms"], "nrms": errors["nrms"]}, index=pd.Index(range(1, robot.n_joints + 1), name="joint")
+    )
+    if noise is not None:
+        validation["noise_std"] = noise
+
+    parameters = pd.DataFrame(
+        {
+            "cad": base.base_values(robot.parameters),
+            "estimate": estimator.phi_,
+            "std": estimator.std_,
+            "relative_std": estimator.relative_std_,
+        },
+        index=pd.Index(base.names, name="parameter"),
+    )
+    metrics = {
+        "cond_W_b": float(estimator.cond_),
+        "residual_std": float(estimator.residual_std_),
+        "rms_mean": float(errors["rms"].mean()),
+        "nrms_mean": float(np.nanmean(errors["nrms"])),
+        "n_base_parameters": float(base.count),
+        **{f"rms_joint{j}": float(v) for j, v in enumerate(errors["rms"], start=1)},
+        **{f"nrms_joint{j}": float(v) for j, v in enumerate(errors["nrms"], start=1)},
+    }
+    truth = getattr(plant, "truth", None)
+    if truth is not None:
+        true_base = base.base_values(truth.robot.parameters)
+        parameters.insert(1, "truth", true_base)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            parameters["relative_error"] = np.abs(estimator.phi_ - true_base) / np.abs(true_base)
+        metrics["base_parameter_error"] = float(np.linalg.norm(estimator.phi_ - true_base) / np.linalg.norm(true_base))
+    return IdentificationReport(
+        robot=robot,
+        base=base,
+        identified=identified,
+        motion=motion,
+        validation_motion=validation_motion,
+        measurement=measurement,
+        validation_measurement=validation_measurement,
+        parameters=parameters,
+        validation=validation,
+        validation_times=validation_data.t,
+        validation_measured=measured,
+        validation_estimated=estimated,
+        metrics=metrics,
+    )
+
+
+def format_report(report: IdentificationReport) -> str:
+    """The two tables of an identification as Markdown: base parameters, and cross-validation errors."""
+    parameters = report.parameters.copy()
+    parameters["relative_std"] = parameters["relative_std"].round(3)
+    lines = [
+        f"## Base parameters of {report.robot.name} ({report.base.count})",
+        "",
+        parameters.to_markdown(floatfmt=".5g"),
+        "",
+        "## Cross-validation torque error (20 s motion not used for identification)",
+        "",
+        report.validation.to_markdown(floatfmt=".4g"),
+        "",
+        f"mean RMS {report.metrics['rms_mean']:.4g} N·m, mean NRMS {report.metrics['nrms_mean']:.4g} %, "
+        f"cond(W_b) {report.metrics['cond_W_b']:.4g}",
+    ]
+    if "base_parameter_error" in report.metrics:
+        lines.append(f"relative base-parameter error ‖β̂ − β‖/‖β‖ = {report.metrics['base_parameter_error']:.3g}")
+    return "\n".join(lines)
+
+
+def write_report(report: IdentificationReport, output_dir: Path, robot_config: dict[str, Any]) -> dict[str, Path]:
+    """Write tables (CSV, Markdown), arrays (CSV, npz), the identified model (YAML) and figures."""
+    output_dir.mkdir(parents=True, exist_ok=True)
+    files = {
+        "trajectory": save_trajectory_csv(report.motion, output_dir / "exciting_motion.csv"),
+        "validation_trajectory": save_trajectory_csv(report.validation_motion, output_dir / "validation_motion.csv"),
+        "measurement": save_measurement(report.measurement, output_dir / "measurement.npz"),
+        "validation_measurement": save_measurement(report.validation_measurement, output_dir / "validation_measurement.npz"),
+        "identified_model": save_identified_model(report.identified, robot_config, output_dir / "identified_model.yaml"),
+    }
+    files["parameters"] = output_dir / "base_parameters.csv"
+    report.parameters.to_csv(files["parameters"])
+    files["validation"] = output_dir / "cross_validation.csv"
+    report.validation.to_csv(files["validation"])
+    files["summary"] = output_dir / "summary.md"
+    files["summary"].write_text(format_report(report) + "\n")
+    files["metrics"] = output_dir / "metrics.json"
+    files["metrics"].write_text(json.dumps(report.metrics, indent=2))
+    files["torque_overlay"] = torque_overlay(
+        report.validation_times,
+        report.validation_measured,
+        report.validation_estimated,
+        output_dir / "torque_overlay.png",
+        "Cross-validation: measured vs estimated joint torques",
+    )
+    noise = report.validation["noise_std"].to_numpy() if "noise_std" in report.validation else None
+    files["error_per_joint"] = error_per_joint(
+        report.validation["rms"].to_numpy(),
+        report.validation["nrms"].to_numpy(),
+        output_dir / "error_per_joint.png",
+        "Cross-validation torque error per joint",
+        noise,
+    )
+    return files

@@ -1,0 +1,49 @@
+"""Figures in the style of the paper: torque overlays (Fig. 10) and RMS/NRMS per joint (Fig. 6)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only: no display on servers and CI
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def torque_overlay(t: np.ndarray, measured: np.ndarray, estimated: np.ndarray, path: Path, title: str) -> Path:
+    """Measured vs estimated torque of every joint over time, one panel per joint."""
+    n = measured.shape[1]
+    fig, axes = plt.subplots(n, 1, figsize=(8, 1.5 * n + 1), sharex=True)
+    for j, ax in enumerate(np.atleast_1d(axes)):
+        ax.plot(t, measured[:, j], color="0.6", lw=0.8, label="measured")
+        ax.plot(t, estimated[:, j], color="C3", lw=1.0, label="estimated")
+        ax.set_ylabel(f"Γ{j + 1} [N·m]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", ncol=2, fontsize=8)
+    axes[0].set_title(title)
+    axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def error_per_joint(rms: np.ndarray, nrms: np.ndarray, path: Path, title: str, noise_std: np.ndarray | None = None) -> Path:
+    """Bar charts of RMS (N·m) and NRMS (%) per joint, with the torque-noise floor if known."""
+    joints = np.arange(1, rms.shape[0] + 1)
+    fig, (ax_rms, ax_nrms) = plt.subplots(1, 2, figsize=(9, 3.2))
+    ax_rms.bar(joints, rms, color="C0")
+    if noise_std is not None:
+        ax_rms.step(np.r_[joints - 0.5, joints[-1] + 0.5], np.r_[noise_std, noise_std[-1]], where="post", color="k", lw=1, label="noise σ_τ")
+        ax_rms.legend(fontsize=8)
+    ax_rms.set(xlabel="joint", ylabel="RMS [N·m]", xticks=joints)
+    ax_nrms.bar(joints, nrms, color="C1")
+    ax_nrms.set(xlabel="joint", ylabel="NRMS [%]", xticks=joints)
+    for ax in (ax_rms, ax_nrms):
+        ax.grid(axis="y", alpha=0.3)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
