@@ -28,6 +28,10 @@ from plugins.robots.mdh import build_friction
 _FLOATING_JOINTS = ("JointModelFreeFlyer", "JointModelPlanar")
 
 
+class URDFNotFoundError(FileNotFoundError, ValueError):
+    """A URDF path that is not a file: a ``FileNotFoundError`` that a ``ValueError`` handler also catches."""
+
+
 def _check_joints(model: pin.Model, path: Path) -> None:
     """Refuse a floating base and any joint that is not a 1-DoF joint with nq == nv."""
     for j in range(1, model.njoints):
@@ -100,6 +104,10 @@ def _add_flange(model: pin.Model, flange_frame: str, path: Path) -> None:
     """Add an operational frame named ``flange`` at the URDF frame ``flange_frame``."""
     if not model.existFrame(flange_frame):
         raise ValueError(f"{path}: flange_frame {flange_frame!r} is not a frame of the model; frames: {[f.name for f in model.frames]}")
+    if flange_frame == "flange":
+        return  # the URDF already names its flange
+    if model.existFrame("flange"):
+        raise ValueError(f"{path}: the URDF already has a frame named 'flange'; drop flange_frame or set it to 'flange'")
     frame = model.frames[model.getFrameId(flange_frame)]
     model.addFrame(pin.Frame("flange", frame.parentJoint, frame.placement, pin.FrameType.OP_FRAME))
 
@@ -139,15 +147,15 @@ def load_urdf_robot(
 
     Raises
     ------
-    FileNotFoundError
-        If ``path`` is not a file.
+    URDFNotFoundError
+        If ``path`` is not a file (a subclass of both ``FileNotFoundError`` and ``ValueError``).
     ValueError
         For an unreadable URDF, a floating base, an unsupported joint, missing limits, unknown
         locked or flange frames, or wrongly sized acceleration limits; the message names the file.
     """
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"URDF file {path} does not exist")
+        raise URDFNotFoundError(f"URDF file {path} does not exist")
     try:
         model = pin.buildModelFromUrdf(str(path))  # fixed base: no root joint
     except (ValueError, RuntimeError) as error:
