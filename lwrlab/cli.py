@@ -15,6 +15,9 @@ from lwrlab.pipeline.identification import format_report, identify, write_report
 
 log = logging.getLogger("lwrlab")
 
+CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
+"""The config tree beside the package (an absolute path: a relative one would be read as a module)."""
+
 
 def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
     """Run the identification chain configured by ``cfg``; write its artifacts; return its metrics."""
@@ -35,7 +38,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
     return report.metrics
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="config")
 def main(cfg: DictConfig) -> dict[str, float]:
     """Hydra entry point; the tracking callback logs the returned metrics and the output folder."""
     return run(cfg, Path(HydraConfig.get().runtime.output_dir))

@@ -2,10 +2,30 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+
+from lwrlab.model.robot import RobotModel
+from plugins.robots.mdh import load_robot_yaml
+
+REPOSITORY = Path(__file__).resolve().parents[1]
+CONF = REPOSITORY / "conf"
 
 
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="session")
+def lwr4() -> RobotModel:
+    """The KUKA LWR4 CAD model of conf/robot/kuka_lwr4.yaml."""
+    return load_robot_yaml(CONF / "robot" / "kuka_lwr4.yaml")
+
+
+@pytest.fixture(scope="session")
+def panda() -> RobotModel:
+    """The Franka Emika Panda of conf/robot/panda.yaml."""
+    return load_robot_yaml(CONF / "robot" / "panda.yaml")

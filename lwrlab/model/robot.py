@@ -79,6 +79,10 @@ class RobotModel:
     friction_terms: tuple[str, ...] = ("coulomb", "viscous")
     link_labels: tuple[str, ...] = field(default=())
     """Short labels of the moving segments used in parameter names (default "1", "2", …)."""
+    rotor_inertia: np.ndarray | None = None
+    """(N_J,) drive rotor inertia reflected to the joint (kg·m²), or None. It is on the motor side of
+    the joint-torque sensor: plants integrating the motion use it, the link-side torque (what the
+    regressor models) does not contain it."""
 
     def __post_init__(self) -> None:
         unknown = set(self.friction_terms) - set(FRICTION_TERMS)
@@ -86,6 +90,8 @@ class RobotModel:
             raise ValueError(f"unknown friction terms {sorted(unknown)}; valid: {sorted(FRICTION_TERMS)}")
         if not self.link_labels:
             object.__setattr__(self, "link_labels", tuple(str(j) for j in range(1, self.n_joints + 1)))
+        if self.rotor_inertia is not None and np.shape(self.rotor_inertia) != (self.n_joints,):
+            raise ValueError(f"{self.name}: rotor_inertia needs {self.n_joints} values, got shape {np.shape(self.rotor_inertia)}")
         if self.model.nq != self.model.nv:
             raise ValueError(f"{self.name}: only joints with nq == nv are supported (got nq={self.model.nq}, nv={self.model.nv})")
 

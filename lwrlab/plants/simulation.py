@@ -45,13 +45,19 @@ def track_closed_loop(
 
     The controller runs at the trajectory's rate with gravity from ``controller_robot`` (the model
     the user has, e.g. CAD); the true dynamics of ``plant_robot`` are integrated with Pinocchio's ABA
-    and semi-implicit Euler at ``substeps`` times that rate. Coulomb friction is smoothed as
+    and semi-implicit Euler at ``substeps`` times that rate. The drives' rotor inertia
+    (``plant_robot.rotor_inertia``) moves with the joints, so the commanded torque accelerates
+    ``M(q) + diag(I_a)``, while the joint-torque sensor, on the link side of the drive, reads
+    ``τ − I_a·q̈``: what the link dynamics (and the regressor) account for. Coulomb friction is smoothed as
     ``FC·tanh(q̇/ε)`` with ε = ``coulomb_smoothing`` (rad/s) so the integration does not chatter.
 
-    Returns the true positions (rad), velocities (rad/s) and applied joint torques (N·m) at the
+    Returns the true positions (rad), velocities (rad/s) and link-side joint torques (N·m) at the
     trajectory's sample times.
     """
-    model, data = plant_robot.model, plant_robot.model.createData()
+    model = plant_robot.model.copy()
+    rotor_inertia = np.zeros(plant_robot.n_joints) if plant_robot.rotor_inertia is None else plant_robot.rotor_inertia
+    model.armature = rotor_inertia
+    data = model.createData()
     ctrl_model, ctrl_data = controller_robot.model, controller_robot.model.createData()
     friction = plant_robot.friction
     n_samples = trajectory.t.shape[0]
@@ -66,10 +72,12 @@ def track_closed_loop(
             + kd * (trajectory.dq[k] - dq)
             + pin.rnea(ctrl_model, ctrl_data, q, zero, zero)
         )
-        q_out[k], dq_out[k], tau_out[k] = q, dq, tau
-        for _ in range(substeps):
+        q_out[k], dq_out[k] = q, dq
+        for step in range(substeps):
             tau_friction = friction.viscous * dq + friction.coulomb * np.tanh(dq / coulomb_smoothing) + friction.offset
             ddq = pin.aba(model, data, q, dq, tau - tau_friction)
+            if step == 0:
+                tau_out[k] = tau - rotor_inertia * ddq
             dq = dq + dt * ddq
             q = q + dt * dq
     return q_out, dq_out, tau_out

@@ -25,6 +25,7 @@ The robot config (``conf/robot/<name>.yaml``) or any YAML file with the same key
       viscous: [...]                        # N·m·s/rad
       offset: [...]                         # N·m (optional, default 0)
     friction_terms: [coulomb, viscous]      # columns of the regressor; add offset if needed
+    rotor_inertia: [...]                    # optional: drive inertia reflected to the joint (kg·m²)
 
 ``build_robot`` takes these keys as arguments (what Hydra's ``instantiate`` passes);
 ``load_robot_yaml`` reads them from a file.
@@ -82,6 +83,7 @@ def build_robot(
     gravity: Sequence[float] = (0.0, 0.0, -9.81),
     friction_terms: Sequence[str] = ("coulomb", "viscous"),
     flange: Sequence[float] | None = None,
+    rotor_inertia: Sequence[float] | None = None,
     **documentation: Any,
 ) -> RobotModel:
     """Build a :class:`RobotModel` from a modified-DH description (keys in the module docstring).
@@ -119,6 +121,7 @@ def build_robot(
         limits=build_limits(limits, n, name),
         friction=build_friction(friction, n, name),
         friction_terms=tuple(friction_terms),
+        rotor_inertia=None if rotor_inertia is None else _array(rotor_inertia, n, f"robot {name!r} rotor_inertia"),
     )
 
 

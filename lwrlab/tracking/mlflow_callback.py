@@ -1,0 +1,739 @@
+"""MLflow tracking of Hydra jobs, as a Hydra callback: params, tags, metrics, artifacts and status.
+
+The numeric core never imports mlflow. A job only returns its metrics and writes its artifacts into the
+Hydra job output directory; this callback, enabled by the ``tracking`` config group, turns each Hydra
+job into one MLflow run:
+
+* ``on_job_start``: experiment (created if missing), run named after the job, the flattened resolved
+  config as params, provenance tags (overrides, git commit, config hash, seed, library versions).
+* ``on_job_end``: numeric metrics from the return value, the whole job output directory as artifacts,
+  and the run status (FINISHED, or FAILED with the error and ``error.txt``).
+* a Hydra multirun becomes a parent run with one nested run per job.
+
+Tracking problems never hide the job's own result: they are logged once as a warning and the job
+goes on untracked.
+
+Examples
+--------
+Select it from the command line (``tracking: sqlite`` is the default of ``conf/config.yaml``)::
+
+    lwrlab tracking=sqlite experiment_name=identification
+    lwrlab tracking=server hydra.callbacks.mlflow.tracking_uri=http://host:5000
+    lwrlab tracking=none
+
+and compare runs afterwards:
+
+>>> from lwrlab.tracking import runs_table  # doctest: +SKIP
+>>> runs_table("sqlite:///outputs/mlflow.db", "identification", "metrics.rms_mean < 0.5")  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import atexit
+import getpass
+import hashlib
+import json
+import logging
+import numbers
+import os
+import platform
+import re
+import subprocess
+import time
+import traceback
+import urllib.parse
+import urllib.request
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any, TypeVar
+
+import mlflow
+import pandas as pd
+from hydra.core.utils import JobReturn, JobStatus
+from hydra.experimental.callback import Callback
+from hydra.utils import get_class
+from mlflow.entities import Metric, Param
+from mlflow.exceptions import MlflowException
+from mlflow.tracking import MlflowClient
+from mlflow.utils import validation as mlflow_limits
+from omegaconf import DictConfig, OmegaConf
+
+import lwrlab
+
+log = logging.getLogger(__name__)
+
+# MLflow's own limits, read from the installed version (with mlflow 3's values as fallbacks).
+PARAM_VALUE_MAX_LENGTH: int = getattr(mlflow_limits, "MAX_PARAM_VAL_LENGTH", 6000)
+TAG_VALUE_MAX_LENGTH: int = getattr(mlflow_limits, "MAX_TAG_VAL_LENGTH", 8000)
+KEY_MAX_LENGTH: int = getattr(mlflow_limits, "MAX_ENTITY_KEY_LENGTH", 250)
+PARAMS_PER_BATCH: int = getattr(mlflow_limits, "MAX_PARAMS_TAGS_PER_BATCH", 100)
+METRICS_PER_BATCH: int = getattr(mlflow_limits, "MAX_METRICS_PER_BATCH", 1000)
+RUN_NAME_MAX_LENGTH = 250  # the runs.name column of MLflow's SQL stores
+ERROR_TAG_MAX_LENGTH = 1000  # a readable summary; the full traceback goes to error.txt
+
+RUN_ID_FILE = "mlflow_run_id.txt"
+ERROR_FILE = "error.txt"
+RUN_KIND_TAG = "run_kind"  # "job" or "sweep": filter with runs_table(..., "tags.run_kind = 'job'")
+
+# Characters MLflow accepts in param and metric keys (mlflow.utils.validation, POSIX flavour).
+_INVALID_KEY_CHARACTERS = re.compile(r"[^/\w.\- :]")
+# Tracking URIs without "://" that are not file paths.
+_BARE_URI_SCHEMES = frozenset({"databricks", "databricks-uc", "uc"})
+_STATUS_OF_JOB = {JobStatus.COMPLETED: "FINISHED", JobStatus.FAILED: "FAILED", JobStatus.UNKNOWN: "KILLED"}
+
+Item = TypeVar("Item")
+
+
+# ---------------------------------------------------------------------------------------------
+# Pure helpers (no MLflow calls): config → params, return value → metrics, URIs.
+# ---------------------------------------------------------------------------------------------
+
+
+def truncate(text: str, max_length: int) -> str:
+    """Cut ``text`` to ``max_length`` characters, ending with ``...`` when it was cut."""
+    return text if len(text) <= max_length else text[: max_length - 3] + "..."
+
+
+def mlflow_key(name: str) -> str:
+    """Turn ``name`` into a valid MLflow param/metric key (bad characters become ``_``)."""
+    return _INVALID_KEY_CHARACTERS.sub("_", name)[:KEY_MAX_LENGTH]
+
+
+def flatten_config(node: Any, prefix: str = "") -> dict[str, str]:
+    """Flatten a nested config into MLflow params.
+
+    Parameters
+    ----------
+    node
+        A plain container (as from ``OmegaConf.to_container(cfg, resolve=True)``).
+    prefix
+        Key of ``node`` itself; nested keys are joined to it with dots.
+
+    Returns
+    -------
+    dict[str, str]
+        ``{"robot.dof": "7", "trajectory.harmonics": "[1, 2, 3]", ...}``: lists as JSON strings,
+        every value cut to MLflow's param length limit (``PARAM_VALUE_MAX_LENGTH``).
+
+    Examples
+    --------
+    >>> flatten_config({"robot": {"dof": 7, "q_max": [1.0, 2.0]}, "seed": 0})
+    {'robot.dof': '7', 'robot.q_max': '[1.0, 2.0]', 'seed': '0'}
+    """
+    if isinstance(node, Mapping):
+        flat: dict[str, str] = {}
+        if not node and prefix:
+            flat[prefix] = "{}"  # keep the key visible even when its node is empty
+        for key, value in node.items():
+            flat.update(flatten_config(value, f"{prefix}.{key}" if prefix else str(key)))
+        return flat
+    if isinstance(node, (list, tuple)):
+        text = json.dumps(node, default=str)
+    else:
+        text = str(node)
+    return {prefix: truncate(text, PARAM_VALUE_MAX_LENGTH)} if prefix else {}
+
+
+def resolved_job_config(config: DictConfig) -> dict[str, Any]:
+    """The job's config without the ``hydra`` node, resolved into plain containers.
+
+    A key whose interpolation cannot be resolved is kept unresolved rather than failing the run.
+    """
+    resolved: dict[str, Any] = {}
+    for key in config.keys():
+        if key == "hydra":
+            continue
+        try:
+            value = config[key]
+            resolved[str(key)] = OmegaConf.to_container(value, resolve=True) if OmegaConf.is_config(value) else value
+        except Exception:  # an unresolvable interpolation: log it as written
+            raw = OmegaConf.to_container(config, resolve=False)
+            assert isinstance(raw, dict)
+            resolved[str(key)] = raw[key]
+    return resolved
+
+
+def config_hash(resolved_config: Mapping[str, Any]) -> str:
+    """SHA-256 of the resolved config as YAML, keys sorted (so reordering defaults keeps the hash)."""
+    text = OmegaConf.to_yaml(OmegaConf.create(dict(resolved_config)), sort_keys=True)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _numeric_leaves(value: Any, key: str) -> Iterator[tuple[str, float]]:
+    if isinstance(value, (str, bytes, bool)) or value is None:
+        return
+    if hasattr(value, "tolist") and not isinstance(value, numbers.Real):
+        value = value.tolist()  # numpy arrays (and 0-d arrays) → lists (or a scalar)
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        yield key, float(value)
+    elif isinstance(value, Mapping):
+        for sub_key, sub_value in value.items():
+            yield from _numeric_leaves(sub_value, f"{key}.{sub_key}" if key else str(sub_key))
+    elif isinstance(value, Sequence):
+        for index, item in enumerate(value):
+            yield from _numeric_leaves(item, f"{key}.{index}" if key else str(index))
+
+
+def numeric_metrics(return_value: Any) -> dict[str, float]:
+    """The metrics to log from a task function's return value.
+
+    Parameters
+    ----------
+    return_value
+        ``{"metrics": {...}, ...}`` (only the ``metrics`` entry is used), or a dict of metrics, or a
+        single number (logged as ``return_value``, what a Hydra sweeper optimises).
+
+    Returns
+    -------
+    dict[str, float]
+        Every numeric leaf; nested keys joined by dots, sequence items by index
+        (``rms.0``, ``rms.1``…); strings, booleans and ``None`` are skipped.
+
+    Examples
+    --------
+    >>> numeric_metrics({"metrics": {"rms_mean": 0.2, "rms": [0.1, 0.3]}, "report": "text"})
+    {'rms_mean': 0.2, 'rms.0': 0.1, 'rms.1': 0.3}
+    """
+    if isinstance(return_value, Mapping) and isinstance(return_value.get("metrics"), Mapping):
+        return_value = return_value["metrics"]
+    if isinstance(return_value, numbers.Real) and not isinstance(return_value, bool):
+        return {"return_value": float(return_value)}
+    if not isinstance(return_value, Mapping):
+        return {}
+    return {mlflow_key(key): value for key, value in _numeric_leaves(return_value, "")}
+
+
+def absolute_tracking_uri(tracking_uri: str, base_dir: Path) -> str:
+    """Make a relative SQLite path (``sqlite:///outputs/mlflow.db``) or plain folder absolute.
+
+    Relative paths are taken from ``base_dir`` (the directory Hydra was started from), so the store
+    does not move when ``hydra.job.chdir=true`` changes the working directory.
+
+    Examples
+    --------
+    >>> absolute_tracking_uri("sqlite:///outputs/mlflow.db", Path("/home/me/lab"))
+    'sqlite:////home/me/lab/outputs/mlflow.db'
+    >>> absolute_tracking_uri("http://127.0.0.1:5000", Path("/home/me/lab"))
+    'http://127.0.0.1:5000'
+    """
+    if tracking_uri.startswith("sqlite:///"):
+        path = tracking_uri[len("sqlite:///") :]
+        if path and path != ":memory:" and not os.path.isabs(path):
+            return "sqlite:///" + str((base_dir / path).resolve())
+        return tracking_uri
+    if "://" not in tracking_uri and ":" not in tracking_uri and tracking_uri not in _BARE_URI_SCHEMES:
+        return str((base_dir / tracking_uri).resolve())
+    return tracking_uri
+
+
+def absolute_artifact_location(artifact_location: str | None, base_dir: Path) -> str | None:
+    """Make a relative artifact folder absolute (URIs such as ``s3://`` are kept as they are)."""
+    if artifact_location is None or "://" in artifact_location:
+        return artifact_location
+    return str((base_dir / artifact_location).resolve())
+
+
+def sqlite_database_path(tracking_uri: str) -> Path | None:
+    """The database file of a ``sqlite:///`` URI, ``None`` for other stores."""
+    if not tracking_uri.startswith("sqlite:///"):
+        return None
+    path = tracking_uri[len("sqlite:///") :]
+    return Path(path) if path and path != ":memory:" else None
+
+
+def _local_path_of(uri: str) -> Path | None:
+    if uri.startswith("file:"):
+        return Path(urllib.parse.unquote(urllib.parse.urlparse(uri).path))
+    if "://" not in uri:
+        return Path(uri)
+    return None
+
+
+def _chunks(items: Sequence[Item], size: int) -> Iterator[Sequence[Item]]:
+    for start in range(0, len(items), size):
+        yield items[start : start + size]
+
+
+def _package_version(*distributions: str) -> str:
+    for distribution in distributions:
+        try:
+            return metadata.version(distribution)
+        except metadata.PackageNotFoundError:
+            continue
+    return "not installed"
+
+
+def _git(args: Iterable[str], cwd: Path) -> str | None:
+    """Output of a git command in ``cwd``, or ``None`` (not a repository, no git, too slow)."""
+    try:
+        completed = subprocess.run(
+            ["git", *args], cwd=cwd, capture_output=True, text=True, timeout=5, check=False
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return completed.stdout.strip() if completed.returncode == 0 else None
+
+
+def provenance_tags(cwd: Path) -> dict[str, str]:
+    """Tags that say which code ran: git commit (if ``cwd`` is in a repository) and versions."""
+    tags = {
+        "lwrlab_version": lwrlab.__version__,
+        "numpy_version": _package_version("numpy"),
+        "pinocchio_version": _package_version("pin", "pinocchio"),
+        "mlflow_version": mlflow.__version__,
+        "hydra_version": _package_version("hydra-core"),
+        "python_version": platform.python_version(),
+    }
+    commit = _git(["rev-parse", "HEAD"], cwd)
+    if commit:
+        tags["git_commit"] = commit
+        tags["mlflow.source.git.commit"] = commit  # shown by the MLflow UI
+        changes = _git(["status", "--porcelain", "--untracked-files=no"], cwd)
+        if changes is not None:
+            tags["git_dirty"] = str(bool(changes)).lower()
+    try:
+        tags["mlflow.user"] = getpass.getuser()
+    except Exception:  # no user name in some containers
+        pass
+    return tags
+
+
+# ---------------------------------------------------------------------------------------------
+# The callback.
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TrackingSettings:
+    """Where and how one run is logged, with paths already made absolute."""
+
+    tracking_uri: str
+    experiment: str
+    artifact_location: str | None
+    log_artifacts: bool
+
+
+class TrackingUnavailable(RuntimeError):
+    """The tracking store cannot be reached."""
+
+
+class MlflowTracking(Callback):
+    """Hydra callback that logs every Hydra job as an MLflow run.
+
+    Parameters
+    ----------
+    tracking_uri
+        MLflow tracking URI: ``sqlite:///path/mlflow.db`` (a relative path is taken from the directory
+        Hydra was started in; the folder is created), ``http://host:5000``, …
+    experiment
+        MLflow experiment name; the experiment is created when missing.
+    artifact_location
+        Root folder (or URI) for the artifacts of experiments this callback creates: each new
+        experiment stores its runs under ``<artifact_location>/<experiment>``. ``None`` leaves the
+        choice to the store (for a server: its ``--artifacts-destination``).
+    log_artifacts
+        Upload the job output directory (``.hydra/`` configs, CSV, PNG, npz, log) as run artifacts.
+
+    Notes
+    -----
+    Hydra instantiates callbacks once, from the primary config, before any job runs. The values of
+    this callback's own config node are therefore re-read from each job's config in
+    ``on_job_start``, so that a sweep over ``experiment_name`` or over experiment presets logs each
+    job in its own experiment.
+
+    Examples
+    --------
+    In a config (``conf/tracking/sqlite.yaml``)::
+
+        # @package _global_
+        hydra:
+          callbacks:
+            mlflow:
+              _target_: lwrlab.tracking.MlflowTracking
+              tracking_uri: sqlite:///${hydra.runtime.cwd}/outputs/mlflow.db
+              experiment: ${experiment_name}
+    """
+
+    def __init__(
+        self,
+        tracking_uri: str,
+        experiment: str,
+        artifact_location: str | None = None,
+        log_artifacts: bool = True,
+    ) -> None:
+        self.tracking_uri = tracking_uri
+        self.experiment = experiment
+        self.artifact_location = artifact_location
+        self.log_artifacts = log_artifacts
+        self._client: MlflowClient | None = None
+        self._settings: TrackingSettings | None = None
+        self._run_id: str | None = None
+        self._parent_run_id: str | None = None
+        self._parent_settings: TrackingSettings | None = None
+        self._has_warned = False
+        self._unreachable_uris: set[str] = set()
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Launchers that run jobs in other processes (joblib, submitit, ray) pickle the callbacks;
+        # a client holds a database engine, so each process makes its own.
+        state = dict(self.__dict__)
+        state["_client"] = None
+        return state
+
+    # -- Hydra hooks ------------------------------------------------------------------------
+
+    def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        """Open the parent run of a sweep; every job of the sweep becomes a nested run."""
+        try:
+            settings = self.settings_for(config)
+            client = self._connect(settings)
+            experiment_id = self._experiment_id(client, settings)
+            sweep_overrides = " ".join(OmegaConf.to_container(config.hydra.overrides.task, resolve=False) or [])
+            tags = {
+                RUN_KIND_TAG: "sweep",
+                "overrides": truncate(sweep_overrides, TAG_VALUE_MAX_LENGTH),
+                "hydra_sweep_dir": str(OmegaConf.select(config, "hydra.sweep.dir", default="")),
+                **provenance_tags(self._original_cwd(config)),
+            }
+            job_name = str(OmegaConf.select(config, "hydra.job.name", default="job"))
+            run_name = truncate(f"{job_name} sweep: {sweep_overrides}".strip(), RUN_NAME_MAX_LENGTH)
+            run = client.create_run(experiment_id, run_name=run_name, tags=tags)
+            self._parent_run_id = run.info.run_id
+            self._parent_settings = settings
+            self._client = client
+        except Exception as error:
+            self._warn("opening the parent run of the sweep", error)
+
+    def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
+        """Close the parent run: FINISHED unless a job already marked it FAILED."""
+        if self._parent_run_id is None or self._parent_settings is None:
+            return
+        try:
+            client = self._connect(self._parent_settings)
+            self._log_sweep_config(client, config)
+            if client.get_run(self._parent_run_id).info.status == "RUNNING":
+                client.set_terminated(self._parent_run_id, status="FINISHED")
+        except Exception as error:
+            self._warn("closing the parent run of the sweep", error)
+        finally:
+            self._parent_run_id = None
+
+    def on_job_start(self, config: DictConfig, **kwargs: Any) -> None:
+        """Start the job's run: params from the resolved config, provenance tags, run id file."""
+        self._run_id = None
+        output_dir = Path(str(config.hydra.runtime.output_dir))
+        try:
+            settings = self.settings_for(config)
+            client = self._connect(settings)
+            experiment_id = self._experiment_id(client, settings)
+            job_config = resolved_job_config(config)
+            run = client.create_run(
+                experiment_id, run_name=self._run_name(config), tags=self._job_tags(config, job_config)
+            )
+            self._client, self._settings, self._run_id = client, settings, run.info.run_id
+            # Marks the run KILLED if the process exits without on_job_end (Ctrl-C: Hydra only
+            # catches Exception, so a KeyboardInterrupt skips the callback).
+            atexit.register(self._end_run_interrupted)
+            (output_dir / RUN_ID_FILE).write_text(run.info.run_id + "\n", encoding="utf-8")
+            params = [Param(key, value) for key, value in self._unique_keys(flatten_config(job_config)).items()]
+            for chunk in _chunks(params, PARAMS_PER_BATCH):
+                client.log_batch(run.info.run_id, params=list(chunk))
+            log.info("MLflow run %s in experiment %r at %s", run.info.run_id, settings.experiment, settings.tracking_uri)
+        except Exception as error:
+            self._warn("starting the MLflow run", error)
+
+    def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs: Any) -> None:
+        """Log metrics and artifacts, then end the run with the job's status."""
+        output_dir = Path(str(config.hydra.runtime.output_dir))
+        failed = job_return.status == JobStatus.FAILED
+        # job_return.return_value re-raises a failed job's exception; the private field holds it.
+        error = job_return._return_value if failed else None
+        if failed:
+            self._write_error_file(output_dir, error)
+        run_id, client, settings = self._run_id, self._client, self._settings
+        if run_id is None or client is None or settings is None:
+            return  # tracking was unavailable at job start (already warned)
+        try:
+            if job_return.status == JobStatus.COMPLETED:
+                self._guarded("logging metrics", self._log_metrics, client, run_id, job_return.return_value)
+            if failed:
+                summary = f"{type(error).__name__}: {error}"
+                self._guarded("tagging the error", client.set_tag, run_id, "error", truncate(summary, ERROR_TAG_MAX_LENGTH))
+            if settings.log_artifacts:
+                self._guarded("logging artifacts", self._log_output_dir, client, run_id, output_dir)
+            status = _STATUS_OF_JOB.get(job_return.status, "KILLED")
+            self._guarded("ending the run", client.set_terminated, run_id, status=status)
+            if failed and self._parent_run_id is not None:
+                # The basic sweeper raises after a failed batch and skips on_multirun_end: mark now.
+                self._guarded("marking the sweep FAILED", self._fail_parent_run, client, config)
+        finally:
+            self._run_id = None
+            atexit.unregister(self._end_run_interrupted)
+
+    # -- internals --------------------------------------------------------------------------
+
+    def settings_for(self, config: DictConfig) -> TrackingSettings:
+        """This callback's settings as ``config`` resolves them, with paths made absolute.
+
+        Parameters
+        ----------
+        config
+            A job's full config (with its ``hydra`` node). If exactly one node under
+            ``hydra.callbacks`` targets this class, its values are resolved in this config;
+            otherwise (or where a value cannot be resolved) the constructor's values are used.
+            Relative paths are taken from ``hydra.runtime.cwd``.
+
+        Returns
+        -------
+        TrackingSettings
+        """
+        values: dict[str, Any] = {
+            "tracking_uri": self.tracking_uri,
+            "experiment": self.experiment,
+            "artifact_location": self.artifact_location,
+            "log_artifacts": self.log_artifacts,
+        }
+        own_node = self._own_config_node(config)
+        if own_node is not None:
+            for field in values:
+                try:
+                    if field in own_node:
+                        values[field] = own_node[field]
+                except Exception:  # e.g. ${hydra:...} outside a job: keep the constructor value
+                    log.debug("kept the constructor value of %s", field, exc_info=True)
+        base_dir = self._original_cwd(config)
+        return TrackingSettings(
+            tracking_uri=absolute_tracking_uri(str(values["tracking_uri"]), base_dir),
+            experiment=str(values["experiment"]),
+            artifact_location=absolute_artifact_location(
+                None if values["artifact_location"] is None else str(values["artifact_location"]), base_dir
+            ),
+            log_artifacts=bool(values["log_artifacts"]),
+        )
+
+    def _own_config_node(self, config: DictConfig) -> DictConfig | None:
+        """The node under ``hydra.callbacks`` that instantiates this class, if exactly one does."""
+        callbacks = OmegaConf.select(config, "hydra.callbacks")
+        if not isinstance(callbacks, DictConfig):
+            return None
+        matches = []
+        for node in callbacks.values():
+            try:
+                if isinstance(node, DictConfig) and get_class(str(node["_target_"])) is type(self):
+                    matches.append(node)
+            except Exception:
+                continue
+        return matches[0] if len(matches) == 1 else None
+
+    @staticmethod
+    def _original_cwd(config: DictConfig) -> Path:
+        return Path(str(OmegaConf.select(config, "hydra.runtime.cwd", default=None) or os.getcwd()))
+
+    def _connect(self, settings: TrackingSettings) -> MlflowClient:
+        uri = settings.tracking_uri
+        if uri in self._unreachable_uris:
+            raise TrackingUnavailable(f"{uri} was unreachable earlier in this process")
+        if uri.startswith(("http://", "https://")):
+            # MLflow retries HTTP calls for minutes; a short probe lets an unreachable server cost
+            # one warning instead of delaying every job.
+            try:
+                with urllib.request.urlopen(uri.rstrip("/") + "/health", timeout=5):
+                    pass
+            except Exception as error:
+                self._unreachable_uris.add(uri)
+                raise TrackingUnavailable(f"no MLflow server answers at {uri}: {error}") from error
+        database = sqlite_database_path(uri)
+        if database is not None:
+            database.parent.mkdir(parents=True, exist_ok=True)
+        mlflow.set_tracking_uri(uri)  # so that code inside the job sees the same store
+        if self._client is not None and self._client.tracking_uri == uri:
+            return self._client
+        return MlflowClient(tracking_uri=uri)
+
+    @staticmethod
+    def _experiment_id(client: MlflowClient, settings: TrackingSettings) -> str:
+        name = settings.experiment
+        experiment = client.get_experiment_by_name(name)
+        if experiment is None:
+            artifact_location = None
+            if settings.artifact_location is not None:
+                folder = re.sub(r"[^\w.\-]", "_", name)
+                artifact_location = settings.artifact_location.rstrip("/") + "/" + folder
+            try:
+                return client.create_experiment(name, artifact_location=artifact_location)
+            except MlflowException:
+                # Another job of the same sweep (other process) created it first.
+                experiment = client.get_experiment_by_name(name)
+                if experiment is None:
+                    raise
+        if experiment.lifecycle_stage == "deleted":
+            log.warning("MLflow experiment %r was deleted; restoring it to log this run", name)
+            client.restore_experiment(experiment.experiment_id)
+        return experiment.experiment_id
+
+    def _run_name(self, config: DictConfig) -> str:
+        name = str(OmegaConf.select(config, "hydra.job.name", default="job"))
+        if self._parent_run_id is not None or str(OmegaConf.select(config, "hydra.mode", default="")).endswith("MULTIRUN"):
+            name += f" #{OmegaConf.select(config, 'hydra.job.num', default=0)}"
+        overrides = str(OmegaConf.select(config, "hydra.job.override_dirname", default="") or "")
+        return truncate(f"{name}: {overrides}" if overrides else name, RUN_NAME_MAX_LENGTH)
+
+    def _job_tags(self, config: DictConfig, job_config: Mapping[str, Any]) -> dict[str, str]:
+        task_overrides = OmegaConf.select(config, "hydra.overrides.task", default=[]) or []
+        tags = {
+            RUN_KIND_TAG: "job",
+            "overrides": truncate(" ".join(str(item) for item in task_overrides), TAG_VALUE_MAX_LENGTH),
+            "config_hash": config_hash(job_config),
+            "hydra_job_name": str(OmegaConf.select(config, "hydra.job.name", default="")),
+            "hydra_output_dir": str(config.hydra.runtime.output_dir),
+            **provenance_tags(self._original_cwd(config)),
+        }
+        if "seed" in job_config:
+            tags["seed"] = str(job_config["seed"])
+        if self._parent_run_id is not None:
+            tags["mlflow.parentRunId"] = self._parent_run_id  # nests the run under the sweep in the UI
+            tags["hydra_job_num"] = str(OmegaConf.select(config, "hydra.job.num", default=""))
+        return tags
+
+    @staticmethod
+    def _unique_keys(flat: Mapping[str, str]) -> dict[str, str]:
+        # Sanitising can map two config keys onto one MLflow key; a batch with duplicates fails.
+        unique: dict[str, str] = {}
+        for key, value in flat.items():
+            unique.setdefault(mlflow_key(key), value)
+        return unique
+
+    @staticmethod
+    def _log_metrics(client: MlflowClient, run_id: str, return_value: Any) -> None:
+        timestamp_ms = int(time.time() * 1000)
+        metrics = [Metric(key, value, timestamp_ms, 0) for key, value in numeric_metrics(return_value).items()]
+        for chunk in _chunks(metrics, METRICS_PER_BATCH):
+            client.log_batch(run_id, metrics=list(chunk))
+
+    @staticmethod
+    def _log_output_dir(client: MlflowClient, run_id: str, output_dir: Path) -> None:
+        if not output_dir.is_dir():
+            return
+        artifact_dir = _local_path_of(client.get_run(run_id).info.artifact_uri or "")
+        if artifact_dir is not None and artifact_dir.resolve().is_relative_to(output_dir.resolve()):
+            # Copying a folder into a folder inside it would never end.
+            raise ValueError(f"artifact folder {artifact_dir} lies inside the job output folder {output_dir}")
+        client.log_artifacts(run_id, str(output_dir))
+
+    def _log_sweep_config(self, client: MlflowClient, config: DictConfig) -> None:
+        if self._parent_run_id is None:
+            return
+        sweep_dir = OmegaConf.select(config, "hydra.sweep.dir", default=None)
+        sweep_config = Path(str(sweep_dir)) / "multirun.yaml" if sweep_dir else None
+        if sweep_config is not None and sweep_config.is_file():
+            client.log_artifact(self._parent_run_id, str(sweep_config))
+
+    def _fail_parent_run(self, client: MlflowClient, config: DictConfig) -> None:
+        if self._parent_run_id is None:
+            return
+        self._log_sweep_config(client, config)
+        client.set_terminated(self._parent_run_id, status="FAILED")
+
+    @staticmethod
+    def _write_error_file(output_dir: Path, error: Any) -> None:
+        try:
+            if isinstance(error, BaseException):
+                text = "".join(traceback.format_exception(error))
+            else:
+                text = f"{error!r}\n"
+            output_dir.mkdir(parents=True, exist_ok=True)
+            (output_dir / ERROR_FILE).write_text(text, encoding="utf-8")
+        except Exception:
+            log.warning("could not write %s into %s", ERROR_FILE, output_dir, exc_info=True)
+
+    def _end_run_interrupted(self) -> None:
+        if self._run_id is None or self._client is None:
+            return
+        try:
+            self._client.set_terminated(self._run_id, status="KILLED")
+        except Exception:
+            pass  # the interpreter is exiting; nothing more useful to do
+        self._run_id = None
+
+    def _guarded(self, action: str, function: Any, *args: Any, **kwargs: Any) -> None:
+        """Run one tracking step; a failure is warned about and does not stop the next steps."""
+        try:
+            function(*args, **kwargs)
+        except Exception as error:
+            self._warn(action, error)
+
+    def _warn(self, action: str, error: BaseException) -> None:
+        if not self._has_warned:
+            self._has_warned = True
+            log.warning(
+                "MLflow tracking failed while %s (%s: %s); the job goes on. "
+                "Further tracking problems of this process are logged at DEBUG level.",
+                action,
+                type(error).__name__,
+                error,
+            )
+        else:
+            log.debug("MLflow tracking failed while %s", action, exc_info=error)
+
+
+# ---------------------------------------------------------------------------------------------
+# Comparing runs.
+# ---------------------------------------------------------------------------------------------
+
+
+def runs_table(tracking_uri: str, experiment: str, filter_string: str = "") -> pd.DataFrame:
+    """All runs of an experiment as a table, oldest first, for comparing runs.
+
+    Parameters
+    ----------
+    tracking_uri
+        The store (a relative ``sqlite:///`` path is taken from the current directory).
+    experiment
+        Experiment name.
+    filter_string
+        MLflow search filter, e.g. ``"metrics.rms_mean < 0.5 and params.estimator._target_ LIKE '%OLS%'"``
+        or ``"tags.run_kind = 'job'"`` to leave out the parent runs of sweeps.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run: ``run_id``, ``status``, ``start_time``, … and ``metrics.*``, ``params.*``,
+        ``tags.*`` columns (the layout of ``mlflow.search_runs``); empty if the experiment does not
+        exist.
+
+    Examples
+    --------
+    >>> table = runs_table("sqlite:///outputs/mlflow.db", "identification")  # doctest: +SKIP
+    >>> table[["tags.overrides", "metrics.rms_mean"]].sort_values("metrics.rms_mean")  # doctest: +SKIP
+    """
+    uri = absolute_tracking_uri(tracking_uri, Path.cwd())
+    if MlflowClient(tracking_uri=uri).get_experiment_by_name(experiment) is None:
+        return pd.DataFrame()
+    previous_uri = mlflow.get_tracking_uri()
+    mlflow.set_tracking_uri(uri)  # mlflow.search_runs reads the global URI
+    try:
+        table = mlflow.search_runs(
+            experiment_names=[experiment],
+            filter_string=filter_string,
+            order_by=["attributes.start_time ASC"],
+            output_format="pandas",
+        )
+    finally:
+        mlflow.set_tracking_uri(previous_uri)
+    assert isinstance(table, pd.DataFrame)
+    return table
+
+
+__all__ = [
+    "MlflowTracking",
+    "TrackingSettings",
+    "TrackingUnavailable",
+    "absolute_tracking_uri",
+    "config_hash",
+    "flatten_config",
+    "numeric_metrics",
+    "resolved_job_config",
+    "runs_table",
+]

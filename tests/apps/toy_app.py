@@ -1,0 +1,32 @@
+"""A tiny Hydra app for the tracking tests: writes a CSV, returns metrics, fails on request.
+
+Run from the tests with the repository's ``conf/`` on the search path, so that ``tracking: sqlite``
+is the real tracking config of the project::
+
+    python tests/apps/toy_app.py hydra.searchpath=[file:///abs/repo/conf] x=3 fail=true
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig
+
+
+@hydra.main(version_base="1.3", config_path="conf", config_name="config")
+def main(cfg: DictConfig) -> dict[str, object]:
+    """Write ``table.csv`` into the job output folder, then fail if ``cfg.fail``, else return metrics."""
+    output_dir = Path(HydraConfig.get().runtime.output_dir)
+    (output_dir / "table.csv").write_text(f"x,doubled\n{cfg.x},{2 * cfg.x}\n", encoding="utf-8")
+    if cfg.fail:
+        raise RuntimeError(f"toy failure requested with x={cfg.x}")
+    return {
+        "metrics": {"doubled": 2.0 * cfg.x, "per_joint_rms": [0.5, 0.25], "label": "not a number"},
+        "report": "ignored by the tracking callback",
+    }
+
+
+if __name__ == "__main__":
+    main()
