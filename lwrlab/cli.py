@@ -4,14 +4,11 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
-from omegaconf import DictConfig, OmegaConf
-
-from lwrlab.pipeline.identification import format_report, identify, write_report
+from omegaconf import DictConfig
 
 log = logging.getLogger("lwrlab")
 
@@ -20,22 +17,11 @@ CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 
 
 def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
-    """Run the identification chain configured by ``cfg``; write its artifacts; return its metrics."""
-    robot = instantiate(cfg.robot)
-    report = identify(
-        robot=robot,
-        motion_source=instantiate(cfg.trajectory),
-        validation_source=instantiate(cfg.validation),
-        plant=instantiate(cfg.plant)(robot=robot),
-        estimator=instantiate(cfg.estimator),
-        rate_hz=cfg.measurement.rate_hz,
-        processing=OmegaConf.to_container(cfg.measurement.processing, resolve=True),
-    )
-    robot_config: Any = OmegaConf.to_container(cfg.robot, resolve=True)
-    write_report(report, output_dir, robot_config)
-    print(format_report(report))
+    """Run the pipeline stage selected by ``cfg.task`` (a function ``(cfg, output_dir) -> metrics``)."""
+    stage = instantiate(cfg.task)
+    metrics = stage(cfg, output_dir)
     log.info("artifacts written to %s", output_dir)
-    return report.metrics
+    return metrics
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="config")

@@ -205,3 +205,23 @@ def write_report(report: IdentificationReport, output_dir: Path, robot_config: d
         noise,
     )
     return files
+
+
+def run_identification(cfg: Any, output_dir: Path) -> dict[str, float]:
+    """Task ``identification``: build the configured objects, identify, write and print the report."""
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    robot = instantiate(cfg.robot)
+    report = identify(
+        robot=robot,
+        motion_source=instantiate(cfg.trajectory),
+        validation_source=instantiate(cfg.validation),
+        plant=instantiate(cfg.plant)(robot=robot),
+        estimator=instantiate(cfg.estimator),
+        rate_hz=cfg.measurement.rate_hz,
+        processing=OmegaConf.to_container(cfg.measurement.processing, resolve=True),
+    )
+    write_report(report, output_dir, OmegaConf.to_container(cfg.robot, resolve=True))
+    print(format_report(report))
+    return report.metrics
