@@ -1,0 +1,79 @@
+"""Analytic inverse geometric model with swivel angle (§II.B, eq. (1)) against forward kinematics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from lwrlab.kinematics import BRANCHES, Branch, JointLimitViolation, SwivelIK, UnreachablePose, frame_pose, joint_frame_poses
+
+
+def _random_configurations(robot, rng, n):
+    return rng.uniform(robot.limits.position_lower, robot.limits.position_upper, size=(n, robot.n_joints))
+
+
+def test_batched_forward_kinematics_matches_pinocchio(lwr4, rng):
+    q = _random_configurations(lwr4, rng, 20)
+    poses = frame_pose(lwr4, q)
+    data = lwr4.model.createData()
+    flange = lwr4.model.getFrameId("flange")
+    for k in range(q.shape[0]):
+        pin.framesForwardKinematics(lwr4.model, data, q[k])
+        np.testing.assert_allclose(poses[k], data.oMf[flange].homogeneous, atol=1e-14)
+
+
+def test_fk_of_ik_is_the_pose_for_every_branch_and_random_swivel(lwr4, rng):
+    ik = SwivelIK(lwr4)
+    q = _random_configurations(lwr4, rng, 2000)
+    poses = frame_pose(lwr4, q)
+    low, high = ik.reach
+    distance = np.linalg.norm(joint_frame_poses(lwr4, q)[4][:, :3, 3] - [0, 0, ik.shoulder_height], axis=1)
+    keep = (distance > low + 1e-3) & (distance < high - 1e-3)  # away from the degenerate elbow circle
+    poses = poses[keep]
+    swivel = rng.uniform(-np.pi, np.pi, size=poses.shape[0])
+    for branch in BRANCHES:
+        solution = ik.solve_branch(poses, swivel, branch)
+        np.testing.assert_allclose(frame_pose(lwr4, solution.q), poses, atol=1e-9)
+        # the elbow is where eq. (1) puts it, whatever the branch
+        np.testing.assert_allclose(ik.swivel_angle(solution.q), swivel, atol=1e-9)
+        assert np.all(np.sign(np.sin(solution.q[:, [1, 3, 5]])) == np.array(branch))
+
+
+def test_one_branch_recovers_the_original_configuration(lwr4, rng):
+    ik = SwivelIK(lwr4)
+    q = _random_configurations(lwr4, rng, 500)
+    poses = frame_pose(lwr4, q)
+    branches = [ik.solve_branch(poses, ik.swivel_angle(q), branch) for branch in BRANCHES]
+    errors = np.stack([np.abs(np.angle(np.exp(1j * (s.q - q)))).max(axis=1) for s in branches])
+    assert np.all(errors.min(axis=0) < 1e-8)
+
+
+def test_unreachable_pose_and_joint_limit_give_clear_errors(lwr4):
+    ik = SwivelIK(lwr4)
+    far = np.eye(4)
+    far[:3, 3] = [1.5, 0.0, 0.3]
+    with pytest.raises(UnreachablePose, match="out of reach"):
+        ik.solve(far[None], 0.0)
+    q = np.array([[0.3, 0.8, 0.2, -1.2, 0.4, 1.0, 0.1]])
+    pose = frame_pose(lwr4, q)
+    phi = ik.swivel_angle(q)
+    solutions = [ik.solve_branch(pose, phi, b) for b in BRANCHES]
+    outside = next(s for s in solutions if not s.within_limits[0])
+    with pytest.raises(JointLimitViolation, match=r"joint \d at"):
+        ik.solve(pose, phi, outside.branch)
+
+
+def test_rejects_robot_without_lwr4_structure(panda):
+    with pytest.raises(ValueError, match="Table I"):
+        SwivelIK(panda)
+
+
+def test_branch_is_continuous_along_a_smooth_path(lwr4):
+    ik = SwivelIK(lwr4)
+    t = np.linspace(0, 1, 400)
+    q = np.array([0.3, 0.8, 0.2, -1.2, 0.4, 1.0, 0.1]) + 0.3 * np.sin(2 * np.pi * t)[:, None]
+    pose = frame_pose(lwr4, q)
+    solution = ik.solve(pose, ik.swivel_angle(q), Branch(1, -1, 1))
+    assert np.abs(np.diff(solution.q, axis=0)).max() < 0.05
+    np.testing.assert_allclose(solution.q, q, atol=1e-9)
