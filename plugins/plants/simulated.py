@@ -10,16 +10,23 @@ The ground truth is the nominal (CAD) robot with every segment perturbed by ``pa
 - ``closed_loop``: joint PD + gravity compensation from the nominal model tracks the motion; the
   true dynamics are integrated with Pinocchio's ABA at ``substeps`` × the sampling rate.
 
+A ``tool`` (a :class:`lwrlab.tools.model.Tool`, or its 10 flange-frame parameters) is attached to the
+true robot's flange: it changes the last segment (:func:`lwrlab.model.payload.attach_payload`).
+``with_tool`` gives the same robot (same truth, same noise stream) carrying another tool.
+
 ``measure`` returns a :class:`~lwrlab.plants.Measurement`; the truth is kept in ``truth`` for scoring.
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
 
+from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement, PlantTruth
 from lwrlab.plants.simulation import encoder_reading, perturbed_robot, playback_torques, track_closed_loop
@@ -44,6 +51,7 @@ class SimulatedPlant:
     kp, kd : PD gains (N·m/rad, N·m·s/rad) per joint for ``closed_loop``.
     substeps : integration steps per sample for ``closed_loop``.
     show_progress : show a progress bar during closed-loop simulation.
+    tool : a tool fixed to the flange (``Tool`` or its 10 flange-frame parameters), None for none.
     """
 
     def __init__(
@@ -60,6 +68,7 @@ class SimulatedPlant:
         kd: Sequence[float] | None = None,
         substeps: int = 4,
         show_progress: bool = True,
+        tool: Any = None,
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"unknown plant mode {mode!r}; valid modes: {list(MODES)}")
@@ -73,7 +82,9 @@ class SimulatedPlant:
         self.kp = np.asarray(kp if kp is not None else np.full(robot.n_joints, 2000.0), dtype=float)
         self.kd = np.asarray(kd if kd is not None else np.full(robot.n_joints, 60.0), dtype=float)
         self._rng = np.random.default_rng(seed)
-        self._truth = PlantTruth(perturbed_robot(robot, parameter_spread, friction_spread, self._rng))
+        self._unloaded = perturbed_robot(robot, parameter_spread, friction_spread, self._rng)
+        self._truth = PlantTruth(attach_payload(self._unloaded, _tool_parameters(tool)))
+        self.tool = tool
         self._settings = {
             "mode": mode,
             "parameter_spread": parameter_spread,
@@ -89,6 +100,13 @@ class SimulatedPlant:
         """The true robot (for scoring only)."""
         return self._truth
 
+    def with_tool(self, tool: Any) -> SimulatedPlant:
+        """The same robot (truth, settings, noise stream) carrying ``tool`` instead (None: unloaded)."""
+        plant = copy.copy(self)
+        plant._truth = PlantTruth(attach_payload(self._unloaded, _tool_parameters(tool)))
+        plant.tool = tool
+        return plant
+
     def measure(self, trajectory: Trajectory) -> Measurement:
         """Execute ``trajectory`` and return noisy sensor samples at its rate."""
         robot = self._truth.robot
@@ -103,3 +121,10 @@ class SimulatedPlant:
             tau=tau + self.torque_noise_std * self._rng.normal(size=tau.shape),
             metadata={"source": "simulated", "rate_hz": trajectory.rate_hz, **self._settings},
         )
+
+
+def _tool_parameters(tool: Any) -> np.ndarray | None:
+    """The 10 flange-frame parameters of a tool (a ``Tool`` or an array), None for no tool."""
+    if tool is None:
+        return None
+    return np.asarray(getattr(tool, "parameters", tool), dtype=float)

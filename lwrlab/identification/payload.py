@@ -1,0 +1,257 @@
+"""End-effector (payload) identification, eq. (7) of Katsumata et al. (after Khalil, Gautier & Lemoine 2007).
+
+Stacking a motion of the unloaded robot and one of the robot carrying the tool::
+
+    [ Γᵘ ]   [ W_bᵘ    0   ] [ Φ_b ]
+    [ Γˡ ] = [ W_bˡ  W_Lˡ  ] [ Φ_L ]                                         eq. (7)
+
+identifies the robot's base parameters Φ_b and the tool's 10 standard parameters Φ_L together:
+the unloaded rows pin Φ_b, so all 10 columns of the tool (those of the segment carrying the flange,
+in its joint frame) are identifiable from the loaded rows, although 3 of that segment's own
+parameters regroup into others. :func:`identify_payload_only` is the cheaper variant: with Φ_b
+already identified, ``Γˡ − W_bˡ·Φ_b = W_Lˡ·Φ_L`` needs the loaded motion only.
+
+Both solve a weighted least-squares problem (eq. (6) with P from the residual variance of each
+(motion, joint) row group, Gautier 1997) and give the covariance ``(Wᵀ·P·W)⁻¹`` hence %σ as in
+Table III. ``consistent=True`` solves the same problem as a semidefinite programme with the tool's
+pseudo-inertia ``J(Φ_L) ⪰ 0`` (a physically realisable body; :mod:`lwrlab.identification.consistency`).
+
+The covariance assumes white residuals. Low-pass filtered data are correlated over about
+``rate/(2·cutoff)`` samples, so the true spread is larger than %σ says (by about √50 ≈ 7 at
+1 kHz and 10 Hz); the relative ordering of parameters, which is what Table III reads, holds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cvxpy as cp
+import numpy as np
+import scipy.linalg
+
+from lwrlab.identification.consistency import pseudo_inertia_expression
+from lwrlab.identification.core import relative_std
+
+
+@dataclass(frozen=True)
+class PayloadEstimate:
+    """An identified tool: its 10 parameters in the joint frame of the flange-carrying segment."""
+
+    phi: np.ndarray
+    """(10,) Φ_L in the segment's joint frame (frame 7 of the LWR4), as in Table III."""
+    covariance: np.ndarray
+    """(10, 10) covariance of ``phi``."""
+    flange_to_joint: np.ndarray
+    """(10, 10) T with ``phi = T·phi_flange`` (:func:`lwrlab.model.payload.frame_change_matrix`)."""
+    method: str
+    """``joint`` (eq. (7)) or ``payload_only``; ``+consistent`` when solved with J(Φ_L) ⪰ 0."""
+    cond: float
+    """Condition number of the column-scaled (weighted) regressor that was solved."""
+    residual_std: np.ndarray
+    """σ of the torque residual of each row group (N·m): per joint, unloaded groups first."""
+    robot_base: np.ndarray | None = None
+    """(N_B,) base parameters of the robot identified alongside (eq. (7) only)."""
+    robot_base_std: np.ndarray | None = None
+    """(N_B,) their standard deviations."""
+    extras: dict[str, float] = field(default_factory=dict)
+    """Solver status and the like."""
+
+    @property
+    def std(self) -> np.ndarray:
+        """σ of each parameter (joint frame)."""
+        return np.sqrt(np.diag(self.covariance))
+
+    @property
+    def relative_std(self) -> np.ndarray:
+        """%σ of each parameter (joint frame), Table III's columns."""
+        return relative_std(self.phi, self.std)
+
+    @property
+    def phi_flange(self) -> np.ndarray:
+        """(10,) the tool's parameters in the flange frame (what the tool library holds)."""
+        return np.linalg.solve(self.flange_to_joint, self.phi)
+
+    @property
+    def covariance_flange(self) -> np.ndarray:
+        """(10, 10) covariance of :attr:`phi_flange`: ``T⁻¹·Σ·T⁻ᵀ``."""
+        inverse = np.linalg.inv(self.flange_to_joint)
+        return inverse @ self.covariance @ inverse.T
+
+
+def joint_groups(n_rows: int, n_joints: int, offset: int = 0) -> np.ndarray:
+    """Row-group label of each sample-major regressor row: its joint (plus ``offset``)."""
+    if n_rows % n_joints:
+        raise ValueError(f"{n_rows} rows are not a whole number of samples of {n_joints} joints")
+    return offset + np.tile(np.arange(n_joints), n_rows // n_joints)
+
+
+def group_residual_std(residual: np.ndarray, groups: np.ndarray, n_parameters: int) -> np.ndarray:
+    """σ of the residual of each row group, with the degrees of freedom shared in proportion to its rows."""
+    labels = np.unique(groups)
+    n_rows = residual.shape[0]
+    std = np.empty(labels.max() + 1)
+    for label in labels:
+        rows = residual[groups == label]
+        dof = rows.size * (1.0 - n_parameters / n_rows)
+        std[label] = np.sqrt(rows @ rows / max(dof, 1.0))
+    return std
+
+
+def _consistent_solution(weighted_w: np.ndarray, weighted_tau: np.ndarray, tool_columns: slice, solver: str | None) -> tuple[np.ndarray, str]:
+    """argmin ‖τ_w − W_w·θ‖² s.t. J(θ[tool_columns]) ⪰ 0, on the compressed, column-scaled system."""
+    r, target, scale = _compressed(weighted_w, weighted_tau)
+    theta_scaled = cp.Variable(weighted_w.shape[1])
+    phi_tool = cp.multiply(1.0 / scale[tool_columns], theta_scaled[tool_columns])
+    problem = cp.Problem(cp.Minimize(cp.sum_squares(r @ theta_scaled - target)), [pseudo_inertia_expression(phi_tool) >> 0])
+    problem.solve(solver=solver)
+    if theta_scaled.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        raise RuntimeError(f"payload SDP (tool pseudo-inertia J(Φ_L) ⪰ 0) failed: solver status {problem.status!r}")
+    return theta_scaled.value / scale, str(problem.status)
+
+
+def _compressed(W: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # noqa: N803
+    """(R, y, scale) with ``‖τ − W·θ‖² = ‖R·(scale·θ) − y‖² + const``, R upper triangular (P × P).
+
+    R is the Cholesky factor of the Gram matrix of the column-scaled W (the R of its QR, up to
+    signs): one pass over the rows, far cheaper than a QR or an SVD of a tall W, and accurate here
+    since column scaling keeps cond(W) small (its square is what the Gram matrix sees).
+    """
+    scale = np.linalg.norm(W, axis=0)
+    scale[scale == 0] = 1.0
+    scaled = W / scale
+    try:
+        r = scipy.linalg.cholesky(scaled.T @ scaled, lower=False)
+    except np.linalg.LinAlgError:
+        raise np.linalg.LinAlgError("the regressor is rank deficient: the motion does not excite every parameter") from None
+    y = scipy.linalg.solve_triangular(r, scaled.T @ tau, trans="T")
+    return r, y, scale
+
+
+def _least_squares(W: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # noqa: N803
+    """θ minimising ‖τ − W·θ‖² and ``(WᵀW)⁻¹``."""
+    r, y, scale = _compressed(W, tau)
+    theta = scipy.linalg.solve_triangular(r, y) / scale
+    r_inverse = scipy.linalg.solve_triangular(r, np.eye(r.shape[0]))
+    return theta, (r_inverse @ r_inverse.T) / np.outer(scale, scale)
+
+
+def weighted_least_squares(
+    W: np.ndarray,  # noqa: N803 - the paper's symbol
+    tau: np.ndarray,
+    groups: np.ndarray,
+    weighted: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Gautier's weighted least squares over row groups.
+
+    An ordinary least-squares pass gives the residual σ_g of each group; rows are then divided by
+    their σ_g and solved again. Returns θ, its covariance ``(Wᵀ·Σ⁻¹·W)⁻¹``, the σ_g, and the
+    weighted system (W_w, τ_w) for further use. With ``weighted=False`` every row has one σ.
+    """
+    theta, _ = _least_squares(W, tau)
+    residual = tau - W @ theta
+    if not weighted:
+        groups = np.zeros_like(groups)
+    sigma = group_residual_std(residual, groups, W.shape[1])
+    sigma = np.where(sigma > 0, sigma, max(sigma.max(), 1e-300))  # noiseless data: any equal weights
+    weights = 1.0 / sigma[groups]
+    weighted_w, weighted_tau = W * weights[:, None], tau * weights
+    theta, covariance = _least_squares(weighted_w, weighted_tau)
+    return theta, covariance, sigma, weighted_w, weighted_tau
+
+
+def _fit(
+    W: np.ndarray,  # noqa: N803
+    tau: np.ndarray,
+    groups: np.ndarray,
+    n_base: int,
+    flange_to_joint: np.ndarray,
+    weighted: bool,
+    consistent: bool,
+    solver: str | None,
+    method: str,
+) -> PayloadEstimate:
+    """Solve ``τ = W·[Φ_b; Φ_L]`` (the first ``n_base`` columns the robot's, the last 10 the tool's)."""
+    theta, covariance, sigma, weighted_w, weighted_tau = weighted_least_squares(W, tau, groups, weighted)
+    extras: dict[str, float] = {}
+    if consistent:
+        theta, status = _consistent_solution(weighted_w, weighted_tau, slice(n_base, n_base + 10), solver)
+        method, extras = f"{method}+consistent", {"solver_status": status}
+    return PayloadEstimate(
+        phi=theta[n_base:],
+        covariance=covariance[n_base:, n_base:],
+        flange_to_joint=flange_to_joint,
+        method=method,
+        cond=float(np.linalg.cond(_compressed(weighted_w, weighted_tau)[0])),
+        residual_std=sigma,
+        robot_base=theta[:n_base] if n_base else None,
+        robot_base_std=np.sqrt(np.diag(covariance)[:n_base]) if n_base else None,
+        extras=extras,
+    )
+
+
+def identify_payload(
+    w_base_unloaded: np.ndarray,
+    tau_unloaded: np.ndarray,
+    w_base_loaded: np.ndarray,
+    w_tool_loaded: np.ndarray,
+    tau_loaded: np.ndarray,
+    flange_to_joint: np.ndarray,
+    n_joints: int,
+    weighted: bool = True,
+    consistent: bool = False,
+    solver: str | None = "CLARABEL",
+) -> PayloadEstimate:
+    """Robot base parameters and tool parameters together from an unloaded and a loaded motion, eq. (7).
+
+    Parameters
+    ----------
+    w_base_unloaded, tau_unloaded : base regressor (rows, N_B) and torques (rows,) without the tool.
+    w_base_loaded, w_tool_loaded, tau_loaded : base regressor, the 10 columns of the flange-carrying
+        segment (joint frame) and torques, with the tool; rows sample-major.
+    flange_to_joint : T (10×10) of :func:`lwrlab.model.payload.flange_to_joint_matrix`.
+    n_joints : joints per sample (row groups are per motion and joint).
+    weighted : Gautier's weighting per (motion, joint); False = ordinary least squares.
+    consistent : constrain the tool's pseudo-inertia to be positive semi-definite (SDP).
+    solver : cvxpy solver of the consistent variant.
+    """
+    n_base = w_base_unloaded.shape[1]
+    if w_base_loaded.shape[1] != n_base or w_tool_loaded.shape[1] != 10:
+        raise ValueError(
+            f"eq. (7) needs the same {n_base} base columns in both motions and 10 tool columns, got "
+            f"{w_base_loaded.shape[1]} and {w_tool_loaded.shape[1]}"
+        )
+    stacked = np.block([[w_base_unloaded, np.zeros((w_base_unloaded.shape[0], 10))], [w_base_loaded, w_tool_loaded]])
+    tau = np.concatenate([np.ravel(tau_unloaded), np.ravel(tau_loaded)])
+    groups = np.concatenate(
+        [joint_groups(w_base_unloaded.shape[0], n_joints), joint_groups(w_base_loaded.shape[0], n_joints, offset=n_joints)]
+    )
+    return _fit(stacked, tau, groups, n_base, flange_to_joint, weighted, consistent, solver, "joint")
+
+
+def identify_payload_only(
+    w_base_loaded: np.ndarray,
+    robot_base: np.ndarray,
+    w_tool_loaded: np.ndarray,
+    tau_loaded: np.ndarray,
+    flange_to_joint: np.ndarray,
+    n_joints: int,
+    weighted: bool = True,
+    consistent: bool = False,
+    solver: str | None = "CLARABEL",
+) -> PayloadEstimate:
+    """The tool's parameters alone, from a loaded motion and an already identified robot.
+
+    ``Γˡ − W_bˡ·Φ_b = W_Lˡ·Φ_L``: 10 unknowns, so a short motion suffices; any error of Φ_b goes
+    into Φ_L (and is not in its %σ). Arguments as :func:`identify_payload`; ``robot_base`` (N_B,)
+    the robot's identified base parameters.
+    """
+    tau = np.ravel(tau_loaded) - w_base_loaded @ np.asarray(robot_base, dtype=float)
+    groups = joint_groups(w_tool_loaded.shape[0], n_joints)
+    return _fit(w_tool_loaded, tau, groups, 0, flange_to_joint, weighted, consistent, solver, "payload_only")
+
+
+def tool_columns(n_links: int, joint: int) -> slice:
+    """Columns of a full standard regressor that belong to segment ``joint`` (1-based): the tool's."""
+    if not 1 <= joint <= n_links:
+        raise ValueError(f"segment {joint} is not one of the {n_links} segments")
+    return slice(10 * (joint - 1), 10 * joint)

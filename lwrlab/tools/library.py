@@ -1,0 +1,143 @@
+"""The tool library: every tool described by one YAML file in ``conf/tool/`` (config group ``tool``).
+
+A tool file names its builder with ``_target_`` and passes it keyword arguments, e.g.::
+
+    # conf/tool/large_roller.yaml
+    _target_: lwrlab.tools.painting.paint_roller
+    name: large_roller
+    length: 0.35          # m
+    width: 0.20           # m
+    cover_mass: 0.08      # kg
+    …
+
+so adding a tool to the library (and making ``tool=<name>`` attach it to the simulated robot) is
+one new YAML file. Builders: :func:`lwrlab.tools.painting.paint_roller`,
+:func:`lwrlab.tools.painting.paint_brush`, :func:`lwrlab.tools.model.composite_tool` (part by part),
+or any importable function returning a :class:`~lwrlab.tools.model.Tool`.
+
+Examples
+--------
+>>> roller = load_tool("large_roller")
+>>> roller.width, round(roller.mass, 3)
+(0.2, 0.2)
+>>> roller.parameters.shape   # flange frame, [M, MSX, MSY, MSZ, XX, YY, ZZ, XY, XZ, YZ]
+(10,)
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from lwrlab.tools.model import GEOMETRY_NAMES, Tool
+
+LIBRARY_DIR = Path(__file__).resolve().parents[2] / "conf" / "tool"
+"""Where the tool YAMLs live: the ``tool`` config group beside the package."""
+
+PAPER_TOOLS: tuple[str, str] = ("large_roller", "small_roller")
+"""The two rollers of Katsumata et al. (§VI, Table III)."""
+
+
+def build_tool(description: Mapping[str, Any], source: str = "tool description") -> Tool:
+    """Build a tool from a mapping with a ``_target_`` builder and its keyword arguments."""
+    description = dict(description)
+    target = description.pop("_target_", None)
+    if not isinstance(target, str) or "." not in target:
+        raise ValueError(f"{source}: needs `_target_: module.builder` (e.g. lwrlab.tools.painting.paint_roller), got {target!r}")
+    module_name, _, attribute = target.rpartition(".")
+    try:
+        builder = getattr(importlib.import_module(module_name), attribute)
+    except (ImportError, AttributeError) as error:
+        raise ValueError(f"{source}: cannot import builder {target!r}: {error}") from None
+    try:
+        tool = builder(**description)
+    except TypeError as error:
+        raise ValueError(f"{source}: bad arguments for {target}: {error}") from None
+    if not isinstance(tool, Tool):
+        raise TypeError(f"{source}: {target} returned {type(tool).__name__}, not a Tool")
+    return tool
+
+
+def tool_names(directory: str | Path | None = None) -> list[str]:
+    """Names of the tools in a library folder (the YAML file stems), sorted."""
+    folder = Path(directory) if directory is not None else LIBRARY_DIR
+    if not folder.is_dir():
+        raise FileNotFoundError(f"tool library folder {folder} does not exist")
+    return sorted(path.stem for path in folder.glob("*.yaml"))
+
+
+def load_tool(name: str, directory: str | Path | None = None) -> Tool:
+    """The tool ``name`` of the library (``conf/tool/<name>.yaml``): geometry and flange-frame parameters."""
+    folder = Path(directory) if directory is not None else LIBRARY_DIR
+    path = folder / f"{name}.yaml"
+    if not path.is_file():
+        raise KeyError(f"no tool named {name!r} in {folder}; available: {tool_names(folder)}")
+    with path.open() as stream:
+        description = yaml.safe_load(stream)
+    if not isinstance(description, dict):
+        raise ValueError(f"{path}: expected a mapping of tool keys, got {type(description).__name__}")
+    description.setdefault("name", name)
+    return build_tool(description, source=str(path))
+
+
+@dataclass(frozen=True)
+class ToolLibrary:
+    """An ordered set of tools: the look-up table of tool recognition."""
+
+    tools: tuple[Tool, ...]
+
+    def __post_init__(self) -> None:
+        names = [tool.name for tool in self.tools]
+        if len(set(names)) != len(names):
+            raise ValueError(f"tool names must be unique, got {names}")
+        if not self.tools:
+            raise ValueError("a tool library needs at least one tool")
+
+    def __len__(self) -> int:
+        return len(self.tools)
+
+    def __iter__(self) -> Iterator[Tool]:
+        return iter(self.tools)
+
+    def __getitem__(self, name: str) -> Tool:
+        for tool in self.tools:
+            if tool.name == name:
+                return tool
+        raise KeyError(f"no tool named {name!r}; the library holds {list(self.names)}")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Tool names, in library order."""
+        return tuple(tool.name for tool in self.tools)
+
+    @property
+    def parameters(self) -> np.ndarray:
+        """(N_T, 10) flange-frame parameters of every tool (the paper's Φ̄ transposed)."""
+        return np.stack([tool.parameters for tool in self.tools])
+
+    @property
+    def geometry(self) -> np.ndarray:
+        """(N_T, 2) length and width of every tool (m), columns :data:`GEOMETRY_NAMES`."""
+        return np.array([[tool.geometry[g] for g in GEOMETRY_NAMES] for tool in self.tools])
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """Tool families, in library order."""
+        return tuple(tool.kind for tool in self.tools)
+
+    def without(self, name: str) -> ToolLibrary:
+        """The library less one tool (to treat it as unknown)."""
+        self[name]  # noqa: B018 - raises a KeyError naming the valid tools
+        return ToolLibrary(tuple(tool for tool in self.tools if tool.name != name))
+
+
+def load_library(names: Sequence[str] | None = None, directory: str | Path | None = None) -> ToolLibrary:
+    """The tools ``names`` (default: every tool in the folder) as a :class:`ToolLibrary`."""
+    names = list(names) if names is not None else tool_names(directory)
+    return ToolLibrary(tuple(load_tool(name, directory) for name in names))
