@@ -42,6 +42,8 @@ def _pseudo_inertia_basis() -> np.ndarray:
 PSEUDO_INERTIA_BASIS: np.ndarray = _pseudo_inertia_basis()
 """(10, 4, 4) basis of the linear map φ → J: ``J = Σ_k φ_k · PSEUDO_INERTIA_BASIS[k]``."""
 
+_BASIS_MATRIX = PSEUDO_INERTIA_BASIS.reshape(SEGMENT_SIZE, 16).T  # vec(J) = _BASIS_MATRIX @ φ (row-major vec)
+
 
 def pseudo_inertia_expression(phi_segment: cp.Expression) -> cp.Expression:
     """The 4×4 pseudo-inertia ``J(φ)`` of one segment as an affine cvxpy expression.
@@ -57,7 +59,9 @@ def pseudo_inertia_expression(phi_segment: cp.Expression) -> cp.Expression:
     """
     if phi_segment.shape != (SEGMENT_SIZE,):
         raise ValueError(f"a segment has {SEGMENT_SIZE} standard parameters, got an expression of shape {phi_segment.shape}")
-    return sum(phi_segment[k] * PSEUDO_INERTIA_BASIS[k] for k in range(SEGMENT_SIZE))
+    # One matrix product and a reshape: a tenth of the expression tree of Σ_k φ_k·E_k, so cvxpy
+    # compiles a 7-segment problem about twice as fast.
+    return cp.reshape(_BASIS_MATRIX @ phi_segment, (4, 4), order="C")
 
 
 def segment_slices(n_links: int) -> list[slice]:
@@ -92,3 +96,39 @@ def min_pseudo_inertia_eigenvalues(standard: np.ndarray, n_links: int) -> np.nda
     """Smallest pseudo-inertia eigenvalue of every segment of a standard vector (≥ 0: consistent)."""
     standard = np.asarray(standard, dtype=float)
     return np.array([min_pseudo_inertia_eigenvalue(standard[part]) for part in segment_slices(n_links)])
+
+
+def consistency_margin(
+    regrouping: np.ndarray,
+    base_values: np.ndarray,
+    n_links: int,
+    dissipative: np.ndarray | None = None,
+    cap: float = 1.0,
+) -> float:
+    """The largest ε such that some standard set φ with ``K·φ = φ_B`` has every ``J_i(φ) ⪰ ε·1``.
+
+    Base parameters are consistent iff *some* standard set behind them describes rigid bodies
+    (the standard set itself is not identifiable), so the smallest eigenvalue of one particular
+    standard set does not decide it: this semidefinite programme does. A negative margin proves
+    that no rigid bodies (and, with ``dissipative`` indices, no non-negative friction) reproduce
+    ``base_values``.
+
+    Parameters
+    ----------
+    regrouping : (N_B, P) regrouping matrix K.
+    base_values : (N_B,) base parameters φ_B.
+    n_links : number of segments.
+    dissipative : indices of friction parameters that must be ≥ ε too (Coulomb, viscous).
+    cap : upper bound on ε (kg·m² scale) so the programme is bounded.
+    """
+    phi = cp.Variable(regrouping.shape[1])
+    margin = cp.Variable()
+    constraints = [regrouping @ phi == base_values, margin <= cap]
+    constraints += consistency_constraints(phi, n_links, margin=margin)
+    if dissipative is not None and len(dissipative):
+        constraints.append(phi[dissipative] >= margin)
+    problem = cp.Problem(cp.Maximize(margin), constraints)
+    problem.solve(solver=cp.CLARABEL)
+    if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        raise RuntimeError(f"consistency margin: solver status {problem.status}")
+    return float(margin.value)

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import json
 import logging
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +19,8 @@ import pandas as pd
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
+from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
+from lwrlab.identification.context import IdentificationContext, bind_estimator
 from lwrlab.identification.core import Estimator, torque_errors
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
 from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory_csv
@@ -51,14 +54,23 @@ class IdentificationReport:
     metrics: dict[str, float] = field(default_factory=dict)
 
 
-def _sample_checked(source: MotionSource, robot: RobotModel, rate_hz: float, what: str) -> Trajectory:
+def _sample_checked(source: MotionSource, robot: RobotModel, rate_hz: float, what: str, role: str) -> Trajectory:
     motion = source.sample(robot, rate_hz)
     check_limits(motion, robot, torque=robot.inverse_dynamics(motion.q, motion.dq, motion.ddq), what=what)
-    return motion
+    # the role tells a plant replaying recorded logs which log stands for this motion
+    return replace(motion, metadata={**motion.metadata, "role": role})
 
 
 def _base_regressor(robot: RobotModel, base: BaseParameters, data: ProcessedData) -> np.ndarray:
     return base.base_regressor(regressor(robot, data.q, data.dq, data.ddq))
+
+
+def _context(robot: RobotModel, base: BaseParameters, plant: Plant, motion: Trajectory, data: ProcessedData) -> IdentificationContext:
+    """The estimator's context; the commanded motion's regressor only when the plant executed it."""
+    reference = None
+    if not getattr(plant, "recorded", False):
+        reference = base.base_regressor(regressor(robot, motion.q[data.index], motion.dq[data.index], motion.ddq[data.index]))
+    return IdentificationContext.from_robot(robot, base, reference)
 
 
 def identify(
@@ -66,7 +78,7 @@ def identify(
     motion_source: MotionSource,
     validation_source: MotionSource,
     plant: Plant,
-    estimator: Estimator,
+    estimator: Estimator | Callable[..., Estimator],
     rate_hz: float = 1000.0,
     processing: dict[str, Any] | None = None,
 ) -> IdentificationReport:
@@ -78,21 +90,26 @@ def identify(
         the motions against the limits, its values are the prior of the standard set.
     motion_source, validation_source : the exciting motion and the cross-validation motion.
     plant : the robot (simulated or replayed) that executes them.
-    estimator : fits base parameters to the processed data.
+    estimator : fits base parameters to the processed data; a callable without ``fit`` (a
+        ``_partial_`` config) is called with ``context=`` (:class:`IdentificationContext`) first.
     rate_hz : sampling rate of the measurement (Hz).
     processing : keyword arguments of :func:`lwrlab.signal.processing.process`.
     """
     processing = dict(processing or {})
     base = compute_base_parameters(robot)
     log.info("%s: %d base parameters", robot.name, base.count)
-    motion = _sample_checked(motion_source, robot, rate_hz, "exciting motion")
-    validation_motion = _sample_checked(validation_source, robot, rate_hz, "cross-validation motion")
+    motion = _sample_checked(motion_source, robot, rate_hz, "exciting motion", "excitation")
+    validation_motion = _sample_checked(validation_source, robot, rate_hz, "cross-validation motion", "validation")
 
     measurement = plant.measure(motion)
     data = process(measurement.t, measurement.q, measurement.tau, **processing)
     w_base = _base_regressor(robot, base, data)
+    if not hasattr(estimator, "fit"):  # a `_partial_` estimator config: it needs the context
+        estimator = bind_estimator(estimator, _context(robot, base, plant, motion, data))
     estimator.fit(w_base, data.tau.ravel())
-    standard = standard_from_base(base, estimator.phi_, robot.parameters)
+    standard = getattr(estimator, "standard_phi_", None)  # physically consistent estimators give it
+    if standard is None:
+        standard = standard_from_base(base, estimator.phi_, robot.parameters)
     identified = IdentifiedModel(base.names, estimator.phi_.copy(), estimator.std_.copy(), robot.parameter_names, standard)
 
     validation_measurement = plant.measure(validation_motion)
@@ -123,6 +140,8 @@ def identify(
         "rms_mean": float(errors["rms"].mean()),
         "nrms_mean": float(np.nanmean(errors["nrms"])),
         "n_base_parameters": float(base.count),
+        "min_pseudo_inertia_eigenvalue": float(min_pseudo_inertia_eigenvalues(standard, robot.n_links).min()),
+        **{key: float(value) for key, value in getattr(estimator, "diagnostics_", {}).items()},
         **{f"rms_joint{j}": float(v) for j, v in enumerate(errors["rms"], start=1)},
         **{f"nrms_joint{j}": float(v) for j, v in enumerate(errors["nrms"], start=1)},
     }
@@ -164,8 +183,11 @@ def format_report(report: IdentificationReport) -> str:
         report.validation.to_markdown(floatfmt=".4g"),
         "",
         f"mean RMS {report.metrics['rms_mean']:.4g} N·m, mean NRMS {report.metrics['nrms_mean']:.4g} %, "
-        f"cond(W_b) {report.metrics['cond_W_b']:.4g}",
+        f"cond(W_b) {report.metrics['cond_W_b']:.4g}, smallest pseudo-inertia eigenvalue "
+        f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} of the reported standard set (< 0: not a rigid body)",
     ]
+    if report.metrics.get("solver_fallback"):
+        lines.append("WARNING: the estimator's primary solver failed; the result comes from its fallback solver")
     if "base_parameter_error" in report.metrics:
         lines.append(f"relative base-parameter error ‖β̂ − β‖/‖β‖ = {report.metrics['base_parameter_error']:.3g}")
     return "\n".join(lines)

@@ -1,0 +1,99 @@
+"""What an estimator may know beyond ``(W, τ)``: the parameter structure and the prior.
+
+Most estimators only need the stacked base regressor and torques. Some need more: the weighted
+estimators the joint of each row, the physically consistent SDP the regrouping matrix K (to fit
+base-parameter data with standard parameters), the CAD prior and the friction layout, the
+instrumental-variable estimator the regressor of the commanded motion. The pipeline builds one
+:class:`IdentificationContext` per identification and hands it to estimator configs marked
+``_partial_: true`` as the keyword ``context`` (:func:`bind_estimator`); estimators whose config is
+not partial are used as they are. So a new estimator plugin needs no core edit either way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from lwrlab.dynamics.base_parameters import BaseParameters
+from lwrlab.identification.core import Estimator
+from lwrlab.model.robot import FRICTION_TERMS, RobotModel
+
+
+@dataclass(frozen=True)
+class IdentificationContext:
+    """The structure of the parameters being identified (no measured data in here)."""
+
+    n_joints: int
+    """Number of joints N_J: regressor rows are sample-major, row ``k·N_J + j`` is joint ``j``."""
+    n_links: int
+    """Number of segments carrying 10 standard parameters each (first in the standard vector)."""
+    friction_terms: tuple[str, ...]
+    """Friction terms after the segments, each for joints 1…N_J (``coulomb``, ``viscous``, ``offset``)."""
+    regrouping: np.ndarray
+    """(N_B, P) matrix K: base parameters ``φ_B = K·φ`` of standard parameters ``φ``."""
+    prior: np.ndarray
+    """(P,) prior (CAD) standard parameters (kg, kg·m, kg·m², N·m, N·m·s/rad)."""
+    standard_names: tuple[str, ...]
+    """Names of the standard parameters."""
+    base_names: tuple[str, ...]
+    """Names of the base parameters."""
+    reference_regressor: np.ndarray | None = None
+    """Base regressor of the commanded (reference) motion at the same rows as the measured one, or
+    None when the motion is unknown (recorded logs): the instruments of closed-loop estimators."""
+
+    @classmethod
+    def from_robot(
+        cls, robot: RobotModel, base: BaseParameters, reference_regressor: np.ndarray | None = None
+    ) -> IdentificationContext:
+        """The context of identifying ``robot``'s base parameters ``base`` (prior = its parameters)."""
+        return cls(
+            n_joints=robot.n_joints,
+            n_links=robot.n_links,
+            friction_terms=tuple(robot.friction_terms),
+            regrouping=base.regrouping,
+            prior=robot.parameters,
+            standard_names=robot.parameter_names,
+            base_names=base.names,
+            reference_regressor=reference_regressor,
+        )
+
+    @property
+    def n_parameters(self) -> int:
+        """Length P of the standard vector."""
+        return self.regrouping.shape[1]
+
+    def friction_indices(self, term: str) -> np.ndarray:
+        """Indices of friction ``term``'s parameters in the standard vector (empty if not modelled)."""
+        if term not in FRICTION_TERMS:
+            raise KeyError(f"unknown friction term {term!r}; valid: {sorted(FRICTION_TERMS)}")
+        if term not in self.friction_terms:
+            return np.zeros(0, dtype=int)
+        start = 10 * self.n_links + self.friction_terms.index(term) * self.n_joints
+        return np.arange(start, start + self.n_joints)
+
+
+def bind_estimator(spec: Any, context: IdentificationContext) -> Estimator:
+    """The estimator to fit: ``spec`` itself, or ``spec(context=context)`` for a partial config."""
+    if hasattr(spec, "fit"):
+        return spec
+    if callable(spec):
+        return spec(context=context)
+    raise TypeError(f"an estimator config must build an object with fit() or a partial taking context=, got {spec!r}")
+
+
+def row_joints(n_rows: int, n_joints: int) -> np.ndarray:
+    """Joint index (0-based) of each sample-major regressor row."""
+    if n_rows % n_joints:
+        raise ValueError(f"{n_rows} regressor rows are not a whole number of samples of {n_joints} joints")
+    return np.tile(np.arange(n_joints), n_rows // n_joints)
+
+
+def resolve_joint_count(n_joints: int | None, context: IdentificationContext | None, who: str) -> int:
+    """``n_joints`` if given, else the context's; a clear error when neither is known."""
+    if n_joints is not None:
+        return int(n_joints)
+    if context is not None:
+        return context.n_joints
+    raise ValueError(f"{who} needs the joint of each regressor row: pass n_joints= or context= (its config is _partial_)")

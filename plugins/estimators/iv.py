@@ -1,0 +1,63 @@
+"""Instrumental variables (config group ``estimator``): least squares for closed-loop data.
+
+In closed loop, the measured positions carry the effect of the torque noise fed back through the
+controller, and their filtered derivatives carry encoder noise: the regressor W is correlated with
+the torque error, and least squares is biased. An instrument Z correlated with W but not with the
+noise removes that bias (Janot, Vandanjon & Gautier 2014): ``φ = (ẐᵀW)⁻¹ẐᵀŴ`` in its two-stage
+least-squares form ``Ŵ = P_Z·W``, ``φ = argmin ‖τ − Ŵφ‖``. Here Z is the base regressor of the
+commanded (reference) motion, known exactly and independent of the measurement noise; Janot's
+simulated-model instruments tend to it as the tracking error vanishes.
+"""
+
+from __future__ import annotations
+
+from typing import Self
+
+import numpy as np
+
+from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
+
+
+class InstrumentalVariables:
+    """Two-stage least squares with the reference motion's regressor as instruments.
+
+    Parameters
+    ----------
+    context : identification context; its ``reference_regressor`` holds the instruments (rows
+        aligned with ``W``). Set by the pipeline for ``_partial_`` configs.
+    instruments : instruments given directly (rows, ≥ N_B columns), overriding the context's.
+
+    Learned attributes: the protocol's; the covariance is ``σ²·(ŴᵀŴ)⁻¹`` with σ² from the
+    residual ``τ − W·φ``.
+    """
+
+    def __init__(self, context: IdentificationContext | None = None, instruments: np.ndarray | None = None) -> None:
+        self.context = context
+        self.instruments = instruments
+
+    def _instruments(self, rows: int) -> np.ndarray:
+        z = self.instruments if self.instruments is not None else getattr(self.context, "reference_regressor", None)
+        if z is None:
+            raise ValueError(
+                "iv needs instruments: the regressor of the commanded motion (context.reference_regressor), "
+                "unknown for a recorded log without a reference; use another estimator (wls, irls, sdp)"
+            )
+        z = np.asarray(z, dtype=float)
+        if z.shape[0] != rows:
+            raise ValueError(f"instruments have {z.shape[0]} rows, the regressor {rows}")
+        return z
+
+    def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
+        tau = np.asarray(tau, dtype=float).ravel()
+        rows = W.shape[0]
+        if rows != tau.shape[0]:
+            raise ValueError(f"W has {rows} rows but tau has {tau.shape[0]}")
+        q_z, _ = np.linalg.qr(self._instruments(rows))
+        projected = q_z @ (q_z.T @ W)  # first stage: Ŵ = P_Z·W
+        phi, *_ = np.linalg.lstsq(projected, tau, rcond=None)
+        set_learned_attributes(self, fit_with_covariance(W, tau, phi, projected.T @ projected), W)
+        return self
+
+    def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803
+        return W @ self.phi_

@@ -1,0 +1,174 @@
+"""Conformance suite over every estimator plugin of conf/estimator/, and estimator-specific checks.
+
+Every config is instantiated as the pipeline does (partial configs get the identification
+context), fitted on noiseless LWR4 data, and must give back the true base parameters.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from pathlib import Path
+
+import cvxpy as cp
+import numpy as np
+import pytest
+from hydra.utils import instantiate
+from omegaconf import OmegaConf
+
+from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
+from lwrlab.dynamics.regressor import regressor
+from lwrlab.identification.consistency import consistency_margin
+from lwrlab.identification.context import IdentificationContext, bind_estimator
+from lwrlab.model.robot import RobotModel
+from lwrlab.plants.simulation import perturbed_robot
+from plugins.estimators.irls import IterativelyReweightedLeastSquares
+from plugins.estimators.iv import InstrumentalVariables
+from plugins.estimators.ols import OrdinaryLeastSquares
+from plugins.estimators.sdp import PhysicallyConsistentSDP, SolverFailure
+from plugins.estimators.wls import WeightedLeastSquares
+from plugins.trajectories.multisine import MultisineMotion
+
+CONF = Path(__file__).resolve().parents[1] / "conf" / "estimator"
+ESTIMATOR_CONFIGS = sorted(p.stem for p in CONF.glob("*.yaml"))
+
+
+@pytest.fixture(scope="module")
+def problem(lwr4: RobotModel) -> dict:
+    """A 4 s LWR4 motion at 200 Hz, a perturbed (consistent) truth, its exact torques."""
+    base = compute_base_parameters(lwr4)
+    truth = perturbed_robot(lwr4, 0.1, 0.2, np.random.default_rng(7))
+    motion = MultisineMotion(duration=4.0, harmonics=4, seed=3, limit_fraction=0.8).sample(lwr4, 200.0)
+    w = base.base_regressor(regressor(lwr4, motion.q, motion.dq, motion.ddq))
+    tau = truth.inverse_dynamics(motion.q, motion.dq, motion.ddq).ravel()
+    context = IdentificationContext.from_robot(lwr4, base, reference_regressor=w)
+    return {"base": base, "truth": truth, "w": w, "tau": tau, "context": context, "beta": base.base_values(truth.parameters)}
+
+
+def _relative_error(estimate: np.ndarray, truth: np.ndarray) -> float:
+    return float(np.linalg.norm(estimate - truth) / np.linalg.norm(truth))
+
+
+@pytest.mark.parametrize("name", ESTIMATOR_CONFIGS)
+def test_every_estimator_recovers_true_base_parameters_from_noiseless_data(name: str, problem: dict) -> None:
+    estimator = bind_estimator(instantiate(OmegaConf.load(CONF / f"{name}.yaml")), problem["context"])
+    assert estimator.fit(problem["w"], problem["tau"]) is estimator
+    assert _relative_error(estimator.phi_, problem["beta"]) < 1e-6
+    for attribute in ("std_", "relative_std_", "residual_std_", "cond_"):
+        assert hasattr(estimator, attribute), attribute
+    np.testing.assert_allclose(estimator.predict(problem["w"]), problem["tau"], atol=1e-6 * np.abs(problem["tau"]).max())
+
+
+def test_partial_configs_get_the_context_and_plain_ones_do_not(problem: dict) -> None:
+    plain = OrdinaryLeastSquares()
+    assert bind_estimator(plain, problem["context"]) is plain
+    bound = bind_estimator(functools.partial(WeightedLeastSquares, min_relative_std=0.0), problem["context"])
+    assert bound.context is problem["context"]
+
+
+def test_wls_downweights_the_noisy_joint(rng: np.random.Generator) -> None:
+    """Joint 2 is 20× noisier: WLS weights it 400× less and beats OLS on the parameter error."""
+    w = rng.normal(size=(4000, 5))
+    phi = rng.normal(size=5)
+    noise = rng.normal(size=4000) * np.tile([0.05, 1.0], 2000)
+    wls = WeightedLeastSquares(n_joints=2).fit(w, w @ phi + noise)
+    ols = OrdinaryLeastSquares().fit(w, w @ phi + noise)
+    np.testing.assert_allclose(wls.joint_std_, [0.05, 1.0], rtol=0.1)
+    assert np.linalg.norm(wls.phi_ - phi) < 0.5 * np.linalg.norm(ols.phi_ - phi)
+    assert np.all(wls.std_ < ols.std_)  # the covariance knows it too
+
+
+def test_wls_without_joint_count_says_what_it_needs(rng: np.random.Generator) -> None:
+    with pytest.raises(ValueError, match="n_joints= or context="):
+        WeightedLeastSquares().fit(rng.normal(size=(10, 2)), np.zeros(10))
+
+
+def test_irls_resists_outliers_that_drag_ols(rng: np.random.Generator) -> None:
+    w = rng.normal(size=(2000, 4))
+    phi = np.array([1.0, -2.0, 0.5, 3.0])
+    tau = w @ phi + 0.05 * rng.normal(size=2000)
+    spikes = rng.choice(2000, 100, replace=False)
+    tau[spikes] += 20.0  # sensor glitches on 5 % of the rows
+    robust = IterativelyReweightedLeastSquares(n_joints=2, loss="bisquare").fit(w, tau)
+    ols = OrdinaryLeastSquares().fit(w, tau)
+    assert np.linalg.norm(robust.phi_ - phi) < 0.02
+    assert np.linalg.norm(ols.phi_ - phi) > 10 * np.linalg.norm(robust.phi_ - phi)
+    assert robust.outlier_fraction_ == pytest.approx(0.05, abs=0.01)
+
+
+def test_iv_removes_the_bias_of_a_noisy_regressor(rng: np.random.Generator) -> None:
+    """Errors in the regressor (noisy states) bias OLS toward zero; exact instruments do not."""
+    z = rng.normal(size=(20000, 3))
+    phi = np.array([1.0, 2.0, -1.0])
+    w_measured = z + 0.5 * rng.normal(size=z.shape)
+    tau = z @ phi + 0.1 * rng.normal(size=20000)
+    iv = InstrumentalVariables(instruments=z).fit(w_measured, tau)
+    ols = OrdinaryLeastSquares().fit(w_measured, tau)
+    assert np.linalg.norm(iv.phi_ - phi) < 0.03
+    assert np.linalg.norm(ols.phi_ - phi) > 0.3
+
+
+def test_iv_without_instruments_names_the_alternatives(rng: np.random.Generator) -> None:
+    with pytest.raises(ValueError, match="needs instruments"):
+        InstrumentalVariables().fit(rng.normal(size=(10, 2)), np.zeros(10))
+
+
+def test_ols_on_short_noisy_data_is_inconsistent_where_sdp_is_not(lwr4: RobotModel, problem: dict) -> None:
+    """2 s at 100 Hz with σ_τ = 0.5 N·m: no rigid bodies with dissipative friction reproduce the
+    OLS base parameters (negative consistency margin); the SDP's do, by construction."""
+    base: BaseParameters = problem["base"]
+    context: IdentificationContext = problem["context"]
+    motion = MultisineMotion(duration=2.0, harmonics=3, seed=0, limit_fraction=0.8).sample(lwr4, 100.0)
+    w = base.base_regressor(regressor(lwr4, motion.q, motion.dq, motion.ddq))
+    tau = (problem["truth"].inverse_dynamics(motion.q, motion.dq, motion.ddq) + 0.5 * np.random.default_rng(0).normal(size=(len(motion.t), 7))).ravel()
+    dissipative = np.concatenate([context.friction_indices("coulomb"), context.friction_indices("viscous")])
+    ols = OrdinaryLeastSquares().fit(w, tau)
+    sdp = PhysicallyConsistentSDP(context).fit(w, tau)
+    assert consistency_margin(base.regrouping, ols.phi_, lwr4.n_links, dissipative) < -1e-3
+    assert consistency_margin(base.regrouping, sdp.phi_, lwr4.n_links, dissipative) > -1e-9
+    assert sdp.min_eigenvalues_.min() >= -1e-12
+    assert np.all(sdp.standard_phi_[dissipative] >= 0.0)
+
+
+@pytest.mark.parametrize("regularization", ["none", "euclidean", "entropic"])
+def test_sdp_regularisations_give_consistent_models(regularization: str, problem: dict) -> None:
+    noisy = problem["tau"] + 0.2 * np.random.default_rng(1).normal(size=problem["tau"].shape)
+    sdp = PhysicallyConsistentSDP(problem["context"], regularization=regularization, weight=1e-4).fit(problem["w"], noisy)
+    assert sdp.solver_ == "CLARABEL" and not sdp.solver_fallback_
+    assert sdp.min_eigenvalues_.min() >= -1e-12
+    assert _relative_error(sdp.phi_, problem["beta"]) < 0.05
+
+
+def test_sdp_compressed_and_uncompressed_agree(problem: dict) -> None:
+    noisy = problem["tau"] + 0.2 * np.random.default_rng(2).normal(size=problem["tau"].shape)
+    compressed = PhysicallyConsistentSDP(problem["context"]).fit(problem["w"], noisy)
+    full = PhysicallyConsistentSDP(problem["context"], compress=False).fit(problem["w"], noisy)
+    assert _relative_error(compressed.phi_, full.phi_) < 1e-5
+
+
+def test_sdp_mass_bounds_hold(problem: dict) -> None:
+    sdp = PhysicallyConsistentSDP(problem["context"], mass_bounds=[0.95, 1.05]).fit(problem["w"], problem["tau"])
+    masses = sdp.standard_phi_[0 : 10 * 7 : 10]
+    prior = problem["context"].prior[0 : 10 * 7 : 10]
+    assert np.all(masses >= 0.95 * prior - 1e-7) and np.all(masses <= 1.05 * prior + 1e-7)
+
+
+def test_sdp_falls_back_and_says_so(problem: dict, caplog: pytest.LogCaptureFixture) -> None:
+    """A primary solver that cannot run the problem (OSQP has no SDP cones) falls back to SCS."""
+    noisy = problem["tau"] + 0.2 * np.random.default_rng(3).normal(size=problem["tau"].shape)
+    with caplog.at_level(logging.WARNING):
+        sdp = PhysicallyConsistentSDP(problem["context"], solver="OSQP").fit(problem["w"], noisy)
+    assert sdp.solver_ == "SCS" and sdp.solver_fallback_ and sdp.diagnostics_["solver_fallback"] == 1.0
+    assert "fallback solver SCS" in caplog.text
+
+
+def test_sdp_failure_without_fallback_and_bad_settings_are_clear(problem: dict) -> None:
+    with pytest.raises(SolverFailure, match="OSQP"):
+        PhysicallyConsistentSDP(problem["context"], solver="OSQP", fallback_solver=None).fit(problem["w"], problem["tau"])
+    with pytest.raises(ValueError, match="mass_bounds"):
+        PhysicallyConsistentSDP(problem["context"], mass_bounds=[2.0, 1.0]).fit(problem["w"], problem["tau"])
+    with pytest.raises(ValueError, match="valid"):
+        PhysicallyConsistentSDP(problem["context"], regularization="ridge").fit(problem["w"], problem["tau"])
+    with pytest.raises(ValueError, match="_partial_"):
+        PhysicallyConsistentSDP().fit(problem["w"], problem["tau"])
+    assert cp.CLARABEL in cp.installed_solvers()
