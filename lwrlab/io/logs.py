@@ -1,0 +1,207 @@
+"""Recorded robot logs: the documented schema, loading with validation, resampling, writing.
+
+Schema (CSV with a header row, or Parquet; one row per sample)
+----------------------------------------------------------------
+
+======================  ========  ===========================================================
+column                  unit      content
+======================  ========  ===========================================================
+``t``                   s         sample time, strictly increasing (``time_unit`` converts
+                                  ms/us/ns clocks)
+``q1`` … ``qN``         rad       joint positions (``position_unit: deg`` converts degrees)
+``dq1`` … ``dqN``       rad/s     optional joint velocities (validated and loaded; the
+                                  identification differentiates the filtered positions, as
+                                  for simulated data)
+``tau1`` … ``tauN``     N·m       joint torques (link side), **or**
+``current1`` … ``N``    A         motor currents, with ``drive_gains`` (N·m/A at the joint:
+                                  torque constant × gear ratio), ``τ_j = gain_j · i_j``
+======================  ========  ===========================================================
+
+Other columns are ignored. A log whose columns are named differently is read with
+``column_map`` (schema name → name in the file), e.g. ``{"t": "timestamp", "q1": "pos_0"}``.
+
+Validation: a missing column, a non-numeric or non-finite (NaN, inf) value, too few samples,
+non-increasing time, or a gap in time larger than ``max_gap`` sampling periods raises
+:class:`LogError` naming the file, the column and the row (0-based data row; for CSV also the line
+of the file). Nothing is dropped silently.
+
+Resampling: a log whose sampling period varies by more than ``jitter_tolerance`` (relative to the
+median period) is linearly interpolated onto the uniform grid ``t_0 + k/rate`` (rate = ``rate_hz``
+or 1/median period) before anything else; the measurement metadata records it. At 1 kHz the
+interpolation error is far below the 10 Hz low-pass that follows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from lwrlab.plants.core import Measurement
+
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+"""Seconds per unit of the time column."""
+POSITION_UNITS = {"rad": 1.0, "deg": np.pi / 180.0}
+"""Radians per unit of the position (and velocity) columns."""
+
+
+class LogError(ValueError):
+    """A malformed log; the message names the file, the column and the row."""
+
+
+@dataclass(frozen=True)
+class RecordedLog:
+    """A validated log on a uniform time grid, in SI units."""
+
+    t: np.ndarray
+    """(N,) times (s), uniform."""
+    q: np.ndarray
+    """(N, N_J) joint positions (rad)."""
+    tau: np.ndarray
+    """(N, N_J) joint torques (N·m)."""
+    dq: np.ndarray | None
+    """(N, N_J) joint velocities (rad/s) if the log has them."""
+    path: Path
+    """The file read."""
+    resampled: bool
+    """Whether the time stamps were irregular and the samples were interpolated."""
+
+    def to_measurement(self) -> Measurement:
+        """The :class:`Measurement` the identification consumes (the same type a simulator yields)."""
+        rate = float((len(self.t) - 1) / (self.t[-1] - self.t[0]))
+        return Measurement(
+            t=self.t, q=self.q, tau=self.tau,
+            metadata={"source": "log", "path": str(self.path), "rate_hz": rate, "resampled": self.resampled},
+        )
+
+
+def joint_columns(prefix: str, n_joints: int) -> list[str]:
+    """Schema column names ``prefix1 … prefixN``."""
+    return [f"{prefix}{j}" for j in range(1, n_joints + 1)]
+
+
+def _read(path: Path) -> pd.DataFrame:
+    if not path.is_file():
+        raise LogError(f"{path}: no such log file")
+    if path.suffix.lower() in (".parquet", ".pq"):
+        return pd.read_parquet(path)
+    if path.suffix.lower() in (".csv", ".txt"):
+        return pd.read_csv(path, dtype=str, keep_default_na=False)  # strings: we report bad cells ourselves
+    raise LogError(f"{path}: unknown log format {path.suffix!r}; use .csv or .parquet")
+
+
+def _where(path: Path, row: int) -> str:
+    line = f" (line {row + 2} of the file)" if path.suffix.lower() in (".csv", ".txt") else ""
+    return f"row {row}{line}"
+
+
+def _numeric_column(frame: pd.DataFrame, name: str, schema_name: str, path: Path) -> np.ndarray:
+    if name not in frame.columns:
+        mapped = f" (schema column {schema_name!r}, mapped by column_map)" if name != schema_name else ""
+        raise LogError(f"{path}: missing column {name!r}{mapped}; the file has {list(frame.columns)}")
+    raw = frame[name]
+    values = pd.to_numeric(raw.str.strip() if raw.dtype == object else raw, errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row = int(np.argmax(bad))
+        cell = raw.iloc[row]
+        what = "missing value (NaN)" if str(cell).strip().lower() in ("", "nan", "none", "null") else f"non-numeric value {cell!r}"
+        if np.isinf(values[row]) or (isinstance(cell, float) and np.isinf(cell)):
+            what = f"non-finite value {cell!r}"
+        raise LogError(f"{path}: column {name!r}, {_where(path, row)}: {what}")
+    return values
+
+
+def _uniform(t: np.ndarray, columns: list[np.ndarray], rate_hz: float | None, jitter_tolerance: float) -> tuple[np.ndarray, list[np.ndarray], bool]:
+    dt = np.diff(t)
+    period = 1.0 / rate_hz if rate_hz else float(np.median(dt))
+    regular = np.max(np.abs(dt - period)) <= jitter_tolerance * period
+    if regular:
+        return t, columns, False
+    grid = t[0] + period * np.arange(int(np.floor((t[-1] - t[0]) / period + 1e-9)) + 1)
+    return grid, [np.column_stack([np.interp(grid, t, c[:, j]) for j in range(c.shape[1])]) for c in columns], True
+
+
+def load_log(
+    path: str | Path,
+    n_joints: int,
+    column_map: Mapping[str, str] | None = None,
+    time_unit: str = "s",
+    position_unit: str = "rad",
+    drive_gains: Sequence[float] | None = None,
+    rate_hz: float | None = None,
+    min_samples: int = 100,
+    jitter_tolerance: float = 0.01,
+    max_gap: float = 10.0,
+) -> RecordedLog:
+    """Read, validate and (if needed) resample a log written in the schema of this module.
+
+    Parameters
+    ----------
+    path : a ``.csv`` or ``.parquet`` file.
+    n_joints : number of joints of the robot (columns ``q1…qN`` and ``tau1…tauN`` expected).
+    column_map : schema name → column name in the file, for the columns named differently.
+    time_unit : unit of the time column: ``s``, ``ms``, ``us`` or ``ns``.
+    position_unit : unit of positions and velocities: ``rad`` or ``deg``.
+    drive_gains : (N_J,) N·m/A; when given, torques are ``gain·current`` from ``current1…N``.
+    rate_hz : rate of the uniform grid (Hz); None = the median sampling period's.
+    min_samples : fewest samples accepted.
+    jitter_tolerance : largest relative deviation of a period from the median before resampling.
+    max_gap : largest period accepted, in median periods (longer gaps would be invented data).
+    """
+    path = Path(path)
+    if time_unit not in TIME_UNITS:
+        raise LogError(f"{path}: unknown time_unit {time_unit!r}; valid: {list(TIME_UNITS)}")
+    if position_unit not in POSITION_UNITS:
+        raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
+    if drive_gains is not None and len(drive_gains) != n_joints:
+        raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
+    frame = _read(path)
+    mapping = dict(column_map or {})
+    name = lambda schema: mapping.get(schema, schema)  # noqa: E731
+    if len(frame) < min_samples:
+        raise LogError(f"{path}: {len(frame)} rows, too short (at least {min_samples} samples needed)")
+
+    def block(prefix: str) -> np.ndarray:
+        return np.column_stack([_numeric_column(frame, name(c), c, path) for c in joint_columns(prefix, n_joints)])
+
+    t = _numeric_column(frame, name("t"), "t", path) * TIME_UNITS[time_unit]
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        row = int(np.argmax(steps <= 0)) + 1
+        raise LogError(f"{path}: column {name('t')!r}, {_where(path, row)}: time {t[row]:.9g} s does not increase (previous {t[row - 1]:.9g} s)")
+    median = float(np.median(steps))
+    if np.any(steps > max_gap * median):
+        row = int(np.argmax(steps > max_gap * median)) + 1
+        raise LogError(f"{path}: column {name('t')!r}, {_where(path, row)}: gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)")
+    q = block("q") * POSITION_UNITS[position_unit]
+    tau = block("tau") if drive_gains is None else block("current") * np.asarray(drive_gains, dtype=float)
+    has_velocity = all(name(c) in frame.columns for c in joint_columns("dq", n_joints))
+    columns = [q, tau] + ([block("dq") * POSITION_UNITS[position_unit]] if has_velocity else [])
+    t, columns, resampled = _uniform(t, columns, rate_hz, jitter_tolerance)
+    return RecordedLog(t=t, q=columns[0], tau=columns[1], dq=columns[2] if has_velocity else None, path=path, resampled=resampled)
+
+
+def log_frame(measurement: Measurement, dq: np.ndarray | None = None) -> pd.DataFrame:
+    """A measurement as a frame in the schema (``t``, ``q…``, optional ``dq…``, ``tau…``)."""
+    n = measurement.q.shape[1]
+    data = {"t": measurement.t, **dict(zip(joint_columns("q", n), measurement.q.T, strict=True))}
+    if dq is not None:
+        data.update(dict(zip(joint_columns("dq", n), np.asarray(dq).T, strict=True)))
+    data.update(dict(zip(joint_columns("tau", n), measurement.tau.T, strict=True)))
+    return pd.DataFrame(data)
+
+
+def write_log(measurement: Measurement, path: str | Path, dq: np.ndarray | None = None) -> Path:
+    """Write a measurement as a log in the schema: CSV (17 significant digits) or Parquet by suffix."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    frame = log_frame(measurement, dq)
+    if path.suffix.lower() in (".parquet", ".pq"):
+        frame.to_parquet(path, index=False)
+    else:
+        frame.to_csv(path, index=False, float_format="%.17g")
+    return path

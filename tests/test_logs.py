@@ -1,0 +1,135 @@
+"""Recorded logs: schema round trip, identification from a log, and every malformation's error."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hydra import compose, initialize_config_dir
+
+from lwrlab.io.logs import LogError, load_log, log_frame, write_log
+from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.identification import identify
+from lwrlab.plants.core import Measurement
+from plugins.estimators.ols import OrdinaryLeastSquares
+from plugins.plants.log import LogPlant
+from plugins.plants.simulated import SimulatedPlant
+from plugins.trajectories.multisine import MultisineMotion
+
+CONF = Path(__file__).resolve().parents[1] / "conf"
+
+
+def _measurement(n: int = 200, n_joints: int = 2) -> Measurement:
+    t = np.arange(n) * 1e-3
+    q = np.column_stack([np.sin(t * (j + 1)) for j in range(n_joints)])
+    return Measurement(t=t, q=q, tau=np.cos(q) + 0.1, metadata={})
+
+
+def _write_frame(frame: pd.DataFrame, path: Path) -> Path:
+    frame.to_csv(path, index=False, float_format="%.17g")
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_write_then_load_is_exact(tmp_path: Path, suffix: str) -> None:
+    measurement = _measurement()
+    log = load_log(write_log(measurement, tmp_path / f"log{suffix}"), n_joints=2)
+    np.testing.assert_array_equal(log.t, measurement.t)
+    np.testing.assert_array_equal(log.q, measurement.q)
+    np.testing.assert_array_equal(log.tau, measurement.tau)
+    assert not log.resampled and log.dq is None
+    assert log.to_measurement().metadata["source"] == "log"
+
+
+def test_identifying_from_a_log_equals_identifying_in_memory(lwr4: RobotModel, tmp_path: Path) -> None:
+    """simulate → write log → load log → identify gives the in-memory identification's parameters."""
+    motion = MultisineMotion(duration=3.0, harmonics=3, seed=0)
+    validation = MultisineMotion(duration=3.0, harmonics=4, seed=5)
+    rate, processing = 200.0, {"cutoff_hz": 10.0, "trim_s": 0.2}
+    simulated = SimulatedPlant(lwr4, torque_noise_std=0.1, seed=4, show_progress=False)
+    in_memory = identify(lwr4, motion, validation, simulated, OrdinaryLeastSquares(), rate, processing)
+    paths = [write_log(m, tmp_path / name) for m, name in ((in_memory.measurement, "id.csv"), (in_memory.validation_measurement, "val.csv"))]
+    plant = LogPlant(lwr4, str(paths[0]), validation_path=str(paths[1]))
+    from_log = identify(lwr4, motion, validation, plant, OrdinaryLeastSquares(), rate, processing)
+    np.testing.assert_allclose(from_log.identified.base_values, in_memory.identified.base_values, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(from_log.validation["rms"], in_memory.validation["rms"], rtol=1e-12)
+    assert "truth" not in from_log.parameters.columns  # a log has no ground truth
+
+
+def test_column_map_units_and_currents(tmp_path: Path) -> None:
+    measurement = _measurement()
+    frame = pd.DataFrame({
+        "timestamp_ms": measurement.t * 1e3,
+        "pos_a": np.degrees(measurement.q[:, 0]), "pos_b": np.degrees(measurement.q[:, 1]),
+        "current1": measurement.tau[:, 0] / 2.0, "current2": measurement.tau[:, 1] / 4.0,
+    })
+    log = load_log(
+        _write_frame(frame, tmp_path / "robot.csv"), n_joints=2, column_map={"t": "timestamp_ms", "q1": "pos_a", "q2": "pos_b"},
+        time_unit="ms", position_unit="deg", drive_gains=[2.0, 4.0],
+    )
+    np.testing.assert_allclose(log.t, measurement.t, atol=1e-15)
+    np.testing.assert_allclose(log.q, measurement.q, rtol=1e-13)
+    np.testing.assert_allclose(log.tau, measurement.tau, rtol=1e-13)
+
+
+def test_irregular_time_is_resampled_onto_a_uniform_grid(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    t = np.cumsum(np.full(500, 1e-3) * (1 + 0.3 * rng.uniform(-1, 1, 500)))
+    frame = pd.DataFrame({"t": t, "q1": 2 * t + 1, "tau1": -t})  # linear: interpolation is exact
+    log = load_log(_write_frame(frame, tmp_path / "jitter.csv"), n_joints=1, rate_hz=1000.0)
+    assert log.resampled
+    np.testing.assert_allclose(np.diff(log.t), 1e-3, rtol=1e-9)
+    np.testing.assert_allclose(log.q[:, 0], 2 * log.t + 1, rtol=1e-12)
+    np.testing.assert_allclose(log.tau[:, 0], -log.t, atol=1e-15)
+
+
+def _broken(tmp_path: Path, edit) -> Path:  # noqa: ANN001
+    frame = log_frame(_measurement()).astype(object)
+    edit(frame)
+    return _write_frame(frame, tmp_path / "broken.csv")
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda f: f.pop("tau2"), r"broken.csv: missing column 'tau2'"),
+        (lambda f: f.__setitem__("q1", f["q1"].where(f.index != 7, np.nan)), r"column 'q1', row 7 \(line 9 of the file\): missing value"),
+        (lambda f: f.__setitem__("tau1", f["tau1"].where(f.index != 12, "12,5 Nm")), r"column 'tau1', row 12 .*non-numeric value '12,5 Nm'"),
+        (lambda f: f.__setitem__("t", f["t"].where(f.index != 30, 0.0)), r"column 't', row 30 .*does not increase"),
+        (lambda f: f.__setitem__("t", f["t"] + np.where(f.index >= 50, 1.0, 0.0)), r"column 't', row 50 .*gap"),
+        (lambda f: f.__setitem__("q2", f["q2"].where(f.index != 3, "inf")), r"column 'q2', row 3 .*non-finite"),
+    ],
+    ids=["missing-column", "nan", "non-numeric", "non-monotonic", "gap", "infinite"],
+)
+def test_malformed_logs_name_file_column_and_row(tmp_path: Path, edit, message: str) -> None:  # noqa: ANN001
+    with pytest.raises(LogError, match=message):
+        load_log(_broken(tmp_path, edit), n_joints=2)
+
+
+def test_too_short_log_and_mapped_missing_column(tmp_path: Path) -> None:
+    path = write_log(_measurement(n=50), tmp_path / "short.csv")
+    with pytest.raises(LogError, match="short.csv: 50 rows, too short"):
+        load_log(path, n_joints=2)
+    with pytest.raises(LogError, match="missing column 'stamp' \\(schema column 't'"):
+        load_log(path, n_joints=2, column_map={"t": "stamp"}, min_samples=10)
+    with pytest.raises(LogError, match="no such log file"):
+        load_log(tmp_path / "absent.csv", n_joints=2)
+
+
+def test_log_plant_splits_a_single_log_by_role(tmp_path: Path, lwr4: RobotModel) -> None:
+    log_path = write_log(_measurement(n=1000, n_joints=7), tmp_path / "one.csv")
+    plant = LogPlant(lwr4, str(log_path), validation_fraction=0.25)
+    dummy = MultisineMotion(duration=1.0).sample(lwr4, 100.0)
+    identification = plant.measure(dummy)
+    validation = plant.measure(type(dummy)(dummy.t, dummy.q, dummy.dq, dummy.ddq, {"role": "validation"}))
+    assert (len(identification.t), len(validation.t)) == (750, 250)
+    assert validation.t[0] > identification.t[-1]
+
+
+def test_plant_log_data_path_composes(tmp_path: Path) -> None:
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose("config", overrides=["plant=log", f"data.path={tmp_path / 'x.csv'}"])
+    assert cfg.plant._target_ == "plugins.plants.log.LogPlant"
+    assert cfg.plant.path == str(tmp_path / "x.csv")
