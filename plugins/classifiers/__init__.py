@@ -1,0 +1,1 @@
+"""Tool classifiers (config group ``classifier``): recognise a tool from its identified parameters."""
