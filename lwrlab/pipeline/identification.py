@@ -24,6 +24,7 @@ from lwrlab.identification.context import IdentificationContext, bind_estimator
 from lwrlab.identification.core import Estimator, torque_errors
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
 from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory_csv
+from lwrlab.io.urdf_export import export_urdf
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement, Plant
 from lwrlab.signal.processing import ProcessedData, process
@@ -203,6 +204,9 @@ def write_report(report: IdentificationReport, output_dir: Path, robot_config: d
         "validation_measurement": save_measurement(report.validation_measurement, output_dir / "validation_measurement.npz"),
         "identified_model": save_identified_model(report.identified, robot_config, output_dir / "identified_model.yaml"),
     }
+    if report.metrics["min_pseudo_inertia_eigenvalue"] >= 0.0:  # URDF only for real rigid bodies (e.g. estimator=sdp)
+        identified_robot = report.robot.with_parameters(report.identified.standard_values)
+        files["urdf"] = export_urdf(identified_robot, output_dir / "identified_model.urdf", f"{report.robot.name}_identified")
     files["parameters"] = output_dir / "base_parameters.csv"
     report.parameters.to_csv(files["parameters"])
     files["validation"] = output_dir / "cross_validation.csv"
