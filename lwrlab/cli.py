@@ -1,23 +1,40 @@
-"""Command-line entry point: ``lwrlab [group=option ...] [key=value ...]`` (a Hydra app)."""
+"""Command-line entry point: ``lwrlab [group=option ...] [key=value ...]`` (a Hydra app).
+
+Two subcommands work on the MLflow store instead of running a job (dispatched before Hydra starts):
+``lwrlab report --help`` (the paper's tables and figures rebuilt from logged runs) and
+``lwrlab sync --help`` (upload runs kept on disk while the store was unreachable).
+"""
 
 from __future__ import annotations
 
+import importlib
 import logging
+import sys
 from pathlib import Path
+from typing import Any
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
+
+from lwrlab.tracking import job_state
 
 log = logging.getLogger("lwrlab")
 
 CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 """The config tree beside the package (an absolute path: a relative one would be read as a module)."""
 
+SUBCOMMANDS = {"report": "lwrlab.tracking.report", "sync": "lwrlab.tracking.sync"}
+"""``lwrlab <name> ...`` runs ``<module>.main(argv)`` instead of a Hydra job."""
+
 
 def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
     """Run the pipeline stage selected by ``cfg.task`` (a function ``(cfg, output_dir) -> metrics``)."""
+    finished = job_state.completed_metrics()
+    if finished is not None:  # a re-launched sweep: the tracking callback found this config FINISHED
+        log.info("this job's config already finished in MLflow: its metrics are reused, nothing is recomputed")
+        return finished
     stage = instantiate(cfg.task)
     metrics = stage(cfg, output_dir)
     log.info("artifacts written to %s", output_dir)
@@ -25,9 +42,28 @@ def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="config")
-def main(cfg: DictConfig) -> dict[str, float]:
-    """Hydra entry point; the tracking callback logs the returned metrics and the output folder."""
-    return run(cfg, Path(HydraConfig.get().runtime.output_dir))
+def hydra_app(cfg: DictConfig) -> dict[str, float] | float:
+    """Hydra entry point; the tracking callback logs the metrics and the output folder.
+
+    With ``objective=<metric>`` (set by tuning presets) the job returns that one number, which a
+    sweeper such as Optuna minimises; all metrics are still logged.
+    """
+    metrics = run(cfg, Path(HydraConfig.get().runtime.output_dir))
+    job_state.record_metrics(metrics)
+    objective = OmegaConf.select(cfg, "objective", default=None)
+    if objective is None:
+        return metrics
+    if objective not in metrics:
+        raise KeyError(f"objective {objective!r} is not a metric of this task; metrics: {sorted(metrics)}")
+    return float(metrics[objective])
+
+
+def main() -> Any:
+    """``lwrlab report|sync ...`` (see their ``--help``), otherwise the Hydra app."""
+    if len(sys.argv) > 1 and sys.argv[1] in SUBCOMMANDS:
+        command = importlib.import_module(SUBCOMMANDS[sys.argv[1]])
+        sys.exit(command.main(sys.argv[2:]))
+    return hydra_app()
 
 
 if __name__ == "__main__":

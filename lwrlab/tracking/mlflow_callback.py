@@ -30,6 +30,7 @@ and compare runs afterwards:
 from __future__ import annotations
 
 import atexit
+import functools
 import getpass
 import hashlib
 import json
@@ -54,13 +55,16 @@ import pandas as pd
 from hydra.core.utils import JobReturn, JobStatus
 from hydra.experimental.callback import Callback
 from hydra.utils import get_class
-from mlflow.entities import Metric, Param
+from mlflow.entities import Metric, Param, Run
 from mlflow.exceptions import MlflowException
 from mlflow.tracking import MlflowClient
 from mlflow.utils import validation as mlflow_limits
 from omegaconf import DictConfig, OmegaConf
 
 import lwrlab
+from lwrlab.tracking import job_state, offline
+from lwrlab.tracking.redaction import Redactor, redacted_folder
+from lwrlab.tracking.store import prepare_sqlite_store, retry_locked, sqlite_database_path, store_lock
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +79,9 @@ ERROR_TAG_MAX_LENGTH = 1000  # a readable summary; the full traceback goes to er
 
 RUN_ID_FILE = "mlflow_run_id.txt"
 ERROR_FILE = "error.txt"
+RESUMED_FILE = "resumed_from_run.txt"  # written instead of a new run when a sweep job already finished
+# Config keys that say where a run is logged, not what it computes: left out of the config hash.
+NOT_HASHED_KEYS = frozenset({"tracking"})
 RUN_KIND_TAG = "run_kind"  # "job" or "sweep": filter with runs_table(..., "tags.run_kind = 'job'")
 
 # Characters MLflow accepts in param and metric keys (mlflow.utils.validation, POSIX flavour).
@@ -156,8 +163,13 @@ def resolved_job_config(config: DictConfig) -> dict[str, Any]:
 
 
 def config_hash(resolved_config: Mapping[str, Any]) -> str:
-    """SHA-256 of the resolved config as YAML, keys sorted (so reordering defaults keeps the hash)."""
-    text = OmegaConf.to_yaml(OmegaConf.create(dict(resolved_config)), sort_keys=True)
+    """SHA-256 of the resolved config as YAML, keys sorted (so reordering defaults keeps the hash).
+
+    The ``tracking`` node (where the run is logged) is left out: the hash names the computation, so a
+    re-launched sweep recognises its finished jobs whatever store they went to.
+    """
+    kept = {key: value for key, value in resolved_config.items() if key not in NOT_HASHED_KEYS}
+    text = OmegaConf.to_yaml(OmegaConf.create(kept), sort_keys=True)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
@@ -235,14 +247,6 @@ def absolute_artifact_location(artifact_location: str | None, base_dir: Path) ->
     return str((base_dir / artifact_location).resolve())
 
 
-def sqlite_database_path(tracking_uri: str) -> Path | None:
-    """The database file of a ``sqlite:///`` URI, ``None`` for other stores."""
-    if not tracking_uri.startswith("sqlite:///"):
-        return None
-    path = tracking_uri[len("sqlite:///") :]
-    return Path(path) if path and path != ":memory:" else None
-
-
 def _local_path_of(uri: str) -> Path | None:
     if uri.startswith("file:"):
         return Path(urllib.parse.unquote(urllib.parse.urlparse(uri).path))
@@ -276,6 +280,7 @@ def _git(args: Iterable[str], cwd: Path) -> str | None:
     return completed.stdout.strip() if completed.returncode == 0 else None
 
 
+@functools.lru_cache(maxsize=8)  # git runs once per process and launch folder, not once per job
 def provenance_tags(cwd: Path) -> dict[str, str]:
     """Tags that say which code ran: git commit (if ``cwd`` is in a repository) and versions."""
     tags = {
@@ -319,6 +324,53 @@ class TrackingUnavailable(RuntimeError):
     """The tracking store cannot be reached."""
 
 
+def sweep_identity(primary_config: Mapping[str, Any], sweep_overrides: Sequence[str], sweeper_params: Any) -> str:
+    """SHA-256 naming a sweep: the primary config, its overrides (order-free) and the sweeper's search space.
+
+    A re-launched sweep has the same identity, so its jobs are nested under the same parent run.
+    """
+    text = json.dumps(
+        {"config": config_hash(primary_config), "overrides": sorted(sweep_overrides), "params": sweeper_params},
+        sort_keys=True,
+        default=str,
+    )
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def ensure_experiment(client: MlflowClient, settings: TrackingSettings) -> str:
+    """The id of ``settings.experiment``, created (once among parallel processes) or restored if needed."""
+    name = settings.experiment
+    experiment = retry_locked(client.get_experiment_by_name, name)
+    if experiment is None:
+        artifact_location = None
+        if settings.artifact_location is not None:
+            folder = re.sub(r"[^\w.\-]", "_", name)
+            artifact_location = settings.artifact_location.rstrip("/") + "/" + folder
+        with store_lock(settings.tracking_uri):  # one creator among parallel processes on SQLite
+            experiment = retry_locked(client.get_experiment_by_name, name)
+            if experiment is None:
+                try:
+                    return retry_locked(client.create_experiment, name, artifact_location=artifact_location)
+                except MlflowException:
+                    # Another process (another machine, for a server) created it first.
+                    experiment = client.get_experiment_by_name(name)
+                    if experiment is None:
+                        raise
+    if experiment.lifecycle_stage == "deleted":
+        log.warning("MLflow experiment %r was deleted; restoring it to log this run", name)
+        retry_locked(client.restore_experiment, experiment.experiment_id)
+    return experiment.experiment_id
+
+
+def _without_userinfo(uri: str) -> str:
+    parts = urllib.parse.urlsplit(uri)
+    host = parts.hostname or ""
+    netloc = f"[{host}]" if ":" in host else host
+    if parts.port is not None:
+        netloc += f":{parts.port}"
+    return urllib.parse.urlunsplit((parts.scheme, netloc, parts.path, parts.query, parts.fragment))
+
+
 class MlflowTracking(Callback):
     """Hydra callback that logs every Hydra job as an MLflow run.
 
@@ -326,7 +378,7 @@ class MlflowTracking(Callback):
     ----------
     tracking_uri
         MLflow tracking URI: ``sqlite:///path/mlflow.db`` (a relative path is taken from the directory
-        Hydra was started in; the folder is created), ``http://host:5000``, …
+        Hydra was started in; the folder is created), ``http://host:5000``, ``postgresql://…``.
     experiment
         MLflow experiment name; the experiment is created when missing.
     artifact_location
@@ -335,6 +387,11 @@ class MlflowTracking(Callback):
         choice to the store (for a server: its ``--artifacts-destination``).
     log_artifacts
         Upload the job output directory (``.hydra/`` configs, CSV, PNG, npz, log) as run artifacts.
+    resume
+        In a multirun, skip a job whose resolved config (``config_hash`` tag) already has a FINISHED
+        run in the experiment: the job returns that run's metrics and logs nothing. Failed runs of
+        the same config are run again (the old run gets tag ``retried_by``), and a re-launched sweep
+        reuses its parent run.
 
     Notes
     -----
@@ -342,6 +399,10 @@ class MlflowTracking(Callback):
     this callback's own config node are therefore re-read from each job's config in
     ``on_job_start``, so that a sweep over ``experiment_name`` or over experiment presets logs each
     job in its own experiment.
+
+    Secrets (URI passwords, secret environment values) are redacted from every param, tag, run name,
+    warning and text artifact. When the store is unreachable the job still runs; its run is kept
+    in ``mlflow_offline_run.json`` for ``lwrlab sync``.
 
     Examples
     --------
@@ -352,7 +413,7 @@ class MlflowTracking(Callback):
           callbacks:
             mlflow:
               _target_: lwrlab.tracking.MlflowTracking
-              tracking_uri: sqlite:///${hydra.runtime.cwd}/outputs/mlflow.db
+              tracking_uri: ${tracking.uri}
               experiment: ${experiment_name}
     """
 
@@ -362,11 +423,13 @@ class MlflowTracking(Callback):
         experiment: str,
         artifact_location: str | None = None,
         log_artifacts: bool = True,
+        resume: bool = True,
     ) -> None:
         self.tracking_uri = tracking_uri
         self.experiment = experiment
         self.artifact_location = artifact_location
         self.log_artifacts = log_artifacts
+        self.resume = resume
         self._client: MlflowClient | None = None
         self._settings: TrackingSettings | None = None
         self._run_id: str | None = None
@@ -374,6 +437,11 @@ class MlflowTracking(Callback):
         self._parent_settings: TrackingSettings | None = None
         self._has_warned = False
         self._unreachable_uris: set[str] = set()
+        self._prepared_uris: set[str] = set()
+        self._redactor = Redactor()
+        self._offline_record: dict[str, Any] | None = None
+        self._skipped = False
+        self._failed_attempts: list[str] = []
 
     def __getstate__(self) -> dict[str, Any]:
         # Launchers that run jobs in other processes (joblib, submitit, ray) pickle the callbacks;
@@ -385,22 +453,37 @@ class MlflowTracking(Callback):
     # -- Hydra hooks ------------------------------------------------------------------------
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
-        """Open the parent run of a sweep; every job of the sweep becomes a nested run."""
+        """Prepare the store and open (or reopen) the parent run of a sweep, before any worker starts."""
         try:
             settings = self.settings_for(config)
-            client = self._connect(settings)
-            experiment_id = self._experiment_id(client, settings)
-            sweep_overrides = " ".join(OmegaConf.to_container(config.hydra.overrides.task, resolve=False) or [])
-            tags = {
-                RUN_KIND_TAG: "sweep",
-                "overrides": truncate(sweep_overrides, TAG_VALUE_MAX_LENGTH),
-                "hydra_sweep_dir": str(OmegaConf.select(config, "hydra.sweep.dir", default="")),
-                **provenance_tags(self._original_cwd(config)),
-            }
-            job_name = str(OmegaConf.select(config, "hydra.job.name", default="job"))
-            run_name = truncate(f"{job_name} sweep: {sweep_overrides}".strip(), RUN_NAME_MAX_LENGTH)
-            run = client.create_run(experiment_id, run_name=run_name, tags=tags)
-            self._parent_run_id = run.info.run_id
+            self._redactor = self._redactor_for(config, resolved_job_config(config), settings)
+            client = self._connect(settings)  # creates the SQLite schema here, once, not in every worker
+            experiment_id = ensure_experiment(client, settings)
+            task_overrides = [str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []]
+            sweep_overrides = self._redactor.redact(" ".join(task_overrides))
+            sweeper_params = OmegaConf.select(config, "hydra.sweeper.params", default=None)
+            identity = sweep_identity(
+                resolved_job_config(config),
+                task_overrides,
+                OmegaConf.to_container(sweeper_params) if OmegaConf.is_config(sweeper_params) else sweeper_params,
+            )
+            parent = self._previous_parent(client, experiment_id, identity) if self.resume else None
+            if parent is not None:
+                retry_locked(client.update_run, parent.info.run_id, status="RUNNING")
+                self._parent_run_id = parent.info.run_id
+                log.info("re-launched sweep: jobs are nested under the existing parent run %s", parent.info.run_id)
+            else:
+                tags = {
+                    RUN_KIND_TAG: "sweep",
+                    "overrides": truncate(sweep_overrides, TAG_VALUE_MAX_LENGTH),
+                    "sweep_hash": identity,
+                    "hydra_sweep_dir": str(OmegaConf.select(config, "hydra.sweep.dir", default="")),
+                    **provenance_tags(self._original_cwd(config)),
+                }
+                job_name = str(OmegaConf.select(config, "hydra.job.name", default="job"))
+                run_name = truncate(f"{job_name} sweep: {sweep_overrides}".strip(), RUN_NAME_MAX_LENGTH)
+                run = retry_locked(client.create_run, experiment_id, run_name=run_name, tags=self._redactor.redact_mapping(tags))
+                self._parent_run_id = run.info.run_id
             self._parent_settings = settings
             self._client = client
         except Exception as error:
@@ -413,36 +496,58 @@ class MlflowTracking(Callback):
         try:
             client = self._connect(self._parent_settings)
             self._log_sweep_config(client, config)
-            if client.get_run(self._parent_run_id).info.status == "RUNNING":
-                client.set_terminated(self._parent_run_id, status="FINISHED")
+            if retry_locked(client.get_run, self._parent_run_id).info.status == "RUNNING":
+                retry_locked(client.set_terminated, self._parent_run_id, status="FINISHED")
         except Exception as error:
             self._warn("closing the parent run of the sweep", error)
         finally:
             self._parent_run_id = None
 
     def on_job_start(self, config: DictConfig, **kwargs: Any) -> None:
-        """Start the job's run: params from the resolved config, provenance tags, run id file."""
-        self._run_id = None
+        """Start the job's run (params, provenance tags, run id file), or skip an already finished job.
+
+        If the store cannot be reached, everything is kept in the output folder for ``lwrlab sync``.
+        """
+        job_state.reset()
+        self._run_id, self._offline_record, self._skipped, self._failed_attempts = None, None, False, []
         output_dir = Path(str(config.hydra.runtime.output_dir))
+        start_ms = int(time.time() * 1000)
         try:
             settings = self.settings_for(config)
-            client = self._connect(settings)
-            experiment_id = self._experiment_id(client, settings)
             job_config = resolved_job_config(config)
-            run = client.create_run(
-                experiment_id, run_name=self._run_name(config), tags=self._job_tags(config, job_config)
-            )
-            self._client, self._settings, self._run_id = client, settings, run.info.run_id
+            self._redactor = self._redactor_for(config, job_config, settings)
+            tags = self._redactor.redact_mapping(self._job_tags(config, job_config))
+            params = self._redactor.redact_mapping(self._unique_keys(flatten_config(job_config)))
+            run_name = self._redactor.redact(self._run_name(config))
+        except Exception as error:
+            self._warn("reading the tracking settings", error)
+            return
+        self._settings = settings
+        try:
+            client = self._connect(settings)
+            experiment_id = ensure_experiment(client, settings)
+            if self.resume and self._is_sweep_job(config) and self._skip_if_finished(client, experiment_id, tags, output_dir):
+                return
+            run = retry_locked(client.create_run, experiment_id, run_name=run_name, tags=tags, start_time=start_ms)
+        except Exception as error:
+            self._warn("starting the MLflow run", error)
+            self._keep_offline(config, settings, output_dir, run_name, tags, params, start_ms)
+            return
+        try:
+            self._client, self._run_id = client, run.info.run_id
             # Marks the run KILLED if the process exits without on_job_end (Ctrl-C: Hydra only
             # catches Exception, so a KeyboardInterrupt skips the callback).
             atexit.register(self._end_run_interrupted)
             (output_dir / RUN_ID_FILE).write_text(run.info.run_id + "\n", encoding="utf-8")
-            params = [Param(key, value) for key, value in self._unique_keys(flatten_config(job_config)).items()]
-            for chunk in _chunks(params, PARAMS_PER_BATCH):
-                client.log_batch(run.info.run_id, params=list(chunk))
-            log.info("MLflow run %s in experiment %r at %s", run.info.run_id, settings.experiment, settings.tracking_uri)
+            log_params(client, run.info.run_id, params)
+            log.info(
+                "MLflow run %s in experiment %r at %s",
+                run.info.run_id,
+                settings.experiment,
+                self._redactor.redact(settings.tracking_uri),
+            )
         except Exception as error:
-            self._warn("starting the MLflow run", error)
+            self._warn("logging the params", error)
 
     def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs: Any) -> None:
         """Log metrics and artifacts, then end the run with the job's status."""
@@ -452,19 +557,31 @@ class MlflowTracking(Callback):
         error = job_return._return_value if failed else None
         if failed:
             self._write_error_file(output_dir, error)
+        recorded = job_state.take_recorded_metrics()
+        metrics: dict[str, float] = {}
+        if job_return.status == JobStatus.COMPLETED:
+            metrics = numeric_metrics(recorded if recorded is not None else job_return.return_value)
+        status = _STATUS_OF_JOB.get(job_return.status, "KILLED")
+        error_summary = self._redactor.redact(truncate(f"{type(error).__name__}: {error}", ERROR_TAG_MAX_LENGTH))
+        if self._skipped:
+            job_state.reset()
+            return
+        if self._offline_record is not None:
+            self._finish_offline(output_dir, metrics, status, error_summary if failed else None)
+            return
         run_id, client, settings = self._run_id, self._client, self._settings
         if run_id is None or client is None or settings is None:
             return  # tracking was unavailable at job start (already warned)
         try:
-            if job_return.status == JobStatus.COMPLETED:
-                self._guarded("logging metrics", self._log_metrics, client, run_id, job_return.return_value)
+            self._guarded("logging metrics", log_metrics, client, run_id, metrics)
             if failed:
-                summary = f"{type(error).__name__}: {error}"
-                self._guarded("tagging the error", client.set_tag, run_id, "error", truncate(summary, ERROR_TAG_MAX_LENGTH))
+                self._guarded("tagging the error", retry_locked, client.set_tag, run_id, "error", error_summary)
             if settings.log_artifacts:
                 self._guarded("logging artifacts", self._log_output_dir, client, run_id, output_dir)
-            status = _STATUS_OF_JOB.get(job_return.status, "KILLED")
-            self._guarded("ending the run", client.set_terminated, run_id, status=status)
+            self._guarded("ending the run", retry_locked, client.set_terminated, run_id, status=status)
+            if status == "FINISHED":
+                for attempt in self._failed_attempts:
+                    self._guarded("linking the failed attempt", retry_locked, client.set_tag, attempt, "retried_by", run_id)
             if failed and self._parent_run_id is not None:
                 # The basic sweeper raises after a failed batch and skips on_multirun_end: mark now.
                 self._guarded("marking the sweep FAILED", self._fail_parent_run, client, config)
@@ -531,51 +648,125 @@ class MlflowTracking(Callback):
     def _original_cwd(config: DictConfig) -> Path:
         return Path(str(OmegaConf.select(config, "hydra.runtime.cwd", default=None) or os.getcwd()))
 
+    @staticmethod
+    def _is_sweep_job(config: DictConfig) -> bool:
+        return str(OmegaConf.select(config, "hydra.mode", default="")).endswith("MULTIRUN")
+
+    @staticmethod
+    def _redactor_for(config: DictConfig, job_config: Mapping[str, Any], settings: TrackingSettings) -> Redactor:
+        """Secrets of this job: URI passwords anywhere in its config, overrides or store, and the environment."""
+        overrides = OmegaConf.select(config, "hydra.overrides", default=None)
+        texts = [settings.tracking_uri, str(settings.artifact_location), *flatten_config(job_config).values()]
+        if OmegaConf.is_config(overrides):
+            texts.append(json.dumps(OmegaConf.to_container(overrides, resolve=False)))
+        return Redactor.from_texts(texts)
+
     def _connect(self, settings: TrackingSettings) -> MlflowClient:
         uri = settings.tracking_uri
         if uri in self._unreachable_uris:
-            raise TrackingUnavailable(f"{uri} was unreachable earlier in this process")
-        if uri.startswith(("http://", "https://")):
-            # MLflow retries HTTP calls for minutes; a short probe lets an unreachable server cost
-            # one warning instead of delaying every job.
-            try:
-                with urllib.request.urlopen(uri.rstrip("/") + "/health", timeout=5):
-                    pass
-            except Exception as error:
-                self._unreachable_uris.add(uri)
-                raise TrackingUnavailable(f"no MLflow server answers at {uri}: {error}") from error
-        database = sqlite_database_path(uri)
-        if database is not None:
-            database.parent.mkdir(parents=True, exist_ok=True)
+            raise TrackingUnavailable(f"{self._redactor.redact(uri)} was unreachable earlier in this process")
+        try:
+            if uri.startswith(("http://", "https://")):
+                # MLflow retries HTTP calls for minutes; a short probe lets an unreachable server cost
+                # one warning instead of delaying every job.
+                try:
+                    with urllib.request.urlopen(_without_userinfo(uri).rstrip("/") + "/health", timeout=5):
+                        pass
+                except Exception as error:
+                    raise TrackingUnavailable(f"no MLflow server answers at {_without_userinfo(uri)}: {error}") from error
+            client = self._client if self._client is not None and self._client.tracking_uri == uri else None
+            if uri not in self._prepared_uris:
+                prepare_sqlite_store(uri)  # schema and WAL once per store, under a file lock
+                client = client or MlflowClient(tracking_uri=uri)
+                retry_locked(client.search_experiments, max_results=1)  # fails here if the store is unusable
+                self._prepared_uris.add(uri)
+        except Exception:
+            self._unreachable_uris.add(uri)
+            raise
         mlflow.set_tracking_uri(uri)  # so that code inside the job sees the same store
-        if self._client is not None and self._client.tracking_uri == uri:
-            return self._client
-        return MlflowClient(tracking_uri=uri)
+        return client or MlflowClient(tracking_uri=uri)
 
     @staticmethod
-    def _experiment_id(client: MlflowClient, settings: TrackingSettings) -> str:
-        name = settings.experiment
-        experiment = client.get_experiment_by_name(name)
-        if experiment is None:
-            artifact_location = None
-            if settings.artifact_location is not None:
-                folder = re.sub(r"[^\w.\-]", "_", name)
-                artifact_location = settings.artifact_location.rstrip("/") + "/" + folder
-            try:
-                return client.create_experiment(name, artifact_location=artifact_location)
-            except MlflowException:
-                # Another job of the same sweep (other process) created it first.
-                experiment = client.get_experiment_by_name(name)
-                if experiment is None:
-                    raise
-        if experiment.lifecycle_stage == "deleted":
-            log.warning("MLflow experiment %r was deleted; restoring it to log this run", name)
-            client.restore_experiment(experiment.experiment_id)
-        return experiment.experiment_id
+    def _runs_tagged(client: MlflowClient, experiment_id: str, tag: str, value: str, kind: str, limit: int) -> list[Run]:
+        """Runs of one kind (``job``/``sweep``) with ``tags.<tag> = value``, newest first."""
+        return list(
+            retry_locked(
+                client.search_runs,
+                [experiment_id],
+                filter_string=f"tags.{tag} = '{value}' and tags.{RUN_KIND_TAG} = '{kind}'",
+                order_by=["attributes.start_time DESC"],
+                max_results=limit,
+            )
+        )
+
+    def _previous_parent(self, client: MlflowClient, experiment_id: str, identity: str) -> Run | None:
+        runs = self._runs_tagged(client, experiment_id, "sweep_hash", identity, "sweep", 1)
+        return runs[0] if runs else None
+
+    def _skip_if_finished(self, client: MlflowClient, experiment_id: str, tags: Mapping[str, str], output_dir: Path) -> bool:
+        """Resume: skip the job if its config already FINISHED; remember failed attempts to link them."""
+        runs = self._runs_tagged(client, experiment_id, "config_hash", tags["config_hash"], "job", 200)
+        finished = [run for run in runs if run.info.status == "FINISHED"]
+        if finished:
+            previous = finished[0]
+            job_state.set_completed_metrics(previous.data.metrics)
+            (output_dir / RESUMED_FILE).write_text(previous.info.run_id + "\n", encoding="utf-8")
+            log.info("skipping the job: its config already finished as run %s", previous.info.run_id)
+            self._skipped = True
+            return True
+        self._failed_attempts = [
+            run.info.run_id for run in runs if run.info.status in ("FAILED", "KILLED") and "retried_by" not in run.data.tags
+        ]
+        return False
+
+    def _keep_offline(
+        self,
+        config: DictConfig,
+        settings: TrackingSettings,
+        output_dir: Path,
+        run_name: str,
+        tags: Mapping[str, str],
+        params: Mapping[str, str],
+        start_ms: int,
+    ) -> None:
+        """Keep the run in the output folder for ``lwrlab sync`` (the store could not be reached)."""
+        sweep_dir = OmegaConf.select(config, "hydra.sweep.dir", default=None) if self._is_sweep_job(config) else None
+        sweep_overrides = ""
+        if sweep_dir is not None:
+            sweep_overrides = self._redactor.redact(
+                " ".join(str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or [])
+            )
+        tags = {key: value for key, value in tags.items() if key != "mlflow.parentRunId"}
+        self._offline_record = offline.new_record(
+            settings.experiment,
+            run_name,
+            tags,
+            params,
+            start_ms,
+            sweep_dir=None if sweep_dir is None else str(Path(str(sweep_dir)).resolve()),
+            sweep_overrides=sweep_overrides,
+        )
+        try:
+            offline.write_record(output_dir, self._offline_record)
+        except Exception as error:
+            self._warn("keeping the run in the output folder", error)
+
+    def _finish_offline(self, output_dir: Path, metrics: Mapping[str, float], status: str, error: str | None) -> None:
+        record = self._offline_record
+        assert record is not None
+        record.update(metrics=dict(metrics), status=status, end_time_ms=int(time.time() * 1000))
+        if error is not None:
+            record["tags"]["error"] = error
+        try:
+            offline.write_record(output_dir, record)
+            log.info("run kept in %s for `lwrlab sync`", output_dir / offline.OFFLINE_RECORD)
+        except Exception as error_writing:
+            self._warn("keeping the run in the output folder", error_writing)
+        self._offline_record = None
 
     def _run_name(self, config: DictConfig) -> str:
         name = str(OmegaConf.select(config, "hydra.job.name", default="job"))
-        if self._parent_run_id is not None or str(OmegaConf.select(config, "hydra.mode", default="")).endswith("MULTIRUN"):
+        if self._parent_run_id is not None or self._is_sweep_job(config):
             name += f" #{OmegaConf.select(config, 'hydra.job.num', default=0)}"
         overrides = str(OmegaConf.select(config, "hydra.job.override_dirname", default="") or "")
         return truncate(f"{name}: {overrides}" if overrides else name, RUN_NAME_MAX_LENGTH)
@@ -592,9 +783,10 @@ class MlflowTracking(Callback):
         }
         if "seed" in job_config:
             tags["seed"] = str(job_config["seed"])
+        if self._is_sweep_job(config):
+            tags["hydra_job_num"] = str(OmegaConf.select(config, "hydra.job.num", default=""))
         if self._parent_run_id is not None:
             tags["mlflow.parentRunId"] = self._parent_run_id  # nests the run under the sweep in the UI
-            tags["hydra_job_num"] = str(OmegaConf.select(config, "hydra.job.num", default=""))
         return tags
 
     @staticmethod
@@ -605,22 +797,8 @@ class MlflowTracking(Callback):
             unique.setdefault(mlflow_key(key), value)
         return unique
 
-    @staticmethod
-    def _log_metrics(client: MlflowClient, run_id: str, return_value: Any) -> None:
-        timestamp_ms = int(time.time() * 1000)
-        metrics = [Metric(key, value, timestamp_ms, 0) for key, value in numeric_metrics(return_value).items()]
-        for chunk in _chunks(metrics, METRICS_PER_BATCH):
-            client.log_batch(run_id, metrics=list(chunk))
-
-    @staticmethod
-    def _log_output_dir(client: MlflowClient, run_id: str, output_dir: Path) -> None:
-        if not output_dir.is_dir():
-            return
-        artifact_dir = _local_path_of(client.get_run(run_id).info.artifact_uri or "")
-        if artifact_dir is not None and artifact_dir.resolve().is_relative_to(output_dir.resolve()):
-            # Copying a folder into a folder inside it would never end.
-            raise ValueError(f"artifact folder {artifact_dir} lies inside the job output folder {output_dir}")
-        client.log_artifacts(run_id, str(output_dir))
+    def _log_output_dir(self, client: MlflowClient, run_id: str, output_dir: Path) -> None:
+        log_output_folder(client, run_id, output_dir, self._redactor)
 
     def _log_sweep_config(self, client: MlflowClient, config: DictConfig) -> None:
         if self._parent_run_id is None:
@@ -628,13 +806,14 @@ class MlflowTracking(Callback):
         sweep_dir = OmegaConf.select(config, "hydra.sweep.dir", default=None)
         sweep_config = Path(str(sweep_dir)) / "multirun.yaml" if sweep_dir else None
         if sweep_config is not None and sweep_config.is_file():
-            client.log_artifact(self._parent_run_id, str(sweep_config))
+            with redacted_folder(sweep_config.parent, self._redactor) as folder:
+                retry_locked(client.log_artifact, self._parent_run_id, str(folder / "multirun.yaml"))
 
     def _fail_parent_run(self, client: MlflowClient, config: DictConfig) -> None:
         if self._parent_run_id is None:
             return
         self._log_sweep_config(client, config)
-        client.set_terminated(self._parent_run_id, status="FAILED")
+        retry_locked(client.set_terminated, self._parent_run_id, status="FAILED")
 
     @staticmethod
     def _write_error_file(output_dir: Path, error: Any) -> None:
@@ -665,17 +844,51 @@ class MlflowTracking(Callback):
             self._warn(action, error)
 
     def _warn(self, action: str, error: BaseException) -> None:
+        message = self._redactor.redact(f"{type(error).__name__}: {error}")
         if not self._has_warned:
             self._has_warned = True
             log.warning(
-                "MLflow tracking failed while %s (%s: %s); the job goes on. "
+                "MLflow tracking failed while %s (%s); the job goes on and keeps its outputs in its folder. "
                 "Further tracking problems of this process are logged at DEBUG level.",
                 action,
-                type(error).__name__,
-                error,
+                message,
             )
         else:
-            log.debug("MLflow tracking failed while %s", action, exc_info=error)
+            log.debug("MLflow tracking failed while %s (%s)", action, message)
+
+
+# ---------------------------------------------------------------------------------------------
+# Logging helpers shared with `lwrlab sync`.
+# ---------------------------------------------------------------------------------------------
+
+
+def log_params(client: MlflowClient, run_id: str, params: Mapping[str, str]) -> None:
+    """Log params in batches of MLflow's maximum size."""
+    entries = [Param(key, value) for key, value in params.items()]
+    for chunk in _chunks(entries, PARAMS_PER_BATCH):
+        retry_locked(client.log_batch, run_id, params=list(chunk))
+
+
+def log_metrics(client: MlflowClient, run_id: str, metrics: Mapping[str, float], timestamp_ms: int | None = None) -> None:
+    """Log metrics in batches (one store transaction per batch rather than one per metric)."""
+    timestamp_ms = int(time.time() * 1000) if timestamp_ms is None else timestamp_ms
+    entries = [Metric(key, float(value), timestamp_ms, 0) for key, value in metrics.items()]
+    for chunk in _chunks(entries, METRICS_PER_BATCH):
+        retry_locked(client.log_batch, run_id, metrics=list(chunk))
+
+
+def log_output_folder(
+    client: MlflowClient, run_id: str, output_dir: Path, redactor: Redactor, exclude: Sequence[str] = ()
+) -> None:
+    """Upload a job output folder as the run's artifacts, secrets redacted."""
+    if not output_dir.is_dir():
+        return
+    artifact_dir = _local_path_of(retry_locked(client.get_run, run_id).info.artifact_uri or "")
+    if artifact_dir is not None and artifact_dir.resolve().is_relative_to(output_dir.resolve()):
+        # Copying a folder into a folder inside it would never end.
+        raise ValueError(f"artifact folder {artifact_dir} lies inside the job output folder {output_dir}")
+    with redacted_folder(output_dir, redactor, exclude=exclude) as folder:
+        client.log_artifacts(run_id, str(folder))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -709,13 +922,19 @@ def runs_table(tracking_uri: str, experiment: str, filter_string: str = "") -> p
     >>> table[["tags.overrides", "metrics.rms_mean"]].sort_values("metrics.rms_mean")  # doctest: +SKIP
     """
     uri = absolute_tracking_uri(tracking_uri, Path.cwd())
-    if MlflowClient(tracking_uri=uri).get_experiment_by_name(experiment) is None:
+    found = MlflowClient(tracking_uri=uri).get_experiment_by_name(experiment)
+    if found is None:
         return pd.DataFrame()
+    return search_runs_table(uri, [found.experiment_id], filter_string)
+
+
+def search_runs_table(tracking_uri: str, experiment_ids: Sequence[str], filter_string: str = "") -> pd.DataFrame:
+    """``mlflow.search_runs`` on a given store (not the global one), oldest run first, as pandas."""
     previous_uri = mlflow.get_tracking_uri()
-    mlflow.set_tracking_uri(uri)  # mlflow.search_runs reads the global URI
+    mlflow.set_tracking_uri(tracking_uri)  # mlflow.search_runs reads the global URI
     try:
         table = mlflow.search_runs(
-            experiment_names=[experiment],
+            experiment_ids=list(experiment_ids),
             filter_string=filter_string,
             order_by=["attributes.start_time ASC"],
             output_format="pandas",
@@ -732,8 +951,14 @@ __all__ = [
     "TrackingUnavailable",
     "absolute_tracking_uri",
     "config_hash",
+    "ensure_experiment",
     "flatten_config",
+    "log_metrics",
+    "log_output_folder",
+    "log_params",
     "numeric_metrics",
     "resolved_job_config",
     "runs_table",
+    "search_runs_table",
+    "sweep_identity",
 ]

@@ -8,6 +8,7 @@ is the real tracking config of the project::
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import hydra
@@ -22,6 +23,9 @@ def main(cfg: DictConfig) -> dict[str, object]:
     (output_dir / "table.csv").write_text(f"x,doubled\n{cfg.x},{2 * cfg.x}\n", encoding="utf-8")
     if cfg.fail:
         raise RuntimeError(f"toy failure requested with x={cfg.x}")
+    # A failure from outside the config (a crashed node, a full disk): the same config succeeds later.
+    if os.environ.get("TOY_TRANSIENT_FAILURE_X") == str(cfg.x):
+        raise RuntimeError(f"transient failure of the job with x={cfg.x}")
     return {
         "metrics": {"doubled": 2.0 * cfg.x, "per_joint_rms": [0.5, 0.25], "label": "not a number"},
         "report": "ignored by the tracking callback",

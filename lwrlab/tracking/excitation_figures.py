@@ -1,0 +1,82 @@
+"""Figures of the exciting-motion study: the motion (Fig. 9), costs vs duration (Fig. 5), criteria (Fig. 6)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+
+def motion_figure(t: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, torque: np.ndarray, path: Path, title: str) -> Path:
+    """Joint positions, velocities, accelerations and CAD torques over time, one panel each (like Fig. 9)."""
+    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    for ax, values, label in zip(axes, (q, dq, ddq, torque), ("q [rad]", "q̇ [rad/s]", "q̈ [rad/s²]", "Γ (CAD) [N·m]"), strict=True):
+        for j in range(values.shape[1]):
+            ax.plot(t, values[:, j], lw=0.9, label=f"joint {j + 1}")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(ncol=7, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, 1.35))
+    axes[0].set_title(title, pad=28)
+    axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def duration_figure(costs: pd.DataFrame, knees: dict[str, float], recommended: float, fraction: float, path: Path) -> Path:
+    """(a) optimal cost vs T_F, (b) successive differences, per criterion (like Fig. 5).
+
+    ``costs``: columns criterion, duration_s, cost, relative_cost, relative_step (see
+    :func:`lwrlab.pipeline.excitation.knee_duration`). The criteria have unrelated scales, so (a)
+    shows each one's cost rescaled to [0, 1] over the durations, and (b) each one's successive
+    differences over its total decrease, with the knee threshold ``fraction``.
+    """
+    criteria = list(dict.fromkeys(costs["criterion"]))
+    fig, (ax_cost, ax_diff) = plt.subplots(1, 2, figsize=(11, 4))
+    for i, criterion in enumerate(criteria):
+        rows = costs[costs["criterion"] == criterion].sort_values("duration_s")
+        color = f"C{i}"
+        ax_cost.plot(rows["duration_s"], rows["relative_cost"], "o-", color=color, label=criterion)
+        ax_diff.semilogy(rows["duration_s"], rows["relative_step"], "o-", color=color, label=criterion)
+        if np.isfinite(knees.get(criterion, np.nan)):
+            ax_diff.axvline(knees[criterion], color=color, ls=":", lw=1)
+    ax_diff.axhline(fraction, color="0.4", lw=1, ls="--", label=f"knee threshold {fraction:g}")
+    ax_diff.axvline(recommended, color="k", lw=1.2, label=f"recommended {recommended:g} s")
+    ax_cost.set(xlabel="duration T_F [s]", ylabel="(J − J_min)/(J_max − J_min)", title="(a) optimal cost, rescaled per criterion")
+    ax_diff.set(xlabel="duration T_F [s]", ylabel="|J(T_F) − J(T_F − 1)| / (J_max − J_min)", title="(b) successive differences")
+    for ax in (ax_cost, ax_diff):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def criteria_figure(summary: pd.DataFrame, path: Path) -> Path:
+    """Grouped bars of mean RMS and NRMS per joint for each criterion, ± one standard deviation (like Fig. 6).
+
+    ``summary``: columns criterion, joint, rms_mean, rms_std, nrms_mean, nrms_std.
+    """
+    criteria = list(dict.fromkeys(summary["criterion"]))
+    joints = np.sort(summary["joint"].unique())
+    width = 0.8 / len(criteria)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 3.8))
+    for ax, metric, unit in zip(axes, ("rms", "nrms"), ("N·m", "%"), strict=True):
+        for i, criterion in enumerate(criteria):
+            rows = summary[summary["criterion"] == criterion].set_index("joint").loc[joints]
+            ax.bar(joints + (i - (len(criteria) - 1) / 2) * width, rows[f"{metric}_mean"], width, yerr=rows[f"{metric}_std"], capsize=2, label=criterion, color=f"C{i}")
+        ax.set(xlabel="joint", ylabel=f"{metric.upper()} [{unit}]", xticks=joints)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle("Cross-validation torque error per joint (mean ± std over seeds)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

@@ -1,0 +1,266 @@
+"""``lwrlab report``: the paper's tables and figures rebuilt from runs logged in MLflow.
+
+Selects the FINISHED job runs of one or more experiments (``search_runs`` → pandas, filtered by
+tags and params), downloads their table artifacts (``base_parameters.csv``, ``fig5_duration.csv``,
+``fig6_criteria.csv``, ``table3_tools.csv``, ``table4_force.csv``), and writes Table II, Fig. 5,
+Fig. 6, Table III and Table IV as Markdown, CSV and PNG into a folder, which is then logged as a
+run of the ``reports`` experiment. An artifact kind that no selected run has is skipped with a note.
+Works on a SQLite store and on a tracking server alike. Artifacts are read as CSV: nothing executes.
+
+Examples
+--------
+::
+
+    lwrlab report --experiment paper_fig6_criteria
+    lwrlab report --experiment identification --param plant.torque_noise_std=0.1 --kinds table2
+    lwrlab report --tracking-uri http://127.0.0.1:5000 --experiment paper_table2 --no-log
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import logging
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mlflow
+import pandas as pd
+from mlflow.tracking import MlflowClient
+
+from lwrlab.reference import paper_results
+from lwrlab.tracking.mlflow_callback import RUN_KIND_TAG, absolute_tracking_uri, provenance_tags, search_runs_table
+from lwrlab.tracking.paper_artifacts import ARTIFACT_KINDS, ArtifactColumnsError, ReportPart
+from lwrlab.tracking.redaction import Redactor
+from lwrlab.tracking.store import retry_locked
+
+log = logging.getLogger(__name__)
+
+DEFAULT_TRACKING_URI = "sqlite:///outputs/mlflow.db"
+REPORT_EXPERIMENT = "reports"
+
+
+@dataclass
+class Report:
+    """What :func:`build_report` produced."""
+
+    output_dir: Path
+    runs: pd.DataFrame
+    parts: dict[str, ReportPart] = field(default_factory=dict)
+    skipped: dict[str, str] = field(default_factory=dict)
+    """Kind → why it is not in the report."""
+    run_id: str | None = None
+    """The report run, if logged."""
+
+
+def _quoted(value: str) -> str:
+    return "'" + value.replace("'", "\\'") + "'"
+
+
+def selection_filter(tags: Mapping[str, str] | None = None, params: Mapping[str, str] | None = None, extra: str = "") -> str:
+    """An MLflow filter string for FINISHED job runs with the given tags and params.
+
+    Examples
+    --------
+    >>> selection_filter({"seed": "1"}, {"plant.torque_noise_std": "0.1"})
+    "attributes.status = 'FINISHED' and tags.run_kind = 'job' and tags.`seed` = '1' and params.`plant.torque_noise_std` = '0.1'"
+    """
+    clauses = ["attributes.status = 'FINISHED'", f"tags.{RUN_KIND_TAG} = 'job'"]
+    clauses += [f"tags.`{key}` = {_quoted(str(value))}" for key, value in (tags or {}).items()]
+    clauses += [f"params.`{key}` = {_quoted(str(value))}" for key, value in (params or {}).items()]
+    if extra.strip():
+        clauses.append(extra.strip())
+    return " and ".join(clauses)
+
+
+def select_runs(tracking_uri: str, experiments: Sequence[str] | None, filter_string: str) -> pd.DataFrame:
+    """Runs of ``experiments`` (all but the reports experiment if ``None``) matching ``filter_string``.
+
+    Returns the ``mlflow.search_runs`` table plus an ``experiment`` column (the experiment name).
+    """
+    client = MlflowClient(tracking_uri=tracking_uri)
+    known = {experiment.name: experiment.experiment_id for experiment in retry_locked(client.search_experiments)}
+    names = [name for name in known if name != REPORT_EXPERIMENT] if not experiments else list(experiments)
+    missing = [name for name in names if name not in known]
+    if missing:
+        raise ValueError(f"no experiment named {missing} in {Redactor().redact(tracking_uri)}; experiments: {sorted(known)}")
+    if not names:
+        return pd.DataFrame()
+    table = search_runs_table(tracking_uri, [known[name] for name in names], filter_string)
+    if table.empty:
+        return table
+    id_to_name = {value: key for key, value in known.items()}
+    table.insert(1, "experiment", table["experiment_id"].map(id_to_name))
+    return table
+
+
+def collect_artifact(client: MlflowClient, runs: pd.DataFrame, artifact: str, download_dir: Path) -> pd.DataFrame | None:
+    """One artifact CSV of every run that has it, concatenated, with ``run_id``, ``experiment``, ``seed``.
+
+    ``None`` if no run has it. A run whose CSV cannot be read raises ``ValueError`` naming run and file.
+    """
+    frames = []
+    seeds = dict(zip(runs["run_id"], runs["tags.seed"] if "tags.seed" in runs else [None] * len(runs), strict=True))
+    for row in runs.itertuples(index=False):
+        run_id = str(row.run_id)
+        names = {entry.path for entry in retry_locked(client.list_artifacts, run_id)}
+        if artifact not in names:
+            continue
+        local = Path(
+            mlflow.artifacts.download_artifacts(
+                run_id=run_id, artifact_path=artifact, dst_path=str(download_dir / run_id), tracking_uri=client.tracking_uri
+            )
+        )
+        try:
+            frame = pd.read_csv(local)
+        except Exception as error:
+            raise ValueError(f"run {run_id}, artifact {artifact}: unreadable CSV ({error})") from error
+        frame.insert(0, "run_id", run_id)
+        frame.insert(1, "experiment", getattr(row, "experiment", ""))
+        if "seed" not in frame.columns:
+            frame.insert(2, "seed", seeds[run_id])
+        frames.append(frame)
+    return pd.concat(frames, ignore_index=True) if frames else None
+
+
+def build_report(
+    tracking_uri: str,
+    output_dir: Path,
+    experiments: Sequence[str] | None = None,
+    filter_string: str = "",
+    kinds: Sequence[str] | None = None,
+) -> Report:
+    """Rebuild the paper's artifacts from the selected runs and write them into ``output_dir``.
+
+    Parameters
+    ----------
+    tracking_uri
+        The MLflow store (SQLite URI, server URL, …).
+    output_dir
+        Folder for ``report.md``, the CSV tables and the PNG figures (created).
+    experiments
+        Experiment names; ``None`` = every experiment but ``reports``.
+    filter_string
+        Full MLflow filter (see :func:`selection_filter`).
+    kinds
+        Subset of ``table2``, ``fig5``, ``fig6``, ``table3``, ``table4`` (default: all).
+    """
+    unknown = sorted(set(kinds or []) - set(ARTIFACT_KINDS))
+    if unknown:
+        raise ValueError(f"unknown report kind(s) {unknown}; valid: {sorted(ARTIFACT_KINDS)}")
+    output_dir.mkdir(parents=True, exist_ok=True)
+    runs = select_runs(tracking_uri, experiments, filter_string)
+    report = Report(output_dir=output_dir, runs=runs)
+    client = MlflowClient(tracking_uri=tracking_uri)
+    paper = paper_results()
+    with tempfile.TemporaryDirectory(prefix="lwrlab_report_") as download_dir:
+        for kind in kinds or ARTIFACT_KINDS:
+            artifact, builder = ARTIFACT_KINDS[kind]
+            frame = None if runs.empty else collect_artifact(client, runs, artifact, Path(download_dir))
+            if frame is None:
+                report.skipped[kind] = f"no selected run has `{artifact}`"
+                log.warning("%s skipped: %s", kind, report.skipped[kind])
+                continue
+            try:
+                part = builder(frame, paper, output_dir)
+            except ArtifactColumnsError as error:
+                report.skipped[kind] = str(error)
+                log.warning("%s skipped: %s", kind, error)
+                continue
+            for name, table in part.tables.items():
+                table.to_csv(output_dir / f"{name}.csv")
+            report.parts[kind] = part
+    _write_markdown(report, experiments, filter_string, tracking_uri)
+    if not runs.empty:
+        columns = [c for c in ("run_id", "experiment", "status", "tags.overrides", "tags.seed", "tags.config_hash") if c in runs]
+        runs[columns].to_csv(output_dir / "runs.csv", index=False)
+    return report
+
+
+def _write_markdown(report: Report, experiments: Sequence[str] | None, filter_string: str, tracking_uri: str) -> Path:
+    lines = [
+        "# lwrlab report",
+        "",
+        f"- store: `{Redactor().redact(tracking_uri)}`",
+        f"- experiments: {', '.join(experiments) if experiments else 'all'}",
+        f"- filter: `{filter_string}`",
+        f"- runs selected: {len(report.runs)}",
+        "",
+    ]
+    for part in report.parts.values():
+        lines += [f"## {part.title}", "", part.markdown, ""]
+    for kind, reason in report.skipped.items():
+        lines.append(f"- {kind} skipped: {reason}")
+    path = report.output_dir / "report.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def log_report(report: Report, tracking_uri: str, experiments: Sequence[str] | None, filter_string: str) -> str:
+    """Log the report folder as a run of the ``reports`` experiment; returns its run id."""
+    client = MlflowClient(tracking_uri=tracking_uri)
+    experiment = client.get_experiment_by_name(REPORT_EXPERIMENT)
+    experiment_id = experiment.experiment_id if experiment else client.create_experiment(REPORT_EXPERIMENT)
+    tags = {
+        RUN_KIND_TAG: "report",
+        "source_experiments": ",".join(experiments or ["all"]),
+        "filter": filter_string[:5000],
+        "source_runs": str(len(report.runs)),
+        "kinds": ",".join(report.parts),
+        "skipped": "; ".join(f"{k}: {v}" for k, v in report.skipped.items())[:5000],
+        **provenance_tags(Path.cwd()),
+    }
+    run = client.create_run(experiment_id, run_name=f"report: {tags['source_experiments']}", tags=tags)
+    client.log_artifacts(run.info.run_id, str(report.output_dir))
+    client.set_terminated(run.info.run_id, status="FINISHED")
+    return run.info.run_id
+
+
+def _pairs(values: Sequence[str], what: str) -> dict[str, str]:
+    pairs = {}
+    for value in values:
+        key, separator, text = value.partition("=")
+        if not separator:
+            raise SystemExit(f"--{what} expects key=value, got {value!r}")
+        pairs[key] = text
+    return pairs
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``lwrlab report ...``; returns the process exit status."""
+    parser = argparse.ArgumentParser(prog="lwrlab report", description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--tracking-uri",
+        default=os.environ.get("MLFLOW_TRACKING_URI", DEFAULT_TRACKING_URI),
+        help=f"MLflow store (default: $MLFLOW_TRACKING_URI, else {DEFAULT_TRACKING_URI})",
+    )
+    parser.add_argument("--experiment", action="append", help="experiment name (repeatable; default: all)")
+    parser.add_argument("--tag", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this tag")
+    parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this param")
+    parser.add_argument("--filter", default="", help="extra MLflow filter, e.g. \"metrics.rms_mean < 0.5\"")
+    parser.add_argument("--kinds", default=",".join(ARTIFACT_KINDS), help=f"comma-separated subset of {','.join(ARTIFACT_KINDS)}")
+    parser.add_argument("--output", type=Path, default=None, help="output folder (default: outputs/reports/<time>)")
+    parser.add_argument("--no-log", action="store_true", help="do not log the report as an MLflow run")
+    arguments = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+
+    uri = absolute_tracking_uri(arguments.tracking_uri, Path.cwd())
+    output = arguments.output or Path("outputs") / "reports" / _dt.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
+    filter_string = selection_filter(_pairs(arguments.tag, "tag"), _pairs(arguments.param, "param"), arguments.filter)
+    kinds = [kind.strip() for kind in arguments.kinds.split(",") if kind.strip()]
+    try:
+        report = build_report(uri, output, arguments.experiment, filter_string, kinds)
+    except ValueError as error:
+        parser.error(str(error))
+    print((output / "report.md").read_text(encoding="utf-8"))
+    if not arguments.no_log:
+        report.run_id = log_report(report, uri, arguments.experiment, filter_string)
+        print(f"report logged as run {report.run_id} of experiment {REPORT_EXPERIMENT!r}")
+    print(f"report written to {output}")
+    return 0
+
+
+__all__ = ["Report", "build_report", "collect_artifact", "log_report", "main", "select_runs", "selection_filter"]
