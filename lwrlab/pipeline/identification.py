@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import logging
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -19,6 +20,7 @@ import pandas as pd
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
+from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
 from lwrlab.identification.context import IdentificationContext, bind_estimator
 from lwrlab.identification.core import Estimator, torque_errors
@@ -82,6 +84,7 @@ def identify(
     estimator: Estimator | Callable[..., Estimator],
     rate_hz: float = 1000.0,
     processing: dict[str, Any] | None = None,
+    statistics: dict[str, Any] | None = None,
 ) -> IdentificationReport:
     """Identify the base parameters of the robot behind ``plant`` and cross-validate them.
 
@@ -95,6 +98,9 @@ def identify(
         ``_partial_`` config) is called with ``context=`` (:class:`IdentificationContext`) first.
     rate_hz : sampling rate of the measurement (Hz).
     processing : keyword arguments of :func:`lwrlab.signal.processing.process`.
+    statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k}``: with n > 0, block
+        bootstrap confidence intervals (:func:`lwrlab.identification.bootstrap.block_bootstrap`)
+        are added to the parameter table.
     """
     processing = dict(processing or {})
     base = compute_base_parameters(robot)
@@ -107,7 +113,9 @@ def identify(
     w_base = _base_regressor(robot, base, data)
     if not hasattr(estimator, "fit"):  # a `_partial_` estimator config: it needs the context
         estimator = bind_estimator(estimator, _context(robot, base, plant, motion, data))
+    cpu_start = time.process_time()
     estimator.fit(w_base, data.tau.ravel())
+    fit_cpu_s = time.process_time() - cpu_start
     standard = getattr(estimator, "standard_phi_", None)  # physically consistent estimators give it
     if standard is None:
         standard = standard_from_base(base, estimator.phi_, robot.parameters)
@@ -135,12 +143,21 @@ def identify(
         },
         index=pd.Index(base.names, name="parameter"),
     )
+    statistics = dict(statistics or {})
+    if statistics.get("resamples", 0) > 0:
+        interval = block_bootstrap(
+            estimator, w_base, data.tau.ravel(), robot.n_joints,
+            block_samples=int(round(statistics.get("block_s", 1.0) / float(np.mean(np.diff(data.t))))),
+            resamples=int(statistics["resamples"]), confidence=float(statistics.get("confidence", 0.95)), seed=int(statistics.get("seed", 0)),
+        )
+        parameters["ci_lower"], parameters["ci_upper"], parameters["bootstrap_std"] = interval.lower, interval.upper, interval.std
     metrics = {
         "cond_W_b": float(estimator.cond_),
         "residual_std": float(estimator.residual_std_),
         "rms_mean": float(errors["rms"].mean()),
         "nrms_mean": float(np.nanmean(errors["nrms"])),
         "n_base_parameters": float(base.count),
+        "fit_cpu_s": fit_cpu_s,
         "min_pseudo_inertia_eigenvalue": float(min_pseudo_inertia_eigenvalues(standard, robot.n_links).min()),
         **{key: float(value) for key, value in getattr(estimator, "diagnostics_", {}).items()},
         **{f"rms_joint{j}": float(v) for j, v in enumerate(errors["rms"], start=1)},
@@ -247,6 +264,7 @@ def run_identification(cfg: Any, output_dir: Path) -> dict[str, float]:
         estimator=instantiate(cfg.estimator),
         rate_hz=cfg.measurement.rate_hz,
         processing=OmegaConf.to_container(cfg.measurement.processing, resolve=True),
+        statistics=OmegaConf.to_container(cfg.statistics, resolve=True) if "statistics" in cfg else None,
     )
     write_report(report, output_dir, OmegaConf.to_container(cfg.robot, resolve=True))
     print(format_report(report))
