@@ -126,3 +126,20 @@ def test_a_tool_described_part_by_part_round_trips(tmp_path) -> None:
     probe = load_tool("probe", tmp_path)
     assert probe.mass == pytest.approx(0.15)
     assert probe.parameters[3] == pytest.approx(0.1 * 0.1 + 0.05 * 0.2)
+
+
+def test_tool_excitation_criterion_gradient_and_choice(lwr4, rng: np.random.Generator) -> None:
+    from lwrlab.tools.excitation import ToolLogDet, select_tool_motion
+    from plugins.trajectories.multisine import MultisineMotion
+
+    w = rng.normal(size=(40, 10))
+    value, gradient = ToolLogDet().value_and_gradient(w)
+    step = 1e-6
+    for i, j in [(0, 0), (5, 3), (39, 9)]:
+        shifted = w.copy()
+        shifted[i, j] += step
+        assert (ToolLogDet().value_and_gradient(shifted)[0] - value) / step == pytest.approx(gradient[i, j], rel=1e-4)
+    motions = [MultisineMotion(2.0, 4, seed=s).sample(lwr4, 100.0) for s in range(3)]
+    still = MultisineMotion(2.0, 4, seed=0, limit_fraction=0.05).sample(lwr4, 100.0)  # barely moves: excites nothing
+    best, values = select_tool_motion(lwr4, [still, *motions])
+    assert best != 0 and values[0] > values.min() + 1.0
