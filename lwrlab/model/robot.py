@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.model.collision import CollisionSphere
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, from_pin_inertia, to_pin_inertia
 
 FRICTION_TERMS: dict[str, str] = {"coulomb": "FC", "viscous": "FV", "offset": "FO"}
@@ -83,6 +84,9 @@ class RobotModel:
     """(N_J,) drive rotor inertia reflected to the joint (kg·m²), or None. It is on the motor side of
     the joint-torque sensor: plants integrating the motion use it, the link-side torque (what the
     regressor models) does not contain it."""
+    collision_spheres: tuple[CollisionSphere, ...] = ()
+    """Spheres fixed to the segments, the coarse self-collision model used by the excitation
+    optimiser (:mod:`lwrlab.model.collision`); empty if the robot config gives none."""
 
     def __post_init__(self) -> None:
         unknown = set(self.friction_terms) - set(FRICTION_TERMS)

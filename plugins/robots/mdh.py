@@ -26,6 +26,8 @@ The robot config (``conf/robot/<name>.yaml``) or any YAML file with the same key
       offset: [...]                         # N·m (optional, default 0)
     friction_terms: [coulomb, viscous]      # columns of the regressor; add offset if needed
     rotor_inertia: [...]                    # optional: drive inertia reflected to the joint (kg·m²)
+    collision_spheres:                      # optional: self-collision spheres (lwrlab/model/collision.py)
+      - {name: elbow, link: 4, center: [0, 0, 0], radius: 0.08}   # link 0 = base; center in the joint frame (m)
 
 ``build_robot`` takes these keys as arguments (what Hydra's ``instantiate`` passes);
 ``load_robot_yaml`` reads them from a file.
@@ -40,6 +42,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from lwrlab.model.collision import build_collision_spheres
 from lwrlab.model.dh import ModifiedDH, build_dh_model
 from lwrlab.model.inertia import standard_parameters, to_pin_inertia
 from lwrlab.model.robot import Friction, JointLimits, RobotModel
@@ -84,6 +87,7 @@ def build_robot(
     friction_terms: Sequence[str] = ("coulomb", "viscous"),
     flange: Sequence[float] | None = None,
     rotor_inertia: Sequence[float] | None = None,
+    collision_spheres: Sequence[Mapping[str, Any]] | None = None,
     **documentation: Any,
 ) -> RobotModel:
     """Build a :class:`RobotModel` from a modified-DH description (keys in the module docstring).
@@ -122,6 +126,7 @@ def build_robot(
         friction=build_friction(friction, n, name),
         friction_terms=tuple(friction_terms),
         rotor_inertia=None if rotor_inertia is None else _array(rotor_inertia, n, f"robot {name!r} rotor_inertia"),
+        collision_spheres=build_collision_spheres(collision_spheres, n, name),
     )
 
 

@@ -1,0 +1,239 @@
+"""The optimal-exciting-motion problem, eq. (10): criterion, constraints and parameterisation.
+
+Decision variables: the coefficients ``C`` (n_coefficients, N_J) of a linear parameterisation (the
+via points of the paper's B-spline), flattened row-major into ``x``. On the optimisation grid (100 Hz
+in the paper) the motion is ``q = B·C``, ``q̇ = Ḃ·C``, ``q̈ = B̈·C`` and the criterion is evaluated on the
+column-scaled base regressor. Its gradient is chained exactly::
+
+    ∂J/∂C = Bᵀ·∂J/∂q + Ḃᵀ·∂J/∂q̇ + B̈ᵀ·∂J/∂q̈,    ∂J/∂(q, q̇, q̈) = Σ_{j,p} (∂J/∂W)[k, j, p]·∂W[k, j, p]/∂(q, q̇, q̈)
+
+with ``∂J/∂W`` the criterion's gradient scaled back and spread onto the base columns, and the
+vector–Jacobian product of :func:`lwrlab.dynamics.regressor_derivatives.regressor_vjp`.
+
+Constraints: each column of each family of :class:`~lwrlab.excitation.constraints.ConstraintSet` is
+aggregated over time windows of ``window_s`` seconds into the window's smallest slack (divided by
+the column's scale), ``g ≥ 0``. This is exact on the grid (every sample is inside some window) while
+keeping a few hundred constraints instead of tens of thousands; its gradient is that of the
+minimising sample, computed only there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters, random_states
+from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.regressor_derivatives import regressor_vjp
+from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
+from lwrlab.excitation.criteria import Criterion
+from lwrlab.model.robot import RobotModel
+from lwrlab.trajectory.parameterisation import LinearParameterisation
+
+
+def column_scales(robot: RobotModel, base: BaseParameters, n_samples: int = 400, seed: int = 0) -> np.ndarray:
+    """(N_B,) inverse RMS of each base-regressor column over random states within the limits.
+
+    Multiplying ``W_b`` by ``diag(s)`` makes every column unit-free with an RMS of 1 per row over
+    the robot's whole state space, whatever its units (kg·m², kg·m, N·m); see
+    :mod:`lwrlab.excitation.criteria` for which criteria depend on it.
+    """
+    w = base.base_regressor(regressor(robot, *random_states(robot, n_samples, np.random.default_rng(seed))))
+    return 1.0 / np.sqrt(np.mean(w**2, axis=0))
+
+
+@dataclass
+class _Evaluation:
+    """Everything computed at one point x (cached: optimisers ask for value and gradient separately)."""
+
+    x: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    full_regressor: np.ndarray
+    """(N, N_J, P)."""
+    cost: float | None = None
+    cost_error: str | None = None
+    cost_gradient: np.ndarray | None = None
+    slacks: dict[str, np.ndarray] | None = None
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class WindowedSlack:
+    """The aggregated constraints of one family: smallest scaled slack per (window, column)."""
+
+    family: str
+    values: np.ndarray
+    """(windows, columns) smallest slack / scale in each window."""
+    samples: np.ndarray
+    """(windows, columns) the sample index where it is reached."""
+
+
+class ExcitationProblem:
+    """Criterion + constraints + parameterisation for one robot (see the module docstring).
+
+    Parameters
+    ----------
+    robot : the nominal (CAD) robot: its regressor, limits, friction and collision spheres.
+    parameterisation : a bare linear parameterisation (its duration is the motion's).
+    criterion : the criterion plugin.
+    constraints : the constraint settings.
+    rate_hz : optimisation grid rate (Hz), 100 in the paper.
+    window_s : constraint aggregation window (s).
+    base : the robot's base parameters (computed if None).
+    coulomb_smoothing : ε (rad/s): the Coulomb columns ``sign(q̇)`` of the regressor become
+        ``tanh(q̇/ε)`` during the optimisation. A sign flips whenever a velocity sample crosses zero,
+        which makes the criterion and the torques jump and stalls SLSQP's line search; the smooth
+        version differs only on the few samples with |q̇| ≲ ε. None keeps the sign.
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        parameterisation: LinearParameterisation,
+        criterion: Criterion,
+        constraints: ConstraintSettings | None = None,
+        rate_hz: float = 100.0,
+        window_s: float = 0.5,
+        base: BaseParameters | None = None,
+        coulomb_smoothing: float | None = 0.05,
+    ) -> None:
+        self.robot = robot
+        self.parameterisation = parameterisation
+        self.criterion = criterion
+        self.coulomb_smoothing = coulomb_smoothing if "coulomb" in robot.friction_terms else None
+        self.constraint_set = ConstraintSet(robot, constraints or ConstraintSettings(), self.coulomb_smoothing)
+        if self.coulomb_smoothing is not None:
+            start = 10 * robot.n_links + robot.friction_terms.index("coulomb") * robot.n_joints
+            self._coulomb_columns = start + np.arange(robot.n_joints)
+        self.rate_hz = float(rate_hz)
+        self.base = base if base is not None else compute_base_parameters(robot)
+        self.scales = column_scales(robot, self.base)
+        self.times = parameterisation.times(rate_hz)
+        self.bases = parameterisation.bases(self.times)
+        self.parameters = robot.parameters
+        samples_per_window = max(1, int(round(window_s * rate_hz)))
+        # The last sample (at rest) joins the last window rather than making one of its own.
+        self.window_starts = np.arange(0, max(len(self.times) - 1, 1), samples_per_window)
+        self._cache: _Evaluation | None = None
+
+    # --- variables ------------------------------------------------------------------------------
+
+    @property
+    def coefficient_shape(self) -> tuple[int, int]:
+        return self.parameterisation.n_coefficients, self.robot.n_joints
+
+    @property
+    def n_variables(self) -> int:
+        return int(np.prod(self.coefficient_shape))
+
+    def coefficients(self, x: np.ndarray) -> np.ndarray:
+        """``C`` (n_coefficients, N_J) from the flat variables."""
+        return np.asarray(x, dtype=float).reshape(self.coefficient_shape)
+
+    def bounds(self) -> list[tuple[float | None, float | None]] | None:
+        """Box bounds of the variables if the parameterisation's coefficients are positions (B-spline)."""
+        if not getattr(self.parameterisation, "coefficients_are_positions", False):
+            return None
+        low, high = self.constraint_set.position_bounds
+        return [(float(low[j]), float(high[j])) for _ in range(self.coefficient_shape[0]) for j in range(self.robot.n_joints)]
+
+    # --- evaluation -----------------------------------------------------------------------------
+
+    def _evaluate(self, x: np.ndarray) -> _Evaluation:
+        x = np.asarray(x, dtype=float)
+        if self._cache is not None and np.array_equal(self._cache.x, x):
+            return self._cache
+        c = self.coefficients(x)
+        q, dq, ddq = (b @ c for b in self.bases)
+        full = regressor(self.robot, q, dq, ddq, stacked=False)
+        if self.coulomb_smoothing is not None:
+            joints = np.arange(self.robot.n_joints)
+            full[:, joints, self._coulomb_columns] = np.tanh(dq / self.coulomb_smoothing)
+        self._cache = _Evaluation(x.copy(), q, dq, ddq, full)
+        return self._cache
+
+    def scaled_base_regressor(self, x: np.ndarray) -> np.ndarray:
+        """``W_b·diag(s)`` (N·N_J, N_B) of the motion ``x`` on the optimisation grid."""
+        ev = self._evaluate(x)
+        return self.base.base_regressor(ev.full_regressor.reshape(-1, self.robot.n_parameters)) * self.scales
+
+    def _criterion(self, ev: _Evaluation) -> None:
+        if ev.cost is None and ev.cost_error is None:
+            try:
+                ev.cost, ev.extras["criterion_gradient"] = self.criterion.value_and_gradient(self.scaled_base_regressor(ev.x))
+            except np.linalg.LinAlgError as error:
+                ev.cost_error = str(error)
+
+    def objective(self, x: np.ndarray) -> float:
+        """The criterion J of the motion ``x`` (unit-free); +inf where W_b loses rank."""
+        ev = self._evaluate(x)
+        self._criterion(ev)
+        return float(ev.cost) if ev.cost is not None else float("inf")
+
+    def objective_gradient(self, x: np.ndarray) -> np.ndarray:
+        """``∂J/∂x`` by the exact chain of the module docstring."""
+        ev = self._evaluate(x)
+        self._criterion(ev)
+        if ev.cost is None:
+            raise np.linalg.LinAlgError(f"no gradient where the criterion is undefined: {ev.cost_error}")
+        if ev.cost_gradient is None:
+            n, p = self.robot.n_joints, self.robot.n_parameters
+            weights = np.zeros((len(self.times) * n, p))
+            weights[:, self.base.columns] = ev.extras["criterion_gradient"] * self.scales
+            grad_q, grad_dq, grad_ddq = regressor_vjp(self.robot, ev.q, ev.dq, ev.ddq, weights)
+            if self.coulomb_smoothing is not None:  # the VJP differentiates sign(q̇): add tanh's slope
+                joints = np.arange(self.robot.n_joints)
+                weight = weights.reshape(len(self.times), self.robot.n_joints, -1)[:, joints, self._coulomb_columns]
+                grad_dq = grad_dq + weight * (1.0 - np.tanh(ev.dq / self.coulomb_smoothing) ** 2) / self.coulomb_smoothing
+            ev.cost_gradient = self.parameterisation.pull_back(self.bases, grad_q, grad_dq, grad_ddq).ravel()
+        return ev.cost_gradient.copy()
+
+    # --- constraints ----------------------------------------------------------------------------
+
+    def _slacks(self, ev: _Evaluation) -> dict[str, np.ndarray]:
+        if ev.slacks is None:
+            torque = ev.full_regressor @ self.parameters
+            ev.slacks = self.constraint_set.slacks(ev.q, ev.dq, ev.ddq, torque)
+        return ev.slacks
+
+    def windowed_slacks(self, x: np.ndarray) -> list[WindowedSlack]:
+        """Each family's smallest scaled slack per (window, column), and where it is reached."""
+        ev = self._evaluate(x)
+        out = []
+        for family, slack in self._slacks(ev).items():
+            scaled = slack / self.constraint_set.scales(family)
+            samples = np.array([start + np.argmin(block, axis=0) for start, block in zip(self.window_starts, np.split(scaled, self.window_starts[1:]), strict=True)])
+            out.append(WindowedSlack(family, np.take_along_axis(scaled, samples, axis=0), samples))
+        return out
+
+    def constraint_values(self, x: np.ndarray) -> np.ndarray:
+        """All aggregated constraints ``g(x) ≥ 0`` (unit-free), family by family, window-major."""
+        return np.concatenate([w.values.ravel() for w in self.windowed_slacks(x)])
+
+    def constraint_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """``∂g/∂x`` (n_constraints, n_variables): each row the derivative at its minimising sample."""
+        ev = self._evaluate(x)
+        b, db, ddb = self.bases
+        rows = []
+        for windowed in self.windowed_slacks(x):
+            samples = windowed.samples.ravel()
+            columns = np.tile(np.arange(windowed.samples.shape[1]), windowed.samples.shape[0])
+            d_q, d_dq, d_ddq = self.constraint_set.slack_derivatives(windowed.family, ev.q, ev.dq, ev.ddq, samples, columns)
+            scale = self.constraint_set.scales(windowed.family)[columns][:, None, None]
+            # ∂g/∂C[i, l] = B[k, i]·∂g/∂q_l + Ḃ[k, i]·∂g/∂q̇_l + B̈[k, i]·∂g/∂q̈_l at the minimising sample k
+            jac = b[samples][:, :, None] * d_q[:, None] + db[samples][:, :, None] * d_dq[:, None] + ddb[samples][:, :, None] * d_ddq[:, None]
+            rows.append((jac / scale).reshape(len(samples), -1))
+        return np.vstack(rows)
+
+    def constraint_labels(self) -> list[str]:
+        """A label per aggregated constraint: family, column, window (for reports)."""
+        labels = []
+        window = self.window_starts / self.rate_hz
+        for family in self.constraint_set.families():
+            columns = self.constraint_set.column_labels(family)
+            labels += [f"{family} {c} (window from t = {t:.2f} s)" for t in window for c in columns]
+        return labels

@@ -1,0 +1,260 @@
+"""Solving the excitation problem: multi-start SLSQP with analytic gradients, and its report.
+
+SLSQP (sequential least squares programming, Kraft 1988, as shipped with scipy) suits this problem:
+a few dozen variables, a few hundred inequality constraints with exact Jacobians, a smooth criterion.
+Each start is a random motion around the middle of the joint ranges; the best feasible optimum wins.
+A progress bar follows the iterations. The report gives the final criterion, the constraints active
+at the optimum and the worst slack of every family; a problem no start can satisfy raises
+:class:`InfeasibleExcitationError` naming the violated constraints.
+"""
+
+from __future__ import annotations
+
+import time
+from contextlib import nullcontext
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import minimize
+from tqdm.auto import tqdm
+
+from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
+from lwrlab.excitation.problem import ExcitationProblem
+from lwrlab.model.robot import RobotModel
+from lwrlab.trajectory.parameterisation import LinearParameterisation
+
+try:  # installed with scikit-learn (an MLflow dependency); without it BLAS keeps its own threads
+    from threadpoolctl import threadpool_limits
+except ImportError:  # pragma: no cover
+    threadpool_limits = None
+
+FEASIBILITY_TOLERANCE = 1e-4
+"""Largest accepted violation of a scaled constraint on the optimisation grid (fraction of the limit,
+or m), SLSQP's own feasibility accuracy at its default ``ftol``. The margins of the constraint
+settings are far larger, and the final check at 1 kHz has no tolerance."""
+ACTIVE_TOLERANCE = 1e-4
+"""A scaled constraint with less slack than this counts as active."""
+
+
+class InfeasibleExcitationError(RuntimeError):
+    """No start of the optimiser satisfied every constraint; the message names the violated ones."""
+
+
+@dataclass(frozen=True)
+class FamilyReport:
+    """Worst slack of one constraint family on a sample grid."""
+
+    family: str
+    worst_slack: float
+    """Smallest slack (physical unit, negative = violated)."""
+    unit: str
+    where: str
+    """Column (joint and side, sphere or pair) of the worst slack."""
+    time_s: float
+    """Time of the worst slack (s)."""
+    active_windows: int = 0
+    """Aggregated constraints of this family active at the optimum (slack < ACTIVE_TOLERANCE)."""
+
+    @property
+    def violated(self) -> bool:
+        return self.worst_slack < 0.0
+
+
+def family_reports(constraint_set: ConstraintSet, t: np.ndarray, slacks: dict[str, np.ndarray], scaled_tolerance: float = 0.0) -> list[FamilyReport]:
+    """Worst slack of each family over samples at times t (s); violations beyond ``scaled_tolerance`` count."""
+    reports = []
+    for family, slack in slacks.items():
+        scaled = slack / constraint_set.scales(family)
+        k, c = np.unravel_index(np.argmin(scaled), scaled.shape)
+        worst = float(slack[k, c]) if scaled[k, c] < -scaled_tolerance else max(float(slack[k, c]), 0.0)
+        labels = constraint_set.column_labels(family)
+        reports.append(FamilyReport(family, worst, ConstraintSet.UNITS[family], labels[c], float(t[k])))
+    return reports
+
+
+def describe_violations(reports: list[FamilyReport]) -> str:
+    """One line per violated family: which constraint, where, when, by how much."""
+    return "\n  ".join(
+        f"{r.family} constraint {r.where} violated by {-r.worst_slack:.4g} {r.unit} at t = {r.time_s:.3f} s" for r in reports if r.violated
+    )
+
+
+@dataclass
+class ExcitationResult:
+    """The optimum of an excitation problem."""
+
+    coefficients: np.ndarray
+    """(n_coefficients, N_J) optimal coefficients (via points, rad, for the B-spline)."""
+    cost: float
+    """Criterion at the optimum (unit-free)."""
+    reports: list[FamilyReport]
+    """Worst slack of each family on the optimisation grid."""
+    iterations: int
+    evaluations: int
+    seconds: float
+    """Wall time of the whole multi-start optimisation (s)."""
+    start_costs: list[float] = field(default_factory=list)
+    """Final cost of every start (inf for infeasible ones)."""
+    message: str = ""
+
+    def summary(self) -> str:
+        """The report as Markdown lines."""
+        lines = [
+            f"criterion {self.cost:.6g} after {self.iterations} iterations ({self.evaluations} criterion evaluations, "
+            f"{self.seconds:.1f} s, best of {len(self.start_costs)} start(s))",
+            "",
+            "| constraint | worst slack | unit | where | t [s] | active windows |",
+            "|---|---|---|---|---|---|",
+        ]
+        lines += [f"| {r.family} | {r.worst_slack:.4g} | {r.unit} | {r.where} | {r.time_s:.2f} | {r.active_windows} |" for r in self.reports]
+        return "\n".join(lines)
+
+
+class SlsqpOptimizer:
+    """Multi-start SLSQP (config group ``optimizer``).
+
+    Parameters
+    ----------
+    max_iterations : iterations per start.
+    tolerance : SLSQP's ``ftol``, the accuracy goal on the criterion.
+    n_starts : number of random starts (the best feasible optimum is kept).
+    initial_amplitude : fraction of each half position range the random starting motions span.
+    seed : seed of the starting motions.
+    show_progress : show a progress bar.
+    blas_threads : BLAS threads while solving (None: leave as is). The matrices are small (about
+        7000×57): one thread is faster than several, and much faster on a loaded machine, where
+        BLAS threads wait for each other.
+    """
+
+    def __init__(
+        self,
+        max_iterations: int = 200,
+        tolerance: float = 1e-4,
+        n_starts: int = 1,
+        initial_amplitude: float = 0.3,
+        seed: int = 0,
+        show_progress: bool = True,
+        blas_threads: int | None = 1,
+    ) -> None:
+        if n_starts < 1:
+            raise ValueError(f"n_starts must be at least 1, got {n_starts}")
+        self.max_iterations = max_iterations
+        self.tolerance = tolerance
+        self.n_starts = n_starts
+        self.initial_amplitude = initial_amplitude
+        self.seed = seed
+        self.show_progress = show_progress
+        self.blas_threads = blas_threads
+
+    def _start(self, problem: ExcitationProblem, rng: np.random.Generator) -> np.ndarray:
+        """A random start whose regressor has full rank (the criterion must be defined there)."""
+        for _ in range(20):
+            x = problem.parameterisation.initial_coefficients(problem.robot, rng, self.initial_amplitude).ravel()
+            if np.isfinite(problem.objective(x)):
+                return x
+        raise InfeasibleExcitationError(
+            f"no random start excites every base parameter of {problem.robot.name}: the motion is too short "
+            f"({problem.parameterisation.duration} s) or too constrained for {problem.base.count} base parameters"
+        )
+
+    def solve(self, problem: ExcitationProblem) -> ExcitationResult:
+        """Optimise; raise :class:`InfeasibleExcitationError` if no start ends feasible."""
+        limits = threadpool_limits(self.blas_threads, user_api="blas") if threadpool_limits and self.blas_threads else nullcontext()
+        with limits:
+            return self._solve(problem)
+
+    def _solve(self, problem: ExcitationProblem) -> ExcitationResult:
+        rng = np.random.default_rng(self.seed)
+        clock = time.perf_counter()
+        best: tuple[float, np.ndarray] | None = None
+        costs, iterations, evaluations, messages = [], 0, 0, []
+        last_x = None
+        bounds = problem.bounds()
+        constraints = {"type": "ineq", "fun": problem.constraint_values, "jac": problem.constraint_jacobian}
+        for start in range(self.n_starts):
+            x0 = self._start(problem, rng)
+            counter = {"f": 0}
+
+            def objective(x: np.ndarray) -> float:
+                counter["f"] += 1
+                return problem.objective(x)
+
+            label = f"{problem.criterion.name} {problem.parameterisation.duration:g} s, start {start + 1}/{self.n_starts}"
+            with tqdm(total=self.max_iterations, desc=label, unit="it", disable=not self.show_progress, leave=False) as bar:
+
+                def callback(x: np.ndarray) -> None:
+                    bar.update(1)
+                    bar.set_postfix(J=f"{problem.objective(x):.5g}", refresh=False)
+
+                result = minimize(
+                    objective,
+                    x0,
+                    jac=problem.objective_gradient,
+                    method="SLSQP",
+                    bounds=bounds,
+                    constraints=[constraints],
+                    callback=callback,
+                    options={"maxiter": self.max_iterations, "ftol": self.tolerance},
+                )
+            iterations += int(result.nit)
+            evaluations += counter["f"]
+            messages.append(str(result.message))
+            last_x = result.x
+            violation = -min(0.0, float(problem.constraint_values(result.x).min()))
+            cost = problem.objective(result.x)
+            feasible = violation <= FEASIBILITY_TOLERANCE and np.isfinite(cost)
+            costs.append(cost if feasible else float("inf"))
+            if feasible and (best is None or cost < best[0]):
+                best = (cost, result.x.copy())
+        seconds = time.perf_counter() - clock
+        if best is None:
+            assert last_x is not None
+            reports = self.reports(problem, last_x)
+            raise InfeasibleExcitationError(
+                f"no feasible exciting motion for {problem.robot.name} after {self.n_starts} start(s) "
+                f"(last solver message: {messages[-1]}); violated constraints on the {problem.rate_hz:g} Hz grid:\n  "
+                + describe_violations(reports)
+            )
+        cost, x = best
+        return ExcitationResult(
+            coefficients=problem.coefficients(x),
+            cost=float(cost),
+            reports=self.reports(problem, x),
+            iterations=iterations,
+            evaluations=evaluations,
+            seconds=seconds,
+            start_costs=costs,
+            message="; ".join(messages),
+        )
+
+    @staticmethod
+    def reports(problem: ExcitationProblem, x: np.ndarray) -> list[FamilyReport]:
+        """Worst slack per family on the optimisation grid, with the count of active aggregated constraints."""
+        ev_slacks = {w.family: w for w in problem.windowed_slacks(x)}
+        q, dq, ddq = (b @ problem.coefficients(x) for b in problem.bases)
+        slacks = problem.constraint_set.slacks(q, dq, ddq)
+        reports = family_reports(problem.constraint_set, problem.times, slacks, FEASIBILITY_TOLERANCE)
+        return [
+            FamilyReport(r.family, r.worst_slack, r.unit, r.where, r.time_s, int(np.sum(ev_slacks[r.family].values < ACTIVE_TOLERANCE)))
+            for r in reports
+        ]
+
+
+def verify_motion(robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float = 1000.0) -> list[FamilyReport]:
+    """Worst slack of every constraint family at ``rate_hz`` against the robot's true limits.
+
+    The check a robot needs before playing the motion: no margin, the exact Coulomb ``sign(q̇)`` in
+    the torques (Pinocchio's RNEA plus friction), every sample of the resampled motion.
+    """
+    exact = ConstraintSet(robot, replace(settings, limit_margin=0.0, distance_margin=0.0))
+    t = motion.times(rate_hz)
+    q, dq, ddq = motion.evaluate(t)
+    return family_reports(exact, t, exact.slacks(q, dq, ddq))
+
+
+def check_motion(robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float = 1000.0) -> list[FamilyReport]:
+    """:func:`verify_motion`, raising :class:`InfeasibleExcitationError` naming any violated constraint."""
+    reports = verify_motion(robot, motion, settings, rate_hz)
+    if any(r.violated for r in reports):
+        raise InfeasibleExcitationError(f"the exciting motion violates constraints of {robot.name} at {rate_hz:g} Hz:\n  " + describe_violations(reports))
+    return reports

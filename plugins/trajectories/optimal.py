@@ -1,0 +1,127 @@
+"""The optimal exciting motion (config group ``trajectory``, option ``optimal``): Katsumata et al. §III.
+
+A motion source that, asked for a motion for a robot, either
+
+* loads a motion optimised earlier (``from_file``: an ``exciting_motion.yaml`` written by
+  ``lwrlab task=excitation``) when it was made for this robot and duration, or
+* solves the excitation problem (criterion + constraints of eq. (10)–(11) + parameterisation) with
+  the configured optimizer,
+
+then checks every constraint against the robot's true limits on the 1 kHz resampling (or whatever
+rate is asked) before handing the motion out.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from lwrlab.excitation.constraints import ConstraintSettings
+from lwrlab.excitation.criteria import Criterion
+from lwrlab.excitation.problem import ExcitationProblem
+from lwrlab.excitation.solver import ExcitationResult, SlsqpOptimizer, check_motion
+from lwrlab.model.robot import RobotModel
+from lwrlab.trajectory.core import Trajectory
+from lwrlab.trajectory.parameterisation import LinearParameterisation
+
+log = logging.getLogger(__name__)
+
+
+class OptimalExcitingMotion:
+    """Optimise (or load) the exciting motion of a robot.
+
+    Parameters
+    ----------
+    parameterisation : factory ``f(duration=…) -> LinearParameterisation`` (a ``_partial_`` config).
+    criterion : the criterion plugin (config group ``criterion``).
+    optimizer : the solver (config group ``optimizer``), with ``solve(problem) -> ExcitationResult``.
+    duration : T_F (s).
+    constraints : keyword arguments of :class:`~lwrlab.excitation.constraints.ConstraintSettings`.
+    rate_hz : optimisation grid rate (Hz).
+    window_s : constraint aggregation window (s).
+    coulomb_smoothing : ε (rad/s) of the smooth Coulomb columns during the optimisation.
+    from_file : an exciting-motion file to use when it matches the robot and the duration.
+    """
+
+    def __init__(
+        self,
+        parameterisation: Callable[..., LinearParameterisation],
+        criterion: Criterion,
+        optimizer: SlsqpOptimizer,
+        duration: float = 10.0,
+        constraints: Mapping[str, Any] | None = None,
+        rate_hz: float = 100.0,
+        window_s: float = 0.5,
+        coulomb_smoothing: float | None = 0.05,
+        from_file: str | None = None,
+    ) -> None:
+        self.parameterisation = parameterisation
+        self.criterion = criterion
+        self.optimizer = optimizer
+        self.duration = float(duration)
+        self.constraints = ConstraintSettings(**dict(constraints or {}))
+        self.rate_hz = rate_hz
+        self.window_s = window_s
+        self.coulomb_smoothing = coulomb_smoothing
+        self.from_file = from_file
+        self.result: ExcitationResult | None = None
+        """The last optimisation's result (None if the motion was loaded)."""
+        self.motion: LinearParameterisation | None = None
+        """The last motion handed out (parameterisation with its coefficients)."""
+
+    def problem(self, robot: RobotModel) -> ExcitationProblem:
+        """The excitation problem for ``robot`` with these settings."""
+        return ExcitationProblem(
+            robot,
+            self.parameterisation(duration=self.duration),
+            self.criterion,
+            self.constraints,
+            rate_hz=self.rate_hz,
+            window_s=self.window_s,
+            coulomb_smoothing=self.coulomb_smoothing,
+        )
+
+    def optimise(self, robot: RobotModel) -> tuple[LinearParameterisation, ExcitationResult, ExcitationProblem]:
+        """Solve the excitation problem; the motion (with coefficients), the result and the problem."""
+        problem = self.problem(robot)
+        result = self.optimizer.solve(problem)
+        self.result = result
+        return problem.parameterisation.with_coefficients(result.coefficients), result, problem
+
+    def _load(self, robot: RobotModel) -> LinearParameterisation | None:
+        """The motion of ``from_file`` if it was made for this robot and duration, else None (logged)."""
+        from lwrlab.io.exciting_motion import load_motion_description
+
+        description = load_motion_description(self.from_file)  # type: ignore[arg-type]
+        provenance = description.get("provenance", {})
+        made_for, criterion = provenance.get("robot"), provenance.get("criterion")
+        bare = self.parameterisation(duration=float(description["duration"]))
+        settings = {key: description.get(key) for key in bare.settings()}
+        wanted = (robot.name, self.criterion.name, self.duration, bare.kind, bare.settings())
+        found = (made_for, criterion, float(description["duration"]), description["kind"], settings)
+        if found != wanted:
+            log.warning(
+                "%s holds a motion for (robot, criterion, duration, parameterisation, settings) = %s, not %s: optimising instead",
+                description["path"], found, wanted,
+            )
+            return None
+        log.info("exciting motion loaded from %s", description["path"])
+        return bare.with_coefficients(description["coefficients"])
+
+    def sample(self, robot: RobotModel, rate_hz: float) -> Trajectory:
+        """The exciting motion at ``rate_hz`` (Hz), checked against every constraint at that rate."""
+        motion = self._load(robot) if self.from_file else None
+        cost = None
+        if motion is None:
+            motion, result, _ = self.optimise(robot)
+            cost = result.cost
+        check_motion(robot, motion, self.constraints, rate_hz)
+        self.motion = motion
+        trajectory = motion.sample(robot, rate_hz)
+        metadata = {**trajectory.metadata, "source": "optimal", "parameterisation": motion.kind, "criterion": self.criterion.name}
+        if cost is not None:
+            metadata["cost"] = cost
+        if self.from_file and cost is None:
+            metadata["file"] = str(self.from_file)
+        return Trajectory(t=trajectory.t, q=trajectory.q, dq=trajectory.dq, ddq=trajectory.ddq, metadata=metadata)

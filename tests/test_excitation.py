@@ -1,0 +1,191 @@
+"""The excitation problem: exact gradients, constraints, the solver, and the shipped optimal motion."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from lwrlab.dynamics.base_parameters import compute_base_parameters
+from lwrlab.excitation.constraints import ConstraintSettings, relevant_pairs, sphere_centres
+from lwrlab.excitation.problem import ExcitationProblem
+from lwrlab.excitation.solver import InfeasibleExcitationError, SlsqpOptimizer, verify_motion
+from lwrlab.io.exciting_motion import load_motion_description
+from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.excitation import knee_duration, regressor_condition
+from plugins.criteria.cond import ConditionNumber
+from plugins.criteria.logdet import LogDet
+from plugins.trajectories.bspline import BSplineMotion
+from plugins.trajectories.fourier import FourierMotion
+from plugins.trajectories.multisine import MultisineMotion
+from plugins.trajectories.optimal import OptimalExcitingMotion
+
+SHIPPED = Path(__file__).resolve().parents[1] / "data" / "exciting_motions" / "kuka_lwr4_logdet_10s.yaml"
+
+
+def directional_check(f, jacobian: np.ndarray, x: np.ndarray, n_directions: int = 4, h: float = 1e-6) -> float:
+    """Largest relative gap between ``J·d`` and central differences of f along random unit directions d.
+
+    Random directions exercise every column of the Jacobian at once, for a few evaluations of f.
+    Relative to the largest |J·d| (rows near zero are compared in absolute terms against it).
+    """
+    rng = np.random.default_rng(7)
+    worst = 0.0
+    for _ in range(n_directions):
+        d = rng.normal(size=x.size)
+        d /= np.linalg.norm(d)
+        numeric = (np.atleast_1d(f(x + h * d)) - np.atleast_1d(f(x - h * d))) / (2 * h)
+        analytic = np.atleast_2d(jacobian) @ d
+        worst = max(worst, float(np.abs(analytic - numeric).max() / np.abs(numeric).max()))
+    return worst
+
+
+@pytest.fixture(scope="module")
+def lwr_base(lwr4: RobotModel):
+    return compute_base_parameters(lwr4)
+
+
+@pytest.fixture(scope="module")
+def lwr_problem(lwr4: RobotModel, lwr_base) -> ExcitationProblem:
+    return ExcitationProblem(lwr4, BSplineMotion(duration=2.0), LogDet(), base=lwr_base)
+
+
+@pytest.mark.parametrize("parameterisation", [BSplineMotion(duration=2.0), FourierMotion(duration=2.0, harmonics=2)], ids=["bspline", "fourier"])
+@pytest.mark.parametrize("criterion", [LogDet(), ConditionNumber()], ids=["logdet", "cond"])
+def test_objective_gradient_equals_central_differences(lwr4: RobotModel, lwr_base, parameterisation, criterion) -> None:
+    problem = ExcitationProblem(lwr4, parameterisation, criterion, base=lwr_base)
+    x = parameterisation.initial_coefficients(lwr4, np.random.default_rng(1), 0.4).ravel()
+    gradient = problem.objective_gradient(x)
+    assert directional_check(problem.objective, gradient, x) <= 1e-6
+    for i in (0, 8, x.size - 1):  # and a few entries one by one
+        e = np.zeros_like(x)
+        e[i] = 1.0
+        numeric = (problem.objective(x + 1e-6 * e) - problem.objective(x - 1e-6 * e)) / 2e-6
+        assert gradient[i] == pytest.approx(numeric, rel=1e-6, abs=1e-6 * np.abs(gradient).max())
+
+
+def test_every_constraint_family_has_an_exact_jacobian(lwr_problem: ExcitationProblem) -> None:
+    x = lwr_problem.parameterisation.initial_coefficients(lwr_problem.robot, np.random.default_rng(2), 0.6).ravel()
+    windows = lwr_problem.windowed_slacks(x)
+    assert [w.family for w in windows] == ["position", "velocity", "acceleration", "torque", "ground", "self_collision"]
+    analytic = lwr_problem.constraint_jacobian(x)
+    assert analytic.shape == (len(lwr_problem.constraint_labels()), x.size)
+    start = 0
+    for windowed in windows:
+        rows = slice(start, start + windowed.values.size)
+        gap = directional_check(lambda y: lwr_problem.constraint_values(y)[rows], analytic[rows], x)
+        assert gap <= 1e-6, windowed.family
+        start += windowed.values.size
+
+
+def test_torque_constraint_uses_the_cad_inverse_dynamics(lwr_problem: ExcitationProblem) -> None:
+    """Slacks of the torque family = limits ∓ (RNEA + friction), with the regressor's smoothed Coulomb term aside."""
+    robot = lwr_problem.robot
+    x = lwr_problem.parameterisation.initial_coefficients(robot, np.random.default_rng(3), 0.4).ravel()
+    q, dq, ddq = (b @ lwr_problem.coefficients(x) for b in lwr_problem.bases)
+    exact = lwr_problem.constraint_set.slacks(q, dq, ddq)["torque"]
+    keep = 1.0 - lwr_problem.constraint_set.settings.limit_margin
+    tau = robot.inverse_dynamics(q, dq, ddq)
+    np.testing.assert_allclose(exact, np.hstack([keep * robot.limits.torque + tau, keep * robot.limits.torque - tau]), atol=1e-9)
+
+
+@pytest.mark.parametrize("robot_name", ["lwr4", "panda"])
+def test_sphere_centres_agree_with_pinocchio(robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator) -> None:
+    robot: RobotModel = request.getfixturevalue(robot_name)
+    q = rng.uniform(robot.limits.position_lower, robot.limits.position_upper, size=(4, robot.n_joints))
+    centres = sphere_centres(robot, q, robot.collision_spheres)
+    data = robot.model.createData()
+    for k in range(4):
+        pin.forwardKinematics(robot.model, data, q[k])
+        for s, sphere in enumerate(robot.collision_spheres):
+            pose = data.oMi[sphere.link] if sphere.link else pin.SE3.Identity()
+            np.testing.assert_allclose(centres[s, k], pose.act(sphere.center), atol=1e-12)
+
+
+def test_relevant_pairs_skip_neighbours_and_rigid_pairs(lwr4: RobotModel) -> None:
+    pairs = relevant_pairs(lwr4)
+    names = {(lwr4.collision_spheres[a].name, lwr4.collision_spheres[b].name) for a, b in pairs}
+    assert ("base", "shoulder") not in names and ("elbow", "wrist") not in names  # rigid: distance never changes
+    assert ("base", "wrist") in names and ("upper_arm", "flange") in names
+    assert all(abs(lwr4.collision_spheres[a].link - lwr4.collision_spheres[b].link) >= 2 for a, b in pairs)
+    assert 10 <= len(pairs) <= 14  # the paper keeps 12 distances
+
+
+def test_unknown_ground_sphere_lists_the_robot_spheres(lwr4: RobotModel) -> None:
+    with pytest.raises(ValueError, match=r"ground_spheres \['knee'\].*'elbow'"):
+        ExcitationProblem(lwr4, BSplineMotion(duration=2.0), LogDet(), ConstraintSettings(ground_spheres=("knee",)))
+
+
+def test_short_optimisation_is_feasible_and_improves_the_criterion(lwr4: RobotModel, lwr_base) -> None:
+    problem = ExcitationProblem(lwr4, BSplineMotion(duration=2.0), LogDet(), base=lwr_base)
+    optimizer = SlsqpOptimizer(max_iterations=40, show_progress=False, seed=4)
+    start = optimizer._start(problem, np.random.default_rng(4))
+    result = optimizer.solve(problem)
+    assert result.cost < problem.objective(start)
+    assert all(not r.violated for r in result.reports)
+    assert "| velocity |" in result.summary()
+
+
+def test_infeasible_problem_names_the_violated_constraint(lwr4: RobotModel, lwr_base) -> None:
+    """The wrist cannot stay above a floor at 1.5 m: the error says so, with a time."""
+    problem = ExcitationProblem(lwr4, BSplineMotion(duration=2.0), LogDet(), ConstraintSettings(z_ground=1.5), base=lwr_base)
+    with pytest.raises(InfeasibleExcitationError, match=r"ground constraint (elbow|wrist) violated by .* m at t = "):
+        SlsqpOptimizer(max_iterations=8, show_progress=False).solve(problem)
+
+
+def test_shipped_motion_is_feasible_at_1khz_and_better_conditioned_than_the_multisine(lwr4: RobotModel, lwr_base) -> None:
+    """The default exciting motion (10 s, logdet) respects every constraint on the 1 kHz resampling."""
+    description = load_motion_description(SHIPPED)
+    assert description["provenance"]["robot"] == lwr4.name and description["duration"] == 10.0
+    motion = BSplineMotion(from_file=str(SHIPPED))
+    reports = verify_motion(lwr4, motion, ConstraintSettings(), rate_hz=1000.0)
+    assert {r.family for r in reports} == {"position", "velocity", "acceleration", "torque", "ground", "self_collision"}
+    assert all(not r.violated for r in reports), [r for r in reports if r.violated]
+    optimal = motion.sample(lwr4, 100.0)
+    multisine = MultisineMotion(duration=10.0, harmonics=6, seed=0).sample(lwr4, 100.0)
+    optimal_cond = regressor_condition(lwr4, optimal.q, optimal.dq, optimal.ddq, lwr_base)
+    assert optimal_cond < regressor_condition(lwr4, multisine.q, multisine.dq, multisine.ddq, lwr_base)
+
+
+def test_optimal_plugin_loads_a_matching_file_and_optimises_otherwise(lwr4: RobotModel, caplog: pytest.LogCaptureFixture) -> None:
+    def source(**overrides) -> OptimalExcitingMotion:
+        settings = dict(
+            parameterisation=lambda duration: BSplineMotion(duration=duration),
+            criterion=LogDet(),
+            optimizer=SlsqpOptimizer(max_iterations=40, show_progress=False),
+            from_file=str(SHIPPED),
+        )
+        return OptimalExcitingMotion(**{**settings, **overrides})
+
+    loaded = source().sample(lwr4, 1000.0)
+    np.testing.assert_allclose(loaded.q, BSplineMotion(from_file=str(SHIPPED)).sample(lwr4, 1000.0).q)
+    assert loaded.metadata["criterion"] == "logdet" and "file" in loaded.metadata
+    other = source(duration=2.0)  # the file holds a 10 s motion
+    with caplog.at_level("WARNING"):
+        motion = other.sample(lwr4, 100.0)
+    assert "optimising instead" in caplog.text and other.result is not None
+    assert motion.duration == pytest.approx(2.0)
+
+
+def test_optimal_plugin_refuses_a_motion_that_breaks_the_true_limits(lwr4: RobotModel) -> None:
+    slow = replace(lwr4, limits=replace(lwr4.limits, velocity=0.5 * lwr4.limits.velocity))
+    source = OptimalExcitingMotion(
+        parameterisation=lambda duration: BSplineMotion(duration=duration),
+        criterion=LogDet(),
+        optimizer=SlsqpOptimizer(max_iterations=1, show_progress=False),
+        from_file=str(SHIPPED),
+    )
+    with pytest.raises(InfeasibleExcitationError, match=r"velocity constraint joint \d (lower|upper) violated"):
+        source.sample(slow, 1000.0)
+
+
+def test_knee_rule_finds_where_the_improvements_stop() -> None:
+    durations = np.arange(1.0, 11.0)
+    costs = np.array([np.inf, 10.0, 5.0, 3.0, 2.2, 2.1, 2.05, 2.02, 2.01, 2.0])
+    knee, relative_cost, relative_step = knee_duration(durations, costs, fraction=0.05)
+    assert knee == 5.0  # every step after T = 5 s is below 5 % of the total decrease (8)
+    assert np.nanmin(relative_cost) == 0.0 and np.nanmax(relative_cost) == 1.0
+    assert not relative_step[1] < 0.05  # the step from an infeasible duration (inf cost) counts as significant
