@@ -191,7 +191,7 @@ class SwivelIK:
         q1 = np.where(rho > 1e-12, np.arctan2(-branch.shoulder * e[:, 1], -branch.shoulder * e[:, 0]), 0.0)
         r2 = _rz(q1) @ _rx(HALF_PI) @ _rz(q2)
         # q3, q4: in frame 3 the forearm points along z_5 = (s4, 0, c4); Rx(−π/2)ᵀ = Rx(π/2)
-        a = np.einsum("ij,njk,nk->ni", _rx(HALF_PI), r2.transpose(0, 2, 1), wrist - elbow)
+        a = (np.matmul(r2.transpose(0, 2, 1), (wrist - elbow)[:, :, None])[:, :, 0]) @ _rx(HALF_PI).T
         rho = np.hypot(a[:, 0], a[:, 1])
         q3 = np.arctan2(branch.elbow * a[:, 1], branch.elbow * a[:, 0])
         q4 = np.arctan2(branch.elbow * rho, a[:, 2])

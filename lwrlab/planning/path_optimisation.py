@@ -1,0 +1,278 @@
+"""Painting-path optimisation, eq. (12): shortest, smoothest path painting the largest area.
+
+Search ``x = [T_C, φ, Z_u, Z_l, Y_0, ΔY]`` minimising
+
+    T_C + w_s·Σ_j Σ_k (q̈_jk^igm)² + 1 / ((Z_u − Z_l)·ΔY)                               (eq. 12)
+
+(q̈ of the inverse-geometric joint trajectory sampled at ``rate_hz``, 100 Hz by default: the sum
+scales with the rate, so the rate is part of the problem's definition; ``w_s`` = 1 is the paper's
+cost) subject to, along the whole trajectory and for every joint, the position, velocity,
+acceleration and torque limits (torques by inverse dynamics of the robot *with its tool*, friction
+included), the wall bounds (the roller, of width w_L, stays on the wall), Z_l ≤ Z_u, ΔY ≤ w_L (no
+unpainted stripe between two strokes), the arm's reach, and a distance to the three
+singularities of the analytic IK (|sin q2|, |sin q4|, |sin q6| ≥ ``singularity_margin``), which keeps
+the chosen branch continuous: no branch flip along the path.
+
+SLSQP (scipy) from several starting swivel angles, with finite-difference gradients (6 variables);
+every constraint is written ``g(x) ≥ 0`` and named, so an infeasible problem ends with an error
+naming the violated constraints.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import minimize
+
+from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
+from lwrlab.model.robot import RobotModel
+from lwrlab.planning.painting_path import TOOL_ORIENTATION, PaintingPathParameters, SampledPath, sample_path
+
+
+class InfeasiblePath(ValueError):
+    """No painting path satisfies the constraints; the message names the violated ones."""
+
+
+@dataclass(frozen=True)
+class WallBounds:
+    """Where the tool centre point may go on the wall (m)."""
+
+    x: float
+    y_min: float
+    y_max: float
+    z_min: float
+    z_max: float
+
+
+@dataclass
+class PathProblem:
+    """Eq. (12) for one robot + tool and one wall.
+
+    Parameters
+    ----------
+    robot : the robot with the tool's inertia (identified model), for the torque limits.
+    ik : the analytic IK of the robot.
+    tcp_in_flange : (4, 4) tool centre point in the flange frame.
+    wall : the wall bounds.
+    roller_width : w_L (m), from tool recognition.
+    n_steps : N_r.
+    branch : IK branch.
+    rate_hz : sampling rate N_S/T_C of the sum of squared accelerations in the cost (Hz): the sum
+        is computed as ``rate_hz·∫ q̈² dt`` on the search grid.
+    search_rate_hz : sampling rate of the joint trajectory during the search (Hz); the solution is
+        checked again at 1 kHz by the caller. The paths are slow (segments of seconds), 10 Hz resolves them.
+    duration_bounds : bounds on T_C (s).
+    min_stroke : smallest Z_u − Z_l (m).
+    singularity_margin : smallest |sin q2|, |sin q4|, |sin q6| along the path.
+    smoothness_weight : w_s.
+    """
+
+    robot: RobotModel
+    ik: SwivelIK
+    tcp_in_flange: np.ndarray
+    wall: WallBounds
+    roller_width: float
+    n_steps: int = 2
+    branch: Branch = Branch(1, 1, 1)
+    rate_hz: float = 100.0
+    search_rate_hz: float = 10.0
+    torque_stride: int = 4
+    """Torques are checked every ``torque_stride`` samples of the search grid (they are far from
+    their limits on these slow paths; the 1 kHz check of the result covers every sample)."""
+    duration_bounds: tuple[float, float] = (10.0, 120.0)
+    min_stroke: float = 0.1
+    singularity_margin: float = 0.1
+    smoothness_weight: float = 1.0
+    rotation: np.ndarray = field(default_factory=lambda: TOOL_ORIENTATION.copy())
+    _memo: tuple | None = field(default=None, init=False, repr=False)
+
+    def parameters(self, x: np.ndarray) -> PaintingPathParameters:
+        return PaintingPathParameters.from_vector(x, self.n_steps)
+
+    def path(self, x: np.ndarray, rate_hz: float | None = None) -> SampledPath:
+        return sample_path(self.parameters(x), self.wall.x, rate_hz or self.rate_hz, self.rotation)
+
+    def flange_poses(self, path: SampledPath) -> np.ndarray:
+        return path.poses() @ np.linalg.inv(self.tcp_in_flange)
+
+    def joint_trajectory(self, x: np.ndarray, rate_hz: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """t, q, q̇, q̈ of the IK trajectory (s, rad, rad/s, rad/s²); q̇, q̈ by second-order differences.
+
+        Sampled at ``rate_hz`` (default ``search_rate_hz``); memoised for the last ``x``.
+        """
+        key = (tuple(np.asarray(x, dtype=float)), rate_hz)
+        if self._memo is not None and self._memo[0] == key:
+            return self._memo[1]
+        path = self.path(x, rate_hz or self.search_rate_hz)
+        q = self.ik.solve_branch(self.flange_poses(path), float(x[1]), self.branch).q
+        dt = path.t[1] - path.t[0]
+        dq = np.gradient(q, dt, axis=0, edge_order=2)
+        ddq = np.gradient(dq, dt, axis=0, edge_order=2)
+        self._memo = (key, (path.t, q, dq, ddq))
+        return path.t, q, dq, ddq
+
+    # --- eq. (12) --------------------------------------------------------------------------
+    def geometric_constraints(self, x: np.ndarray) -> dict[str, float]:
+        """Wall bounds, ordering, coverage (≥ 0 when satisfied), m."""
+        p = self.parameters(x)
+        half = self.roller_width / 2
+        return {
+            "Z_l ≥ Z⁻": p.z_lower - self.wall.z_min,
+            "Z_u ≤ Z⁺": self.wall.z_max - p.z_upper,
+            "Z_u − Z_l ≥ min stroke": p.z_upper - p.z_lower - self.min_stroke,
+            "Y_0 − w_L/2 ≥ Y⁻": p.y_start - half - self.wall.y_min,
+            "Y_0 + N_r·ΔY + w_L/2 ≤ Y⁺": self.wall.y_max - (p.y_end + half),
+            "ΔY ≤ w_L": self.roller_width - p.y_step,
+            "ΔY > 0": p.y_step - 1e-3,
+        }
+
+    def reach_constraints(self, x: np.ndarray) -> dict[str, float]:
+        """Shoulder–wrist distance inside the reach, with 2 % margin (m)."""
+        path = self.path(x, self.search_rate_hz)
+        wrist = self.ik.wrist_pose(self.flange_poses(path))[:, :3, 3]
+        distance = np.linalg.norm(wrist - [0.0, 0.0, self.ik.shoulder_height], axis=1)
+        low, high = self.ik.reach
+        return {"reach (outer)": 0.98 * high - distance.max(), "reach (inner)": distance.min() - 1.02 * low - 0.01}
+
+    def joint_constraints(self, x: np.ndarray) -> dict[str, float]:
+        """Normalised margins of every joint limit along the trajectory (≥ 0 when satisfied)."""
+        _, q, dq, ddq = self.joint_trajectory(x)
+        lim = self.robot.limits
+        tau = self.robot.inverse_dynamics(q[:: self.torque_stride], dq[:: self.torque_stride], ddq[:: self.torque_stride])
+        span = lim.position_upper - lim.position_lower
+        margins = {}
+        for j in range(self.robot.n_joints):
+            margins[f"q{j + 1} ≥ lower"] = (q[:, j].min() - lim.position_lower[j]) / span[j]
+            margins[f"q{j + 1} ≤ upper"] = (lim.position_upper[j] - q[:, j].max()) / span[j]
+            margins[f"|q̇{j + 1}| ≤ limit"] = 1.0 - np.abs(dq[:, j]).max() / lim.velocity[j]
+            margins[f"|q̈{j + 1}| ≤ limit"] = 1.0 - np.abs(ddq[:, j]).max() / lim.acceleration[j]
+            margins[f"|Γ{j + 1}| ≤ limit"] = 1.0 - np.abs(tau[:, j]).max() / lim.torque[j]
+        sines = np.abs(np.sin(q[:, [1, 3, 5]])).min(axis=0)
+        for name, value in zip(("shoulder", "elbow", "wrist"), sines, strict=True):
+            margins[f"{name} singularity margin"] = value - self.singularity_margin
+        return margins
+
+    def constraints(self, x: np.ndarray) -> dict[str, float]:
+        """Every constraint of eq. (12) by name, ``≥ 0`` when satisfied."""
+        values = self.geometric_constraints(x)
+        if values["Z_u − Z_l ≥ min stroke"] + self.min_stroke <= 1e-6 or values["ΔY > 0"] < 0:
+            # degenerate path (coinciding way points): nothing else can be evaluated
+            return {**values, "reach (outer)": -1.0, "reach (inner)": -1.0, **dict.fromkeys(self.joint_constraint_names, -1.0)}
+        values.update(self.reach_constraints(x))
+        if min(values.values()) < -0.05 or values["reach (outer)"] < 0 or values["reach (inner)"] < 0:
+            # out of reach: the joint trajectory does not exist; report it as violated
+            values.update(dict.fromkeys(self.joint_constraint_names, -1.0))
+        else:
+            values.update(self.joint_constraints(x))
+        return values
+
+    @property
+    def joint_constraint_names(self) -> list[str]:
+        names = []
+        for j in range(1, self.robot.n_joints + 1):
+            names += [f"q{j} ≥ lower", f"q{j} ≤ upper", f"|q̇{j}| ≤ limit", f"|q̈{j}| ≤ limit", f"|Γ{j}| ≤ limit"]
+        return names + [f"{n} singularity margin" for n in ("shoulder", "elbow", "wrist")]
+
+    def cost_terms(self, x: np.ndarray) -> dict[str, float]:
+        """The three terms of eq. (12)."""
+        p = self.parameters(x)
+        try:
+            t, _, _, ddq = self.joint_trajectory(x)
+            smoothness = float(self.rate_hz * np.trapezoid(np.sum(ddq**2, axis=1), t))  # ≈ Σ_k Σ_j q̈² at rate_hz
+        except ValueError:  # degenerate or unreachable path: the constraints say so
+            smoothness = 1e6
+        return {
+            "duration": p.duration,
+            "smoothness": self.smoothness_weight * smoothness,
+            "inverse_area": 1.0 / max((p.z_upper - p.z_lower) * p.y_step, 1e-6),
+        }
+
+    def cost(self, x: np.ndarray) -> float:
+        return float(sum(self.cost_terms(x).values()))
+
+
+@dataclass
+class PathSolution:
+    """The optimised painting path."""
+
+    parameters: PaintingPathParameters
+    branch: Branch
+    cost_terms: dict[str, float]
+    constraints: dict[str, float]
+    painted_area: float
+    """(Z_u − Z_l)·(N_r·ΔY + w_L) (m²)."""
+    iterations: int
+    starts: int
+
+    @property
+    def active(self) -> list[str]:
+        """Constraints within 1e-4 of their bound."""
+        return [name for name, value in self.constraints.items() if value < 1e-4]
+
+
+def optimise_path(
+    problem: PathProblem,
+    starting_swivels: Sequence[float] = (-2.0, -1.0, 1.0, 2.0),
+    branches: Sequence[Branch] | None = None,
+    tolerance: float = 1e-6,
+    progress: bool = False,
+) -> PathSolution:
+    """Solve eq. (12) by SLSQP from each starting swivel angle (and IK branch); the best feasible wins.
+
+    Parameters
+    ----------
+    problem : the problem (its ``branch`` is used when ``branches`` is None).
+    starting_swivels : initial φ of the starts (rad).
+    branches : IK branches to try, each with every start.
+    tolerance : SLSQP's ``ftol``.
+    progress : show a progress bar over the starts.
+
+    Raises
+    ------
+    InfeasiblePath : no start reaches a feasible path; names the violated constraints of the best try.
+    """
+    from tqdm.auto import tqdm
+
+    wall = problem.wall
+    lower = np.array([problem.duration_bounds[0], -np.pi, wall.z_min, wall.z_min, wall.y_min, 1e-3])
+    upper = np.array([problem.duration_bounds[1], np.pi, wall.z_max, wall.z_max, wall.y_max, problem.roller_width])
+    z_mid = (wall.z_min + wall.z_max) / 2
+    y_step = min(problem.roller_width, (wall.y_max - wall.y_min - problem.roller_width) / max(problem.n_steps, 1)) * 0.5
+    y_start = (wall.y_min + wall.y_max) / 2 - problem.n_steps * y_step / 2
+    tries = [(branch, swivel) for branch in (branches or [problem.branch]) for swivel in starting_swivels]
+    best: tuple[float, float, PathProblem, np.ndarray] | None = None  # (violation, cost, problem, x)
+    iterations = 0
+    for branch, swivel in tqdm(tries, desc="painting path (eq. 12)", unit="start", disable=not progress, leave=False):
+        candidate = replace(problem, branch=branch)
+        x0 = np.array([np.mean(problem.duration_bounds), swivel, z_mid + 0.1, z_mid - 0.1, y_start, y_step])
+        result = minimize(
+            candidate.cost,
+            x0,
+            method="SLSQP",
+            bounds=list(zip(lower, upper, strict=True)),
+            constraints=[{"type": "ineq", "fun": lambda x, c=candidate: np.array(list(c.constraints(x).values()))}],
+            options={"maxiter": 200, "ftol": tolerance},
+        )
+        iterations += int(result.nit)
+        violation = -min(0.0, min(candidate.constraints(result.x).values()))
+        key = (max(violation, 1e-6), candidate.cost(result.x))
+        if best is None or key < best[:2]:
+            best = (*key, candidate, result.x)
+    assert best is not None
+    violation, _, solved, x = best
+    values = solved.constraints(x)
+    if violation > 1e-6:
+        violated = [f"{name} ({value:.3g})" for name, value in values.items() if value < -1e-6]
+        raise InfeasiblePath(f"no feasible painting path from {len(tries)} starts; violated: {', '.join(violated)}")
+    parameters = solved.parameters(x)
+    return PathSolution(
+        parameters=parameters,
+        branch=solved.branch,
+        cost_terms=solved.cost_terms(x),
+        constraints=values,
+        painted_area=parameters.painted_area(solved.roller_width),
+        iterations=iterations,
+        starts=len(tries),
+    )

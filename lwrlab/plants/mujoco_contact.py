@@ -1,0 +1,300 @@
+"""A contact plant in MuJoCo: the robot, its tool and a wall with a force sensor (§VI.B).
+
+The MuJoCo model is written from the same :class:`~lwrlab.model.robot.RobotModel` the rest of the
+lab uses (one body per joint frame, placements and inertias copied from the Pinocchio model), so
+MuJoCo's and Pinocchio's inverse dynamics agree to round-off (tested). What the plant adds:
+
+- the tool: a body fixed to the flange with its inertial parameters (flange frame) and one contact
+  geometry, a capsule of ``contact_radius`` along the tool's contact axis whose surface touches
+  the tool's contact point (a roller cover);
+- the wall: a static box whose painted face is the plane ``x = wall.x`` (normal +x, towards the
+  robot), with a 3-axis force sensor at its centre (the paper's ATI Mini45), tared at start;
+- the drives: the commanded torque acts on the link dynamics plus the rotor inertia (MuJoCo
+  ``armature``); the joint-torque sensor, on the link side, reads ``τ − I_a·q̈`` plus white noise;
+- joint friction ``FV·q̇ + FC·tanh(q̇/ε)`` (the plant's true values) as a generalised force;
+- encoder noise on the positions.
+
+The controller runs at ``1 / control_period`` (1 kHz), MuJoCo integrates ``substeps`` steps per
+control period. Everything is in SI units and in the robot's base frame (= MuJoCo's world).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from lwrlab.model.inertia import mass_com_inertia
+from lwrlab.model.robot import RobotModel
+
+
+@dataclass(frozen=True)
+class Wall:
+    """A flat wall facing the robot: painted face in the plane ``x = x``, normal +x."""
+
+    x: float = -0.8
+    """Position of the painted face along the base x axis (m)."""
+    center_y: float = 0.3
+    """Horizontal centre (m)."""
+    center_z: float = 0.4
+    """Vertical centre (m)."""
+    width: float = 0.6
+    """Extent along y (m)."""
+    height: float = 0.8
+    """Extent along z (m)."""
+    thickness: float = 0.02
+    """Extent along x, behind the face (m)."""
+
+    @property
+    def y_bounds(self) -> tuple[float, float]:
+        """Lowest and highest y of the face (m)."""
+        return self.center_y - self.width / 2, self.center_y + self.width / 2
+
+    @property
+    def z_bounds(self) -> tuple[float, float]:
+        """Lowest and highest z of the face (m)."""
+        return self.center_z - self.height / 2, self.center_z + self.height / 2
+
+
+@dataclass(frozen=True)
+class ContactTool:
+    """What the plant needs of a tool: inertia and the contact geometry, in the flange frame."""
+
+    parameters: np.ndarray
+    """(10,) standard parameters about the flange origin (kg, kg·m, kg·m²)."""
+    contact_point: np.ndarray
+    """Middle of the contact line (m)."""
+    contact_axis: np.ndarray
+    """Unit direction of the contact line (a roller's axis)."""
+    width: float
+    """Length of the contact line (m)."""
+    contact_radius: float = 0.025
+    """Radius of the capsule modelling the roller cover (m)."""
+
+
+@dataclass(frozen=True)
+class ContactSensors:
+    """One sample of what the sensors read (and the true state, for scoring)."""
+
+    q: np.ndarray
+    """(N_J,) encoder positions (rad)."""
+    tau: np.ndarray
+    """(N_J,) link-side joint torques (N·m)."""
+    wall_force: np.ndarray
+    """(3,) force the tool exerts on the wall, base frame (N), tared."""
+    q_true: np.ndarray
+    """(N_J,) true positions (rad)."""
+    dq_true: np.ndarray
+    """(N_J,) true velocities (rad/s)."""
+
+
+def _vector(values: np.ndarray) -> str:
+    return " ".join(f"{v:.17g}" for v in np.ravel(values))
+
+
+def _quaternion(rotation: np.ndarray) -> str:
+    x, y, z, w = pin.Quaternion(np.asarray(rotation, dtype=float)).coeffs()
+    return _vector([w, x, y, z])
+
+
+def _inertial(phi: np.ndarray) -> str:
+    mass, com, inertia = mass_com_inertia(phi)
+    full = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+    return f'<inertial pos="{_vector(com)}" mass="{mass:.17g}" fullinertia="{_vector(full)}"/>'
+
+
+def _tool_body(tool: ContactTool, flange: pin.SE3) -> str:
+    axis = np.asarray(tool.contact_axis, dtype=float) / np.linalg.norm(tool.contact_axis)
+    centre = np.asarray(tool.contact_point, dtype=float) - tool.contact_radius * np.array([0.0, 0.0, 1.0])
+    half = tool.width / 2 - tool.contact_radius  # capsule caps end at the cover's ends
+    ends = np.concatenate([centre - max(half, 1e-4) * axis, centre + max(half, 1e-4) * axis])
+    return (
+        f'<body name="tool" pos="{_vector(flange.translation)}" quat="{_quaternion(flange.rotation)}">'
+        f"{_inertial(tool.parameters)}"
+        f'<geom name="roller" type="capsule" fromto="{_vector(ends)}" size="{tool.contact_radius:.17g}" '
+        f'contype="1" conaffinity="1" mass="0"/>'
+        f'<site name="tcp" pos="{_vector(tool.contact_point)}"/>'
+        "</body>"
+    )
+
+
+def mujoco_xml(
+    robot: RobotModel,
+    tool: ContactTool | None = None,
+    wall: Wall | None = None,
+    timestep: float = 5e-4,
+    friction: float = 0.1,
+    solref: tuple[float, float] = (0.01, 1.0),
+    solimp: tuple[float, float, float] = (0.95, 0.99, 0.001),
+    with_armature: bool = True,
+) -> str:
+    """MJCF text of ``robot`` (+ ``tool`` on the flange, + ``wall``), from its Pinocchio model.
+
+    Parameters
+    ----------
+    robot : a serial chain of revolute-z joints; its inertias become the bodies' inertials.
+    tool : the tool fixed to the flange, or None.
+    wall : the wall with its force sensor, or None.
+    timestep : MuJoCo integration step (s).
+    friction : sliding friction coefficient between tool and wall (a wet roller slides easily).
+    solref, solimp : MuJoCo soft-contact parameters (time constant s, damping ratio; impedance).
+    with_armature : put the robot's ``rotor_inertia`` on the joints.
+    """
+    model = robot.model
+    gravity = robot.gravity
+    armature = robot.rotor_inertia if (with_armature and robot.rotor_inertia is not None) else np.zeros(robot.n_joints)
+    bodies, closing = [], []
+    for j in range(1, model.njoints):
+        if model.joints[j].shortname() != "JointModelRZ" or model.parents[j] != j - 1:
+            raise ValueError(f"the MuJoCo plant needs a serial chain of revolute-z joints; joint {j} is {model.joints[j].shortname()}")
+        placement = model.jointPlacements[j]
+        bodies.append(
+            f'<body name="link{j}" pos="{_vector(placement.translation)}" quat="{_quaternion(placement.rotation)}">'
+            f'<joint name="joint{j}" type="hinge" axis="0 0 1" armature="{armature[j - 1]:.17g}" limited="false"/>'
+            f"{_inertial(np.asarray(robot.link_parameters[j - 1]))}"
+        )
+        closing.append("</body>")
+    if tool is not None:
+        if not model.existFrame("flange"):
+            raise ValueError(f"robot {robot.name!r} has no flange frame to carry a tool")
+        bodies.append(_tool_body(tool, model.frames[model.getFrameId("flange")].placement))
+    wall_xml, sensor_xml = "", ""
+    if wall is not None:
+        centre = [wall.x - wall.thickness / 2, wall.center_y, wall.center_z]
+        size = [wall.thickness / 2, wall.width / 2, wall.height / 2]
+        wall_xml = (
+            f'<body name="wall" pos="{_vector(centre)}">'
+            f'<geom name="wall" type="box" size="{_vector(size)}" contype="1" conaffinity="1" mass="1"/>'
+            f'<site name="wall_sensor" pos="{wall.thickness / 2:.17g} 0 0"/>'
+            "</body>"
+        )
+        sensor_xml = '<sensor><force name="wall_force" site="wall_sensor"/></sensor>'
+    return (
+        f'<mujoco model="{robot.name}">'
+        f'<option timestep="{timestep:.17g}" gravity="{_vector(gravity)}" integrator="Euler">'
+        '<flag contact="enable"/></option>'
+        f'<default><geom friction="{friction:.17g} 0.005 0.0001" solref="{_vector(solref)}" solimp="{_vector(solimp)}" condim="3"/></default>'
+        f"<worldbody>{wall_xml}{''.join(bodies)}{''.join(closing)}</worldbody>"
+        f"{sensor_xml}</mujoco>"
+    )
+
+
+def mujoco_inverse_dynamics(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, with_armature: bool = False) -> np.ndarray:
+    """Joint torques (N·m, (N, N_J)) by MuJoCo's ``mj_inverse`` on the model of :func:`mujoco_xml`
+    (no friction); with the rotor inertia when ``with_armature``."""
+    mj_model = mujoco.MjModel.from_xml_string(mujoco_xml(robot, with_armature=with_armature))
+    mj_data = mujoco.MjData(mj_model)
+    q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
+    tau = np.empty_like(q)
+    for k in range(q.shape[0]):
+        mj_data.qpos[:], mj_data.qvel[:], mj_data.qacc[:] = q[k], dq[k], ddq[k]
+        mujoco.mj_inverse(mj_model, mj_data)
+        tau[k] = mj_data.qfrc_inverse
+    return tau
+
+
+class MujocoContactPlant:
+    """The robot with its tool pressing on a wall, simulated by MuJoCo, read by noisy sensors.
+
+    Parameters
+    ----------
+    robot : the true robot (perturbed parameters, true friction, rotor inertia).
+    tool : the true tool on the flange.
+    wall : the wall and its force sensor.
+    control_period : period of the controller (s); sensors are read once per period.
+    substeps : MuJoCo steps per control period.
+    torque_noise_std : joint-torque sensor noise σ_τ (N·m), scalar or per joint.
+    encoder_noise_std : encoder noise σ_q (rad).
+    force_noise_std : wall force-sensor noise (N).
+    friction : tool–wall sliding friction coefficient.
+    coulomb_smoothing : ε of the smoothed Coulomb friction ``FC·tanh(q̇/ε)`` (rad/s).
+    seed : seed of the sensor noise.
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        tool: ContactTool,
+        wall: Wall,
+        control_period: float = 1e-3,
+        substeps: int = 2,
+        torque_noise_std: float | np.ndarray = 0.1,
+        encoder_noise_std: float = 1.7e-5,
+        force_noise_std: float = 0.0,
+        friction: float = 0.1,
+        contact_time_constant: float = 0.01,
+        coulomb_smoothing: float = 1e-3,
+        seed: int = 0,
+    ) -> None:
+        self.robot, self.tool, self.wall = robot, tool, wall
+        self.control_period, self.substeps = control_period, substeps
+        self.model = mujoco.MjModel.from_xml_string(
+            mujoco_xml(robot, tool, wall, timestep=control_period / substeps, friction=friction, solref=(contact_time_constant, 1.0))
+        )
+        self.data = mujoco.MjData(self.model)
+        self.torque_noise_std = np.broadcast_to(np.asarray(torque_noise_std, dtype=float), (robot.n_joints,))
+        self.encoder_noise_std = encoder_noise_std
+        self.force_noise_std = force_noise_std
+        self.coulomb_smoothing = coulomb_smoothing
+        self.armature = np.zeros(robot.n_joints) if robot.rotor_inertia is None else np.asarray(robot.rotor_inertia, dtype=float)
+        self._rng = np.random.default_rng(seed)
+        self._sensor = self.model.sensor("wall_force").adr[0]
+        self._site = self.model.site("wall_sensor").id
+        self._tcp = self.model.site("tcp").id
+        self._tare = np.zeros(3)
+        self._tau = np.zeros(robot.n_joints)
+
+    def _wall_force(self) -> np.ndarray:
+        # MuJoCo's force sensor gives the force on the wall from its parent (the world), in the
+        # site frame; the wall is static, so the tool's force on it is the opposite, less the tare.
+        rotation = self.data.site_xmat[self._site].reshape(3, 3)
+        return -rotation @ self.data.sensordata[self._sensor : self._sensor + 3] - self._tare
+
+    def _friction(self, dq: np.ndarray) -> np.ndarray:
+        f = self.robot.friction
+        return f.viscous * dq + f.coulomb * np.tanh(dq / self.coulomb_smoothing) + f.offset
+
+    def _read(self, link_torque: np.ndarray) -> ContactSensors:
+        q, dq = self.data.qpos.copy(), self.data.qvel.copy()
+        return ContactSensors(
+            q=q + self.encoder_noise_std * self._rng.normal(size=q.shape),
+            tau=link_torque + self.torque_noise_std * self._rng.normal(size=q.shape),
+            wall_force=self._wall_force() + self.force_noise_std * self._rng.normal(size=3),
+            q_true=q,
+            dq_true=dq,
+        )
+
+    def reset(self, q0: np.ndarray, hold_torque: np.ndarray) -> ContactSensors:
+        """Place the robot at rest at ``q0`` (rad), tare the wall sensor, read the sensors.
+
+        ``hold_torque`` (N·m) is the torque the controller applies first (gravity compensation):
+        the link-side reading is computed with it.
+        """
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[:] = q0
+        mujoco.mj_forward(self.model, self.data)
+        self._tare = np.zeros(3)
+        self._tare = self._wall_force()
+        self.data.qfrc_applied[:] = hold_torque - self._friction(self.data.qvel)
+        mujoco.mj_forward(self.model, self.data)
+        return self._read(hold_torque - self.armature * self.data.qacc)
+
+    def step(self, tau: np.ndarray) -> ContactSensors:
+        """Apply the joint torques ``tau`` (N·m) for one control period; read the sensors after it.
+
+        The torque sensor reads the link-side torque ``τ − I_a·q̈`` at the new state under the
+        same command (a zero-order hold, as the drives' current loop does).
+        """
+        for _ in range(self.substeps):
+            self.data.qfrc_applied[:] = tau - self._friction(self.data.qvel)
+            mujoco.mj_step(self.model, self.data)
+        self.data.qfrc_applied[:] = tau - self._friction(self.data.qvel)
+        mujoco.mj_forward(self.model, self.data)
+        return self._read(tau - self.armature * self.data.qacc)
+
+    @property
+    def tcp_position(self) -> np.ndarray:
+        """True position of the tool's contact point (m, base frame)."""
+        return self.data.site_xpos[self._tcp].copy()

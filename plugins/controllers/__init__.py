@@ -1,0 +1,1 @@
+"""Painting controllers (config group ``controller``): the PaintingController protocol of lwrlab.control."""

@@ -1,0 +1,91 @@
+"""The MuJoCo contact plant: same dynamics as Pinocchio, a wall sensor that reads the contact force."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lwrlab.kinematics import Branch, SwivelIK
+from lwrlab.model.payload import attach_payload
+from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall, mujoco_inverse_dynamics, mujoco_xml
+from lwrlab.tools.library import load_tool
+
+
+def _states(robot, rng, n=30):
+    q = rng.uniform(robot.limits.position_lower, robot.limits.position_upper, size=(n, robot.n_joints))
+    return q, rng.normal(size=q.shape), rng.normal(size=q.shape)
+
+
+def test_mujoco_and_pinocchio_inverse_dynamics_agree(lwr4, rng):
+    q, dq, ddq = _states(lwr4, rng)
+    np.testing.assert_allclose(mujoco_inverse_dynamics(lwr4, q, dq, ddq), lwr4.inverse_dynamics(q, dq, ddq, with_friction=False), atol=1e-10)
+    # the drives' rotor inertia is MuJoCo's armature: τ = RNEA + I_a·q̈
+    np.testing.assert_allclose(
+        mujoco_inverse_dynamics(lwr4, q, dq, ddq, with_armature=True),
+        lwr4.inverse_dynamics(q, dq, ddq, with_friction=False) + lwr4.rotor_inertia * ddq,
+        atol=1e-10,
+    )
+
+
+def test_tool_body_matches_the_payload_attached_in_pinocchio(lwr4, rng):
+    import mujoco
+
+    tool = load_tool("large_roller")
+    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
+    model = mujoco.MjModel.from_xml_string(mujoco_xml(lwr4, contact, None, with_armature=False))
+    data = mujoco.MjData(model)
+    loaded = attach_payload(lwr4, tool.parameters)
+    for q, dq, ddq in zip(*_states(lwr4, rng, 10), strict=True):
+        data.qpos[:], data.qvel[:], data.qacc[:] = q, dq, ddq
+        mujoco.mj_inverse(model, data)
+        np.testing.assert_allclose(data.qfrc_inverse, loaded.inverse_dynamics(q, dq, ddq, with_friction=False)[0], atol=1e-10)
+
+
+def test_rejects_non_chain_robot(lwr4):
+    import pinocchio as pin
+    from dataclasses import replace
+
+    model = pin.buildSampleModelManipulator()
+    with pytest.raises(ValueError, match="revolute-z"):
+        mujoco_xml(replace(lwr4, model=model, rotor_inertia=None, limits=lwr4.limits))
+
+
+@pytest.fixture(scope="module")
+def pressing_plant(lwr4):
+    tool = load_tool("large_roller")
+    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
+    plant = MujocoContactPlant(lwr4, contact, Wall(), torque_noise_std=0.0, encoder_noise_std=0.0)
+    return plant, attach_payload(lwr4, tool.parameters), tool
+
+
+def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
+    """Press the roller on the wall by position control; the wall sensor's force mapped by Jᵀ equals the
+    external joint torques (link-side torque minus model torques) at rest."""
+    from lwrlab.control.force_estimation import ExternalForceEstimator
+    from lwrlab.control.joint_pd import ControlSetup, JointPDGravity
+
+    plant, loaded, tool = pressing_plant
+    tcp = np.eye(4)
+    tcp[:3, 3] = tool.contact_point
+    pose = np.eye(4)
+    pose[:3, :3] = [[0, 0, -1], [0, 1, 0], [1, 0, 0]]
+    pose[:3, 3] = [-0.8 - 0.004, 0.3, 0.4]  # 4 mm into the wall
+    setup = ControlSetup(loaded, SwivelIK(loaded), tcp, -1.57, Branch(1, 1, 1))
+    q_ref = setup.joint_reference(pose)
+    away = pose.copy()
+    away[0, 3] += 0.01  # start 6 mm off the wall (the sensor is tared there)
+    q_start = setup.joint_reference(away)
+    pd = JointPDGravity(loaded, 2000.0, 60.0, 1e-3)
+    sensors = plant.reset(q_start, pd.gravity(q_start))
+    pd.reset(q_ref)
+    estimator = ExternalForceEstimator(loaded, tcp)
+    estimator.reset(sensors.q)
+    forces, estimates = [], []
+    for _ in range(1500):
+        state = estimator.update(sensors.q, sensors.tau)
+        sensors = plant.step(pd.torque(q_ref, sensors.q, state.dq))
+        forces.append(sensors.wall_force)
+        estimates.append(state.wrench[:3])
+    measured, estimated = np.mean(forces[-500:], axis=0), np.mean(estimates[-500:], axis=0)
+    assert measured[0] < -5.0  # pressing towards −x
+    np.testing.assert_allclose(estimated, measured, atol=0.05 * abs(measured[0]))
