@@ -54,6 +54,7 @@ def _closed_port() -> int:
         return probe.getsockname()[1]
 
 
+@pytest.mark.slow
 def test_unreachable_postgresql_store_keeps_the_run_offline_then_sync_uploads_it_once(tmp_path: Path) -> None:
     job_dir = tmp_path / "run"
     finished = run_app(
@@ -85,6 +86,7 @@ def test_unreachable_postgresql_store_keeps_the_run_offline_then_sync_uploads_it
     assert not (job_dir / OFFLINE_RECORD).exists() and (job_dir / SYNCED_RECORD).is_file()
 
 
+@pytest.mark.slow
 def test_offline_sweep_is_synced_as_one_parent_with_nested_runs(tmp_path: Path) -> None:
     sweep_dir = tmp_path / "sweep"
     finished = run_app(

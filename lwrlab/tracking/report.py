@@ -97,17 +97,25 @@ def select_runs(tracking_uri: str, experiments: Sequence[str] | None, filter_str
     return table
 
 
-def collect_artifact(client: MlflowClient, runs: pd.DataFrame, artifact: str, download_dir: Path) -> pd.DataFrame | None:
+def artifact_names(client: MlflowClient, runs: pd.DataFrame) -> dict[str, set[str]]:
+    """Run id → names of its top-level artifacts (one listing per run)."""
+    return {str(run_id): {entry.path for entry in retry_locked(client.list_artifacts, str(run_id))} for run_id in runs["run_id"]}
+
+
+def collect_artifact(
+    client: MlflowClient, runs: pd.DataFrame, artifact: str, download_dir: Path, available: Mapping[str, set[str]] | None = None
+) -> pd.DataFrame | None:
     """One artifact CSV of every run that has it, concatenated, with ``run_id``, ``experiment``, ``seed``.
 
     ``None`` if no run has it. A run whose CSV cannot be read raises ``ValueError`` naming run and file.
+    ``available`` (from :func:`artifact_names`) saves listing each run's artifacts again.
     """
     frames = []
+    available = artifact_names(client, runs) if available is None else available
     seeds = dict(zip(runs["run_id"], runs["tags.seed"] if "tags.seed" in runs else [None] * len(runs), strict=True))
     for row in runs.itertuples(index=False):
         run_id = str(row.run_id)
-        names = {entry.path for entry in retry_locked(client.list_artifacts, run_id)}
-        if artifact not in names:
+        if artifact not in available.get(run_id, set()):
             continue
         local = Path(
             mlflow.artifacts.download_artifacts(
@@ -156,10 +164,11 @@ def build_report(
     report = Report(output_dir=output_dir, runs=runs)
     client = MlflowClient(tracking_uri=tracking_uri)
     paper = paper_results()
+    available = {} if runs.empty else artifact_names(client, runs)
     with tempfile.TemporaryDirectory(prefix="lwrlab_report_") as download_dir:
         for kind in kinds or ARTIFACT_KINDS:
             artifact, builder = ARTIFACT_KINDS[kind]
-            frame = None if runs.empty else collect_artifact(client, runs, artifact, Path(download_dir))
+            frame = None if runs.empty else collect_artifact(client, runs, artifact, Path(download_dir), available)
             if frame is None:
                 report.skipped[kind] = f"no selected run has `{artifact}`"
                 log.warning("%s skipped: %s", kind, report.skipped[kind])
@@ -263,4 +272,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-__all__ = ["Report", "build_report", "collect_artifact", "log_report", "main", "select_runs", "selection_filter"]
+__all__ = ["Report", "artifact_names", "build_report", "collect_artifact", "log_report", "main", "select_runs", "selection_filter"]

@@ -3,7 +3,7 @@
 The values are a deterministic function of (criterion, seed), so tests can compute what the report
 must show. They are not results of lwrlab; they only exercise the tracking → report path::
 
-    python tests/apps/table_fixtures_app.py hydra.searchpath=[file:///abs/repo/conf] criterion=cond seed=1
+    python tests/apps/table_fixtures_app.py hydra.searchpath=[file:///abs/repo/conf] fixture_criterion=cond seed=1
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def fixture_rms(criterion: str, seed: int, joint: int) -> float:
 @hydra.main(version_base="1.3", config_path="conf", config_name="tables")
 def main(cfg: DictConfig) -> dict[str, float]:
     output_dir = Path(HydraConfig.get().runtime.output_dir)
-    criterion, seed = str(cfg.criterion), int(cfg.seed)
+    criterion, seed = str(cfg.fixture_criterion), int(cfg.seed)
     rms = [fixture_rms(criterion, seed, joint) for joint in JOINTS]
     pd.DataFrame(
         {"criterion": criterion, "seed": seed, "joint": list(JOINTS), "rms": rms, "nrms": [10 * value for value in rms]}

@@ -1,0 +1,96 @@
+"""`lwrlab report` on a real SQLite store filled through the real tracking callback.
+
+The CSVs of Fig. 5, Fig. 6, Table III and Table IV come from a TEST FIXTURE app
+(tests/apps/table_fixtures_app.py) writing synthetic values with the stages' column contracts, so
+the expected report is computed here independently. Table II from real identification runs is
+covered by tests/test_sweeps.py (slow).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mlflow.tracking import MlflowClient
+
+from apps.table_fixtures_app import CRITERIA, JOINTS, fixture_rms
+from lwrlab.reference import paper_results
+from lwrlab.tracking.report import REPORT_EXPERIMENT, build_report, main, selection_filter
+from tracking_apps import TABLE_FIXTURES_APP, run_app
+
+SEEDS = (0, 1, 2)
+
+pytestmark = pytest.mark.slow  # nine Hydra jobs in a subprocess build the store
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory: pytest.TempPathFactory) -> str:
+    folder = tmp_path_factory.mktemp("report_store")
+    finished = run_app(
+        TABLE_FIXTURES_APP,
+        f"hydra.sweep.dir={folder / 'sweep'}",
+        f"fixture_criterion={','.join(CRITERIA)}",
+        f"seed={','.join(map(str, SEEDS))}",
+        store=folder,
+        multirun=True,
+    )
+    assert finished.returncode == 0, finished.stderr
+    return f"sqlite:///{folder / 'mlflow.db'}"
+
+
+def test_report_rebuilds_fig5_fig6_table3_table4_and_skips_what_is_missing(store: str, tmp_path: Path) -> None:
+    report = build_report(store, tmp_path, ["report_fixture"], selection_filter())
+    assert len(report.runs) == len(CRITERIA) * len(SEEDS)  # job runs only, not the sweep's parent
+    assert set(report.parts) == {"fig5", "fig6", "table3", "table4"}
+    assert "base_parameters.csv" in report.skipped["table2"]
+
+    summary = report.parts["fig6"].tables["fig6_summary"]
+    paper = paper_results()["fig6_crossvalidation_mean_rms_Nm"]
+    for criterion in CRITERIA:
+        per_seed = [np.mean([fixture_rms(criterion, seed, joint) for joint in JOINTS]) for seed in SEEDS]
+        assert summary.loc[criterion, "mean_rms"] == pytest.approx(np.mean(per_seed))
+        assert summary.loc[criterion, "mean_rms_std"] == pytest.approx(np.std(per_seed, ddof=1))
+        assert summary.loc[criterion, "seeds"] == len(SEEDS)
+        assert summary.loc[criterion, "paper_mean_rms"] == paper[criterion]
+
+    fig5 = report.parts["fig5"].tables["fig5_duration"].set_index(["criterion", "duration_s"])
+    assert fig5.loc[("cond", 10.0), "mean"] == pytest.approx(np.mean([70 / 10 + seed for seed in SEEDS]))
+
+    table4 = report.parts["table4"].tables["table4_force"].set_index("comparison")
+    assert table4.loc["estimated_vs_measured", "rms"] == pytest.approx(np.mean([2.5 + seed for seed in SEEDS]))
+    assert table4.loc["estimated_vs_measured", "paper_rms"] == 2.9
+
+    table3 = report.parts["table3"].tables["table3_tools"].set_index("parameter")
+    assert table3.loc["M", "paper_phi"] == pytest.approx(0.237)
+
+    for name in ("report.md", "fig5_duration.png", "fig6_criteria.png", "fig6_summary.csv", "table4_force.csv", "runs.csv"):
+        assert (tmp_path / name).is_file(), name
+    assert (tmp_path / "fig6_criteria.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    markdown = (tmp_path / "report.md").read_text()
+    assert "## Fig. 6" in markdown and "table2 skipped" in markdown
+
+
+def test_report_filters_runs_by_param(store: str, tmp_path: Path) -> None:
+    report = build_report(store, tmp_path, ["report_fixture"], selection_filter(params={"fixture_criterion": "cond"}), kinds=["fig6"])
+    assert list(report.parts["fig6"].tables["fig6_summary"].index) == ["cond"]
+    assert len(report.runs) == len(SEEDS)
+
+
+def test_report_command_logs_the_report_as_a_run(store: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--tracking-uri", store, "--experiment", "report_fixture", "--tag", "seed=1", "--output", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert "## Fig. 6" in printed and "report logged as run" in printed
+    client = MlflowClient(tracking_uri=store)
+    experiment = client.get_experiment_by_name(REPORT_EXPERIMENT)
+    assert experiment is not None
+    (run,) = client.search_runs([experiment.experiment_id], filter_string="tags.source_experiments = 'report_fixture'")
+    assert run.info.status == "FINISHED" and run.data.tags["source_runs"] == str(len(CRITERIA))
+    assert {"report.md", "fig6_criteria.png", "fig5_duration.png"} <= {item.path for item in client.list_artifacts(run.info.run_id)}
+
+
+def test_report_names_unknown_experiments_and_kinds(store: str, tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="report_fixture"):  # the message lists the experiments there are
+        build_report(store, tmp_path, ["no_such_experiment"], selection_filter())
+    with pytest.raises(ValueError, match="table2"):
+        build_report(store, tmp_path, ["report_fixture"], selection_filter(), kinds=["table9"])
