@@ -75,16 +75,18 @@ def simulate_contact(
     setup: ControlSetup,
     reference: np.ndarray,
     painting: np.ndarray,
+    start: np.ndarray | None = None,
     progress: Iterable[int] | None = None,
 ) -> ContactRun:
     """Run the loop over the reference tool poses (N, 4, 4), one per control period.
 
-    The robot starts at rest at the joint solution of the first pose, held by gravity
-    compensation; ``painting`` (N,) marks the samples that belong to the painting path.
+    The robot starts at rest at the joint solution of ``start`` (a tool pose, 4×4; default the
+    first reference pose), held by gravity compensation; ``painting`` (N,) marks the samples that
+    belong to the painting path.
     """
     n = reference.shape[0]
     n_joints = setup.robot.n_joints
-    q0 = setup.joint_reference(reference[0])
+    q0 = setup.joint_reference(reference[0] if start is None else start)
     controller.reset(setup, q0)
     # the controller's model holds the arm at rest at the start
     sensors = plant.reset(q0, JointPDGravity(setup.robot, 0.0, 0.0, setup.period).gravity(q0))

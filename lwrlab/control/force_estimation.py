@@ -116,5 +116,7 @@ class ExternalForceEstimator:
         ddq = self.acceleration(dq)
         tau_dyn = pin.rnea(self.model, self.data, q, dq, ddq)
         external = tau - tau_dyn - self.friction_torque(dq)
-        wrench = np.linalg.pinv(self.jacobian(q).T) @ external  # eq. (14)
+        jacobian = self.jacobian(q)
+        # eq. (14): (Jᵀ)⁺ = (J·Jᵀ)⁻¹·J for a full-rank 6 × N_J Jacobian (away from singularities)
+        wrench = np.linalg.solve(jacobian @ jacobian.T, jacobian @ external)
         return StateEstimate(q=q, dq=dq, ddq=ddq, external_torque=external, wrench=self.wrench_filter(wrench))

@@ -150,7 +150,7 @@ class SwivelIK:
         if bad.size:
             raise UnreachablePose(f"pose #{bad[0]}: shoulder–wrist axis parallel to the swivel reference {self.reference}; φ is undefined")
         u /= norm_u[:, None]
-        v = np.cross(n, u)
+        v = np.stack([n[:, 1] * u[:, 2] - n[:, 2] * u[:, 1], n[:, 2] * u[:, 0] - n[:, 0] * u[:, 2], n[:, 0] * u[:, 1] - n[:, 1] * u[:, 0]], axis=1)  # n̂ × û
         cos_alpha = (self.upper_arm**2 + distance**2 - self.forearm**2) / (2 * self.upper_arm * distance)
         centre = shoulder + (cos_alpha * self.upper_arm)[:, None] * n
         radius = np.sqrt(1.0 - cos_alpha**2) * self.upper_arm
