@@ -180,11 +180,16 @@ class SlsqpOptimizer:
                 return problem.objective(x)
 
             label = f"{problem.criterion.name} {problem.parameterisation.duration:g} s, start {start + 1}/{self.n_starts}"
+            best_iterate: dict[str, object] = {}
             with tqdm(total=self.max_iterations, desc=label, unit="it", disable=not self.show_progress, leave=False) as bar:
 
                 def callback(x: np.ndarray) -> None:
+                    # Keep the best feasible iterate: a start stopped by the iteration limit still counts.
+                    cost = problem.objective(x)
+                    if problem.constraint_values(x).min() >= -FEASIBILITY_TOLERANCE and cost < best_iterate.get("cost", np.inf):
+                        best_iterate.update(cost=cost, x=x.copy())
                     bar.update(1)
-                    bar.set_postfix(J=f"{problem.objective(x):.5g}", refresh=False)
+                    bar.set_postfix(J=f"{cost:.5g}", refresh=False)
 
                 result = minimize(
                     objective,
@@ -202,10 +207,16 @@ class SlsqpOptimizer:
             last_x = result.x
             violation = -min(0.0, float(problem.constraint_values(result.x).min()))
             cost = problem.objective(result.x)
-            feasible = violation <= FEASIBILITY_TOLERANCE and np.isfinite(cost)
-            costs.append(cost if feasible else float("inf"))
-            if feasible and (best is None or cost < best[0]):
-                best = (cost, result.x.copy())
+            candidates = [(cost, result.x)] if violation <= FEASIBILITY_TOLERANCE and np.isfinite(cost) else []
+            if best_iterate:
+                candidates.append((best_iterate["cost"], best_iterate["x"]))  # type: ignore[arg-type]
+            if not candidates:
+                costs.append(float("inf"))
+                continue
+            cost, x_best = min(candidates, key=lambda c: c[0])
+            costs.append(float(cost))
+            if best is None or cost < best[0]:
+                best = (float(cost), np.array(x_best, dtype=float))
         seconds = time.perf_counter() - clock
         if best is None:
             assert last_x is not None

@@ -36,13 +36,20 @@ from lwrlab.tracking.excitation_figures import criteria_figure, duration_figure,
 log = logging.getLogger(__name__)
 
 
+def _require_optimal(cfg: Any, criteria: Mapping[str, Criterion] | None = None) -> None:
+    """Fail fast, before any long work, on a configuration these tasks cannot run."""
+    target = str(cfg.trajectory.get("_target_", ""))
+    if not target.endswith("OptimalExcitingMotion"):
+        raise ValueError(f"this task optimises exciting motions: it needs trajectory=optimal, got trajectory._target_={target!r}")
+    if criteria is not None and not criteria:
+        raise ValueError("no criteria to compare: task.criteria is empty (add some with +criterion@task.criteria.<name>=<option>)")
+
+
 def _optimal_source(cfg: Any, **overrides: Any) -> Any:
     """``cfg.trajectory`` instantiated (it must be the ``optimal`` plugin), with keyword overrides."""
     from hydra.utils import instantiate
 
-    target = str(cfg.trajectory.get("_target_", ""))
-    if not target.endswith("OptimalExcitingMotion"):
-        raise ValueError(f"this task optimises exciting motions: it needs trajectory=optimal, got trajectory._target_={target!r}")
+    _require_optimal(cfg)
     return instantiate(cfg.trajectory, **overrides)
 
 
@@ -174,14 +181,16 @@ def run_duration_study(
     """
     from hydra.utils import instantiate
 
+    _require_optimal(cfg, criteria)
     robot: RobotModel = instantiate(cfg.robot)
+    base = compute_base_parameters(robot)
     durations = [float(d) for d in durations]
     rows = []
     jobs = [(name, duration) for name in criteria for duration in durations]
     for name, duration in tqdm(jobs, desc="duration study", unit="optimisation"):
         source = _optimal_source(cfg, duration=duration, criterion=criteria[name], from_file=None)
         try:
-            _, result, _ = source.optimise(robot)
+            _, result, _ = source.optimise(robot, base)
             cost, seconds = result.cost, result.seconds
         except InfeasibleExcitationError as error:
             log.warning("%s, %g s: %s", name, duration, error)
@@ -245,14 +254,16 @@ def run_criteria_comparison(
 
     from lwrlab.pipeline.identification import identify
 
+    _require_optimal(cfg, criteria)
     robot: RobotModel = instantiate(cfg.robot)
+    base = compute_base_parameters(robot)
     processing = OmegaConf.to_container(cfg.measurement.processing, resolve=True)
     motions, optimisation = {}, []
     for name, criterion in tqdm(criteria.items(), desc="optimal motions", unit="criterion"):
         source = _optimal_source(cfg, criterion=criterion, from_file=None)
-        motion, result, _ = source.optimise(robot)
+        motion, result, _ = source.optimise(robot, base)
         motions[name] = motion
-        optimisation.append(_optimisation_row(name, result, regressor_condition(robot, *motion.evaluate(motion.times(100.0)))))
+        optimisation.append(_optimisation_row(name, result, regressor_condition(robot, *motion.evaluate(motion.times(100.0)), base)))
     rows = []
     jobs = [(name, seed) for name in criteria for seed in seeds]
     for name, seed in tqdm(jobs, desc="identify and cross-validate", unit="run"):
@@ -264,6 +275,7 @@ def run_criteria_comparison(
             estimator=instantiate(cfg.estimator),
             rate_hz=cfg.measurement.rate_hz,
             processing=processing,
+            statistics=OmegaConf.to_container(cfg.statistics, resolve=True) if "statistics" in cfg else None,
         )
         for joint, values in report.validation.iterrows():
             rows.append({"criterion": name, "seed": seed, "joint": int(joint), "rms": float(values["rms"]), "nrms": float(values["nrms"])})

@@ -17,6 +17,7 @@ import logging
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from lwrlab.dynamics.base_parameters import BaseParameters
 from lwrlab.excitation.constraints import ConstraintSettings
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.excitation.problem import ExcitationProblem
@@ -70,8 +71,8 @@ class OptimalExcitingMotion:
         self.motion: LinearParameterisation | None = None
         """The last motion handed out (parameterisation with its coefficients)."""
 
-    def problem(self, robot: RobotModel) -> ExcitationProblem:
-        """The excitation problem for ``robot`` with these settings."""
+    def problem(self, robot: RobotModel, base: BaseParameters | None = None) -> ExcitationProblem:
+        """The excitation problem for ``robot`` with these settings (``base`` computed if None)."""
         return ExcitationProblem(
             robot,
             self.parameterisation(duration=self.duration),
@@ -79,12 +80,16 @@ class OptimalExcitingMotion:
             self.constraints,
             rate_hz=self.rate_hz,
             window_s=self.window_s,
+            base=base,
             coulomb_smoothing=self.coulomb_smoothing,
         )
 
-    def optimise(self, robot: RobotModel) -> tuple[LinearParameterisation, ExcitationResult, ExcitationProblem]:
-        """Solve the excitation problem; the motion (with coefficients), the result and the problem."""
-        problem = self.problem(robot)
+    def optimise(self, robot: RobotModel, base: BaseParameters | None = None) -> tuple[LinearParameterisation, ExcitationResult, ExcitationProblem]:
+        """Solve the excitation problem; the motion (with coefficients), the result and the problem.
+
+        ``base``: the robot's base parameters, when a caller optimising many motions has them.
+        """
+        problem = self.problem(robot, base)
         result = self.optimizer.solve(problem)
         self.result = result
         return problem.parameterisation.with_coefficients(result.coefficients), result, problem
