@@ -63,19 +63,22 @@ def duration_figure(costs: pd.DataFrame, knees: dict[str, float], recommended: f
 def criteria_figure(summary: pd.DataFrame, path: Path) -> Path:
     """Grouped bars of mean RMS and NRMS per joint for each criterion, ± one standard deviation (like Fig. 6).
 
-    ``summary``: columns criterion, joint, rms_mean, rms_std, nrms_mean, nrms_std.
+    ``summary``: columns criterion, joint, rms_mean, rms_std, nrms_mean, nrms_std, and optionally
+    model_rms_mean, model_rms_std (a third panel).
     """
     criteria = list(dict.fromkeys(summary["criterion"]))
     joints = np.sort(summary["joint"].unique())
     width = 0.8 / len(criteria)
-    fig, axes = plt.subplots(1, 2, figsize=(12, 3.8))
-    for ax, metric, unit in zip(axes, ("rms", "nrms"), ("N·m", "%"), strict=True):
+    panels = [(m, u) for m, u in (("rms", "N·m"), ("nrms", "%"), ("model_rms", "N·m")) if f"{m}_mean" in summary]
+    fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 3.8))
+    for ax, (metric, unit) in zip(np.atleast_1d(axes), panels, strict=True):
         for i, criterion in enumerate(criteria):
             rows = summary[summary["criterion"] == criterion].set_index("joint").loc[joints]
             ax.bar(joints + (i - (len(criteria) - 1) / 2) * width, rows[f"{metric}_mean"], width, yerr=rows[f"{metric}_std"], capsize=2, label=criterion, color=f"C{i}")
-        ax.set(xlabel="joint", ylabel=f"{metric.upper()} [{unit}]", xticks=joints)
+        label = {"rms": "RMS measured − estimated", "nrms": "NRMS", "model_rms": "RMS true − estimated"}[metric]
+        ax.set(xlabel="joint", ylabel=f"{label} [{unit}]", xticks=joints)
         ax.grid(axis="y", alpha=0.3)
-    axes[0].legend(fontsize=8)
+    np.atleast_1d(axes)[0].legend(fontsize=8)
     fig.suptitle("Cross-validation torque error per joint (mean ± std over seeds)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)

@@ -107,18 +107,22 @@ def fig5_duration(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
     _require(frame, "fig5_duration.csv", ["criterion", "duration_s", "cost"])
     stats = frame.groupby(["criterion", "duration_s"])["cost"].agg(["mean", "std", "count"]).reset_index()
     pivot = frame.groupby(["duration_s", "criterion"])["cost"].apply(_mean_std).unstack("criterion")
-    fig, ax = plt.subplots(figsize=(6, 3.6))
-    for criterion, rows in stats.groupby("criterion"):
-        ax.errorbar(rows["duration_s"], rows["mean"], yerr=rows["std"].fillna(0.0), marker="o", capsize=3, label=str(criterion))
-    positive = stats["mean"] > 0
-    if positive.all() and stats["mean"].max() / stats["mean"].min() > 100:
-        ax.set_yscale("log")
+    # One panel per criterion: their values differ in sign and scale (cond > 1, log-det < 0).
+    criteria = list(stats["criterion"].unique())
+    fig, axes = plt.subplots(1, len(criteria), figsize=(3.4 * len(criteria), 3.2), sharex=True, squeeze=False)
     chosen = paper.get("setup", {}).get("duration_study", {}).get("chosen_s")
-    if chosen is not None:
-        ax.axvline(chosen, color="0.5", ls="--", lw=1, label=f"paper's choice ({chosen} s)")
-    ax.set(xlabel="motion duration T_F [s]", ylabel="criterion value", title="Fig. 5 — criterion vs duration")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    for ax, criterion in zip(axes[0], criteria, strict=True):
+        rows = stats[stats["criterion"] == criterion]
+        ax.errorbar(rows["duration_s"], rows["mean"], yerr=rows["std"].fillna(0.0), marker="o", capsize=3, color="C0")
+        if (rows["mean"] > 0).all() and rows["mean"].max() / rows["mean"].min() > 100:
+            ax.set_yscale("log")
+        if chosen is not None:
+            ax.axvline(chosen, color="0.5", ls="--", lw=1, label=f"paper's choice ({chosen} s)")
+        ax.set(xlabel="motion duration T_F [s]", title=str(criterion))
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("criterion value")
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle("Fig. 5 — criterion of the optimal motion vs its duration")
     fig.tight_layout()
     figure = output_dir / "fig5_duration.png"
     fig.savefig(figure, dpi=130)
