@@ -46,7 +46,8 @@ def test_criteria_comparison_writes_fig6_table(tmp_path: Path) -> None:
     )
     metrics = run_criteria_comparison(cfg, tmp_path, criteria={"logdet": instantiate(cfg.criterion)}, seeds=[0, 1])
     table = pd.read_csv(tmp_path / "fig6_criteria.csv")
-    assert list(table.columns) == ["criterion", "seed", "joint", "rms", "nrms"]
+    assert list(table.columns) == ["criterion", "seed", "joint", "rms", "nrms", "model_rms"]
+    assert np.all(table["model_rms"] < table["rms"])  # the simulated sensor noise is left out
     assert len(table) == 2 * 7 and set(table["seed"]) == {0, 1}
     assert np.all(table["rms"] > 0) and metrics["rms_mean_logdet"] == pytest.approx(table["rms"].mean())
     assert "±" in (tmp_path / "fig6_criteria.md").read_text()

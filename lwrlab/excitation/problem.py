@@ -136,7 +136,7 @@ class ExcitationProblem:
 
     def bounds(self) -> list[tuple[float | None, float | None]] | None:
         """Box bounds of the variables if the parameterisation's coefficients are positions (B-spline)."""
-        if not getattr(self.parameterisation, "coefficients_are_positions", False):
+        if not self.parameterisation.coefficients_are_positions:
             return None
         low, high = self.constraint_set.position_bounds
         return [(float(low[j]), float(high[j])) for _ in range(self.coefficient_shape[0]) for j in range(self.robot.n_joints)]

@@ -36,6 +36,8 @@ class LinearParameterisation:
 
     kind: str = "linear"
     """Name written to saved motions (the plugin's)."""
+    coefficients_are_positions: bool = False
+    """Whether the coefficients are joint positions (rad), so that the position limits bound them."""
 
     def __init__(self, duration: float, coefficients: Any = None) -> None:
         if not duration > 0:
