@@ -15,7 +15,7 @@ from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.excitation.solver import InfeasibleExcitationError, SlsqpOptimizer, verify_motion
 from lwrlab.io.exciting_motion import load_motion_description
 from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.excitation import knee_duration, regressor_condition
+from lwrlab.pipeline.excitation import knee_duration, recommended_duration, regressor_condition
 from plugins.criteria.cond import ConditionNumber
 from plugins.criteria.logdet import LogDet
 from plugins.trajectories.bspline import BSplineMotion
@@ -189,3 +189,9 @@ def test_knee_rule_finds_where_the_improvements_stop() -> None:
     assert knee == 5.0  # every step after T = 5 s is below 5 % of the total decrease (8)
     assert np.nanmin(relative_cost) == 0.0 and np.nanmax(relative_cost) == 1.0
     assert not relative_step[1] < 0.05  # the step from an infeasible duration (inf cost) counts as significant
+
+
+def test_recommended_duration_is_the_median_knee_in_whole_seconds() -> None:
+    assert recommended_duration({"cond": 5.0, "logdet": 9.0, "hadamard": 14.0}) == 9.0
+    assert recommended_duration({"cond": 5.0, "logdet": 8.0, "bad": float("nan")}) == 7.0
+    assert np.isnan(recommended_duration({"cond": float("nan")}))
