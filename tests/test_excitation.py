@@ -23,7 +23,7 @@ from plugins.trajectories.fourier import FourierMotion
 from plugins.trajectories.multisine import MultisineMotion
 from plugins.trajectories.optimal import OptimalExcitingMotion
 
-SHIPPED = Path(__file__).resolve().parents[1] / "data" / "exciting_motions" / "kuka_lwr4_logdet_10s.yaml"
+SHIPPED = Path(__file__).resolve().parents[1] / "lwrlab" / "data" / "exciting_motions" / "kuka_lwr4_logdet_10s.yaml"
 
 
 def directional_check(f, jacobian: np.ndarray, x: np.ndarray, n_directions: int = 4, h: float = 1e-6) -> float:

@@ -15,7 +15,7 @@ from typing import Any
 import yaml
 
 REPOSITORY = Path(__file__).resolve().parents[2]
-"""The repository root: relative motion paths are looked up there too (e.g. the shipped ``data/``)."""
+"""The repository root: relative motion paths are looked up there too (e.g. the shipped ``lwrlab/data/``)."""
 
 
 def resolve_motion_path(path: str | Path) -> Path:
