@@ -244,6 +244,7 @@ def run_painting(
             duration_bounds=tuple(path.get("duration_bounds", (10.0, 120.0))),
             min_stroke=float(path.get("min_stroke", 0.1)),
             singularity_margin=float(path.get("singularity_margin", 0.1)),
+            stripe_overlap=float(path.get("stripe_overlap", 0.0)),
         )
         started = time.perf_counter()
         solution = optimise_path(problem, starting_swivels=tuple(path.get("starting_swivels", (-1.6, -0.8))), progress=True)

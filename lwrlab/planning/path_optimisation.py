@@ -85,6 +85,9 @@ class PathProblem:
     min_stroke: float = 0.1
     singularity_margin: float = 0.1
     smoothness_weight: float = 1.0
+    stripe_overlap: float = 0.0
+    """Least overlap of two neighbouring stripes (m): ΔY ≤ w_L − overlap. The paper's ΔY ≤ w_L
+    leaves no gap on the planned path; the overlap absorbs the lateral tracking error in contact."""
     rotation: np.ndarray = field(default_factory=lambda: TOOL_ORIENTATION.copy())
     _memo: tuple | None = field(default=None, init=False, repr=False)
 
@@ -124,7 +127,7 @@ class PathProblem:
             "Z_u − Z_l ≥ min stroke": p.z_upper - p.z_lower - self.min_stroke,
             "Y_0 − w_L/2 ≥ Y⁻": p.y_start - half - self.wall.y_min,
             "Y_0 + N_r·ΔY + w_L/2 ≤ Y⁺": self.wall.y_max - (p.y_end + half),
-            "ΔY ≤ w_L": self.roller_width - p.y_step,
+            "ΔY ≤ w_L − overlap": self.roller_width - self.stripe_overlap - p.y_step,
             "ΔY > 0": p.y_step - 1e-3,
         }
 
@@ -237,9 +240,9 @@ def optimise_path(
 
     wall = problem.wall
     lower = np.array([problem.duration_bounds[0], -np.pi, wall.z_min, wall.z_min, wall.y_min, 1e-3])
-    upper = np.array([problem.duration_bounds[1], np.pi, wall.z_max, wall.z_max, wall.y_max, problem.roller_width])
+    upper = np.array([problem.duration_bounds[1], np.pi, wall.z_max, wall.z_max, wall.y_max, problem.roller_width - problem.stripe_overlap])
     z_mid = (wall.z_min + wall.z_max) / 2
-    y_step = min(problem.roller_width, (wall.y_max - wall.y_min - problem.roller_width) / max(problem.n_steps, 1)) * 0.5
+    y_step = min(problem.roller_width - problem.stripe_overlap, (wall.y_max - wall.y_min - problem.roller_width) / max(problem.n_steps, 1)) * 0.5
     y_start = (wall.y_min + wall.y_max) / 2 - problem.n_steps * y_step / 2
     tries = [(branch, swivel) for branch in (branches or [problem.branch]) for swivel in starting_swivels]
     best: tuple[float, float, PathProblem, np.ndarray] | None = None  # (violation, cost, problem, x)
