@@ -44,15 +44,22 @@ def only_run(tmp_path: Path, experiment: str):
 
 
 @pytest.mark.slow
-def test_main_job_reaches_the_noise_floor_and_leaves_one_finished_run(tmp_path: Path) -> None:
+def test_main_job_runs_the_whole_chain_and_leaves_one_finished_run(tmp_path: Path) -> None:
+    """The default job: identification at the noise floor, then painting with a sensorless force estimate."""
     completed = run_lwrlab(tmp_path)
     assert completed.returncode == 0, completed.stderr[-3000:]
-    assert "Cross-validation torque error" in completed.stdout
-    run = only_run(tmp_path, "identification")
+    assert "Cross-validation torque error" in completed.stdout and "Table IV" in completed.stdout
+    run = only_run(tmp_path, "paper_chain")
     assert run.info.status == "FINISHED"
-    rms = np.array([run.data.metrics[f"rms_joint{j}"] for j in range(1, 8)])
+    metrics = run.data.metrics
+    rms = np.array([metrics[f"rms_joint{j}"] for j in range(1, 8)])
     np.testing.assert_allclose(rms, 0.1, rtol=0.10)  # σ_τ = 0.1 N·m: the raw measurement's noise floor
-    for name in ("summary.md", "base_parameters.csv", "identified_model.yaml", "torque_overlay.png", "exciting_motion.csv"):
+    identified = metrics["rms_large_roller_identified_estimate_estimated_vs_measured"]
+    cad = metrics["rms_large_roller_cad_estimate_estimated_vs_measured"]
+    assert identified <= 1.0 and identified < cad  # N: the identified model estimates the force better
+    assert metrics["coverage_large_roller_identified_estimate"] > 0.98
+    for name in ("summary.md", "base_parameters.csv", "identified_model.yaml", "torque_overlay.png", "exciting_motion.csv",
+                 "painting/table4_force.csv", "painting/fig12_large_roller.png", "painting/fig13_large_roller.png"):
         assert (tmp_path / "run" / name).is_file(), name
 
 
@@ -75,6 +82,6 @@ def test_unknown_robot_lists_the_available_ones(tmp_path: Path) -> None:
 def test_a_run_that_raises_is_failed_in_mlflow_with_its_error(tmp_path: Path) -> None:
     completed = run_lwrlab(tmp_path, "robot=mdh_file", f"robot.path={tmp_path / 'missing.yaml'}")
     assert completed.returncode != 0
-    run = only_run(tmp_path, "identification")
+    run = only_run(tmp_path, "paper_chain")
     assert run.info.status == "FAILED"
     assert "missing.yaml" in json.dumps(run.data.tags)

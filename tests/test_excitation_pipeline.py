@@ -73,7 +73,10 @@ def test_excitation_task_writes_a_motion_the_identification_plays(tmp_path: Path
     assert metrics["violated_families"] == 0.0
     motion_csv = pd.read_csv(folder / "exciting_motion.csv")
     assert len(motion_csv) == 2001  # 1 kHz
-    identified = run_lwrlab(tmp_path / "identify", f"trajectory.from_file={folder / 'exciting_motion.yaml'}", "trajectory.duration=2.0", *SMALL)
+    identified = run_lwrlab(
+        tmp_path / "identify", "task=identification", "experiment_name=identification",
+        f"trajectory.from_file={folder / 'exciting_motion.yaml'}", "trajectory.duration=2.0", *SMALL,
+    )
     assert identified.returncode == 0, identified.stderr[-3000:]
     assert "optimising instead" not in identified.stderr
     assert only_run(tmp_path / "identify", "identification").info.status == "FINISHED"

@@ -15,7 +15,7 @@ from lwrlab.tracking.mlflow_callback import ERROR_FILE, RESUMED_FILE
 from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, run_app, runs_of
 
 # A 2 s multisine motion instead of the (optimised) default one: seconds per job.
-SHORT_JOB = ["trajectory=multisine", "trajectory.duration=2", "validation.duration=2", "plant.show_progress=false"]
+SHORT_JOB = ["task=identification", "trajectory=multisine", "trajectory.duration=2", "validation.duration=2", "plant.show_progress=false"]
 
 
 @pytest.mark.slow

@@ -250,13 +250,13 @@ def write_report(report: IdentificationReport, output_dir: Path, robot_config: d
     return files
 
 
-def run_identification(cfg: Any, output_dir: Path) -> dict[str, float]:
-    """Task ``identification``: build the configured objects, identify, write and print the report."""
+def identify_configured(cfg: Any) -> IdentificationReport:
+    """:func:`identify` with the objects ``cfg`` configures (robot, motions, plant, estimator, processing)."""
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
     robot = instantiate(cfg.robot)
-    report = identify(
+    return identify(
         robot=robot,
         motion_source=instantiate(cfg.trajectory),
         validation_source=instantiate(cfg.validation),
@@ -266,6 +266,13 @@ def run_identification(cfg: Any, output_dir: Path) -> dict[str, float]:
         processing=OmegaConf.to_container(cfg.measurement.processing, resolve=True),
         statistics=OmegaConf.to_container(cfg.statistics, resolve=True) if "statistics" in cfg else None,
     )
+
+
+def run_identification(cfg: Any, output_dir: Path) -> dict[str, float]:
+    """Task ``identification``: build the configured objects, identify, write and print the report."""
+    from omegaconf import OmegaConf
+
+    report = identify_configured(cfg)
     write_report(report, output_dir, OmegaConf.to_container(cfg.robot, resolve=True))
     print(format_report(report))
     return report.metrics

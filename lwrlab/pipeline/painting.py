@@ -174,8 +174,13 @@ def run_painting(
     estimator: Mapping[str, Any] | None = None,
     tool_motion: Any = None,
     comparison_controller: Any = None,
+    identification: Any = None,
 ) -> dict[str, float]:
     """Task ``painting``: Table IV, Fig. 12 and Fig. 13 for each roller (keyword arguments: conf/task/painting.yaml).
+
+    ``identification``: the :class:`~lwrlab.pipeline.identification.IdentificationReport` of this
+    config's robot and plant when an earlier stage made it (the plant is drawn again from the same
+    seed, so its truth is the same); None identifies the robot here.
 
     Writes ``table4_force.csv`` with columns ``roller, model, feedback, comparison, rms, nrms``
     (model: ``identified`` | ``cad`` | ``position`` (the comparison position controller, identified
@@ -193,7 +198,7 @@ def run_painting(
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
-    from lwrlab.pipeline.identification import identify
+    from lwrlab.pipeline.identification import identify_configured
     from lwrlab.pipeline.tools import ToolBench, identify_tool
     from lwrlab.tools.library import load_library
     from lwrlab.tracking.painting_figures import normal_force, path_on_wall
@@ -209,11 +214,11 @@ def run_painting(
     processing = OmegaConf.to_container(cfg.measurement.processing, resolve=True)
 
     # 1. identification of the robot, then of each roller and its recognition
-    robot = instantiate(cfg.robot)
-    plant = instantiate(cfg.plant, tool=None, show_progress=False)(robot=robot)
     started = time.perf_counter()
-    report = identify(robot, instantiate(cfg.trajectory), instantiate(cfg.validation), plant, instantiate(cfg.estimator), rate, processing)
+    report = identification if identification is not None else identify_configured(cfg)
     identification_s = time.perf_counter() - started
+    robot = report.robot
+    plant = instantiate(cfg.plant, tool=None, show_progress=False)(robot=robot)
     identified_robot = robot.with_parameters(report.identified.standard_values)
     truth = plant.truth.robot
     log.info("identified %s: cross-validation mean RMS %.3f N·m", robot.name, report.metrics["rms_mean"])
