@@ -1,5 +1,5 @@
 # Two entry points, each creating the virtual environment .venv on first use:
-#   make run   [ARGS="robot=panda plant.mode=closed_loop"]   the identification pipeline (Hydra overrides in ARGS)
+#   make run   [ARGS="task=identification robot=panda"]      the main job: the paper's whole chain (Hydra overrides in ARGS)
 #   make test  [ARGS="-m slow"]                              the test suite (pytest arguments in ARGS)
 PYTHON ?= python3
 VENV := .venv
