@@ -33,8 +33,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
+from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.tools.model import GEOMETRY_NAMES, Tool
 
 LIBRARY_DIR = Path(__file__).resolve().parents[2] / "conf" / "tool"
@@ -78,10 +78,7 @@ def load_tool(name: str, directory: str | Path | None = None) -> Tool:
     path = folder / f"{name}.yaml"
     if not path.is_file():
         raise KeyError(f"no tool named {name!r} in {folder}; available: {tool_names(folder)}")
-    with path.open() as stream:
-        description = yaml.safe_load(stream)
-    if not isinstance(description, dict):
-        raise ValueError(f"{path}: expected a mapping of tool keys, got {type(description).__name__}")
+    description = read_yaml_mapping(path, "tool")
     description.setdefault("name", name)
     return build_tool(description, source=str(path))
 

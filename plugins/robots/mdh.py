@@ -40,8 +40,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
+from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.model.collision import build_collision_spheres
 from lwrlab.model.dh import ModifiedDH, build_dh_model
 from lwrlab.model.inertia import standard_parameters, to_pin_inertia
@@ -135,10 +135,7 @@ def load_robot_yaml(path: str | Path, **overrides: Any) -> RobotModel:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"robot description {path} does not exist")
-    with path.open() as stream:
-        description = yaml.safe_load(stream)
-    if not isinstance(description, dict):
-        raise ValueError(f"{path}: expected a mapping of robot keys, got {type(description).__name__}")
+    description = read_yaml_mapping(path, "robot")
     description.pop("_target_", None)
     description.update(overrides)
     description.setdefault("name", path.stem)
