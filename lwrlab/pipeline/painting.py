@@ -214,9 +214,12 @@ def run_painting(
     processing = OmegaConf.to_container(cfg.measurement.processing, resolve=True)
 
     # 1. identification of the robot, then of each roller and its recognition
-    started = time.perf_counter()
-    report = identification if identification is not None else identify_configured(cfg)
-    identification_s = time.perf_counter() - started
+    timing: dict[str, float] = {}  # identification_s: only when this stage identifies (else the caller's)
+    if identification is None:
+        started = time.perf_counter()
+        identification = identify_configured(cfg)
+        timing["identification_s"] = time.perf_counter() - started
+    report = identification
     robot = report.robot
     plant = instantiate(cfg.plant, tool=None, show_progress=False)(robot=robot)
     identified_robot = robot.with_parameters(report.identified.standard_values)
@@ -260,7 +263,7 @@ def run_painting(
     cases = [(model, feedback) for model in models for feedback in (feedbacks if "feedback" in cfg.controller else ["none"])]
     desired = float(np.asarray(OmegaConf.to_container(cfg.controller, resolve=True).get("desired_force", [-30.0, 0, 0]))[0])
     cutoff = float(estimator_settings.get("wrench_cutoff_hz", 20.0))
-    rows, run_rows, metrics = [], [], {"identification_s": identification_s, "identification_rms_mean": report.metrics["rms_mean"]}
+    rows, run_rows, metrics = [], [], {**timing, "identification_rms_mean": report.metrics["rms_mean"]}
     for name, plan in plans.items():
         models_for = {
             "identified": attach_payload(identified_robot, plan.identified_parameters),
