@@ -32,7 +32,8 @@ from lwrlab.dynamics.base_parameters import compute_base_parameters, random_stat
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.dynamics.regressor_derivatives import regressor_jacobians, regressor_jacobians_pinocchio, regressor_vjp
 from lwrlab.excitation.problem import ExcitationProblem
-from lwrlab.excitation.solver import SlsqpOptimizer, threadpool_limits
+from lwrlab.excitation.solver import SlsqpOptimizer
+from lwrlab.numerics.threads import blas_threads
 from plugins.criteria.logdet import LogDet
 from plugins.robots.mdh import load_robot_yaml
 from plugins.trajectories.bspline import BSplineMotion
@@ -68,13 +69,17 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=10.0, help="motion duration T_F (s)")
     parser.add_argument("--max-iterations", type=int, default=200)
     args = parser.parse_args()
+    with blas_threads(1):  # as the optimiser runs
+        run(args)
 
+
+def run(args: argparse.Namespace) -> None:
+    """The three measurements of the module docstring."""
     robot = load_robot_yaml(REPO / "conf" / "robot" / "kuka_lwr4.yaml")
     base = compute_base_parameters(robot)
     problem = ExcitationProblem(robot, BSplineMotion(duration=args.duration), LogDet(), base=base)
     rng = np.random.default_rng(0)
     x = problem.parameterisation.initial_coefficients(robot, rng, 0.3).ravel()
-    limits = threadpool_limits(1, user_api="blas") if threadpool_limits else None  # as the optimiser runs
 
     print(f"robot {robot.name}: {base.count} base parameters, {problem.n_variables} variables, "
           f"{len(problem.times)} samples at {problem.rate_hz:g} Hz, {len(problem.constraint_labels())} aggregated constraints")
@@ -120,7 +125,6 @@ def main() -> None:
     print(f"| median wall time [s] | {statistics.median(seconds):.1f} (min {min(seconds):.1f}, max {max(seconds):.1f}, {len(seconds)} seeds) |")
     print(f"| median iterations | {statistics.median([r.iterations for r in rows]):.0f} |")
     print(f"| criterion J (best, worst) | {min(r.cost for r in rows):.2f}, {max(r.cost for r in rows):.2f} |")
-    del limits
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Per-job MLflow tracking overhead, measured two ways in one run, against tracking off.
 
-1. Hooks: one real ``lwrlab`` identification job (shortened motions) runs untracked; then the
+1. Hooks: one real ``lwrlab task=identification`` job (shortened motions) runs untracked; then the
    tracking callback's ``on_job_start`` + ``on_job_end`` are timed on copies of its output folder,
    ``--repeats`` times, into a real SQLite store: params, tags, metrics in batches, the folder as
    artifacts (secrets scan included) and the run status. This is what tracking adds to a job, with
@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-SHORT_JOB = ["trajectory=multisine", "trajectory.duration=2", "validation.duration=2", "plant.show_progress=false"]
+SHORT_JOB = ["task=identification", "trajectory=multisine", "trajectory.duration=2", "validation.duration=2", "plant.show_progress=false"]
 GOAL_S = 0.5
 
 

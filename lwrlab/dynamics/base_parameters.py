@@ -29,6 +29,7 @@ import scipy.linalg
 
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.model.robot import RobotModel
+from lwrlab.numerics.threads import dense_algebra
 
 _PREFERRED = ("XX", "XY", "XZ", "YZ", "ZZ", "MSX", "MSY")
 _ELIMINABLE = ("YY", "MSZ", "M")
@@ -89,6 +90,7 @@ def _preference_order(robot: RobotModel) -> np.ndarray:
     return np.array(order)
 
 
+@dense_algebra()
 def compute_base_parameters(
     robot: RobotModel, n_samples: int = 400, seed: int = 0, rank_tolerance: float = 1e-9
 ) -> BaseParameters:

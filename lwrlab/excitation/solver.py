@@ -11,7 +11,6 @@ at the optimum and the worst slack of every family; a problem no start can satis
 from __future__ import annotations
 
 import time
-from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -21,12 +20,8 @@ from tqdm.auto import tqdm
 from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.model.robot import RobotModel
+from lwrlab.numerics.threads import blas_threads
 from lwrlab.trajectory.parameterisation import LinearParameterisation
-
-try:  # installed with scikit-learn (an MLflow dependency); without it BLAS keeps its own threads
-    from threadpoolctl import threadpool_limits
-except ImportError:  # pragma: no cover
-    threadpool_limits = None
 
 FEASIBILITY_TOLERANCE = 1e-4
 """Largest accepted violation of a scaled constraint on the optimisation grid (fraction of the limit,
@@ -123,7 +118,7 @@ class SlsqpOptimizer:
     show_progress : show a progress bar.
     blas_threads : BLAS threads while solving (None: leave as is). The matrices are small (about
         7000×57): one thread is faster than several, and much faster on a loaded machine, where
-        BLAS threads wait for each other.
+        BLAS threads wait for each other (``benchmarks/threads.py``, :mod:`lwrlab.numerics.threads`).
     """
 
     def __init__(
@@ -159,8 +154,7 @@ class SlsqpOptimizer:
 
     def solve(self, problem: ExcitationProblem) -> ExcitationResult:
         """Optimise; raise :class:`InfeasibleExcitationError` if no start ends feasible."""
-        limits = threadpool_limits(self.blas_threads, user_api="blas") if threadpool_limits and self.blas_threads else nullcontext()
-        with limits:
+        with blas_threads(self.blas_threads):
             return self._solve(problem)
 
     def _solve(self, problem: ExcitationProblem) -> ExcitationResult:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lwrlab.identification.core import column_scaled_condition_number, relative_std
+from lwrlab.numerics.threads import dense_algebra
 
 
 @dataclass(frozen=True)
@@ -26,6 +27,7 @@ class LeastSquaresFit:
         return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
 
 
+@dense_algebra()
 def weighted_least_squares(W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None, rcond: float | None = None) -> LeastSquaresFit:  # noqa: N803
     """Eq. (6) of the paper: ``φ = (WᵀPW)⁻¹WᵀPτ`` with ``P = diag(weights)``.
 
@@ -46,6 +48,7 @@ def weighted_least_squares(W: np.ndarray, tau: np.ndarray, weights: np.ndarray |
     return LeastSquaresFit(phi=phi, covariance=s2 * np.linalg.pinv(scaled.T @ scaled), residual=residual)
 
 
+@dense_algebra()
 def fit_with_covariance(W: np.ndarray, tau: np.ndarray, phi: np.ndarray, information: np.ndarray) -> LeastSquaresFit:  # noqa: N803
     """An estimate ``phi`` with the covariance ``σ²·information⁻¹``, σ² = ‖τ − Wφ‖² / (rows − columns).
 
@@ -57,6 +60,7 @@ def fit_with_covariance(W: np.ndarray, tau: np.ndarray, phi: np.ndarray, informa
     return LeastSquaresFit(phi=phi, covariance=sigma2 * np.linalg.pinv(information), residual=residual)
 
 
+@dense_algebra()
 def set_learned_attributes(estimator: object, fit: LeastSquaresFit, W: np.ndarray) -> None:  # noqa: N803
     """Store the protocol's learned attributes (phi_, covariance_, std_, …) of a least-squares fit."""
     estimator.phi_ = fit.phi  # type: ignore[attr-defined]

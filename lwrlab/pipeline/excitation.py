@@ -31,6 +31,7 @@ from lwrlab.excitation.solver import ExcitationResult, InfeasibleExcitationError
 from lwrlab.io.artifacts import save_trajectory_csv
 from lwrlab.io.exciting_motion import save_motion_description
 from lwrlab.model.robot import RobotModel
+from lwrlab.numerics.threads import dense_algebra
 from lwrlab.tracking.excitation_figures import criteria_figure, duration_figure, motion_figure
 
 log = logging.getLogger(__name__)
@@ -53,6 +54,7 @@ def _optimal_source(cfg: Any, **overrides: Any) -> Any:
     return instantiate(cfg.trajectory, **overrides)
 
 
+@dense_algebra()
 def regressor_condition(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, base: BaseParameters | None = None) -> float:
     """cond(W_b) of a motion after scaling the columns to unit norm (as the estimators report it)."""
     from lwrlab.dynamics.regressor import regressor

@@ -16,6 +16,7 @@ import numpy as np
 
 from lwrlab.identification.context import IdentificationContext, resolve_joint_count, row_joints
 from lwrlab.identification.least_squares import set_learned_attributes, weighted_least_squares
+from lwrlab.numerics.threads import dense_algebra
 
 LOSSES = {"huber": 1.345, "bisquare": 4.685}
 """Supported losses and their usual tuning constants (95 % efficiency under Gaussian noise)."""
@@ -61,6 +62,7 @@ class IterativelyReweightedLeastSquares:
         self.max_iter = max_iter
         self.tol = tol
 
+    @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
         if self.loss not in LOSSES:
             raise ValueError(f"unknown loss {self.loss!r}; valid: {sorted(LOSSES)}")

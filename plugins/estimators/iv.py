@@ -17,6 +17,7 @@ import numpy as np
 
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
+from lwrlab.numerics.threads import dense_algebra
 
 
 class InstrumentalVariables:
@@ -48,6 +49,7 @@ class InstrumentalVariables:
             raise ValueError(f"instruments have {z.shape[0]} rows, the regressor {rows}")
         return z
 
+    @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
         tau = np.asarray(tau, dtype=float).ravel()
         rows = W.shape[0]

@@ -7,6 +7,7 @@ from typing import Self
 import numpy as np
 
 from lwrlab.identification.core import column_scaled_condition_number, parameter_covariance, relative_std
+from lwrlab.numerics.threads import dense_algebra
 
 
 class OrdinaryLeastSquares:
@@ -23,6 +24,7 @@ class OrdinaryLeastSquares:
     def __init__(self, rcond: float | None = None) -> None:
         self.rcond = rcond
 
+    @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
         tau = np.asarray(tau, dtype=float).ravel()
         if W.shape[0] != tau.shape[0]:

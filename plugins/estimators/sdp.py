@@ -43,6 +43,7 @@ from lwrlab.identification.consistency import consistency_constraints, min_pseud
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
 from lwrlab.model.inertia import from_pseudo_inertia, pseudo_inertia
+from lwrlab.numerics.threads import dense_algebra
 
 log = logging.getLogger(__name__)
 
@@ -183,6 +184,7 @@ class PhysicallyConsistentSDP:
                 standard[index] = np.maximum(standard[index], 0.0)
         return standard
 
+    @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
         context = self._check()
         tau = np.asarray(tau, dtype=float).ravel()

@@ -13,6 +13,7 @@ import numpy as np
 
 from lwrlab.identification.context import IdentificationContext, resolve_joint_count, row_joints
 from lwrlab.identification.least_squares import per_joint_residual_std, set_learned_attributes, weighted_least_squares
+from lwrlab.numerics.threads import dense_algebra
 
 
 class WeightedLeastSquares:
@@ -48,6 +49,7 @@ class WeightedLeastSquares:
         self.min_relative_std = min_relative_std
         self.reweight_steps = reweight_steps
 
+    @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
         tau = np.asarray(tau, dtype=float).ravel()
         n_joints = resolve_joint_count(self.n_joints, self.context, "wls")

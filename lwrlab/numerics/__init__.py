@@ -1,0 +1,1 @@
+"""Numerical plumbing shared by the core: BLAS thread limits (:mod:`lwrlab.numerics.threads`)."""

@@ -1,0 +1,63 @@
+"""BLAS thread limits (lwrlab/numerics/threads.py): applied inside, restored after, honoured by the lab's algebra."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from threadpoolctl import ThreadpoolController, threadpool_limits
+
+from lwrlab.numerics import threads
+from lwrlab.numerics.threads import blas_threads, dense_algebra
+
+
+def blas_thread_counts() -> set[int]:
+    return {library["num_threads"] for library in ThreadpoolController().info() if library["user_api"] == "blas"}
+
+
+@pytest.fixture
+def two_threads():
+    """BLAS at 2 threads around the test, so that a limit to 1 is visible (and restored afterwards)."""
+    with threadpool_limits(2, user_api="blas"):
+        yield
+
+
+def test_dense_algebra_limits_inside_and_restores_after(two_threads: None) -> None:
+    before = blas_thread_counts()
+    with dense_algebra():
+        assert blas_thread_counts() == {threads.DENSE_ALGEBRA_THREADS}
+    assert blas_thread_counts() == before
+
+
+def test_decorator_reads_the_setting_at_each_call(two_threads: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    @dense_algebra()
+    def counts() -> set[int]:
+        return blas_thread_counts()
+
+    assert counts() == {1}
+    monkeypatch.setattr(threads, "DENSE_ALGEBRA_THREADS", 2)
+    assert counts() == {2}
+    monkeypatch.setattr(threads, "DENSE_ALGEBRA_THREADS", None)
+    assert counts() == blas_thread_counts()
+
+
+def test_none_leaves_blas_alone(two_threads: None) -> None:
+    before = blas_thread_counts()
+    with blas_threads(None):
+        assert blas_thread_counts() == before
+
+
+def test_lab_algebra_runs_single_threaded(two_threads: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The least squares run their BLAS calls under the limit, whatever the caller set."""
+    from lwrlab.identification import least_squares
+
+    seen = []
+    original_lstsq = np.linalg.lstsq
+
+    def spy(*args, **kwargs):  # noqa: ANN002, ANN003
+        seen.append(blas_thread_counts())
+        return original_lstsq(*args, **kwargs)
+
+    monkeypatch.setattr(least_squares.np.linalg, "lstsq", spy)
+    rng = np.random.default_rng(0)
+    least_squares.weighted_least_squares(rng.normal(size=(50, 3)), rng.normal(size=50))
+    assert seen == [{1}]
