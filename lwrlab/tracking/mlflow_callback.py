@@ -400,9 +400,10 @@ class MlflowTracking(Callback):
     ``on_job_start``, so that a sweep over ``experiment_name`` or over experiment presets logs each
     job in its own experiment.
 
-    Secrets (URI passwords, secret environment values) are redacted from every param, tag, run name,
-    warning and text artifact. When the store is unreachable the job still runs; its run is kept
-    in ``mlflow_offline_run.json`` for ``lwrlab sync``.
+    Secrets (values of keys such as ``db.auth_token`` or ``client_secret``, URI passwords, secret
+    environment values) are redacted from every param, tag, run name, warning and text artifact; the
+    job's own output folder keeps the config as typed. When the store is unreachable the job still
+    runs; its run is kept in ``mlflow_offline_run.json`` for ``lwrlab sync``.
 
     Examples
     --------
@@ -656,10 +657,10 @@ class MlflowTracking(Callback):
     def _redactor_for(config: DictConfig, job_config: Mapping[str, Any], settings: TrackingSettings) -> Redactor:
         """Secrets of this job: URI passwords anywhere in its config, overrides or store, and the environment."""
         overrides = OmegaConf.select(config, "hydra.overrides", default=None)
-        texts = [settings.tracking_uri, str(settings.artifact_location), *flatten_config(job_config).values()]
+        texts = [settings.tracking_uri, str(settings.artifact_location)]
         if OmegaConf.is_config(overrides):
             texts.append(json.dumps(OmegaConf.to_container(overrides, resolve=False)))
-        return Redactor.from_texts(texts)
+        return Redactor.from_config(flatten_config(job_config), texts)
 
     def _connect(self, settings: TrackingSettings) -> MlflowClient:
         uri = settings.tracking_uri

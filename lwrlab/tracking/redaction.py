@@ -10,6 +10,17 @@ Examples
 'postgresql://user:***@db.example.org/mlflow'
 >>> Redactor.from_texts(["http://me:hunter22@host:5000"], environ={}).redact("run at hunter22")
 'run at ***'
+>>> redact_secret_assignments("+db.auth_token=abc123 seed=1")
+'+db.auth_token=*** seed=1'
+>>> is_secret_key("aws.secret_access_key"), is_secret_key("robot.dof")
+(True, False)
+
+Keys name secrets when their last dotted component contains ``password``, ``passwd``, ``secret``,
+``token``, ``api_key``/``apikey``, ``auth``, ``credential`` or ``private_key`` (any case; ``_``, ``.``
+or ``-`` between the two words of ``api key`` and ``private key``). Their values are redacted wherever
+they are logged: params, tags, the run name, the overrides tag and every uploaded config copy (as
+``key=value`` overrides, ``key: value`` YAML/JSON lines, and as the literal value anywhere else).
+The job's own output folder on the local disk keeps the config as typed.
 """
 
 from __future__ import annotations
@@ -32,10 +43,78 @@ _URI_PASSWORD = re.compile(r"(?P<head>\b[a-zA-Z][a-zA-Z0-9+.\-]*://[^/\s:@'\"]*:
 _QUERY_SECRET = re.compile(r"(?i)(?P<head>\b(?:password|passwd|pwd|token|secret|api_key|access_key)=)(?P<password>[^&\s'\"]+)")
 # Environment variables whose values are secrets (MLFLOW_TRACKING_PASSWORD, AWS_SECRET_ACCESS_KEY, PGPASSWORD…).
 SECRET_ENVIRONMENT_NAME = re.compile(r"(?i)(PASSWORD|PASSWD|SECRET|TOKEN|API_?KEY|ACCESS_KEY|PRIVATE_KEY|CREDENTIAL)")
+# A config key names a secret when its last component contains one of these words (any case).
+SECRET_KEY_WORD = re.compile(r"(?i)(password|passwd|secret|token|api[_.\-]?key|apikey|auth|credential|private[_.\-]?key)")
+# ``api.key`` and ``private.key`` span the last dot: the whole key's tail is checked for them.
+_SECRET_KEY_TAIL = re.compile(r"(?i)(api|private)[_.\-]?key$")
+# ``key=value`` as in Hydra overrides, command lines and query strings (prefixes + ++ ~ allowed).
+_ASSIGNMENT = re.compile(
+    r"(?P<head>(?<![\w.\-])[+~]{0,2}(?P<key>\w[\w.\-]*)=)(?P<value>'[^']*'|\"[^\"]*\"|\$\{[^}\s]*\}|(?:[^\s'\"&,]|,(?![+~]{0,2}\w[\w.\-]*=))+)"
+)
+# ``key: value`` as in YAML and JSON (the key may be quoted; the value runs to the end of the line
+# or of a flow collection item).
+_MAPPING = re.compile(
+    r"(?P<head>(?P<quote>[\"']?)(?P<key>\w[\w.\-]*)(?P=quote)\s*:[ \t]+)(?P<value>'[^'\n]*'|\"[^\"\n]*\"|\$\{[^}\n]*\}|[^\n,}\]#]+)"
+)
+# Values that are no secret: empty, missing, already redacted, or an interpolation naming one.
+_NOT_A_SECRET = re.compile(r"^(?:|null|None|~|\?\?\?|\*\*\*|\$\{[^}]*\}|\{\}|\[\])$")
 # Shorter values (a flag, a digit) would redact ordinary text and protect nothing.
 MIN_SECRET_LENGTH = 4
 # Text artifacts larger than this are not scanned (measurement CSVs carry numbers, not URIs).
 MAX_SCANNED_BYTES = 20_000_000
+
+
+def is_secret_key(key: str) -> bool:
+    """Whether a config key (``db.auth_token``, ``+aws.secret_access_key``, ``API-KEY``) names a secret."""
+    key = key.strip().lstrip("+~").strip("\"'")
+    return bool(SECRET_KEY_WORD.search(key.rsplit(".", 1)[-1]) or _SECRET_KEY_TAIL.search(key))
+
+
+def _unquoted(value: str) -> str:
+    value = value.strip()
+    if len(value) >= 2 and value[0] == value[-1] and value[0] in "'\"":
+        return value[1:-1]
+    return value
+
+
+def _secret_matches(text: str) -> Iterator[re.Match[str]]:
+    for pattern in (_ASSIGNMENT, _MAPPING):
+        for match in pattern.finditer(text):
+            if is_secret_key(match.group("key")) and not _NOT_A_SECRET.match(_unquoted(match.group("value"))):
+                yield match
+
+
+def redact_secret_assignments(text: str) -> str:
+    """Replace the value of every ``secret_key=value`` and ``secret_key: value`` in ``text`` by ``***``."""
+
+    def replace(match: re.Match[str]) -> str:
+        value = match.group("value")
+        if not is_secret_key(match.group("key")) or _NOT_A_SECRET.match(_unquoted(value)):
+            return match.group(0)
+        stripped = value.rstrip()
+        quote = stripped[0] if stripped[:1] in ("'", '"') and len(stripped) >= 2 and stripped[-1] == stripped[0] else ""
+        return match.group("head") + quote + REDACTED + quote + value[len(stripped) :]
+
+    text = _ASSIGNMENT.sub(replace, text)
+    return _MAPPING.sub(replace, text)
+
+
+def secret_values_in(text: str) -> set[str]:
+    """The values that :func:`redact_secret_assignments` removes from ``text`` (sweeps split at commas)."""
+    values: set[str] = set()
+    for match in _secret_matches(text):
+        value = _unquoted(match.group("value"))
+        values.add(value)
+        values |= {part.strip() for part in value.split(",") if part.strip()}
+    return values
+
+
+def redact_secret_params(params: Mapping[str, str]) -> dict[str, str]:
+    """Params with the value of every secret key replaced by ``***`` (short values included)."""
+    return {
+        key: REDACTED if is_secret_key(key) and not _NOT_A_SECRET.match(str(value)) else value
+        for key, value in params.items()
+    }
 
 
 def redact_uri_passwords(text: str) -> str:
@@ -75,16 +154,25 @@ class Redactor:
     secrets: frozenset[str] = frozenset()
 
     @classmethod
+    def from_config(cls, params: Mapping[str, str], texts: Iterable[str] = (), environ: Mapping[str, str] | None = None) -> Redactor:
+        """Secrets of a job: values of its secret keys (flattened config), plus :meth:`from_texts`."""
+        values = [str(value) for key, value in params.items() if is_secret_key(key)]
+        found = cls.from_texts([*texts, *params.values()], environ)
+        pieces = {piece.strip() for value in values for piece in [value, *value.split(",")]}
+        extra = {piece for piece in pieces if len(piece) >= MIN_SECRET_LENGTH and not _NOT_A_SECRET.match(piece)}
+        return cls(found.secrets | frozenset(extra))
+
+    @classmethod
     def from_texts(cls, texts: Iterable[str], environ: Mapping[str, str] | None = None) -> Redactor:
         """Collect the passwords found in ``texts`` (config values, overrides, URIs) and the environment."""
         secrets = set(secret_environment_values(environ))
         for text in texts:
-            secrets |= passwords_in(str(text))
+            secrets |= passwords_in(str(text)) | secret_values_in(str(text))
         return cls(frozenset(value for value in secrets if len(value) >= MIN_SECRET_LENGTH))
 
     def redact(self, text: str) -> str:
-        """``text`` without URI passwords and without any of the known secrets."""
-        text = redact_uri_passwords(text)
+        """``text`` without URI passwords, secret-key values and any of the known secrets."""
+        text = redact_secret_assignments(redact_uri_passwords(text))
         for secret in sorted(self.secrets, key=len, reverse=True):
             text = text.replace(secret, REDACTED)
         return text
@@ -93,11 +181,15 @@ class Redactor:
         """Whether ``data`` holds a known secret or a URI password."""
         if any(secret.encode("utf-8") in data for secret in self.secrets):
             return True
-        return b"://" in data and bool(passwords_in(data.decode("utf-8", errors="replace")))
+        text = data.decode("utf-8", errors="replace")
+        if b"://" in data and passwords_in(text):
+            return True
+        return redact_secret_assignments(text) != text
 
     def redact_mapping(self, values: Mapping[str, str]) -> dict[str, str]:
-        """Redact every value (and key) of a params or tags mapping."""
-        return {self.redact(str(key)): self.redact(str(value)) for key, value in values.items()}
+        """Redact every value (and key) of a params or tags mapping; secret keys lose their whole value."""
+        values = redact_secret_params({str(key): str(value) for key, value in values.items()})
+        return {self.redact(key): self.redact(value) for key, value in values.items()}
 
 
 def _files_needing_redaction(folder: Path, redactor: Redactor) -> Iterator[Path]:
@@ -145,6 +237,10 @@ def redacted_folder(folder: Path, redactor: Redactor, exclude: Iterable[str] = (
 __all__ = [
     "REDACTED",
     "Redactor",
+    "is_secret_key",
+    "redact_secret_assignments",
+    "redact_secret_params",
+    "secret_values_in",
     "passwords_in",
     "redact_uri_passwords",
     "redacted_folder",
