@@ -67,3 +67,27 @@ def test_filters_are_causal_and_pass_constants():
 def test_force_controller_rejects_unknown_feedback():
     with pytest.raises(ValueError, match="estimate"):
         ForcePIControl(kp=1.0, kd=1.0, feedback="camera")
+
+
+def test_filtered_differences_equal_two_cascaded_backward_differences(rng):
+    from lwrlab.control.filters import FilteredDifferences
+
+    x = np.cumsum(rng.normal(size=(300, 7)), axis=0) * 1e-3
+    fused = FilteredDifferences(1e-3, 50.0, 10.0)
+    velocity, acceleration = BackwardDifference(1e-3, 50.0), BackwardDifference(1e-3, 10.0)
+    fused.reset(x[0])
+    velocity.reset(x[0])
+    acceleration.reset(np.zeros(7))
+    for sample in x[1:]:
+        v, a = fused(sample)
+        expected_v = velocity(sample)
+        np.testing.assert_allclose(v, expected_v, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(a, acceleration(expected_v), rtol=1e-10, atol=1e-9)
+
+
+def test_low_pass_over_a_whole_signal_equals_sample_by_sample(rng):
+    signal = rng.normal(size=(500, 3))
+    low = FirstOrderLowPass(20.0, 1e-3)
+    low.reset(np.full(3, 0.5))
+    expected = np.array([low(x) for x in signal])
+    np.testing.assert_allclose(FirstOrderLowPass(20.0, 1e-3).apply(signal, initial=0.5), expected, rtol=1e-12, atol=1e-14)

@@ -77,3 +77,33 @@ def test_branch_is_continuous_along_a_smooth_path(lwr4):
     solution = ik.solve(pose, ik.swivel_angle(q), Branch(1, -1, 1))
     assert np.abs(np.diff(solution.q, axis=0)).max() < 0.05
     np.testing.assert_allclose(solution.q, q, atol=1e-9)
+
+
+def _painting_poses(n, rate=1000.0):
+    """A vertical stroke of the roller's tool centre point on the wall at x = −0.8 m."""
+    from lwrlab.planning.painting_path import PaintingPathParameters, sample_path
+
+    path = sample_path(PaintingPathParameters(4.0, -1.6, 0.5, 0.25, 0.2, 0.1, 1), -0.8, rate)
+    return path.poses()[:n]
+
+
+def test_displaced_path_ik_follows_the_exact_ik_of_the_displaced_poses(lwr4, rng):
+    """A slowly drifting offset (a force loop's integral, with a fast start) along x, then y too."""
+    from lwrlab.kinematics import DisplacedPathIK
+
+    tcp = np.eye(4)
+    tcp[:3, 3] = [0.0, 0.0, 0.35]
+    poses = _painting_poses(3000)
+    ik = SwivelIK(lwr4)
+    path_ik = DisplacedPathIK(ik, poses, tcp, -1.6, Branch(1, -1, -1))
+    offsets = np.zeros((poses.shape[0], 3))
+    offsets[:, 0] = -0.01 * (1 - np.exp(-np.arange(poses.shape[0]) / 150.0)) + np.cumsum(rng.normal(size=poses.shape[0])) * 2e-6
+    offsets[2000:, 1] = 1e-3 * np.sin(np.arange(1000) / 100.0)  # a second axis starts moving
+    q = np.array([path_ik(k, offsets[k]) for k in range(poses.shape[0])])
+    displaced = poses.copy()
+    displaced[:, :3, 3] += offsets
+    exact = ik.solve_branch(displaced @ np.linalg.inv(tcp), -1.6, Branch(1, -1, -1)).q
+    assert np.abs(q - exact).max() < 5e-7  # ≈ 0.5 µm at the tool
+    assert path_ik.solves < 200  # batched: far fewer IK calls than samples
+    with pytest.raises(IndexError, match="outside"):
+        path_ik(poses.shape[0], offsets[-1])

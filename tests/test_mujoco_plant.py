@@ -89,3 +89,35 @@ def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
     measured, estimated = np.mean(forces[-500:], axis=0), np.mean(estimates[-500:], axis=0)
     assert measured[0] < -5.0  # pressing towards −x
     np.testing.assert_allclose(estimated, measured, atol=0.05 * abs(measured[0]))
+
+
+def test_plant_step_equals_plain_mujoco_steps_and_per_sample_noise(pressing_plant):
+    """The plant reuses the reading's position/velocity stages for its first substep and draws noise in
+    blocks: the same states and sensor values as mj_step substeps with noise drawn a sample at a time."""
+    import mujoco
+
+    _, loaded, tool = pressing_plant
+    lwr4_plant = pressing_plant[0]
+    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
+    plant = MujocoContactPlant(lwr4_plant.robot, contact, Wall(), torque_noise_std=0.1, encoder_noise_std=1e-5, force_noise_std=0.2, seed=3)
+    reference = MujocoContactPlant(lwr4_plant.robot, contact, Wall(), seed=3)
+    model, data, rng = reference.model, reference.data, np.random.default_rng(3)
+    q0 = np.array([0.3, 0.8, 0.2, -1.2, 0.4, 1.0, 0.1])
+    hold = loaded.inverse_dynamics(q0[None], np.zeros((1, 7)), np.zeros((1, 7)), with_friction=False)[0]
+    plant.reset(q0, hold)
+    data.qpos[:] = q0
+    mujoco.mj_forward(model, data)
+    rng.normal(size=17)  # the reset's reading
+    friction = plant._friction
+    for k in range(1200):  # more than one noise block
+        tau = hold + 3.0 * np.sin(np.arange(7) + k / 50.0)
+        sensors = plant.step(tau)
+        for _ in range(2):
+            data.qfrc_applied[:] = tau - friction(data.qvel)
+            mujoco.mj_step(model, data)
+        data.qfrc_applied[:] = tau - friction(data.qvel)
+        mujoco.mj_forward(model, data)
+        noise = rng.normal(size=17)
+        np.testing.assert_array_equal(sensors.q_true, data.qpos)
+        np.testing.assert_array_equal(sensors.q, data.qpos + 1e-5 * noise[:7])
+        np.testing.assert_array_equal(sensors.tau, tau - plant.armature * data.qacc + 0.1 * noise[7:14])

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -17,9 +17,8 @@ from lwrlab.control.force_estimation import ExternalForceEstimator, StateEstimat
 from lwrlab.control.joint_pd import ControlSetup, JointPDGravity
 
 
-@dataclass(frozen=True)
-class ControlOutput:
-    """A controller's decision for one period."""
+class ControlOutput(NamedTuple):
+    """A controller's decision for one period (a tuple: cheap to make at 1 kHz)."""
 
     tau: np.ndarray
     """(N_J,) commanded joint torques (N·m)."""
@@ -32,12 +31,16 @@ class ControlOutput:
 class PaintingController(Protocol):
     """A controller plugin (config group ``controller``)."""
 
-    def reset(self, setup: ControlSetup, q0: np.ndarray) -> None:
-        """Prepare for a run starting at rest at ``q0`` (rad)."""
+    def reset(self, setup: ControlSetup, q0: np.ndarray, reference: np.ndarray) -> None:
+        """Prepare for a run starting at rest at ``q0`` (rad) along the tool poses ``reference`` (N, 4, 4).
+
+        Knowing the whole reference lets a controller solve its IK in batches
+        (:meth:`ControlSetup.path_ik`) instead of one pose per period.
+        """
         ...
 
-    def command(self, reference: np.ndarray, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
-        """Torques for the reference tool pose (4×4), the estimated state, and the wall sensor's force (N)."""
+    def command(self, k: int, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
+        """Torques for period ``k`` (reference pose ``reference[k]``), the estimated state, and the wall sensor's force (N)."""
         ...
 
 
@@ -87,26 +90,27 @@ def simulate_contact(
     n = reference.shape[0]
     n_joints = setup.robot.n_joints
     q0 = setup.joint_reference(reference[0] if start is None else start)
-    controller.reset(setup, q0)
+    controller.reset(setup, q0, reference)
     # the controller's model holds the arm at rest at the start
     sensors = plant.reset(q0, JointPDGravity(setup.robot, 0.0, 0.0, setup.period).gravity(q0))
     estimator.reset(sensors.q)
-    out = {name: np.empty((n, 3)) for name in ("commanded", "actual", "measured_force")}
+    commanded, actual, measured_force = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
     wrench = np.empty((n, 6))
     q, q_desired, tau = (np.empty((n, n_joints)) for _ in range(3))
+    update, command, step = estimator.update, controller.command, plant.step  # bound once: 1 kHz loop
     for k in progress if progress is not None else range(n):
-        state = estimator.update(sensors.q, sensors.tau)
-        decision = controller.command(reference[k], state, sensors.wall_force)
-        out["commanded"][k], out["actual"][k], out["measured_force"][k] = decision.commanded_position, plant.tcp_position, sensors.wall_force
+        state = update(sensors.q, sensors.tau)
+        decision = command(k, state, sensors.wall_force)
+        commanded[k], actual[k], measured_force[k] = decision.commanded_position, plant.tcp_position, sensors.wall_force
         wrench[k], q[k], q_desired[k], tau[k] = state.wrench, sensors.q_true, decision.q_desired, decision.tau
-        sensors = plant.step(decision.tau)
+        sensors = step(decision.tau)
     return ContactRun(
         t=np.arange(n) * setup.period,
         reference=reference[:, :3, 3].copy(),
-        commanded=out["commanded"],
-        actual=out["actual"],
+        commanded=commanded,
+        actual=actual,
         estimated_wrench=wrench,
-        measured_force=out["measured_force"],
+        measured_force=measured_force,
         q=q,
         q_desired=q_desired,
         tau=tau,

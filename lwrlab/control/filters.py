@@ -1,8 +1,19 @@
-"""Causal filters and differences for a controller running sample by sample (no look-ahead)."""
+"""Causal filters and differences for a controller running sample by sample (no look-ahead).
+
+Each filter keeps its state and does O(1) work per sample; :meth:`FirstOrderLowPass.apply` runs the
+same recursion over a whole recorded signal at once (for analysis after a run).
+"""
 
 from __future__ import annotations
 
 import numpy as np
+
+
+def low_pass_gain(cutoff_hz: float, period: float) -> float:
+    """``a = 1 − exp(−2π·f_c·Δt)`` of the RC filter ``y_k = y_{k−1} + a·(x_k − y_{k−1})``; 1 for f_c = ∞."""
+    if cutoff_hz <= 0 or period <= 0:
+        raise ValueError(f"cutoff ({cutoff_hz} Hz) and period ({period} s) must be positive")
+    return 1.0 if np.isinf(cutoff_hz) else float(1.0 - np.exp(-2 * np.pi * cutoff_hz * period))
 
 
 class FirstOrderLowPass:
@@ -15,9 +26,7 @@ class FirstOrderLowPass:
     """
 
     def __init__(self, cutoff_hz: float, period: float) -> None:
-        if cutoff_hz <= 0 or period <= 0:
-            raise ValueError(f"cutoff ({cutoff_hz} Hz) and period ({period} s) must be positive")
-        self.gain = 1.0 if np.isinf(cutoff_hz) else float(1.0 - np.exp(-2 * np.pi * cutoff_hz * period))
+        self.gain = low_pass_gain(cutoff_hz, period)
         self.state: np.ndarray | None = None
 
     def reset(self, value: np.ndarray) -> None:
@@ -25,11 +34,26 @@ class FirstOrderLowPass:
         self.state = np.array(value, dtype=float)
 
     def __call__(self, value: np.ndarray) -> np.ndarray:
+        """The filtered sample; a new array each call (the caller may keep it)."""
         if self.state is None:
             self.reset(value)
         else:
-            self.state = self.state + self.gain * (np.asarray(value, dtype=float) - self.state)
-        return self.state.copy()
+            self.state = self.state + self.gain * (value - self.state)
+        return self.state
+
+    def apply(self, signal: np.ndarray, initial: np.ndarray | float = 0.0) -> np.ndarray:
+        """The recursion over a whole signal (N, ...) at once, from rest at ``initial``.
+
+        Equals calling the filter sample by sample after ``reset(initial)``; leaves ``state`` alone.
+        """
+        from scipy.signal import lfilter  # scipy.signal is slow to import; only analysis needs it
+
+        signal = np.asarray(signal, dtype=float)
+        initial = np.broadcast_to(np.asarray(initial, dtype=float), signal.shape[1:])
+        a = self.gain
+        # y_k = (1 − a)·y_{k−1} + a·x_k, with the filter state (1 − a)·y_{−1} = (1 − a)·initial
+        out, _ = lfilter([a], [1.0, a - 1.0], signal, axis=0, zi=((1.0 - a) * initial)[None])
+        return out
 
 
 class BackwardDifference:
@@ -37,6 +61,7 @@ class BackwardDifference:
 
     def __init__(self, period: float, cutoff_hz: float = np.inf) -> None:
         self.period = period
+        self.inverse_period = 1.0 / period
         self.low_pass = FirstOrderLowPass(cutoff_hz, period)
         self.previous: np.ndarray | None = None
 
@@ -46,9 +71,54 @@ class BackwardDifference:
         self.low_pass.reset(np.zeros_like(self.previous) if rate is None else rate)
 
     def __call__(self, value: np.ndarray) -> np.ndarray:
-        value = np.asarray(value, dtype=float)
         if self.previous is None:
             self.reset(value)
-        rate = (value - self.previous) / self.period
-        self.previous = value.copy()
+        rate = (value - self.previous) * self.inverse_period
+        self.previous = np.array(value, dtype=float)
+        if self.low_pass.gain == 1.0:  # no filtering: the difference itself
+            self.low_pass.state = rate
+            return rate
         return self.low_pass(rate)
+
+
+class FilteredDifferences:
+    """Velocity and acceleration of sampled positions: low-passed backward differences, cascaded.
+
+    ``v_k = LP_v((x_k − x_{k−1})/Δt)``, ``a_k = LP_a((v_k − v_{k−1})/Δt)`` — the two
+    :class:`BackwardDifference` filters of eq. (13)–(14) in a row — written as one linear state update
+    ``[x, v, a]_k = M·[x_{k−1}, v_{k−1}, a_{k−1}, x_k]``: one small matrix product per sample.
+
+    Parameters
+    ----------
+    period : sampling period Δt (s).
+    velocity_cutoff_hz, acceleration_cutoff_hz : the two low-passes (Hz; ``inf``: none).
+    """
+
+    def __init__(self, period: float, velocity_cutoff_hz: float = np.inf, acceleration_cutoff_hz: float = np.inf) -> None:
+        av, aa = low_pass_gain(velocity_cutoff_hz, period), low_pass_gain(acceleration_cutoff_hz, period)
+        r = 1.0 / period
+        # rows: new x, new v, new a; columns: old x, old v, old a, input x
+        velocity = np.array([-av * r, 1.0 - av, 0.0, av * r])
+        old_velocity = np.array([0.0, 1.0, 0.0, 0.0])
+        acceleration = aa * r * (velocity - old_velocity) + (1.0 - aa) * np.array([0.0, 0.0, 1.0, 0.0])
+        self.update_matrix = np.array([[0.0, 0.0, 0.0, 1.0], velocity, acceleration])
+        self.stacked: np.ndarray | None = None
+        """(4, n) rows x_{k−1}, v_{k−1}, a_{k−1} and the newest input."""
+
+    def reset(self, value: np.ndarray, rate: np.ndarray | None = None) -> None:
+        """Start at ``value`` with velocity ``rate`` (default zero) and zero acceleration."""
+        value = np.asarray(value, dtype=float)
+        self.stacked = np.zeros((4, value.size))
+        self.stacked[0] = value
+        if rate is not None:
+            self.stacked[1] = rate
+
+    def __call__(self, value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(velocity, acceleration) after the sample ``value``; new arrays each call."""
+        if self.stacked is None:
+            self.reset(value)
+        stacked = self.stacked
+        stacked[3] = value
+        state = self.update_matrix @ stacked
+        stacked[:3] = state
+        return state[1], state[2]

@@ -16,12 +16,13 @@ real-time controller has no future samples); Coulomb friction uses ``tanh(q̇/ε
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg.lapack import dposv
 
-from lwrlab.control.filters import BackwardDifference, FirstOrderLowPass
+from lwrlab.control.filters import FilteredDifferences, FirstOrderLowPass
 from lwrlab.model.robot import RobotModel
 
 
@@ -39,9 +40,8 @@ def add_tool_frame(robot: RobotModel, tcp_in_flange: np.ndarray, name: str = "tc
     return model, frame_id
 
 
-@dataclass(frozen=True)
-class StateEstimate:
-    """What the estimator derived from one sensor sample."""
+class StateEstimate(NamedTuple):
+    """What the estimator derived from one sensor sample (a tuple: cheap to make at 1 kHz)."""
 
     q: np.ndarray
     """(N_J,) measured positions (rad)."""
@@ -84,21 +84,17 @@ class ExternalForceEstimator:
         self.data = self.model.createData()
         self.period = period
         self.coulomb_smoothing = coulomb_smoothing
-        self.velocity = BackwardDifference(period, velocity_cutoff_hz)
-        self.acceleration = BackwardDifference(period, acceleration_cutoff_hz)
+        self.differences = FilteredDifferences(period, velocity_cutoff_hz, acceleration_cutoff_hz)
         self.wrench_filter = FirstOrderLowPass(wrench_cutoff_hz, period)
+        # friction coefficients once: zero for a term the model leaves out
+        friction, terms, n = robot.friction, robot.friction_terms, robot.n_joints
+        self._coulomb = np.asarray(friction.coulomb, dtype=float) if "coulomb" in terms else np.zeros(n)
+        self._viscous = np.asarray(friction.viscous, dtype=float) if "viscous" in terms else np.zeros(n)
+        self._offset = np.asarray(friction.offset, dtype=float) if "offset" in terms else np.zeros(n)
 
     def friction_torque(self, dq: np.ndarray) -> np.ndarray:
         """Γ_f (N·m) with smoothed Coulomb friction."""
-        friction, terms = self.robot.friction, self.robot.friction_terms
-        tau = np.zeros_like(dq)
-        if "coulomb" in terms:
-            tau += friction.coulomb * np.tanh(dq / self.coulomb_smoothing)
-        if "viscous" in terms:
-            tau += friction.viscous * dq
-        if "offset" in terms:
-            tau += friction.offset
-        return tau
+        return self._coulomb * np.tanh(dq / self.coulomb_smoothing) + self._viscous * dq + self._offset
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """(6, N_J) Jacobian of the tool centre point, base-frame axes ([linear; angular])."""
@@ -106,17 +102,17 @@ class ExternalForceEstimator:
 
     def reset(self, q: np.ndarray) -> None:
         """Start at rest at ``q`` (rad), with no force."""
-        self.velocity.reset(q)
-        self.acceleration.reset(np.zeros_like(q))
+        self.differences.reset(q)
         self.wrench_filter.reset(np.zeros(6))
 
     def update(self, q: np.ndarray, tau: np.ndarray) -> StateEstimate:
         """One sample: measured positions ``q`` (rad) and link-side torques ``tau`` (N·m)."""
-        dq = self.velocity(q)
-        ddq = self.acceleration(dq)
-        tau_dyn = pin.rnea(self.model, self.data, q, dq, ddq)
-        external = tau - tau_dyn - self.friction_torque(dq)
+        dq, ddq = self.differences(q)
+        external = tau - pin.rnea(self.model, self.data, q, dq, ddq) - self.friction_torque(dq)
         jacobian = self.jacobian(q)
-        # eq. (14): (Jᵀ)⁺ = (J·Jᵀ)⁻¹·J for a full-rank 6 × N_J Jacobian (away from singularities)
-        wrench = np.linalg.solve(jacobian @ jacobian.T, jacobian @ external)
-        return StateEstimate(q=q, dq=dq, ddq=ddq, external_torque=external, wrench=self.wrench_filter(wrench))
+        # eq. (14): (Jᵀ)⁺ = (J·Jᵀ)⁻¹·J for a full-rank 6 × N_J Jacobian (away from singularities);
+        # J·Jᵀ is symmetric positive definite there: a Cholesky solve, least squares where it is not
+        _, wrench, info = dposv(jacobian @ jacobian.T, jacobian @ external)
+        if info != 0:
+            wrench = np.linalg.lstsq(jacobian.T, external, rcond=None)[0]
+        return StateEstimate(q, dq, ddq, external, self.wrench_filter(wrench))

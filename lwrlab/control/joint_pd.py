@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import pinocchio as pin
 
-from lwrlab.control.filters import BackwardDifference
+from lwrlab.kinematics.displaced_path import DisplacedPathIK
 from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
 from lwrlab.model.robot import RobotModel
 
@@ -29,10 +30,19 @@ class ControlSetup:
     period: float = 1e-3
     """Control period (s)."""
 
+    @cached_property
+    def flange_in_tcp(self) -> np.ndarray:
+        """(4, 4) inverse of ``tcp_in_flange``, computed once."""
+        return np.linalg.inv(self.tcp_in_flange)
+
     def joint_reference(self, tcp_pose: np.ndarray) -> np.ndarray:
         """(N_J,) joint positions (rad) putting the tool centre point at ``tcp_pose`` (4×4)."""
-        flange = tcp_pose @ np.linalg.inv(self.tcp_in_flange)
+        flange = tcp_pose @ self.flange_in_tcp
         return self.ik.solve_branch(flange[None], self.swivel, self.branch).q[0]
+
+    def path_ik(self, reference: np.ndarray) -> DisplacedPathIK:
+        """Joint positions along the tool poses ``reference`` (N, 4, 4) moved by an offset, per sample."""
+        return DisplacedPathIK(self.ik, reference, self.tcp_in_flange, self.swivel, self.branch)
 
 
 class JointPDGravity:
@@ -51,7 +61,8 @@ class JointPDGravity:
         self.kp = np.broadcast_to(np.asarray(kp, dtype=float), (n,)).copy()
         self.kd = np.broadcast_to(np.asarray(kd, dtype=float), (n,)).copy()
         self.model, self.data = robot.model, robot.model.createData()
-        self.reference_rate = BackwardDifference(period)
+        self.inverse_period = 1.0 / period
+        self.previous_desired: np.ndarray | None = None
 
     def gravity(self, q: np.ndarray) -> np.ndarray:
         """Ĝ(q) (N·m)."""
@@ -59,9 +70,12 @@ class JointPDGravity:
 
     def reset(self, q_desired: np.ndarray) -> None:
         """Start with the reference at rest at ``q_desired``."""
-        self.reference_rate.reset(q_desired)
+        self.previous_desired = np.array(q_desired, dtype=float)
 
     def torque(self, q_desired: np.ndarray, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
-        """Commanded joint torques (N·m)."""
-        dq_desired = self.reference_rate(q_desired)
-        return self.kp * (q_desired - q) + self.kd * (dq_desired - dq) + self.gravity(q)
+        """Commanded joint torques (N·m); ``q_desired`` is kept (the caller must not change it)."""
+        if self.previous_desired is None:
+            self.reset(q_desired)
+        dq_desired = (q_desired - self.previous_desired) * self.inverse_period
+        self.previous_desired = q_desired
+        return self.kp * (q_desired - q) + self.kd * (dq_desired - dq) + pin.computeGeneralizedGravity(self.model, self.data, q)

@@ -118,6 +118,7 @@ class SwivelIK:
         self.position_upper = robot.limits.position_upper
         flange = model.frames[model.getFrameId("flange")].placement.homogeneous if model.existFrame("flange") else np.eye(4)
         self.flange_in_frame7 = flange
+        self.frame7_in_flange = np.linalg.inv(flange)  # constant: inverted once, not per pose
         self.reference = np.asarray(reference, dtype=float) / np.linalg.norm(reference)
 
     # --- geometry ----------------------------------------------------------------------------
@@ -128,7 +129,7 @@ class SwivelIK:
 
     def wrist_pose(self, flange_pose: np.ndarray) -> np.ndarray:
         """(N, 4, 4) pose of frame 7 (origin at the wrist centre) from the flange pose (N, 4, 4)."""
-        return np.atleast_3d(flange_pose).reshape(-1, 4, 4) @ np.linalg.inv(self.flange_in_frame7)
+        return np.atleast_3d(flange_pose).reshape(-1, 4, 4) @ self.frame7_in_flange
 
     def elbow_circle(self, wrist: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Centre ``P_s + c`` (N, 3), radius R (N,) and frame û, v̂, n̂ (N, 3 each) of the elbow circle."""

@@ -85,9 +85,7 @@ def normal_force_table(run: ContactRun, desired_force: float, cutoff_hz: float) 
     so both are compared at the bandwidth the controller uses; the stiff contact's kHz ringing,
     which neither the estimate nor a force loop can follow, is left out of both.
     """
-    low_pass = FirstOrderLowPass(cutoff_hz, float(run.t[1] - run.t[0]))
-    low_pass.reset(np.zeros(1))
-    measured = np.array([low_pass(f[:1])[0] for f in run.measured_force])
+    measured = FirstOrderLowPass(cutoff_hz, float(run.t[1] - run.t[0])).apply(run.measured_force[:, 0], initial=0.0)
     mask = run.painting
     return {
         "t": run.t[mask],

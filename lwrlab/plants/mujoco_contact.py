@@ -16,11 +16,19 @@ MuJoCo's and Pinocchio's inverse dynamics agree to round-off (tested). What the 
 
 The controller runs at ``1 / control_period`` (1 kHz), MuJoCo integrates ``substeps`` steps per
 control period. Everything is in SI units and in the robot's base frame (= MuJoCo's world).
+
+Per control period the plant reads the sensors at the new state (a full ``mj_forward``, which the
+link-side torque needs for q̈), then steps. The first substep starts from that very state, so its
+position and velocity stages (kinematics, inertia, collisions) are those of the reading: only the
+acceleration stage is redone with the new torque (``mj_forwardSkip``) before integrating
+(``mj_Euler``) — the same result as ``mj_step``, with one position/velocity stage less per period.
+Sensor noise is drawn in blocks, in the order a sample at a time would draw it (same values).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -74,9 +82,8 @@ class ContactTool:
     """Radius of the capsule modelling the roller cover (m)."""
 
 
-@dataclass(frozen=True)
-class ContactSensors:
-    """One sample of what the sensors read (and the true state, for scoring)."""
+class ContactSensors(NamedTuple):
+    """One sample of what the sensors read (and the true state, for scoring); a tuple, cheap at 1 kHz."""
 
     q: np.ndarray
     """(N_J,) encoder positions (rad)."""
@@ -244,27 +251,55 @@ class MujocoContactPlant:
         self._site = self.model.site("wall_sensor").id
         self._tcp = self.model.site("tcp").id
         self._tare = np.zeros(3)
-        self._tau = np.zeros(robot.n_joints)
+        # MjData arrays are views into MuJoCo's memory: fetched once, not per access
+        data = self.data
+        self._qpos, self._qvel, self._qacc, self._applied = data.qpos, data.qvel, data.qacc, data.qfrc_applied
+        self._wall_reading = data.sensordata[self._sensor : self._sensor + 3]
+        self._tcp_position = data.site_xpos[self._tcp]
+        self._to_tool_force = -np.eye(3)
+        # friction coefficients once
+        f = robot.friction
+        self._viscous, self._coulomb, self._offset = (np.asarray(v, dtype=float) for v in (f.viscous, f.coulomb, f.offset))
+        self._noise_scale = np.concatenate([np.full(robot.n_joints, encoder_noise_std), self.torque_noise_std, np.full(3, force_noise_std)])
+        self._noise: tuple[np.ndarray, np.ndarray, np.ndarray] = ()  # type: ignore[assignment]
+        self._noise_row = self.NOISE_BLOCK
+        self._friction_now = np.zeros(robot.n_joints)
+
+    NOISE_BLOCK = 1024
+    """Samples of sensor noise drawn per call of the random generator."""
 
     def _wall_force(self) -> np.ndarray:
         # MuJoCo's force sensor gives the force on the wall from its parent (the world), in the
         # site frame; the wall is static, so the tool's force on it is the opposite, less the tare.
-        rotation = self.data.site_xmat[self._site].reshape(3, 3)
-        return -rotation @ self.data.sensordata[self._sensor : self._sensor + 3] - self._tare
+        return self._to_tool_force @ self._wall_reading - self._tare
 
     def _friction(self, dq: np.ndarray) -> np.ndarray:
-        f = self.robot.friction
-        return f.viscous * dq + f.coulomb * np.tanh(dq / self.coulomb_smoothing) + f.offset
+        return self._viscous * dq + self._coulomb * np.tanh(dq / self.coulomb_smoothing) + self._offset
+
+    def _draw_noise(self) -> None:
+        """The next block of scaled sensor noise: encoders (N_J), torques (N_J), wall sensor (3) per sample."""
+        # a sample at a time drew q, τ then force noise: the rows of one block are the same numbers
+        block = self._rng.normal(size=(self.NOISE_BLOCK, self._noise_scale.size)) * self._noise_scale
+        n = self.robot.n_joints
+        self._noise = (block[:, :n], block[:, n : 2 * n], block[:, 2 * n :])
+        self._noise_row = 0
 
     def _read(self, link_torque: np.ndarray) -> ContactSensors:
-        q, dq = self.data.qpos.copy(), self.data.qvel.copy()
-        return ContactSensors(
-            q=q + self.encoder_noise_std * self._rng.normal(size=q.shape),
-            tau=link_torque + self.torque_noise_std * self._rng.normal(size=q.shape),
-            wall_force=self._wall_force() + self.force_noise_std * self._rng.normal(size=3),
-            q_true=q,
-            dq_true=dq,
-        )
+        if self._noise_row == self.NOISE_BLOCK:
+            self._draw_noise()
+        row, (q_noise, tau_noise, force_noise) = self._noise_row, self._noise
+        self._noise_row = row + 1
+        q, dq = self._qpos.copy(), self._qvel.copy()
+        force = self._wall_force()
+        if self.force_noise_std:
+            force += force_noise[row]
+        return ContactSensors(q=q + q_noise[row], tau=link_torque + tau_noise[row], wall_force=force, q_true=q, dq_true=dq)
+
+    def _forward_with(self, tau: np.ndarray) -> None:
+        """The commanded torque less friction at the current velocity, then a full ``mj_forward``."""
+        self._friction_now = self._friction(self._qvel)
+        np.subtract(tau, self._friction_now, out=self._applied)
+        mujoco.mj_forward(self.model, self.data)
 
     def reset(self, q0: np.ndarray, hold_torque: np.ndarray) -> ContactSensors:
         """Place the robot at rest at ``q0`` (rad), tare the wall sensor, read the sensors.
@@ -273,13 +308,13 @@ class MujocoContactPlant:
         the link-side reading is computed with it.
         """
         mujoco.mj_resetData(self.model, self.data)
-        self.data.qpos[:] = q0
+        self._qpos[:] = q0
         mujoco.mj_forward(self.model, self.data)
+        self._to_tool_force = -self.data.site_xmat[self._site].reshape(3, 3)  # the wall is static: once
         self._tare = np.zeros(3)
         self._tare = self._wall_force()
-        self.data.qfrc_applied[:] = hold_torque - self._friction(self.data.qvel)
-        mujoco.mj_forward(self.model, self.data)
-        return self._read(hold_torque - self.armature * self.data.qacc)
+        self._forward_with(np.asarray(hold_torque, dtype=float))
+        return self._read(hold_torque - self.armature * self._qacc)
 
     def step(self, tau: np.ndarray) -> ContactSensors:
         """Apply the joint torques ``tau`` (N·m) for one control period; read the sensors after it.
@@ -287,14 +322,18 @@ class MujocoContactPlant:
         The torque sensor reads the link-side torque ``τ − I_a·q̈`` at the new state under the
         same command (a zero-order hold, as the drives' current loop does).
         """
-        for _ in range(self.substeps):
-            self.data.qfrc_applied[:] = tau - self._friction(self.data.qvel)
-            mujoco.mj_step(self.model, self.data)
-        self.data.qfrc_applied[:] = tau - self._friction(self.data.qvel)
-        mujoco.mj_forward(self.model, self.data)
-        return self._read(tau - self.armature * self.data.qacc)
+        model, data, applied = self.model, self.data, self._applied
+        # first substep from the state of the last reading: positions, velocities and friction unchanged
+        np.subtract(tau, self._friction_now, out=applied)
+        mujoco.mj_forwardSkip(model, data, mujoco.mjtStage.mjSTAGE_VEL, 1)
+        mujoco.mj_Euler(model, data)
+        for _ in range(self.substeps - 1):
+            np.subtract(tau, self._friction(self._qvel), out=applied)
+            mujoco.mj_step(model, data)
+        self._forward_with(tau)
+        return self._read(tau - self.armature * self._qacc)
 
     @property
     def tcp_position(self) -> np.ndarray:
         """True position of the tool's contact point (m, base frame)."""
-        return self.data.site_xpos[self._tcp].copy()
+        return self._tcp_position.copy()

@@ -58,18 +58,19 @@ class ForcePIControl:
         self.max_displacement = max_displacement
         self.sensor_cutoff_hz = sensor_cutoff_hz
 
-    def reset(self, setup: ControlSetup, q0: np.ndarray) -> None:
-        self.setup = setup
+    def reset(self, setup: ControlSetup, q0: np.ndarray, reference: np.ndarray) -> None:
+        self.positions = reference[:, :3, 3]
+        self.path_ik = setup.path_ik(reference)
         self.joint = JointPDGravity(setup.robot, self.kp, self.kd, setup.period)
         self.joint.reset(q0)
         self.sensor_filter = FirstOrderLowPass(self.sensor_cutoff_hz, setup.period)
         self.sensor_filter.reset(np.zeros(3))
         self.force_loop = ForcePI(self.desired_force, self.force_kp, self.force_ki, setup.period, self.max_displacement)
 
-    def command(self, reference: np.ndarray, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
-        sensed = self.sensor_filter(measured_force)
-        force = state.wrench[:3] if self.feedback == "estimate" else sensed
-        pose = reference.copy()
-        pose[:3, 3] += self.force_loop.update(force)  # eq. (15)
-        q_desired = self.setup.joint_reference(pose)
-        return ControlOutput(self.joint.torque(q_desired, state.q, state.dq), pose[:3, 3], q_desired)
+    def command(self, k: int, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
+        if self.feedback == "estimate":
+            displacement = self.force_loop.update(state.wrench[:3])  # eq. (15)
+        else:
+            displacement = self.force_loop.update(self.sensor_filter(measured_force))
+        q_desired = self.path_ik(k, displacement)
+        return ControlOutput(self.joint.torque(q_desired, state.q, state.dq), self.positions[k] + displacement, q_desired)

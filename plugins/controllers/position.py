@@ -31,13 +31,12 @@ class PositionControl:
         self.kp, self.kd = kp, kd
         self.offset = np.asarray(offset, dtype=float).reshape(3)
 
-    def reset(self, setup: ControlSetup, q0: np.ndarray) -> None:
-        self.setup = setup
+    def reset(self, setup: ControlSetup, q0: np.ndarray, reference: np.ndarray) -> None:
+        self.positions = reference[:, :3, 3] + self.offset
+        self.path_ik = setup.path_ik(reference)
         self.joint = JointPDGravity(setup.robot, self.kp, self.kd, setup.period)
         self.joint.reset(q0)
 
-    def command(self, reference: np.ndarray, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
-        pose = reference.copy()
-        pose[:3, 3] += self.offset
-        q_desired = self.setup.joint_reference(pose)
-        return ControlOutput(self.joint.torque(q_desired, state.q, state.dq), pose[:3, 3], q_desired)
+    def command(self, k: int, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
+        q_desired = self.path_ik(k, self.offset)
+        return ControlOutput(self.joint.torque(q_desired, state.q, state.dq), self.positions[k], q_desired)
