@@ -1,0 +1,389 @@
+"""Plausibility of a recorded log against its robot, before any fit.
+
+A log can be well formed (every cell a finite number, time increasing) and still wrong: positions
+in degrees read as radians, time in milliseconds labelled seconds, motor currents in the torque
+columns, a torque sensor that was not recorded, one corrupt cell of 1e30. Each would be fitted and
+give a confident wrong model. :func:`check_plausibility` compares the loaded values with the
+robot's limits and returns :class:`Finding` objects; :func:`raise_for_errors` turns the errors into
+one :class:`~lwrlab.io.logs.LogError` that lists them all and hands back the warnings for the
+caller to print and tag. :func:`check_column_dtypes` catches, before conversion, Parquet columns
+whose type is not a number (booleans, datetimes, text).
+
+=====================  ========  ================================================================
+check                  severity  when
+=====================  ========  ================================================================
+``absurd_value``       error     a value beyond any physical meaning (|τ| > 1e7 N·m, |q| > 1e4 rad,
+                                 |q̇| > 1e5 rad/s, |t| > 1e12 s) or non-finite: names the row
+``sampling_period``    error     median period outside [1e-5, 0.5] s: names the likely time unit
+``position_limit``     error     beyond a joint limit by more than 0.05 rad, or values up to more
+                                 than 2π (degrees? ``data.position_unit=deg``); warning when less
+``position_unit``      warning   declared degrees, but no joint moves more than 2π/180 rad (radians?)
+``zero_position``      warning   a position column all zero (encoder not recorded?)
+``still_joint``        warning   a joint whose position range stays below 1e-3 rad
+``velocity_limit``     error     |q̇| above 3× the velocity limit (units?)
+``torque_limit``       error     |τ| above 3× the torque limit (currents? units?); warning above 1.5×
+``zero_torque``        error     a torque column all zero (torque sensor not recorded)
+``constant_torque``    warning   a torque column that never changes (stuck sensor, filled default)
+=====================  ========  ================================================================
+
+Rows are 0-based indices into the arrays given; call the checks before resampling, so that they
+are the file's data rows (for CSV the message adds the line of the file). Nothing here prints.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+import pandas as pd
+
+from lwrlab.io.logs import POSITION_UNITS, TIME_UNITS, LogError, joint_columns
+
+SEVERITIES = ("error", "warning")
+
+
+class LogLimits(Protocol):
+    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it)."""
+
+    position_lower: np.ndarray
+    position_upper: np.ndarray
+    velocity: np.ndarray
+    torque: np.ndarray
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One implausibility found in a log."""
+
+    severity: str
+    """``error`` (the log must not be fitted) or ``warning`` (fit, but say so)."""
+    file: str
+    """The log file."""
+    column: str | None
+    """The column of the file concerned (its name in the file), or None for the whole log."""
+    check: str
+    """Which check found it (the table of :mod:`lwrlab.io.plausibility`), e.g. ``torque_limit``."""
+    message: str
+    """What is wrong and what to do, in a sentence."""
+
+    def __post_init__(self) -> None:
+        if self.severity not in SEVERITIES:
+            raise ValueError(f"severity must be one of {SEVERITIES}, got {self.severity!r}")
+
+    def __str__(self) -> str:
+        where = f"column {self.column!r}: " if self.column is not None else ""
+        return f"{self.file}: {where}{self.message} [{self.check}]"
+
+
+@dataclass(frozen=True)
+class LogColumns:
+    """The names, in the file, of the columns each quantity came from (for the messages)."""
+
+    t: str
+    """Time column."""
+    q: tuple[str, ...]
+    """Position column of each joint."""
+    tau: tuple[str, ...]
+    """Torque (or current) column of each joint."""
+    dq: tuple[str, ...] | None = None
+    """Velocity column of each joint, if the log has them."""
+    torque_from_current: bool = False
+    """Whether the torques are ``drive_gains·current`` (changes the hint of ``torque_limit``)."""
+
+    @classmethod
+    def schema(cls, n_joints: int, column_map: Mapping[str, str] | None = None, torque_from_current: bool = False, velocities: bool = False) -> LogColumns:
+        """The columns of the :mod:`lwrlab.io.logs` schema, renamed by ``column_map`` like the loader does."""
+        mapping = dict(column_map or {})
+
+        def names(prefix: str) -> tuple[str, ...]:
+            return tuple(mapping.get(c, c) for c in joint_columns(prefix, n_joints))
+
+        return cls(
+            t=mapping.get("t", "t"),
+            q=names("q"),
+            tau=names("current" if torque_from_current else "tau"),
+            dq=names("dq") if velocities else None,
+            torque_from_current=torque_from_current,
+        )
+
+
+@dataclass(frozen=True)
+class PlausibilityThresholds:
+    """Where the checks draw their lines (see the table of :mod:`lwrlab.io.plausibility`)."""
+
+    torque_error_factor: float = 3.0
+    """|τ| above this many torque limits is an error: no joint-torque sensor reads that."""
+    torque_warning_factor: float = 1.5
+    """|τ| above this many torque limits is a warning (collisions, a conservative limit)."""
+    velocity_error_factor: float = 3.0
+    """|q̇| above this many velocity limits is an error."""
+    position_tolerance: float = 0.05
+    """rad beyond a position limit still only a warning (calibration offsets, software limits)."""
+    degrees_above: float = 2 * np.pi
+    """rad: positions beyond this in radians look like degrees."""
+    still_range: float = 1e-3
+    """rad: a joint whose position range stays below never moved."""
+    min_period: float = 1e-5
+    """s: shortest plausible median sampling period (100 kHz)."""
+    max_period: float = 0.5
+    """s: longest plausible median sampling period (2 Hz; identification needs tens of Hz)."""
+    absurd: tuple[tuple[str, float], ...] = (("t", 1e12), ("q", 1e4), ("dq", 1e5), ("tau", 1e7))
+    """Largest magnitude with any physical meaning: s, rad, rad/s, N·m."""
+
+
+def _row_text(path: Path, row: int) -> str:
+    line = f" (line {row + 2} of the file)" if path.suffix.lower() in (".csv", ".txt") else ""
+    return f"row {row}{line}"
+
+
+def _sound_columns(values: np.ndarray, names: Sequence[str], skip: set[str]) -> Iterator[tuple[int, str, np.ndarray]]:
+    """``(joint index, column name, values)`` of the columns not already reported as corrupt."""
+    return ((j, name, values[:, j]) for j, name in enumerate(names) if name not in skip)
+
+
+def _absurd(path: Path, column: str, values: np.ndarray, bound: float, unit: str) -> Finding | None:
+    bad = ~np.isfinite(values) | (np.abs(np.nan_to_num(values, nan=np.inf)) > bound)
+    if not bad.any():
+        return None
+    row = int(np.argmax(bad))
+    others = f" ({int(bad.sum()) - 1} more rows like it)" if bad.sum() > 1 else ""
+    return Finding(
+        "error", str(path), column, "absurd_value",
+        f"{_row_text(path, row)}: value {values[row]:.6g} {unit} is beyond any physical meaning (|value| > {bound:.0e}): a corrupt cell?{others}",
+    )
+
+
+def _suggested_time_unit(median: float, time_unit: str, thresholds: PlausibilityThresholds) -> str | None:
+    """The unit under which the raw time stamps give a period closest to 1 ms, if plausible."""
+    raw = median / TIME_UNITS[time_unit]
+    candidates = [(abs(np.log10(raw * scale / 1e-3)), unit) for unit, scale in TIME_UNITS.items()
+                  if thresholds.min_period <= raw * scale <= thresholds.max_period]
+    return min(candidates)[1] if candidates else None
+
+
+def _period_findings(path: Path, t: np.ndarray, column: str, time_unit: str, thresholds: PlausibilityThresholds) -> list[Finding]:
+    if t.size < 2:
+        return []
+    median = float(np.median(np.diff(t)))
+    if thresholds.min_period <= median <= thresholds.max_period:
+        return []
+    suggestion = _suggested_time_unit(median, time_unit, thresholds) if median > 0 else None
+    hint = (f"the time stamps look like {suggestion}: set data.time_unit={suggestion}" if suggestion
+            else f"check the time column and data.time_unit (one of {list(TIME_UNITS)})")
+    return [Finding(
+        "error", str(path), column, "sampling_period",
+        f"median sampling period {median:.3g} s with data.time_unit={time_unit} is implausible for a robot log "
+        f"(expected {thresholds.min_period:g} to {thresholds.max_period:g} s); {hint}",
+    )]
+
+
+def _position_findings(path: Path, q: np.ndarray, names: Sequence[str], limits: LogLimits | None, position_unit: str, thresholds: PlausibilityThresholds, skip: set[str]) -> list[Finding]:
+    findings: list[Finding] = []
+    sound = q[:, [j for j, name in enumerate(names) if name not in skip]]
+    if not sound.size:
+        return findings
+    degrees_like = position_unit == "rad" and bool(np.max(np.abs(sound)) > thresholds.degrees_above)
+    for j, name, column in _sound_columns(q, names, skip):
+        if not np.any(column):
+            findings.append(Finding("warning", str(path), name, "zero_position", f"joint {j + 1} position is zero in every row: encoder not recorded?"))
+        elif np.ptp(column) < thresholds.still_range:
+            findings.append(Finding(
+                "warning", str(path), name, "still_joint",
+                f"joint {j + 1} never moves (range {np.ptp(column):.2g} rad): its friction cannot be identified from this log",
+            ))
+        if limits is None:
+            continue
+        lower, upper = float(limits.position_lower[j]), float(limits.position_upper[j])
+        below, above = lower - column.min(), column.max() - upper
+        excess = max(below, above)
+        if excess <= 0:
+            continue
+        row = int(np.argmin(column)) if below >= above else int(np.argmax(column))
+        side = f"lower limit {lower:.4g}" if below >= above else f"upper limit {upper:.4g}"
+        hint = f"; values up to {np.max(np.abs(sound)):.4g} look like degrees: set data.position_unit=deg" if degrees_like else ""
+        severity = "error" if excess > thresholds.position_tolerance or degrees_like else "warning"
+        findings.append(Finding(
+            severity, str(path), name, "position_limit",
+            f"joint {j + 1} position {column[row]:.4g} rad ({_row_text(path, row)}) is beyond its {side} rad "
+            f"by {excess:.3g} rad ({np.degrees(excess):.3g}°){hint}",
+        ))
+    largest_range = float(np.max(np.ptp(sound, axis=0)))
+    if position_unit == "deg" and largest_range < np.radians(2 * np.pi):  # raw values span less than 2π
+        findings.append(Finding(
+            "warning", str(path), None, "position_unit",
+            f"with data.position_unit=deg no joint moves more than {np.degrees(largest_range):.3g}°: "
+            f"are the positions in radians? (then data.position_unit=rad)",
+        ))
+    return findings
+
+
+def _peak_over_limit(values: np.ndarray, limit: float) -> tuple[int, float]:
+    row = int(np.argmax(np.abs(values)))
+    return row, float(np.abs(values[row]) / limit) if limit > 0 else float("inf")
+
+
+def _torque_findings(path: Path, tau: np.ndarray, names: Sequence[str], limits: LogLimits | None, from_current: bool, thresholds: PlausibilityThresholds, skip: set[str]) -> list[Finding]:
+    findings = []
+    units_hint = ("check data.drive_gains (N·m/A at the joint: torque constant × gear ratio)" if from_current
+                  else "motor currents or another unit? Torques are N·m at the joint; for currents give current1… columns and data.drive_gains")
+    for j, name, column in _sound_columns(tau, names, skip):
+        if not np.any(column):
+            findings.append(Finding("error", str(path), name, "zero_torque", f"joint {j + 1} torque is zero in every row: the torque sensor was not recorded?"))
+            continue
+        if np.ptp(column) == 0:
+            findings.append(Finding(
+                "warning", str(path), name, "constant_torque",
+                f"joint {j + 1} torque is {column[0]:.6g} N·m in every row: a stuck sensor or a filled-in default?",
+            ))
+        if limits is None:
+            continue
+        limit = float(limits.torque[j])
+        row, ratio = _peak_over_limit(column, limit)
+        if ratio > thresholds.torque_warning_factor:
+            far = ratio > thresholds.torque_error_factor
+            findings.append(Finding(
+                "error" if far else "warning", str(path), name, "torque_limit",
+                f"joint {j + 1} torque {column[row]:.4g} N·m ({_row_text(path, row)}) is {ratio:.3g}× its limit {limit:.4g} N·m"
+                + (f": {units_hint}" if far else ""),
+            ))
+    return findings
+
+
+def _velocity_findings(path: Path, dq: np.ndarray, names: Sequence[str], limits: LogLimits, thresholds: PlausibilityThresholds, skip: set[str]) -> list[Finding]:
+    findings = []
+    for j, name, column in _sound_columns(dq, names, skip):
+        limit = float(limits.velocity[j])
+        row, ratio = _peak_over_limit(column, limit)
+        if ratio > thresholds.velocity_error_factor:
+            findings.append(Finding(
+                "error", str(path), name, "velocity_limit",
+                f"joint {j + 1} velocity {column[row]:.4g} rad/s ({_row_text(path, row)}) is {ratio:.3g}× its limit {limit:.4g} rad/s: "
+                f"degrees per second? (data.position_unit applies to velocities too)",
+            ))
+    return findings
+
+
+def check_plausibility(
+    t: np.ndarray,
+    q: np.ndarray,
+    tau: np.ndarray,
+    limits: LogLimits | None,
+    path: str | Path,
+    columns: LogColumns | None = None,
+    *,
+    dq: np.ndarray | None = None,
+    time_unit: str = "s",
+    position_unit: str = "rad",
+    thresholds: PlausibilityThresholds = PlausibilityThresholds(),
+) -> list[Finding]:
+    """Every implausibility of a loaded log, errors first.
+
+    Parameters
+    ----------
+    t : (N,) sample times (s), already converted from ``time_unit``.
+    q : (N, N_J) joint positions (rad), already converted from ``position_unit``.
+    tau : (N, N_J) joint torques (N·m), already ``gain·current`` for current logs.
+    limits : the robot's limits (``RobotModel.limits``); None skips the limit checks.
+    path : the log file (named in every finding).
+    columns : the file's column names of each quantity (default: the schema's ``t``, ``q1``…, ``tau1``…).
+    dq : (N, N_J) joint velocities (rad/s) if the log has them.
+    time_unit, position_unit : the units the user declared (for the hints).
+    thresholds : where the checks draw their lines.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(200) * 1e-3
+    >>> q = np.column_stack([np.sin(t), np.zeros_like(t)])
+    >>> [f.check for f in check_plausibility(t, q, np.column_stack([np.cos(t), 0 * t]), None, "log.csv")]
+    ['zero_torque', 'zero_position']
+    """
+    path = Path(path)
+    t, q, tau = np.asarray(t, dtype=float), np.atleast_2d(np.asarray(q, dtype=float)), np.atleast_2d(np.asarray(tau, dtype=float))
+    n_joints = q.shape[1]
+    columns = columns or LogColumns.schema(n_joints, velocities=dq is not None)
+    if time_unit not in TIME_UNITS or position_unit not in POSITION_UNITS:
+        raise ValueError(f"time_unit must be one of {list(TIME_UNITS)} and position_unit one of {list(POSITION_UNITS)}, got {time_unit!r}, {position_unit!r}")
+    if len(columns.q) != n_joints or len(columns.tau) != tau.shape[1] or tau.shape != q.shape or len(t) != len(q):
+        raise ValueError(f"shapes disagree: t {t.shape}, q {q.shape}, tau {tau.shape}, columns {len(columns.q)} q, {len(columns.tau)} tau")
+
+    bounds = dict(thresholds.absurd)
+    quantities: list[tuple[str, np.ndarray, Sequence[str], str]] = [("t", t[:, None], (columns.t,), "s"), ("q", q, columns.q, "rad"), ("tau", tau, columns.tau, "N·m")]
+    if dq is not None:
+        quantities.append(("dq", np.atleast_2d(np.asarray(dq, dtype=float)), columns.dq or joint_columns("dq", n_joints), "rad/s"))
+    findings, corrupt = [], set()
+    for quantity, values, names, unit in quantities:
+        for j, name in enumerate(names):
+            finding = _absurd(path, name, values[:, j], bounds[quantity], unit)
+            if finding is not None:
+                findings.append(finding)
+                corrupt.add(name)
+    # a corrupt cell would only be reported again by the checks below, with a misleading hint
+    clean = lambda values: np.where(np.isfinite(values), values, 0.0)  # noqa: E731
+    if columns.t not in corrupt:
+        findings += _period_findings(path, t, columns.t, time_unit, thresholds)
+    findings += _position_findings(path, clean(q), columns.q, limits, position_unit, thresholds, corrupt)
+    findings += _torque_findings(path, clean(tau), columns.tau, limits, columns.torque_from_current, thresholds, corrupt)
+    if dq is not None and limits is not None:
+        findings += _velocity_findings(path, clean(np.asarray(dq, dtype=float)), columns.dq or joint_columns("dq", n_joints), limits, thresholds, corrupt)
+    return sorted(findings, key=lambda f: SEVERITIES.index(f.severity))
+
+
+def raise_for_errors(findings: Iterable[Finding]) -> list[Finding]:
+    """Raise one :class:`LogError` listing every error (and, below, the warnings); else return the warnings."""
+    findings = list(findings)
+    errors = [f for f in findings if f.severity == "error"]
+    warnings = [f for f in findings if f.severity != "error"]
+    if errors:
+        files = sorted({f.file for f in errors})
+        lines = [f"implausible log {', '.join(files)}: {len(errors)} error(s)"]
+        lines += [f"  - {f}" for f in errors]
+        if warnings:
+            lines += ["  warnings:", *(f"  - {f}" for f in warnings)]
+        raise LogError("\n".join(lines))
+    return warnings
+
+
+_DTYPE_ADVICE = {
+    "time": "write seconds (or ms/us/ns with data.time_unit) as numbers",
+    "torque": "write the torque in N·m (or motor currents in A with data.drive_gains) as numbers",
+}
+"""What to write instead, by the role of the column; other roles get the generic advice."""
+
+
+def column_dtype_finding(series: pd.Series, column: str, path: str | Path, role: str | None = None) -> Finding | None:
+    """An error if a column's type is not a real number (Parquet keeps types; CSV is read as text).
+
+    ``role``: ``time``, ``position``, ``velocity``, ``torque`` or None, to tailor the advice.
+    Integers and floats (also pandas' nullable ones) pass.
+    """
+    dtype = series.dtype
+    advice = _DTYPE_ADVICE.get(role or "", "write the measured values as numbers (float)")
+    if pd.api.types.is_bool_dtype(dtype):
+        what = f"holds booleans (True/False), not measurements (read as 0/1 they would be fitted): {advice}"
+    elif pd.api.types.is_datetime64_any_dtype(dtype):
+        what = ("holds date-times: convert it to seconds, e.g. (t - t.iloc[0]).dt.total_seconds(), or give numbers"
+                + (" with data.time_unit" if role == "time" else ""))
+    elif pd.api.types.is_timedelta64_dtype(dtype):
+        what = "holds durations (timedelta): convert it to seconds with .dt.total_seconds(), or give numbers"
+    elif pd.api.types.is_complex_dtype(dtype):
+        what = f"holds complex numbers: {advice}"
+    elif not pd.api.types.is_numeric_dtype(dtype):
+        what = f"holds {dtype} values, not numbers: {advice}"
+    else:
+        return None
+    return Finding("error", str(path), column, "dtype", f"{what} (dtype {dtype})")
+
+
+def check_column_dtypes(frame: pd.DataFrame, columns: LogColumns, path: str | Path) -> list[Finding]:
+    """:func:`column_dtype_finding` for every column of ``columns`` present in ``frame``.
+
+    For typed files (Parquet); a CSV read as text has every column of dtype object: convert there.
+    """
+    roles = [(columns.t, "time"), *((c, "position") for c in columns.q), *((c, "torque") for c in columns.tau),
+             *((c, "velocity") for c in columns.dq or ())]
+    findings = [column_dtype_finding(frame[name], name, path, role) for name, role in roles if name in frame.columns]
+    return [f for f in findings if f is not None]
