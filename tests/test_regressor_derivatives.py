@@ -49,7 +49,10 @@ def test_jacobians_agree_with_pinocchio_rnea_derivatives(robot_name: str, reques
         np.testing.assert_allclose(a[:, :, :inertial], b[:, :, :inertial], atol=1e-10 * np.abs(b).max())
 
 
-def test_vector_jacobian_product_contracts_the_jacobians(lwr4: RobotModel, rng: np.random.Generator) -> None:
+@pytest.mark.parametrize("robot_name", ["lwr4", "panda"])
+def test_vector_jacobian_product_contracts_the_jacobians(robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator) -> None:
+    """Two engines: the reverse-mode product against the forward-mode tensors contracted with the weights."""
+    lwr4: RobotModel = request.getfixturevalue(robot_name)
     states = random_states(lwr4, 5, rng)
     weights = rng.normal(size=(5, lwr4.n_joints, lwr4.n_parameters))
     products = regressor_vjp(lwr4, *states, weights)

@@ -8,9 +8,11 @@ criterion → ``W_b`` → (q, q̇, q̈) → trajectory parameters). Two products
   and for small batches: it holds N·N_J·P·3N_J numbers);
 * :func:`regressor_vjp` — the vector–Jacobian product ``Σ_{j,p} G[k, j, p]·∂W[k, j, p]/∂x_l`` for a
   weight ``G`` of the regressor's shape (the gradient of a criterion with respect to W): what an
-  optimiser needs, at the cost of a few regressors, without ever forming the tensors.
+  optimiser needs, at the cost of a few regressors, without ever forming the tensors. It runs in
+  reverse mode (adjoints swept from the last segment to the base, see its docstring): 3× faster
+  than contracting the forward-mode tangents on the 1 001 samples of a 10 s motion at 100 Hz.
 
-Method: forward-mode differentiation of the Newton–Euler regressor recursion, vectorised over the
+Method of the tensors: forward-mode differentiation of the Newton–Euler regressor recursion, vectorised over the
 samples (last axis of every array) and carrying all 3·N_J tangent directions at once. For segment i
 (joint frame i, Pinocchio's convention: inertia about the frame origin, axes of the frame)::
 
@@ -285,10 +287,80 @@ def regressor_jacobians(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: n
     return jac[0], jac[1], jac[2]
 
 
+def _times(matrix: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``matrix·v`` for a constant 3×3 matrix and vectors ``v`` (..., 3, N): one call, where a
+    cross product with a constant vector written out costs ten."""
+    return np.einsum("ij,...jn->...in", matrix, v)
+
+
+def _pull_back(rt: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``R·v`` for per-sample rotations given as ``rt`` (3, 3, N) = Rᵀ (see :func:`_rotate`): the adjoint of ``Rᵀ·v``."""
+    return np.einsum("ban,...an->...bn", rt, v)
+
+
+def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Dot products along axis −2 (xyz; samples last)."""
+    return np.einsum("...an,...an->...n", u, v)
+
+
+@dataclass
+class _Tape:
+    """What the reverse sweep needs of segment i's forward step (samples last)."""
+
+    rt: np.ndarray
+    """(3, 3, N) Rᵀ of joint i (layout of :func:`_transposed_rotations`)."""
+    parent: np.ndarray
+    """(3, 3, N) ω, ω̇, acc of the parent."""
+    w: np.ndarray
+    """(3, N) Rᵀω_p."""
+    wd: np.ndarray
+    """(3, N) Rᵀω̇_p."""
+    omega: np.ndarray
+    """(3, N) ω_i."""
+    acc: np.ndarray
+    """(3, N) acc_i."""
+    twists: np.ndarray
+    """(i+1, 6, N) unit twists of joints 0…i seen from frame i."""
+
+
+def _forward_tape(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[list[_Joint], list[_Tape], list[np.ndarray]]:
+    """The forward Newton–Euler recursion without tangents: each segment's tape and state t_i (15, N)."""
+    joints = _revolute_chain(robot.model)
+    n_samples = q.shape[0]
+    omega, omega_dot = np.zeros((3, n_samples)), np.zeros((3, n_samples))
+    acc = np.broadcast_to(-robot.gravity[:, None], (3, n_samples)).copy()
+    twists = np.zeros((0, 6, n_samples))
+    tapes, states = [], []
+    for i, joint in enumerate(joints):
+        rt = _transposed_rotations(joint, q[:, i])
+        a = joint.axis[:, None]
+        cross_a, cross_p = -_skew(joint.axis), -_skew(joint.translation)  # v × c = −S(c)·v
+        w, wd = _rotate(rt, omega), _rotate(rt, omega_dot)
+        b = acc + _times(cross_p, omega_dot) + _cross(omega, _times(cross_p, omega))
+        new_twists = np.empty((i + 1, 6, n_samples))
+        new_twists[:i, :3] = _rotate(rt, twists[:, :3])
+        new_twists[:i, 3:] = _rotate(rt, twists[:, 3:] + _times(cross_p, twists[:, :3]))
+        new_twists[i, :3], new_twists[i, 3:] = a, 0.0
+        parent = np.stack([omega, omega_dot, acc])
+        omega = w + a * dq[:, i]
+        omega_dot = wd + a * ddq[:, i] + _times(cross_a, w) * dq[:, i]
+        acc = _rotate(rt, b)
+        twists = new_twists
+        tapes.append(_Tape(rt, parent, w, wd, omega, acc, twists))
+        states.append(np.concatenate([omega_dot, acc, (omega[:, None] * omega[None]).reshape(9, n_samples)]))
+    return joints, tapes, states
+
+
 def regressor_vjp(
     robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, weights: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Vector–Jacobian products ``Σ_{j,p} G[k, j, p]·∂W[k, j, p]/∂(q, q̇, q̈)_l`` per sample.
+
+    Reverse mode: one forward recursion (no tangents), then the adjoints of every segment's state
+    ``t̄_i = ⟨C_m, Σ_k u_ki·g_kiᵀ⟩`` and twists ``ū_ki = Y_i·g_ki`` are swept back to the base
+    through the recursion of the module docstring, with ``d(Rᵀv)/dq_i = (Rᵀv) × a`` and the adjoint
+    ``R·v̄`` of ``Rᵀv``. Its cost grows with N_J² only through the 6-vector twists, where the
+    forward mode of :func:`regressor_jacobians` carries 3·N_J tangents of everything.
 
     Parameters
     ----------
@@ -304,21 +376,58 @@ def regressor_vjp(
     q, dq, ddq = _as_states(robot, q, dq, ddq)
     n_samples, n = q.shape
     g = np.asarray(weights, dtype=float).reshape(n_samples, n, robot.n_parameters)
-    g_t = np.ascontiguousarray(g.transpose(1, 2, 0))  # (N_J, P, N): samples last
+    joints, tapes, states = _forward_tape(robot, q, dq, ddq)
     grad = np.zeros((3, n, n_samples))
-    for seg in _forward_pass(robot, q, dq, ddq):
-        i, m = seg.index, seg.index + 1
-        gi = g_t[: i + 1, 10 * i : 10 * i + 10]  # (i+1, 10, N): weights of segment i on joints 0…i
-        y = np.einsum("mr,mn->rn", _WRENCH_BASIS_FLAT, seg.state).reshape(6, 10, n_samples)
-        y_bar = np.einsum("kan,kpn->apn", seg.twists, gi)  # Σ_k u_ki·g_kiᵀ
-        state_bar = np.einsum("mr,rn->mn", _WRENCH_BASIS_FLAT, y_bar.reshape(60, n_samples))  # t̄_m = ⟨C_m, Ȳ⟩
-        grad[:, :m] += np.einsum("cdmn,mn->cdn", seg.state_tangent, state_bar)
-        twist_bar = np.einsum("apn,kpn->kan", y, gi)  # ū_ki = Y_i·g_ki
-        grad[0, :m] += np.einsum("dkan,kan->dn", seg.twist_tangent, twist_bar)
+    # adjoints of the child's parent quantities (ω, ω̇, acc) and twists, carried down the chain
+    parent_bar = np.zeros((3, 3, n_samples))
+    twists_bar = np.zeros((n, 6, n_samples))  # of the twists of joints 0…i seen from frame i
+    for i in range(n - 1, -1, -1):
+        joint, tape = joints[i], tapes[i]
+        a, p = joint.axis[:, None], joint.translation[:, None]
+        cross_a, cross_p = -_skew(joint.axis), _skew(joint.translation)  # v × a = −S(a)·v, p × v = S(p)·v
+        # (i+1, 10, N): weights of segment i on joints 0…i, samples last (only this block is transposed)
+        gi = np.ascontiguousarray(g[:, : i + 1, 10 * i : 10 * i + 10].transpose(1, 2, 0))
+        # Products with the constant basis: a (60 × 15)·(15 × N) product is BLAS's job (5× einsum,
+        # one thread under the solver's limit).
+        y = (_WRENCH_BASIS_FLAT.T @ states[i]).reshape(6, 10, n_samples)
+        y_bar = np.einsum("kan,kpn->apn", tape.twists, gi)  # Σ_k u_ki·g_kiᵀ
+        state_bar = _WRENCH_BASIS_FLAT @ y_bar.reshape(60, n_samples)  # t̄_m = ⟨C_m, Ȳ⟩
+        u_bar = np.einsum("apn,kpn->kan", y, gi)  # ū_ki = Y_i·g_ki
+        u_bar += twists_bar
+        outer_bar = state_bar[6:].reshape(3, 3, n_samples)  # of ω_i·ω_iᵀ
+        omega_bar = parent_bar[0] + np.einsum("bdn,dn->bn", outer_bar + outer_bar.transpose(1, 0, 2), tape.omega)
+        omega_dot_bar = parent_bar[1] + state_bar[:3]
+        acc_bar = parent_bar[2] + state_bar[3:6]
+        omega_p, omega_dot_p, acc_p = tape.parent
+        q_bar = _dot(acc_bar, _times(cross_a, tape.acc))
+        # acc_i = Rᵀb, b = acc_p + ω̇_p × p + ω_p × (ω_p × p)
+        b_bar = _pull_back(tape.rt, acc_bar)
+        new_parent_bar = np.empty((3, 3, n_samples))
+        new_parent_bar[2] = b_bar
+        new_parent_bar[1] = _times(cross_p, b_bar)
+        new_parent_bar[0] = _dot(omega_p, p) * b_bar + p * _dot(b_bar, omega_p) - 2.0 * omega_p * _dot(p, b_bar)
+        # ω̇_i = Rᵀω̇_p + a·q̈_i + (Rᵀω_p) × a·q̇_i  and  ω_i = Rᵀω_p + a·q̇_i
+        grad[2, i] += _dot(a, omega_dot_bar)
+        w_cross_a = _times(cross_a, tape.w)
+        grad[1, i] += _dot(omega_dot_bar, w_cross_a) + _dot(a, omega_bar)
+        w_bar = omega_bar - _times(cross_a, omega_dot_bar) * dq[:, i]
+        q_bar += _dot(omega_dot_bar, _times(cross_a, tape.wd)) + _dot(w_bar, w_cross_a)
+        new_parent_bar[1] += _pull_back(tape.rt, omega_dot_bar)
+        new_parent_bar[0] += _pull_back(tape.rt, w_bar)
+        # twists of joints k < i: ang ← Rᵀang, lin ← Rᵀ(lin + ang × p)
+        if i > 0:
+            twists_i = tape.twists[:i]
+            q_bar += np.einsum("kan,kan->n", u_bar[:i], _times(cross_a, twists_i.reshape(2 * i, 3, n_samples)).reshape(i, 6, n_samples))
+            lin_bar = _pull_back(tape.rt, u_bar[:i, 3:])
+            twists_bar = np.empty((i, 6, n_samples))
+            twists_bar[:, :3] = _pull_back(tape.rt, u_bar[:i, :3]) + _times(cross_p, lin_bar)
+            twists_bar[:, 3:] = lin_bar
+        grad[0, i] += q_bar
+        parent_bar = new_parent_bar
     viscous = _friction_slice(robot, "viscous")
     if viscous is not None:
-        joints = np.arange(n)
-        grad[1, joints] += g_t[joints, viscous.start + joints]
+        joints_index = np.arange(n)
+        grad[1, joints_index] += g[:, joints_index, viscous.start + joints_index].T
     return grad[0].T, grad[1].T, grad[2].T
 
 

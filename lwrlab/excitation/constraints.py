@@ -103,9 +103,10 @@ def sphere_centres(robot: RobotModel, q: np.ndarray, spheres: tuple[CollisionSph
 def _point_jacobian(poses: np.ndarray, link: int, point: np.ndarray, n_joints: int) -> np.ndarray:
     """(N, 3, N_J) ∂point/∂q for points (N, 3) fixed to segment ``link``: ``z_l × (p − o_l)``, l ≤ link."""
     jac = np.zeros((point.shape[0], 3, n_joints))
-    for l in range(link):
-        axis, origin = poses[l][:, :3, 2], poses[l][:, :3, 3]
-        jac[:, :, l] = np.cross(axis, point - origin)
+    if link:
+        frames = np.asarray(poses[:link])  # (link, N, 4, 4)
+        axis, lever = frames[..., :3, 2], point - frames[..., :3, 3]  # (link, N, 3): one cross for all joints
+        jac[:, :, :link] = np.cross(axis, lever).transpose(1, 2, 0)
     return jac
 
 
@@ -254,8 +255,8 @@ class ConstraintSet:
         d_q, d_v, d_a = (np.empty((len(unique), n, n)) for _ in range(3))
         for u, k in enumerate(unique):
             pin.computeRNEADerivatives(model, data, q[k], dq[k], ddq[k])
-            d_q[u], d_v[u] = data.dtau_dq, data.dtau_dv
-            d_a[u] = np.triu(data.M) + np.triu(data.M, 1).T  # Pinocchio fills the upper triangle
+            d_q[u], d_v[u], d_a[u] = data.dtau_dq, data.dtau_dv, data.M
+        d_a = np.triu(d_a) + np.triu(d_a, 1).transpose(0, 2, 1)  # Pinocchio fills the upper triangle
         d_v += np.diag(self._friction_viscous)
         if self.coulomb_smoothing and "coulomb" in self.robot.friction_terms:
             slope = (1.0 - np.tanh(dq[unique] / self.coulomb_smoothing) ** 2) / self.coulomb_smoothing

@@ -55,12 +55,15 @@ def extreme_singular_pairs(w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray
     return sigma[0], w @ v_max / sigma[0], v_max, sigma[-1], w @ v_min / sigma[-1], v_min
 
 
-def inverse_information(w: np.ndarray) -> np.ndarray:
-    """``(WᵀW)⁻¹`` by Cholesky (LinAlgError naming the cause if W is rank deficient)."""
-    m = gram(w)
+def information_factor(w: np.ndarray) -> np.ndarray:
+    """Lower Cholesky factor L of ``WᵀW = L·Lᵀ`` (LinAlgError naming the cause if W is rank deficient)."""
     try:
-        factor = np.linalg.cholesky(m)
+        return np.linalg.cholesky(gram(w))
     except np.linalg.LinAlgError:
         raise np.linalg.LinAlgError("the regressor is rank deficient: the motion does not excite every base parameter") from None
-    inverse_factor = np.linalg.inv(factor)
+
+
+def inverse_information(w: np.ndarray, factor: np.ndarray | None = None) -> np.ndarray:
+    """``(WᵀW)⁻¹`` by Cholesky (``factor``: L of :func:`information_factor`, when already known)."""
+    inverse_factor = np.linalg.inv(information_factor(w) if factor is None else factor)
     return inverse_factor.T @ inverse_factor

@@ -58,6 +58,7 @@ class _Evaluation:
     cost_error: str | None = None
     cost_gradient: np.ndarray | None = None
     slacks: dict[str, np.ndarray] | None = None
+    windowed: list[WindowedSlack] | None = None
     extras: dict[str, Any] = field(default_factory=dict)
 
 
@@ -203,12 +204,18 @@ class ExcitationProblem:
     def windowed_slacks(self, x: np.ndarray) -> list[WindowedSlack]:
         """Each family's smallest scaled slack per (window, column), and where it is reached."""
         ev = self._evaluate(x)
-        out = []
-        for family, slack in self._slacks(ev).items():
-            scaled = slack / self.constraint_set.scales(family)
-            samples = np.array([start + np.argmin(block, axis=0) for start, block in zip(self.window_starts, np.split(scaled, self.window_starts[1:]), strict=True)])
-            out.append(WindowedSlack(family, np.take_along_axis(scaled, samples, axis=0), samples))
-        return out
+        if ev.windowed is None:
+            ev.windowed = [self._windowed(family, slack / self.constraint_set.scales(family)) for family, slack in self._slacks(ev).items()]
+        return ev.windowed
+
+    def _windowed(self, family: str, scaled: np.ndarray) -> WindowedSlack:
+        """Smallest ``scaled`` slack (N, columns) per window: every window but the last has the same
+        length, so they are one reshape and one argmin; the last (with the final sample) is another."""
+        starts = self.window_starts
+        length = starts[1] - starts[0] if len(starts) > 1 else len(scaled)
+        whole = scaled[: starts[-1]].reshape(len(starts) - 1, length, -1)
+        samples = np.vstack([starts[:-1, None] + np.argmin(whole, axis=1), starts[-1] + np.argmin(scaled[starts[-1] :], axis=0)])
+        return WindowedSlack(family, np.take_along_axis(scaled, samples, axis=0), samples)
 
     def constraint_values(self, x: np.ndarray) -> np.ndarray:
         """All aggregated constraints ``g(x) ≥ 0`` (unit-free), family by family, window-major."""
