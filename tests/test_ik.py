@@ -107,3 +107,29 @@ def test_displaced_path_ik_follows_the_exact_ik_of_the_displaced_poses(lwr4, rng
     assert path_ik.solves < 200  # batched: far fewer IK calls than samples
     with pytest.raises(IndexError, match="outside"):
         path_ik(poses.shape[0], offsets[-1])
+
+
+def test_ik_derivatives_match_finite_differences(lwr4, rng):
+    from lwrlab.kinematics.swivel_ik_derivatives import solve_branch_derivatives
+
+    ik = SwivelIK(lwr4)
+    q = _random_configurations(lwr4, rng, 300)
+    poses, swivel = frame_pose(lwr4, q), ik.swivel_angle(q)
+    h = 1e-6
+    for branch in (Branch(1, 1, 1), Branch(1, -1, -1), Branch(-1, 1, -1)):
+        solution, dq_dposition, dq_dswivel = solve_branch_derivatives(ik, poses, swivel, branch)
+        np.testing.assert_array_equal(solution.q, ik.solve_branch(poses, swivel, branch).q)
+        columns = []
+        for axis in range(3):
+            up, down = poses.copy(), poses.copy()
+            up[:, axis, 3] += h
+            down[:, axis, 3] -= h
+            columns.append((ik.solve_branch(up, swivel, branch).q - ik.solve_branch(down, swivel, branch).q) / (2 * h))
+        numeric = np.stack(columns, axis=2)
+        numeric_swivel = (ik.solve_branch(poses, swivel + h, branch).q - ik.solve_branch(poses, swivel - h, branch).q) / (2 * h)
+        # away from the singularities, where finite differences are meaningful
+        keep = np.all(solution.singularity_margin > 0.05, axis=1) & (np.abs(numeric).max(axis=(1, 2)) < 1e3)
+        assert keep.sum() > 200
+        scale = 1.0 + np.abs(numeric[keep]).max(axis=(1, 2), keepdims=True)  # per pose: large near the reach
+        assert np.all(np.abs(dq_dposition[keep] - numeric[keep]) <= 1e-5 * scale)
+        np.testing.assert_allclose(dq_dswivel[keep], numeric_swivel[keep], atol=1e-7)

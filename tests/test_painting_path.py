@@ -82,3 +82,52 @@ def test_infeasible_path_names_the_violated_constraints(roller_problem):
     unreachable = replace(roller_problem, wall=WallBounds(-1.5, 0.0, 0.6, 0.0, 0.8))
     with pytest.raises(InfeasiblePath, match="reach"):
         optimise_path(unreachable, starting_swivels=(0.0,))
+
+
+def test_path_position_derivatives_match_finite_differences():
+    from lwrlab.planning.painting_path import sample_path_derivatives
+
+    x = PARAMETERS.vector()
+    analytic = sample_path_derivatives(PARAMETERS, 10.0)
+    h = 1e-7
+    for i in range(6):
+        up, down = x.copy(), x.copy()
+        up[i] += h
+        down[i] -= h
+        numeric = (
+            sample_path(PaintingPathParameters.from_vector(up, 2), -0.8, 10.0).position
+            - sample_path(PaintingPathParameters.from_vector(down, 2), -0.8, 10.0).position
+        ) / (2 * h)
+        np.testing.assert_allclose(analytic[:, :, i], numeric, atol=1e-7)
+
+
+# points where T_C·rate is far from a half integer: the sample count does not jump within ±h
+GRADIENT_POINTS = [np.array([65.0, -1.2, 0.5, 0.3, 0.15, 0.15]), np.array([20.0, -0.8, 0.6, 0.2, 0.13, 0.12]), np.array([41.23, -1.6, 0.55, 0.25, 0.12, 0.18])]
+
+
+@pytest.mark.parametrize("x", GRADIENT_POINTS)
+def test_cost_gradient_and_constraint_jacobian_match_finite_differences(roller_problem, x):
+    from dataclasses import replace
+
+    problem = replace(roller_problem, n_steps=2)
+    h = 1e-6
+    steps = np.eye(6) * h
+    numeric_cost = np.array([(problem.cost(x + e) - problem.cost(x - e)) / (2 * h) for e in steps])
+    np.testing.assert_allclose(problem.cost_gradient(x), numeric_cost, rtol=1e-6, atol=1e-6)
+
+    def values(y):
+        return np.array(list(problem.constraints(y).values()))
+
+    numeric = np.array([(values(x + e) - values(x - e)) / (2 * h) for e in steps]).T
+    analytic = problem.constraint_jacobian(x)
+    assert analytic.shape == (len(problem.constraints(x)), 6)
+    assert np.abs(analytic).max() > 0.1  # the joint constraints were evaluated, not placeholders
+    np.testing.assert_allclose(analytic, numeric, rtol=1e-5, atol=1e-6)
+
+
+def test_analytic_and_finite_difference_gradients_reach_the_same_optimum(roller_problem):
+    analytic = optimise_path(roller_problem, starting_swivels=(-1.6,))
+    numeric = optimise_path(roller_problem, starting_swivels=(-1.6,), gradients="finite_differences")
+    total = sum(analytic.cost_terms.values())
+    assert total == pytest.approx(sum(numeric.cost_terms.values()), rel=1e-3)
+    assert min(analytic.constraints.values()) > -1e-6

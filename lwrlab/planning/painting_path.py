@@ -117,13 +117,8 @@ def minimum_jerk(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
-def sample_path(parameters: PaintingPathParameters, wall_x: float, rate_hz: float, rotation: np.ndarray = TOOL_ORIENTATION) -> SampledPath:
-    """The path of ``parameters`` on the wall plane ``x = wall_x`` sampled at ``rate_hz`` (Hz).
-
-    Each segment is the quintic with the way points' positions and zero velocity and acceleration
-    at both ends, written in closed form (the same polynomial as ``scipy.interpolate.BPoly.from_derivatives``
-    with ``[p, 0, 0]`` at each way point, which the tests check).
-    """
+def _segments(parameters: PaintingPathParameters, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Sample times t (s), way points, their times (s), each sample's segment and its normalised time τ."""
     if parameters.duration <= 0:
         raise ValueError(f"painting path duration must be positive, got {parameters.duration} s")
     points = parameters.way_points()
@@ -131,8 +126,21 @@ def sample_path(parameters: PaintingPathParameters, wall_x: float, rate_hz: floa
     n = int(round(parameters.duration * rate_hz)) + 1
     t = np.linspace(0.0, parameters.duration, n)
     segment = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
+    tau = np.clip((t - times[segment]) / (times[segment + 1] - times[segment]), 0.0, 1.0)
+    return t, points, times, segment, tau
+
+
+def sample_path(parameters: PaintingPathParameters, wall_x: float, rate_hz: float, rotation: np.ndarray = TOOL_ORIENTATION) -> SampledPath:
+    """The path of ``parameters`` on the wall plane ``x = wall_x`` sampled at ``rate_hz`` (Hz).
+
+    Each segment is the quintic with the way points' positions and zero velocity and acceleration
+    at both ends, written in closed form (the same polynomial as ``scipy.interpolate.BPoly.from_derivatives``
+    with ``[p, 0, 0]`` at each way point, which the tests check).
+    """
+    t, points, times, segment, tau = _segments(parameters, rate_hz)
+    n = t.size
     length = times[segment + 1] - times[segment]
-    s, ds, dds = minimum_jerk(np.clip((t - times[segment]) / length, 0.0, 1.0))
+    s, ds, dds = minimum_jerk(tau)
     step = points[segment + 1] - points[segment]
     position = np.empty((n, 3))
     velocity = np.zeros((n, 3))
@@ -142,3 +150,45 @@ def sample_path(parameters: PaintingPathParameters, wall_x: float, rate_hz: floa
     velocity[:, 1:] = step * (ds / length)[:, None]
     acceleration[:, 1:] = step * (dds / length**2)[:, None]
     return SampledPath(t=t, position=position, velocity=velocity, acceleration=acceleration, rotation=np.asarray(rotation, dtype=float))
+
+
+def way_point_derivatives(parameters: PaintingPathParameters) -> np.ndarray:
+    """(2·(N_r + 1), 2, 6) ∂[y, z]/∂x of the way points, x = [T_C, φ, Z_u, Z_l, Y_0, ΔY] (they are linear in x)."""
+    derivative = np.zeros((2 * (parameters.n_steps + 1), 2, 6))
+    for stroke in range(parameters.n_steps + 1):
+        first, second = 2 * stroke, 2 * stroke + 1
+        derivative[[first, second], 0, 4] = 1.0  # y = Y_0 + stroke·ΔY
+        derivative[[first, second], 0, 5] = stroke
+        low, high = (first, second) if stroke % 2 == 0 else (second, first)
+        derivative[low, 1, 3] = 1.0  # z = Z_l
+        derivative[high, 1, 2] = 1.0  # z = Z_u
+    return derivative
+
+
+def sample_path_derivatives(parameters: PaintingPathParameters, rate_hz: float) -> np.ndarray:
+    """(N, 3, 6) ∂position/∂x of :func:`sample_path` at a fixed number of samples N.
+
+    The samples sit at fixed fractions of T_C and the way-point times scale with T_C, so the
+    positions do not depend on T_C (nor on φ); they move with the way points and with the
+    way-point times' split of the duration (segments ∝ √length).
+    """
+    t, points, times, segment, tau = _segments(parameters, rate_hz)
+    d_points = way_point_derivatives(parameters)
+    step = np.diff(points, axis=0)
+    d_step = np.diff(d_points, axis=0)
+    lengths = np.linalg.norm(step, axis=1)
+    d_lengths = np.einsum("mc,mcx->mx", step, d_step) / lengths[:, None]
+    weights = np.sqrt(lengths)
+    d_weights = d_lengths / (2 * weights[:, None])
+    cumulative = np.concatenate([[0.0], np.cumsum(weights)])
+    d_cumulative = np.concatenate([np.zeros((1, 6)), np.cumsum(d_weights, axis=0)])
+    total, d_total = cumulative[-1], d_cumulative[-1]
+    fraction = cumulative / total  # way-point times / T_C
+    d_fraction = (d_cumulative * total - cumulative[:, None] * d_total) / total**2
+    # τ = (t/T_C − w_s)/(w_{s+1} − w_s)
+    span = fraction[segment + 1] - fraction[segment]
+    d_tau = -(d_fraction[segment] + tau[:, None] * (d_fraction[segment + 1] - d_fraction[segment])) / span[:, None]
+    s, ds, _ = minimum_jerk(tau)
+    derivative = np.zeros((t.size, 3, 6))
+    derivative[:, 1:] = d_points[segment] + d_step[segment] * s[:, None, None] + step[segment][:, :, None] * (ds[:, None] * d_tau)[:, None, :]
+    return derivative
