@@ -22,8 +22,8 @@ def _data(robot, base, plant, seed: int, duration: float, processing: dict):
     motion = MultisineMotion(duration, 6, seed=seed).sample(robot, 1000.0)
     measurement = plant.measure(motion)
     data = process(measurement.t, measurement.q, measurement.tau, **processing)
-    w = regressor(robot, data.q, data.dq, data.ddq)
-    return base.base_regressor(w), w[:, tool_columns(robot.n_links, 7)], data.tau.ravel()
+    w, tau = data.rows(lambda q, dq, ddq: regressor(robot, q, dq, ddq))
+    return base.base_regressor(w), w[:, tool_columns(robot.n_links, 7)], tau
 
 
 @pytest.fixture(scope="module")

@@ -25,8 +25,10 @@ from omegaconf.errors import MissingMandatoryValue
 from lwrlab.dynamics.regressor import regressor, serial_chain
 from lwrlab.model.inertia import is_physically_consistent
 from lwrlab.model.robot import RobotModel
+from lwrlab.trajectory.core import check_limits
 from plugins.robots.mdh import load_robot_yaml
 from plugins.robots.urdf import load_urdf_robot
+from plugins.trajectories.multisine import MultisineMotion
 
 REPO = Path(__file__).resolve().parents[1]
 PANDA_YAML = REPO / "conf" / "robot" / "panda.yaml"
@@ -324,10 +326,13 @@ def test_unsupported_joints_are_refused(tmp_path: Path, kind: str, message: str)
     assert str(path) in str(error.value)
 
 
-def test_acceleration_limits_are_required_and_sized(tmp_path: Path) -> None:
+def test_acceleration_limits_are_optional_for_logs_required_for_motions_and_sized(tmp_path: Path) -> None:
     path = write_urdf(tmp_path)
-    with pytest.raises(ValueError, match="holds no acceleration limits"):
-        load_urdf_robot(path)
+    robot = load_urdf_robot(path)  # enough to identify from logs
+    assert np.all(np.isinf(robot.limits.acceleration))
+    motion = MultisineMotion(duration=2.0, harmonics=2, seed=0).sample(load_urdf_robot(path, acceleration_limits=1.0), 100.0)
+    with pytest.raises(ValueError, match="give robot.acceleration_limits"):
+        check_limits(motion, robot)
     with pytest.raises(ValueError, match="expected 1 values or a scalar, got 2"):
         load_urdf_robot(path, acceleration_limits=[1.0, 2.0])
     with pytest.raises(ValueError, match="must be positive"):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lwrlab.signal.processing import central_difference, lowpass, process
+from lwrlab.signal.processing import auto_cutoff, central_difference, lowpass, motion_frequency, process
 
 
 def test_lowpass_keeps_slow_and_removes_fast_components_without_delay() -> None:
@@ -35,15 +35,76 @@ def test_central_difference_converges_at_its_order(accuracy: int, expected_order
     assert observed == pytest.approx(expected_order, abs=0.2)
 
 
-def test_process_trims_and_decimates() -> None:
+def test_process_trims_and_decimates_to_a_rate_in_hz() -> None:
     rate = 1000.0
     t = np.arange(0, 3, 1 / rate)
     q = np.stack([np.sin(t), np.cos(t)], axis=1)
     # A signal that does not end at rest bends the filtered curvature for ~0.2 s: trim it.
-    data = process(t, q, q.copy(), trim_s=0.3, decimation=5)
-    assert data.t[0] == pytest.approx(0.3)
-    assert np.all(np.diff(data.index) == 5)
-    np.testing.assert_allclose(data.dq[:, 0], np.cos(data.t), atol=1e-3)
-    np.testing.assert_allclose(data.ddq[:, 0], -np.sin(data.t), atol=1e-2)
+    data = process(t, q, q.copy(), cutoff_hz=10.0, trim_s=0.3, rate_hz=100.0)
+    assert data.row_times[0] == pytest.approx(0.3)
+    assert data.rate_hz == pytest.approx(100.0)
+    assert np.all(np.diff(data.raw_index) == 10)
+    rows = data.raw_index
+    np.testing.assert_allclose(data.dq[data.index, 0], np.cos(t[rows]), atol=1e-3)
+    np.testing.assert_allclose(data.ddq[data.index, 0], -np.sin(t[rows]), atol=1e-2)
     with pytest.raises(ValueError, match="leaves nothing"):
-        process(t, q, q, trim_s=2.0)
+        process(t, q, q, cutoff_hz=10.0, trim_s=2.0)
+
+
+@pytest.mark.parametrize("log_rate", [100.0, 200.0, 1000.0])
+def test_decimated_rate_is_the_same_whatever_the_log_rate(log_rate: float) -> None:
+    t = np.arange(0, 20, 1 / log_rate)
+    q = np.column_stack([np.sin(2 * np.pi * 0.2 * t), np.sin(2 * np.pi * 0.3 * t)])
+    data = process(t, q, q.copy(), cutoff_hz=4.0)
+    assert data.rate_hz == pytest.approx(20.0)  # 5 × the cut-off
+
+
+def test_auto_cutoff_is_fifteen_times_the_frequency_of_a_sinusoid() -> None:
+    rate = 500.0
+    t = np.arange(0, 31, 1 / rate)  # 0.5 s left out at each end: six whole periods remain
+    q = np.column_stack([0.8 * np.sin(2 * np.pi * 0.2 * t), 0.3 * np.sin(2 * np.pi * 0.2 * t + 1)])
+    assert motion_frequency(q, rate) == pytest.approx(0.2, rel=1e-3)
+    assert auto_cutoff(q, rate) == pytest.approx(3.0, rel=1e-3)
+    assert process(t, q, q.copy()).cutoff_hz == pytest.approx(3.0, rel=1e-3)
+
+
+def test_parallel_filtering_keeps_a_coulomb_model_exact() -> None:
+    """τ = Fc·sign(q̇) + Fv·q̇ through the same filter as the regressor's columns: least squares is exact.
+
+    Filtering τ but not the sign(q̇) column (the old processing) smears the step on one side only
+    and biases Fc low.
+    """
+    rate = 1000.0
+    t = np.arange(0, 10, 1 / rate)
+    q = np.column_stack([0.5 * np.sin(2 * np.pi * 0.3 * t) + 0.2 * np.sin(2 * np.pi * 0.7 * t)])
+    dq_true = np.gradient(q, 1 / rate, axis=0)
+    tau = 0.4 * np.sign(dq_true) + 0.3 * dq_true
+
+    def friction(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        return np.column_stack([np.sign(dq[:, 0]), dq[:, 0]])
+
+    data = process(t, q, tau, cutoff_hz=5.0)
+    w, y = data.rows(friction)
+    np.testing.assert_allclose(np.linalg.lstsq(w, y, rcond=None)[0], [0.4, 0.3], rtol=2e-3)
+    unfiltered_w = friction(data.q, data.dq, data.ddq)[data.index]
+    biased = np.linalg.lstsq(unfiltered_w, y, rcond=None)[0]
+    assert biased[0] < 0.4 * 0.98  # the one-sided filter's bias this test guards against
+
+
+def test_logged_velocity_is_used_when_consistent_and_refused_when_delayed() -> None:
+    rate = 500.0
+    t = np.arange(0, 20, 1 / rate)
+    q = np.column_stack([np.sin(2 * np.pi * 0.25 * t), 0.5 * np.cos(2 * np.pi * 0.4 * t)])
+    dq = np.column_stack([2 * np.pi * 0.25 * np.cos(2 * np.pi * 0.25 * t), -0.5 * 2 * np.pi * 0.4 * np.sin(2 * np.pi * 0.4 * t)])
+    consistent = process(t, q, q.copy(), dq, cutoff_hz=3.0)
+    assert consistent.velocity.logged and abs(consistent.velocity.delay_samples) < 0.05
+    scaled = process(t, q, q.copy(), 1.1 * dq, cutoff_hz=3.0)
+    assert not scaled.velocity.logged and "scale" in scaled.velocity.reason
+    lagging = np.vstack([dq[:1].repeat(40, axis=0), dq[:-40]])  # a recorder's 80 ms lag
+    delayed = process(t, q, q.copy(), lagging, cutoff_hz=3.0)
+    assert delayed.velocity.delay_samples == pytest.approx(40.0 / (rate / delayed.working_rate_hz), abs=0.5)
+    forced = process(t, q, q.copy(), lagging, cutoff_hz=3.0, velocity="logged")
+    assert forced.velocity.logged
+    # Aligned by its delay, a lagging velocity matches the derivative of q away from the ends.
+    interior = slice(100, -100)
+    np.testing.assert_allclose(forced.dq[interior], consistent.dq[interior], atol=2e-3)

@@ -11,7 +11,7 @@ from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
-SHORT = ["trajectory.duration=4", "task.tool_motion.duration=4", "task.tool_motion_candidates=2", "measurement.processing.decimation=2"]
+SHORT = ["trajectory.duration=4", "task.tool_motion.duration=4", "task.tool_motion_candidates=2", "measurement.processing.rate_hz=1000"]
 
 
 def _run(overrides: list[str], output_dir: Path) -> dict[str, float]:

@@ -74,7 +74,9 @@ def random_states(robot: RobotModel, n_samples: int, rng: np.random.Generator) -
     lim = robot.limits
     q = rng.uniform(lim.position_lower, lim.position_upper, size=(n_samples, robot.n_joints))
     dq = rng.uniform(-lim.velocity, lim.velocity, size=(n_samples, robot.n_joints))
-    ddq = rng.uniform(-lim.acceleration, lim.acceleration, size=(n_samples, robot.n_joints))
+    # unknown (infinite) acceleration limits, as from a URDF: any scale shows the same structure
+    bound = np.where(np.isfinite(lim.acceleration), lim.acceleration, 10.0)
+    ddq = rng.uniform(-bound, bound, size=(n_samples, robot.n_joints))
     return q, dq, ddq
 
 

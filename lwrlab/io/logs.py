@@ -1,7 +1,19 @@
 """Recorded robot logs: the documented schema, loading with validation, resampling, writing.
 
-Schema (CSV with a header row, or Parquet; one row per sample)
-----------------------------------------------------------------
+Formats
+-------
+
+- **CSV** (header row) and **Parquet**: one row per sample, one column per joint quantity (the
+  schema below);
+- **NumPy** ``.npz``: a 1-D time array and (N, N_J) arrays, named through ``column_map`` with the
+  schema's block names, e.g. ``{"t": "times", "q": "positions", "dq": "velocities", "tau": "torques"}``
+  (1-D arrays per joint, ``q1`` …, work too); read without pickle;
+- **ROS 2 bags** (a rosbag2 folder, sqlite3 or MCAP storage) of ``sensor_msgs/msg/JointState``:
+  position, velocity, effort, joints matched to the robot's joints by name
+  (:mod:`lwrlab.io.rosbag`; ``topic`` picks one of several JointState topics).
+
+Schema (per-joint columns)
+--------------------------
 
 ======================  ========  ===========================================================
 column                  unit      content
@@ -9,9 +21,8 @@ column                  unit      content
 ``t``                   s         sample time, strictly increasing (``time_unit`` converts
                                   ms/us/ns clocks)
 ``q1`` … ``qN``         rad       joint positions (``position_unit: deg`` converts degrees)
-``dq1`` … ``dqN``       rad/s     optional joint velocities (validated and loaded; the
-                                  identification differentiates the filtered positions, as
-                                  for simulated data)
+``dq1`` … ``dqN``       rad/s     optional joint velocities (the processing uses them where
+                                  they agree with the positions: ``data.velocity``)
 ``tau1`` … ``tauN``     N·m       joint torques (link side), **or**
 ``current1`` … ``N``    A         motor currents, with ``drive_gains`` (N·m/A at the joint:
                                   torque constant × gear ratio), ``τ_j = gain_j · i_j``
@@ -27,8 +38,9 @@ of the file). Nothing is dropped silently.
 
 Resampling: a log whose sampling period varies by more than ``jitter_tolerance`` (relative to the
 median period) is linearly interpolated onto the uniform grid ``t_0 + k/rate`` (rate = ``rate_hz``
-or 1/median period) before anything else; the measurement metadata records it. At 1 kHz the
-interpolation error is far below the 10 Hz low-pass that follows.
+or 1/median period) before anything else; the measurement metadata records it, and the times and
+torques as logged are kept, so that a prediction is scored against what the sensors gave, not
+against interpolated torques.
 """
 
 from __future__ import annotations
@@ -68,13 +80,22 @@ class RecordedLog:
     """The file read."""
     resampled: bool
     """Whether the time stamps were irregular and the samples were interpolated."""
+    logged_t: np.ndarray | None = None
+    """(M,) times as logged (s), when resampled."""
+    logged_tau: np.ndarray | None = None
+    """(M, N_J) torques as logged (N·m), when resampled."""
+
+    @property
+    def name(self) -> str:
+        """The log's short name: its file (or bag folder) stem."""
+        return self.path.stem
 
     def to_measurement(self) -> Measurement:
         """The :class:`Measurement` the identification consumes (the same type a simulator yields)."""
         rate = float((len(self.t) - 1) / (self.t[-1] - self.t[0]))
         return Measurement(
-            t=self.t, q=self.q, tau=self.tau,
-            metadata={"source": "log", "path": str(self.path), "rate_hz": rate, "resampled": self.resampled},
+            t=self.t, q=self.q, tau=self.tau, dq=self.dq, logged_t=self.logged_t, logged_tau=self.logged_tau,
+            metadata={"source": "log", "path": str(self.path), "name": self.name, "rate_hz": rate, "resampled": self.resampled},
         )
 
 
@@ -83,14 +104,84 @@ def joint_columns(prefix: str, n_joints: int) -> list[str]:
     return [f"{prefix}{j}" for j in range(1, n_joints + 1)]
 
 
-def _read(path: Path) -> pd.DataFrame:
+FORMATS = (".csv", ".txt", ".parquet", ".pq", ".npz", "ROS 2 bag folder (.db3 / .mcap)")
+"""What :func:`load_log` reads."""
+_BLOCKS = ("q", "dq", "tau", "current")
+
+
+def _is_bag(path: Path) -> bool:
+    return (path.is_dir() and (path / "metadata.yaml").is_file()) or path.suffix.lower() in (".db3", ".mcap")
+
+
+def _npz_frame(path: Path, mapping: dict[str, str], n_joints: int) -> tuple[pd.DataFrame, dict[str, str]]:
+    """An npz file as a frame: 2-D arrays split into one column per joint (``positions[:, 0]``)."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {key: data[key] for key in data.files}
+    except (ValueError, OSError) as error:
+        raise LogError(f"{path}: not a readable NumPy .npz file without pickled objects ({error})") from error
+    columns: dict[str, np.ndarray] = {}
+    names = dict(mapping)
+    for schema in ("t", *_BLOCKS):
+        key = mapping.get(schema, schema)
+        if key not in arrays:
+            continue
+        array = arrays[key]
+        if schema == "t":
+            if array.ndim != 1:
+                raise LogError(f"{path}: array {key!r} (time) must be 1-D, got shape {array.shape}")
+            columns[key] = array
+            continue
+        if array.ndim != 2 or array.shape[1] != n_joints:
+            raise LogError(f"{path}: array {key!r} ({schema}) must have shape (samples, {n_joints}), got {array.shape}")
+        for j in range(n_joints):
+            column = f"{key}[:, {j}]"
+            columns[column] = array[:, j]
+            names[f"{schema}{j + 1}"] = column
+    for key, array in arrays.items():  # per-joint 1-D arrays named by the schema (q1, …) or the map
+        if array.ndim == 1 and key not in columns:
+            columns[key] = array
+    lengths = {key: len(value) for key, value in columns.items()}
+    if len(set(lengths.values())) > 1:
+        raise LogError(f"{path}: arrays of different lengths {lengths}")
+    if not columns:
+        raise LogError(f"{path}: no arrays named by the schema or column_map; the file has {sorted(arrays)} (map them: data.column_map)")
+    return pd.DataFrame(columns), names
+
+
+def _bag_frame(path: Path, joint_names: Sequence[str] | None, topic: str | None, n_joints: int) -> tuple[pd.DataFrame, dict[str, str]]:
+    """A ROS 2 bag's JointState messages as a frame in the schema (joints matched by name)."""
+    from lwrlab.io.rosbag import read_joint_states
+
+    if joint_names is None or len(joint_names) != n_joints:
+        raise LogError(f"{path}: a ROS 2 bag needs the robot's {n_joints} joint names to match its JointState messages")
+    states = read_joint_states(path, list(joint_names), topic)
+    data = {"t": states.t}
+    for prefix, block in (("q", states.q), ("dq", states.dq), ("tau", states.tau)):
+        if block is not None:
+            data.update({f"{prefix}{j + 1}": block[:, j] for j in range(n_joints)})
+    return pd.DataFrame(data), {}
+
+
+def _read(path: Path, mapping: dict[str, str], n_joints: int, joint_names: Sequence[str] | None, topic: str | None) -> tuple[pd.DataFrame, dict[str, str]]:
+    """The log as a frame of columns, and the schema → column mapping to read it with."""
+    if _is_bag(path):
+        return _bag_frame(path.parent if path.is_file() else path, joint_names, topic, n_joints)
+    if path.is_dir():
+        raise LogError(f"{path}: a directory, not a log file (nor a ROS 2 bag folder with metadata.yaml); formats: {', '.join(FORMATS)}")
     if not path.is_file():
         raise LogError(f"{path}: no such log file")
-    if path.suffix.lower() in (".parquet", ".pq"):
-        return pd.read_parquet(path)
-    if path.suffix.lower() in (".csv", ".txt"):
-        return pd.read_csv(path, dtype=str, keep_default_na=False)  # strings: we report bad cells ourselves
-    raise LogError(f"{path}: unknown log format {path.suffix!r}; use .csv or .parquet")
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        return _npz_frame(path, mapping, n_joints)
+    if suffix in (".parquet", ".pq"):
+        return pd.read_parquet(path), mapping
+    if suffix in (".csv", ".txt"):
+        try:  # strings: we report bad cells ourselves
+            return pd.read_csv(path, dtype=str, keep_default_na=False), mapping
+        except pd.errors.EmptyDataError as error:
+            raise LogError(f"{path}: empty file, no header row and no samples") from error
+    raise LogError(f"{path}: unknown log format {path.suffix!r}; formats: {', '.join(FORMATS)}")
 
 
 def _where(path: Path, row: int) -> str:
@@ -136,12 +227,14 @@ def load_log(
     min_samples: int = 100,
     jitter_tolerance: float = 0.01,
     max_gap: float = 10.0,
+    joint_names: Sequence[str] | None = None,
+    topic: str | None = None,
 ) -> RecordedLog:
-    """Read, validate and (if needed) resample a log written in the schema of this module.
+    """Read, validate and (if needed) resample a log (formats and schema in the module docstring).
 
     Parameters
     ----------
-    path : a ``.csv`` or ``.parquet`` file.
+    path : a ``.csv``, ``.parquet`` or ``.npz`` file, or a ROS 2 bag folder.
     n_joints : number of joints of the robot (columns ``q1…qN`` and ``tau1…tauN`` expected).
     column_map : schema name → column name in the file, for the columns named differently.
     time_unit : unit of the time column: ``s``, ``ms``, ``us`` or ``ns``.
@@ -151,6 +244,8 @@ def load_log(
     min_samples : fewest samples accepted.
     jitter_tolerance : largest relative deviation of a period from the median before resampling.
     max_gap : largest period accepted, in median periods (longer gaps would be invented data).
+    joint_names : the robot's joint names (ROS 2 bags match their JointState messages by name).
+    topic : the JointState topic of a ROS 2 bag (None: its only one).
     """
     path = Path(path)
     if time_unit not in TIME_UNITS:
@@ -159,8 +254,7 @@ def load_log(
         raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
     if drive_gains is not None and len(drive_gains) != n_joints:
         raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
-    frame = _read(path)
-    mapping = dict(column_map or {})
+    frame, mapping = _read(path, dict(column_map or {}), n_joints, joint_names, topic)
     name = lambda schema: mapping.get(schema, schema)  # noqa: E731
     if len(frame) < min_samples:
         raise LogError(f"{path}: {len(frame)} rows, too short (at least {min_samples} samples needed)")
@@ -181,8 +275,12 @@ def load_log(
     tau = block("tau") if drive_gains is None else block("current") * np.asarray(drive_gains, dtype=float)
     has_velocity = all(name(c) in frame.columns for c in joint_columns("dq", n_joints))
     columns = [q, tau] + ([block("dq") * POSITION_UNITS[position_unit]] if has_velocity else [])
+    logged_t, logged_tau = t, tau
     t, columns, resampled = _uniform(t, columns, rate_hz, jitter_tolerance)
-    return RecordedLog(t=t, q=columns[0], tau=columns[1], dq=columns[2] if has_velocity else None, path=path, resampled=resampled)
+    return RecordedLog(
+        t=t, q=columns[0], tau=columns[1], dq=columns[2] if has_velocity else None, path=path, resampled=resampled,
+        logged_t=logged_t if resampled else None, logged_tau=logged_tau if resampled else None,
+    )
 
 
 def log_frame(measurement: Measurement, dq: np.ndarray | None = None) -> pd.DataFrame:

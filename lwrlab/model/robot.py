@@ -105,6 +105,11 @@ class RobotModel:
         return self.model.nv
 
     @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Names of the joints in order (the URDF's, or the model's labels): how logs name them."""
+        return tuple(self.model.names[1:])
+
+    @property
     def n_links(self) -> int:
         """Number of moving segments carrying inertial parameters."""
         return self.model.njoints - 1

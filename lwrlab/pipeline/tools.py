@@ -84,9 +84,9 @@ class ToolBench:
     def data(self, plant: Plant, motion: Trajectory) -> ToolData:
         """Execute ``motion`` on ``plant`` and build the regressors from the processed measurement."""
         measurement = plant.measure(motion)
-        processed = process(measurement.t, measurement.q, measurement.tau, **self.processing)
-        w = regressor(self.robot, processed.q, processed.dq, processed.ddq)
-        return ToolData(self.base.base_regressor(w), w[:, tool_columns(self.robot.n_links, self.tool_joint)], processed.tau.ravel())
+        processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **self.processing)
+        w, tau = processed.rows(lambda q, dq, ddq: regressor(self.robot, q, dq, ddq))
+        return ToolData(self.base.base_regressor(w), w[:, tool_columns(self.robot.n_links, self.tool_joint)], tau)
 
     def truth_in_joint_frame(self, tool: Tool) -> np.ndarray:
         """The tool's true parameters in the flange-carrying joint's frame (Table III's frame)."""

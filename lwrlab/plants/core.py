@@ -23,11 +23,30 @@ class Measurement:
     """(N, N_J) measured joint torques (N·m)."""
     metadata: dict[str, Any] = field(default_factory=dict)
     """Source, rate, noise settings, … (free-form, logged with the run)."""
+    dq: np.ndarray | None = None
+    """(N, N_J) logged joint velocities (rad/s), when the sensors give them."""
+    logged_t: np.ndarray | None = None
+    """(M,) sample times as logged (s), when the log was resampled onto the uniform ``t``; else None."""
+    logged_tau: np.ndarray | None = None
+    """(M, N_J) torques at ``logged_t`` (N·m): what a prediction is scored against after resampling."""
 
     def __post_init__(self) -> None:
         n = self.t.shape[0]
         if self.q.shape != self.tau.shape or self.q.shape[0] != n:
             raise ValueError(f"Measurement shapes disagree: t {self.t.shape}, q {self.q.shape}, tau {self.tau.shape}")
+        if self.dq is not None and self.dq.shape != self.q.shape:
+            raise ValueError(f"Measurement shapes disagree: q {self.q.shape}, dq {self.dq.shape}")
+
+    @property
+    def name(self) -> str:
+        """Short name of the measurement (the log's file stem, else its role)."""
+        return str(self.metadata.get("name", self.metadata.get("role", "measurement")))
+
+    def as_logged(self) -> tuple[np.ndarray, np.ndarray]:
+        """Times (s) and torques (N·m) as the sensors logged them (before any resampling)."""
+        if self.logged_t is not None and self.logged_tau is not None:
+            return self.logged_t, self.logged_tau
+        return self.t, self.tau
 
     @property
     def rate_hz(self) -> float:

@@ -82,8 +82,19 @@ def limit_violations(trajectory: Trajectory, robot: RobotModel, torque: np.ndarr
     return problems
 
 
+def require_motion_limits(robot: RobotModel, purpose: str) -> None:
+    """A clear error when ``robot`` has no acceleration limits (a URDF has none) and ``purpose`` needs them."""
+    unknown = [j + 1 for j in range(robot.n_joints) if not np.isfinite(robot.limits.acceleration[j])]
+    if unknown:
+        raise ValueError(
+            f"{robot.name}: no acceleration limits for joints {unknown} (a URDF holds none): give robot.acceleration_limits "
+            f"(rad/s², one per joint or a scalar) to {purpose}; identifying from recorded logs (plant=log) does not need them"
+        )
+
+
 def check_limits(trajectory: Trajectory, robot: RobotModel, torque: np.ndarray | None = None, what: str = "motion") -> None:
     """Raise :class:`LimitViolation` naming every violated limit of ``trajectory`` on ``robot``."""
+    require_motion_limits(robot, f"check the {what}")
     problems = limit_violations(trajectory, robot, torque)
     if problems:
         raise LimitViolation(f"{what} violates the limits of {robot.name}:\n  " + "\n  ".join(problems))

@@ -1,10 +1,10 @@
 """Recorded logs as a plant (config group ``plant``): identify a real robot from its logs.
 
-The motion was executed when the log was recorded: ``measure`` returns the log standing for the
-motion's role — the identification log for the exciting motion, the validation log for the
-cross-validation motion (or, without a validation log, the last ``validation_fraction`` of the
-identification log, the first part then being used for identification). The schema, units,
-column mapping, validation and resampling are those of :mod:`lwrlab.io.logs`.
+The motions were executed when the logs were recorded, so nothing is sampled or optimised: the
+identification reads the identification logs (``data.paths``, processed one by one and stacked)
+and the validation logs (``data.validation_paths``, each scored on its own). Without a validation
+log, the last ``validation_fraction`` of each identification log is held out. Formats, schema,
+units, column mapping, validation and resampling are those of :mod:`lwrlab.io.logs`.
 """
 
 from __future__ import annotations
@@ -19,27 +19,36 @@ from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
 
 
+def _as_list(single: str | None, several: Sequence[str] | None) -> list[Path]:
+    if several:
+        return [Path(str(p)) for p in several]
+    return [Path(str(single))] if single else []
+
+
 class LogPlant:
     """Measurements read from recorded logs (no ground truth).
 
     Parameters
     ----------
-    robot : the robot model (its joint count fixes the expected columns).
-    path : identification log (.csv or .parquet).
-    validation_path : cross-validation log, or None to split ``path``.
-    validation_fraction : share of ``path`` kept for validation when ``validation_path`` is None.
-    column_map, time_unit, position_unit, drive_gains, rate_hz, min_samples : see
+    robot : the robot model (its joint count and names fix what is read).
+    path, paths : identification log, or several (processed separately, stacked after processing).
+    validation_path, validation_paths : validation log(s), each scored on its own; none: hold out
+        the last ``validation_fraction`` of each identification log.
+    validation_fraction : share of each identification log held out when there is no validation log.
+    column_map, time_unit, position_unit, drive_gains, rate_hz, min_samples, topic : see
         :func:`lwrlab.io.logs.load_log`.
     """
 
     recorded = True
-    """The plant replays recorded data: the configured motion is not what the robot executed."""
+    """The plant replays recorded data: no motion is sampled, the logs are the measurements."""
 
     def __init__(
         self,
         robot: RobotModel,
-        path: str,
+        path: str | None = None,
+        paths: Sequence[str] | None = None,
         validation_path: str | None = None,
+        validation_paths: Sequence[str] | None = None,
         validation_fraction: float = 0.3,
         column_map: Mapping[str, str] | None = None,
         time_unit: str = "s",
@@ -47,12 +56,15 @@ class LogPlant:
         drive_gains: Sequence[float] | None = None,
         rate_hz: float | None = None,
         min_samples: int = 100,
+        topic: str | None = None,
     ) -> None:
         if not 0.0 < validation_fraction < 1.0:
-            raise ValueError(f"validation_fraction must lie in (0, 1), got {validation_fraction}")
+            raise ValueError(f"data.validation_fraction must lie in (0, 1), got {validation_fraction}")
         self.robot = robot
-        self.path = Path(path)
-        self.validation_path = Path(validation_path) if validation_path else None
+        self.paths = _as_list(path, paths)
+        if not self.paths:
+            raise LogError("plant=log needs the identification log(s): set data.paths=[log.csv, …] (or data.path=log.csv)")
+        self.validation_paths = _as_list(validation_path, validation_paths)
         self.validation_fraction = validation_fraction
         self._options = {
             "n_joints": robot.n_joints,
@@ -62,6 +74,8 @@ class LogPlant:
             "drive_gains": None if drive_gains is None else list(drive_gains),
             "rate_hz": rate_hz,
             "min_samples": min_samples,
+            "joint_names": robot.joint_names,
+            "topic": topic,
         }
 
     @property
@@ -69,18 +83,46 @@ class LogPlant:
         """A real robot's parameters are unknown."""
         return None
 
-    def _load(self, path: Path) -> Measurement:
-        return load_log(path, **self._options).to_measurement()
+    @property
+    def path(self) -> Path:
+        """The first identification log."""
+        return self.paths[0]
+
+    def load(self, path: str | Path, role: str) -> Measurement:
+        """One log as a measurement, tagged with its ``role`` (identification or validation)."""
+        measurement = load_log(path, **self._options).to_measurement()
+        return replace(measurement, metadata={**measurement.metadata, "role": role})
+
+    def _split(self, whole: Measurement, validation: bool) -> Measurement:
+        n = len(whole.t)
+        split = int(round(n * (1.0 - self.validation_fraction)))
+        if min(split, n - split) < self._options["min_samples"]:
+            raise LogError(f"{whole.metadata['path']}: {n} samples cannot be split into identification and validation parts; give data.validation_paths")
+        part = slice(split, None) if validation else slice(None, split)
+        t = whole.t[part]
+        logged = {}
+        if whole.logged_t is not None and whole.logged_tau is not None:
+            keep = (whole.logged_t >= t[0]) & (whole.logged_t <= t[-1])
+            logged = {"logged_t": whole.logged_t[keep], "logged_tau": whole.logged_tau[keep]}
+        name = f"{whole.name}_{'tail' if validation else 'head'}"
+        return replace(
+            whole, t=t, q=whole.q[part], tau=whole.tau[part], dq=None if whole.dq is None else whole.dq[part], **logged,
+            metadata={**whole.metadata, "name": name, "role": "validation" if validation else "identification",
+                      "part": f"{'last' if validation else 'first'} {100 * (self.validation_fraction if validation else 1 - self.validation_fraction):.0f} %"},
+        )
+
+    def identification_measurements(self) -> list[Measurement]:
+        """The identification logs (their first part when there is no validation log)."""
+        whole = [self.load(p, "identification") for p in self.paths]
+        return whole if self.validation_paths else [self._split(m, validation=False) for m in whole]
+
+    def validation_measurements(self) -> list[Measurement]:
+        """The validation logs (the held-out last part of each identification log when none is given)."""
+        if self.validation_paths:
+            return [self.load(p, "validation") for p in self.validation_paths]
+        return [self._split(self.load(p, "identification"), validation=True) for p in self.paths]
 
     def measure(self, trajectory: Trajectory) -> Measurement:
-        """The log standing for ``trajectory`` (by its ``metadata["role"]``)."""
+        """The first log standing for ``trajectory``'s role (a stage that plays one motion at a time)."""
         validation = trajectory.metadata.get("role") == "validation"
-        if self.validation_path is not None:
-            return self._load(self.validation_path if validation else self.path)
-        whole = self._load(self.path)
-        split = int(round(len(whole.t) * (1.0 - self.validation_fraction)))
-        if min(split, len(whole.t) - split) < self._options["min_samples"]:
-            raise LogError(f"{self.path}: {len(whole.t)} samples cannot be split into identification and validation parts")
-        part = slice(split, None) if validation else slice(None, split)
-        return replace(whole, t=whole.t[part], q=whole.q[part], tau=whole.tau[part],
-                       metadata={**whole.metadata, "part": "validation" if validation else "identification"})
+        return (self.validation_measurements() if validation else self.identification_measurements())[0]

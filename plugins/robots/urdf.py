@@ -88,8 +88,8 @@ def _check_limits(model: pin.Model, path: Path) -> None:
 
 
 def _acceleration_limits(acceleration_limits: Sequence[float] | float | None, n: int, path: Path) -> np.ndarray:
-    if acceleration_limits is None:
-        raise ValueError(f"{path}: a URDF holds no acceleration limits; give acceleration_limits (rad/s², one per joint or a scalar)")
+    if acceleration_limits is None:  # unknown: fine for identifying from logs; motion stages refuse it
+        return np.full(n, np.inf)
     values = np.asarray(acceleration_limits, dtype=float).ravel()
     if values.size == 1:
         values = np.full(n, values[0])  # one value for every joint
@@ -129,7 +129,8 @@ def load_urdf_robot(
     path : URDF file. Meshes it references need not exist (only kinematics and inertials are read).
     name : robot name; default the URDF's ``<robot name>``, else the file name.
     acceleration_limits : largest absolute joint acceleration (rad/s²), one per joint after locking,
-        or one scalar for every joint. Required: URDF has no acceleration limits.
+        or one scalar for every joint. A URDF has none: without them the limits are infinite, which
+        identifying from logs does not need and sampling or optimising a motion refuses.
     friction : nominal friction ``{"coulomb": [...], "viscous": [...], "offset": [...]}`` (N·m,
         N·m·s/rad, N·m); a missing term is zero.
     friction_terms : friction columns of the regressor (subset of coulomb, viscous, offset).

@@ -1,0 +1,1 @@
+"""Figures of value objects (matplotlib, files only): no MLflow, no Hydra."""
