@@ -25,6 +25,8 @@ from scipy.linalg.lapack import dposv
 from lwrlab.control.filters import FilteredDifferences, FirstOrderLowPass
 from lwrlab.model.robot import RobotModel
 
+_BASE_AXES = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
 
 def add_tool_frame(robot: RobotModel, tcp_in_flange: np.ndarray, name: str = "tcp") -> tuple[pin.Model, int]:
     """A copy of the robot's Pinocchio model with an operational frame at the tool centre point.
@@ -98,7 +100,7 @@ class ExternalForceEstimator:
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """(6, N_J) Jacobian of the tool centre point, base-frame axes ([linear; angular])."""
-        return pin.computeFrameJacobian(self.model, self.data, q, self.frame_id, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        return pin.computeFrameJacobian(self.model, self.data, q, self.frame_id, _BASE_AXES)
 
     def reset(self, q: np.ndarray) -> None:
         """Start at rest at ``q`` (rad), with no force."""
@@ -107,9 +109,10 @@ class ExternalForceEstimator:
 
     def update(self, q: np.ndarray, tau: np.ndarray) -> StateEstimate:
         """One sample: measured positions ``q`` (rad) and link-side torques ``tau`` (N·m)."""
+        model, data = self.model, self.data
         dq, ddq = self.differences(q)
-        external = tau - pin.rnea(self.model, self.data, q, dq, ddq) - self.friction_torque(dq)
-        jacobian = self.jacobian(q)
+        external = tau - pin.rnea(model, data, q, dq, ddq) - self.friction_torque(dq)
+        jacobian = pin.computeFrameJacobian(model, data, q, self.frame_id, _BASE_AXES)
         # eq. (14): (Jᵀ)⁺ = (J·Jᵀ)⁻¹·J for a full-rank 6 × N_J Jacobian (away from singularities);
         # J·Jᵀ is symmetric positive definite there: a Cholesky solve, least squares where it is not
         _, wrench, info = dposv(jacobian @ jacobian.T, jacobian @ external)

@@ -37,6 +37,9 @@ import pinocchio as pin
 from lwrlab.model.inertia import mass_com_inertia
 from lwrlab.model.robot import RobotModel
 
+_AFTER_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
+"""``mj_forwardSkip`` stage: redo the acceleration stage only (looked up once, not per step)."""
+
 
 @dataclass(frozen=True)
 class Wall:
@@ -322,15 +325,17 @@ class MujocoContactPlant:
         The torque sensor reads the link-side torque ``τ − I_a·q̈`` at the new state under the
         same command (a zero-order hold, as the drives' current loop does).
         """
-        model, data, applied = self.model, self.data, self._applied
+        model, data, applied, velocity = self.model, self.data, self._applied, self._qvel
         # first substep from the state of the last reading: positions, velocities and friction unchanged
         np.subtract(tau, self._friction_now, out=applied)
-        mujoco.mj_forwardSkip(model, data, mujoco.mjtStage.mjSTAGE_VEL, 1)
+        mujoco.mj_forwardSkip(model, data, _AFTER_VELOCITY_STAGE, 1)
         mujoco.mj_Euler(model, data)
         for _ in range(self.substeps - 1):
-            np.subtract(tau, self._friction(self._qvel), out=applied)
+            np.subtract(tau, self._friction(velocity), out=applied)
             mujoco.mj_step(model, data)
-        self._forward_with(tau)
+        self._friction_now = friction = self._friction(velocity)
+        np.subtract(tau, friction, out=applied)
+        mujoco.mj_forward(model, data)
         return self._read(tau - self.armature * self._qacc)
 
     @property
