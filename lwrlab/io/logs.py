@@ -52,6 +52,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from lwrlab.errors import UserError
+from lwrlab.model.robot import JointLimits
 from lwrlab.plants.core import Measurement
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -60,8 +62,8 @@ POSITION_UNITS = {"rad": 1.0, "deg": np.pi / 180.0}
 """Radians per unit of the position (and velocity) columns."""
 
 
-class LogError(ValueError):
-    """A malformed log; the message names the file, the column and the row."""
+class LogError(UserError, ValueError):
+    """A malformed or implausible log; the message names the file, the column and the row or check."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +86,8 @@ class RecordedLog:
     """(M,) times as logged (s), when resampled."""
     logged_tau: np.ndarray | None = None
     """(M, N_J) torques as logged (N·m), when resampled."""
+    warnings: tuple[str, ...] = ()
+    """Plausibility warnings (:mod:`lwrlab.io.plausibility`): printed and tagged by the pipeline."""
 
     @property
     def name(self) -> str:
@@ -95,7 +99,8 @@ class RecordedLog:
         rate = float((len(self.t) - 1) / (self.t[-1] - self.t[0]))
         return Measurement(
             t=self.t, q=self.q, tau=self.tau, dq=self.dq, logged_t=self.logged_t, logged_tau=self.logged_tau,
-            metadata={"source": "log", "path": str(self.path), "name": self.name, "rate_hz": rate, "resampled": self.resampled},
+            metadata={"source": "log", "path": str(self.path), "name": self.name, "rate_hz": rate, "resampled": self.resampled,
+                      "warnings": list(self.warnings)},
         )
 
 
@@ -229,6 +234,7 @@ def load_log(
     max_gap: float = 10.0,
     joint_names: Sequence[str] | None = None,
     topic: str | None = None,
+    limits: JointLimits | None = None,
 ) -> RecordedLog:
     """Read, validate and (if needed) resample a log (formats and schema in the module docstring).
 
@@ -246,6 +252,13 @@ def load_log(
     max_gap : largest period accepted, in median periods (longer gaps would be invented data).
     joint_names : the robot's joint names (ROS 2 bags match their JointState messages by name).
     topic : the JointState topic of a ROS 2 bag (None: its only one).
+    limits : the robot's joint limits: the log is checked against them before anything is fitted
+        (:func:`lwrlab.io.plausibility.check_plausibility`); None checks units and values only.
+
+    Raises
+    ------
+    LogError
+        For a malformed or implausible log, naming the file, the column, the row or the check.
     """
     path = Path(path)
     if time_unit not in TIME_UNITS:
@@ -254,6 +267,8 @@ def load_log(
         raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
     if drive_gains is not None and len(drive_gains) != n_joints:
         raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
+    from lwrlab.io.plausibility import LogColumns, check_column_dtypes, check_plausibility, raise_for_errors  # it imports this module
+
     frame, mapping = _read(path, dict(column_map or {}), n_joints, joint_names, topic)
     name = lambda schema: mapping.get(schema, schema)  # noqa: E731
     if len(frame) < min_samples:
@@ -261,6 +276,16 @@ def load_log(
 
     def block(prefix: str) -> np.ndarray:
         return np.column_stack([_numeric_column(frame, name(c), c, path) for c in joint_columns(prefix, n_joints)])
+
+    has_velocity = all(name(c) in frame.columns for c in joint_columns("dq", n_joints))
+    columns_used = LogColumns(
+        t=name("t"), q=tuple(name(c) for c in joint_columns("q", n_joints)),
+        tau=tuple(name(c) for c in joint_columns("tau" if drive_gains is None else "current", n_joints)),
+        dq=tuple(name(c) for c in joint_columns("dq", n_joints)) if has_velocity else None,
+        torque_from_current=drive_gains is not None,
+    )
+    if path.suffix.lower() not in (".csv", ".txt"):  # typed files: booleans, datetimes, text are refused, not coerced
+        raise_for_errors(check_column_dtypes(frame, columns_used, path))
 
     t = _numeric_column(frame, name("t"), "t", path) * TIME_UNITS[time_unit]
     steps = np.diff(t)
@@ -273,13 +298,16 @@ def load_log(
         raise LogError(f"{path}: column {name('t')!r}, {_where(path, row)}: gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)")
     q = block("q") * POSITION_UNITS[position_unit]
     tau = block("tau") if drive_gains is None else block("current") * np.asarray(drive_gains, dtype=float)
-    has_velocity = all(name(c) in frame.columns for c in joint_columns("dq", n_joints))
     columns = [q, tau] + ([block("dq") * POSITION_UNITS[position_unit]] if has_velocity else [])
+    warnings = raise_for_errors(check_plausibility(
+        t, q, tau, limits, path, columns_used, dq=columns[2] if has_velocity else None, time_unit=time_unit, position_unit=position_unit,
+    ))
     logged_t, logged_tau = t, tau
     t, columns, resampled = _uniform(t, columns, rate_hz, jitter_tolerance)
     return RecordedLog(
         t=t, q=columns[0], tau=columns[1], dq=columns[2] if has_velocity else None, path=path, resampled=resampled,
         logged_t=logged_t if resampled else None, logged_tau=logged_tau if resampled else None,
+        warnings=tuple(str(w) for w in warnings),
     )
 
 

@@ -20,10 +20,12 @@ import pandas as pd
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
+from lwrlab.errors import IdentifiabilityError
 from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
 from lwrlab.identification.context import IdentificationContext, bind_estimator
 from lwrlab.identification.core import Estimator, torque_errors
+from lwrlab.identification.identifiability import IdentifiabilityReport, assess_identifiability, format_prior_note
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
 from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory_csv
 from lwrlab.io.urdf_export import export_urdf
@@ -82,6 +84,10 @@ class IdentificationReport:
     """Per joint: RMS (N·m) and NRMS (%) over the validation samples, noise σ_τ if known."""
     predictions: list[LogPrediction]
     """The model's prediction on every identification and validation measurement."""
+    identifiability: IdentifiabilityReport
+    """What the data can determine (rank, cond, weak directions, still joints)."""
+    notes: list[str] = field(default_factory=list)
+    """Warnings to print with the result and tag the run with (identifiability, implausible logs)."""
     metrics: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -128,6 +134,10 @@ def _sample_checked(source: MotionSource, robot: RobotModel, rate_hz: float, wha
     check_limits(motion, robot, torque=robot.inverse_dynamics(motion.q, motion.dq, motion.ddq), what=what)
     # the role tells a plant replaying recorded logs which log stands for this motion
     return replace(motion, metadata={**motion.metadata, "role": role})
+
+
+def _named(measurement: Measurement, name: str, role: str) -> Measurement:
+    return replace(measurement, metadata={**measurement.metadata, "name": name, "role": role})
 
 
 def _process(measurement: Measurement, processing: dict[str, Any], every_sample: bool = False) -> ProcessedData:
@@ -198,8 +208,8 @@ def identify(
             raise ValueError("a simulated identification needs an exciting motion and a validation motion")
         motion = _sample_checked(motion_source, robot, rate_hz, "exciting motion", "excitation")
         validation_motion = _sample_checked(validation_source, robot, rate_hz, "cross-validation motion", "validation")
-        measurements = [plant.measure(motion)]
-        validation_measurements = [plant.measure(validation_motion)]
+        measurements = [_named(plant.measure(motion), "exciting_motion", "identification")]
+        validation_measurements = [_named(plant.measure(validation_motion), "validation_motion", "validation")]
 
     processed = [_process(m, processing) for m in measurements]
     for m, data in zip(measurements, processed, strict=True):
@@ -207,6 +217,17 @@ def identify(
     rows = [data.rows(lambda q, dq, ddq: base.base_regressor(regressor(robot, q, dq, ddq))) for data in processed]
     w_base = np.vstack([w for w, _ in rows])
     tau = np.concatenate([t for _, t in rows])
+    identifiability = assess_identifiability(
+        w_base, base.names, *(np.vstack([getattr(d, name)[d.index] for d in processed]) for name in ("q", "dq", "ddq")), robot.limits
+    )
+    has_prior = bool(getattr(estimator, "uses_prior", False) or getattr(getattr(estimator, "func", None), "uses_prior", False))
+    if identifiability.status == "rank_deficient" and not has_prior:
+        raise IdentifiabilityError(
+            f"{identifiability.warning_text().removeprefix('WARNING: ')}\n"
+            "The data cannot determine these parameters: excite the named joints more, or use an estimator with a prior (estimator=sdp)."
+        )
+    if not identifiability.ok:
+        print(identifiability.warning_text())
     if not hasattr(estimator, "fit"):  # a `_partial_` estimator config: it needs the context
         estimator = bind_estimator(estimator, _context(robot, base, motion if len(processed) == 1 else None, processed[0]))
     cpu_start = time.process_time()
@@ -263,6 +284,7 @@ def identify(
         "n_rows": float(w_base.shape[0]),
         "fit_cpu_s": fit_cpu_s,
         "min_pseudo_inertia_eigenvalue": float(min_pseudo_inertia_eigenvalues(standard, robot.n_links).min()),
+        **identifiability.metrics(),
         **{key: float(value) for key, value in getattr(estimator, "diagnostics_", {}).items()},
         **{f"rms_joint{j}": float(v) for j, v in enumerate(errors["rms"], start=1)},
         **{f"nrms_joint{j}": float(v) for j, v in enumerate(errors["nrms"], start=1)},
@@ -274,10 +296,16 @@ def identify(
         with np.errstate(divide="ignore", invalid="ignore"):
             parameters["relative_error"] = np.abs(estimator.phi_ - true_base) / np.abs(true_base)
         metrics["base_parameter_error"] = float(np.linalg.norm(estimator.phi_ - true_base) / np.linalg.norm(true_base))
+    notes = [] if identifiability.ok else [identifiability.warning_text()]
+    if not identifiability.ok and has_prior:
+        notes.append(format_prior_note(identifiability))
+    notes += [f"WARNING: {w}" for m in [*measurements, *validation_measurements] for w in m.metadata.get("warnings", [])]
     return IdentificationReport(
         robot=robot,
         base=base,
         identified=identified,
+        identifiability=identifiability,
+        notes=[n for n in notes if n],
         motion=motion,
         validation_motion=validation_motion,
         measurements=measurements,
@@ -337,6 +365,8 @@ def format_report(report: IdentificationReport) -> str:
     if any(m.metadata.get("resampled") for m in [*report.measurements, *report.validation_measurements]):
         resampled = [m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")]
         lines.append(f"NOTE: irregular time stamps in {', '.join(resampled)}: processed on a uniform grid, scored at the logged samples")
+    lines.append(report.identifiability.summary())
+    lines += report.notes
     if report.metrics.get("solver_fallback"):
         lines.append("WARNING: the estimator's primary solver failed; the result comes from its fallback solver")
     if "base_parameter_error" in report.metrics:

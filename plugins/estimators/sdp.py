@@ -79,6 +79,9 @@ class PhysicallyConsistentSDP:
     for the run's metrics).
     """
 
+    uses_prior = True
+    """Regularised toward the CAD prior: directions the data do not see come from it (none: still convex, bounded)."""
+
     def __init__(
         self,
         context: IdentificationContext | None = None,

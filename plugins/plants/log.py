@@ -76,6 +76,7 @@ class LogPlant:
             "min_samples": min_samples,
             "joint_names": robot.joint_names,
             "topic": topic,
+            "limits": robot.limits,
         }
 
     @property
