@@ -36,8 +36,8 @@ def _atan2_derivative(y: np.ndarray, x: np.ndarray, dy: np.ndarray, dx: np.ndarr
 
 
 def _scaled(matrix: np.ndarray, rate: np.ndarray) -> np.ndarray:
-    """(N, 3, 3, D): a matrix (N, 3, 3) times a derivative (N, D)."""
-    return matrix[..., None] * rate[:, None, None, :]
+    """(N, D, 3, 3): a matrix (N, 3, 3) times a derivative (N, D) (rotation derivatives keep D second)."""
+    return matrix[:, None] * rate[:, :, None, None]
 
 
 def solve_branch_derivatives(ik: SwivelIK, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = Branch()) -> tuple[IKSolution, np.ndarray, np.ndarray]:
@@ -101,7 +101,8 @@ def solve_branch_derivatives(ik: SwivelIK, flange_pose: np.ndarray, swivel: np.n
     forearm = wrist - elbow
     d_forearm = d_wrist - d_elbow
     a = (np.matmul(r2.transpose(0, 2, 1), forearm[:, :, None])[:, :, 0]) @ _rx(HALF_PI).T
-    d_a = np.einsum("ij,nkj,nkd->nid", _rx(HALF_PI), r2, d_forearm) + np.einsum("ij,nkjd,nk->nid", _rx(HALF_PI), d_r2, forearm)
+    d_frame3 = np.matmul(r2.transpose(0, 2, 1), d_forearm) + (d_r2.transpose(0, 1, 3, 2) @ forearm[:, None, :, None])[..., 0].transpose(0, 2, 1)
+    d_a = _rx(HALF_PI) @ d_frame3
     rho = np.hypot(a[:, 0], a[:, 1])
     d_rho = (a[:, 0, None] * d_a[:, 0] + a[:, 1, None] * d_a[:, 1]) / rho[:, None]
     d_q3 = _atan2_derivative(a[:, 1], a[:, 0], d_a[:, 1], d_a[:, 0])
@@ -109,12 +110,12 @@ def solve_branch_derivatives(ik: SwivelIK, flange_pose: np.ndarray, swivel: np.n
     rz3, rz4 = _rz(q[:, 2]), _rz(q[:, 3])
     tail = _rx(-HALF_PI) @ rz3 @ _rx(-HALF_PI) @ rz4
     r4 = r2 @ tail
-    d_r4 = np.einsum("nijd,njk->nikd", d_r2, tail)
+    d_r4 = d_r2 @ tail[:, None]
     d_r4 += _scaled(r2 @ _rx(-HALF_PI) @ rz3 @ _GENERATOR_Z @ _rx(-HALF_PI) @ rz4, d_q3) + _scaled(r4 @ _GENERATOR_Z, d_q4)
 
     # q5, q6, q7 from the remaining wrist rotation m = Rx(π/2)ᵀ·R4ᵀ·R7 (R7 fixed)
     m = _rx(HALF_PI).T @ r4.transpose(0, 2, 1) @ rotation7
-    d_m = np.einsum("ji,nkjd,nkl->nild", _rx(HALF_PI), d_r4, rotation7)
+    d_m = (_rx(HALF_PI).T @ d_r4.transpose(0, 1, 3, 2) @ rotation7[:, None]).transpose(0, 2, 3, 1)  # (N, 3, 3, D)
     s = branch.wrist
     sin6 = s * np.hypot(m[:, 0, 2], m[:, 1, 2])
     d_sin6 = s * (m[:, 0, 2, None] * d_m[:, 0, 2] + m[:, 1, 2, None] * d_m[:, 1, 2]) / np.hypot(m[:, 0, 2], m[:, 1, 2])[:, None]

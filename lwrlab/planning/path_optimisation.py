@@ -116,6 +116,7 @@ class PathProblem:
     rotation: np.ndarray = field(default_factory=lambda: TOOL_ORIENTATION.copy())
     _memo: tuple | None = field(default=None, init=False, repr=False)
     _derivative_memo: tuple | None = field(default=None, init=False, repr=False)
+    _torque_memo: tuple | None = field(default=None, init=False, repr=False)
     flange_in_tcp: np.ndarray = field(init=False, repr=False)
     """(4, 4) inverse of ``tcp_in_flange``, computed once."""
 
@@ -177,6 +178,15 @@ class PathProblem:
         self._memo = ((key, None), (path.t, q, dq, ddq))  # the same trajectory for the constraints and cost
         return result
 
+    def strided_torques(self, x: np.ndarray) -> np.ndarray:
+        """(N / torque_stride, N_J) joint torques (N·m) every ``torque_stride`` samples; memoised for the last ``x``."""
+        key = tuple(np.asarray(x, dtype=float))
+        if self._torque_memo is None or self._torque_memo[0] != key:
+            _, q, dq, ddq = self.joint_trajectory(x)
+            stride = self.torque_stride
+            self._torque_memo = (key, self.robot.inverse_dynamics(q[::stride], dq[::stride], ddq[::stride]))
+        return self._torque_memo[1]
+
     # --- eq. (12) --------------------------------------------------------------------------
     def geometric_constraints(self, x: np.ndarray) -> dict[str, float]:
         """Wall bounds, ordering, coverage (≥ 0 when satisfied), m."""
@@ -204,7 +214,7 @@ class PathProblem:
         """Normalised margins of every joint limit along the trajectory (≥ 0 when satisfied)."""
         _, q, dq, ddq = self.joint_trajectory(x)
         lim = self.robot.limits
-        tau = self.robot.inverse_dynamics(q[:: self.torque_stride], dq[:: self.torque_stride], ddq[:: self.torque_stride])
+        tau = self.strided_torques(x)
         span = lim.position_upper - lim.position_lower
         margins = {}
         for j in range(self.robot.n_joints):
@@ -280,7 +290,7 @@ class PathProblem:
         lim = self.robot.limits
         span = lim.position_upper - lim.position_lower
         stride = self.torque_stride
-        tau = self.robot.inverse_dynamics(d.q[::stride], d.dq[::stride], d.ddq[::stride])
+        tau = self.strided_torques(x)
         gradients = {}
         for j in range(self.robot.n_joints):
             gradients[f"q{j + 1} ≥ lower"] = d.q_x[d.q[:, j].argmin(), j] / span[j]
