@@ -322,9 +322,17 @@ def log_frame(measurement: Measurement, dq: np.ndarray | None = None) -> pd.Data
 
 
 def write_log(measurement: Measurement, path: str | Path, dq: np.ndarray | None = None) -> Path:
-    """Write a measurement as a log in the schema: CSV (17 significant digits) or Parquet by suffix."""
+    """Write a measurement as a log in the schema: CSV (17 significant digits), Parquet or npz by suffix.
+
+    An npz log holds the schema's blocks as arrays ``t`` (N,), ``q``, ``tau`` and optional ``dq`` (N, N_J).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    dq = measurement.dq if dq is None else dq
+    if path.suffix.lower() == ".npz":
+        blocks = {"t": measurement.t, "q": measurement.q, "tau": measurement.tau, **({"dq": np.asarray(dq)} if dq is not None else {})}
+        np.savez(path, **blocks)
+        return path
     frame = log_frame(measurement, dq)
     if path.suffix.lower() in (".parquet", ".pq"):
         frame.to_parquet(path, index=False)
