@@ -5,7 +5,9 @@ motion, sampled at 1 kHz, with σ_τ = 0.05 N·m torque noise; the base regresso
 (samples − trimmed) × 7 rows. The script times, best of ``--repeat`` (wall clock):
 
 * the QR compression alone (``lwrlab.identification.compression.compress``);
-* every estimator's ``fit`` (ols, wls, irls, iv, sdp with each regularisation);
+* every estimator's ``fit`` (ols, wls, irls, iv, sdp with each regularisation), with the lab's BLAS
+  thread limit (one thread, :mod:`lwrlab.numerics.threads`) and, as the baseline, with BLAS at its
+  default thread count, and their ratio;
 * the SDP without compression (``compress=False``: the solver sees every row), the baseline,
   measured once in the same run (it takes tens of seconds), and the ratio;
 
@@ -13,7 +15,7 @@ and the relative base-parameter error of each, so speed is not bought with accur
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/estimators.py --repeat 5 [--skip-uncompressed]
+    .venv/bin/python benchmarks/estimators.py --repeat 5 [--skip-uncompressed]
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.identification.compression import compress
 from lwrlab.identification.context import IdentificationContext
+from lwrlab.numerics import threads
 from lwrlab.plants.simulation import perturbed_robot
 from plugins.estimators.irls import IterativelyReweightedLeastSquares
 from plugins.estimators.iv import InstrumentalVariables
@@ -51,6 +54,20 @@ def best_time(function: Callable[[], object], repeat: int) -> float:
     return min(times)
 
 
+def both_settings(function: Callable[[], object], repeat: int) -> tuple[float, float]:
+    """Best time with the lab's BLAS limit (:data:`lwrlab.numerics.threads.DENSE_ALGEBRA_THREADS`) and
+    with BLAS left at its default threads (the baseline), the two taking turns."""
+    limited, default = [], []
+    for _ in range(repeat):
+        limited.append(best_time(function, 1))
+        threads.DENSE_ALGEBRA_THREADS = None
+        try:
+            default.append(best_time(function, 1))
+        finally:
+            threads.DENSE_ALGEBRA_THREADS = 1
+    return min(limited), min(default)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
@@ -70,7 +87,11 @@ def main() -> None:
     context = IdentificationContext.from_robot(robot, base, reference_regressor=w)
     print(f"{robot.name}: {args.duration:g} s at 1 kHz → W_b {w.shape[0]} rows × {w.shape[1]} base parameters\n")
 
-    t_compress = best_time(lambda: compress(w, tau), args.repeat)
+    def compress_limited() -> object:
+        with threads.dense_algebra():  # as the SDP runs it
+            return compress(w, tau)
+
+    t_compress, t_compress_default = both_settings(compress_limited, args.repeat)
     estimators = {
         "ols": OrdinaryLeastSquares(),
         "wls": WeightedLeastSquares(context),
@@ -80,13 +101,13 @@ def main() -> None:
         "sdp (entropic)": PhysicallyConsistentSDP(context, regularization="entropic", weight=1e-4),
         "sdp (none)": PhysicallyConsistentSDP(context, regularization="none"),
     }
-    print(f"| estimator | fit (s), best of {args.repeat} | ‖β̂−β‖/‖β‖ |")
-    print("|---|---:|---:|")
-    print(f"| QR compression alone | {t_compress:.4f} | |")
+    print(f"| estimator | fit (s), best of {args.repeat} | BLAS default threads (s) | default / limited | ‖β̂−β‖/‖β‖ |")
+    print("|---|---:|---:|---:|---:|")
+    print(f"| QR compression alone | {t_compress:.4f} | {t_compress_default:.4f} | {t_compress_default / t_compress:.1f} | |")
     for name, estimator in estimators.items():
-        seconds = best_time(lambda e=estimator: e.fit(w, tau), args.repeat)
+        seconds, default = both_settings(lambda e=estimator: e.fit(w, tau), args.repeat)
         error = np.linalg.norm(estimator.phi_ - beta) / np.linalg.norm(beta)
-        print(f"| {name} | {seconds:.4f} | {error:.3e} |")
+        print(f"| {name} | {seconds:.4f} | {default:.4f} | {default / seconds:.1f} | {error:.3e} |")
     compressed = best_time(lambda: estimators["sdp (euclidean)"].fit(w, tau), args.repeat)
     if not args.skip_uncompressed:
         uncompressed_estimator = PhysicallyConsistentSDP(context, regularization="euclidean", weight=1e-2, compress=False)

@@ -10,12 +10,17 @@ of eq. (10)–(11) — it measures, in the same run:
 2. the derivatives of the regressor on 100 samples: the forward-mode recursion
    (``regressor_jacobians``) against Pinocchio's ``computeRNEADerivatives`` called column by column
    (``regressor_jacobians_pinocchio``), and the vector–Jacobian product the optimiser uses;
+   and, on the optimisation grid, the reverse-mode VJP against the forward-mode tangents contracted
+   (the baseline, how the VJP worked before);
 3. the wall time of whole optimisations (one start each) for ``--seeds`` seeds: median, spread,
-   criterion and iterations.
+   criterion and iterations;
+4. ``logdet`` (the baseline) against the smooth ``cond`` and the exact σ_max/σ_min: time and
+   iterations with their ratios to logdet, and the condition number of the optimum resampled at
+   1 kHz (the quality the criterion is after).
 
 Usage::
 
-    .venv/bin/python benchmarks/excitation.py --seeds 0 1 2 --repeat 5
+    .venv/bin/python benchmarks/excitation.py --seeds 0 1 2 --repeat 5 [--skip-criteria]
 """
 
 from __future__ import annotations
@@ -30,10 +35,12 @@ import numpy as np
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
-from lwrlab.dynamics.regressor_derivatives import regressor_jacobians, regressor_jacobians_pinocchio, regressor_vjp
+from lwrlab.excitation.criteria import Criterion
+from lwrlab.dynamics.regressor_derivatives import _WRENCH_BASIS_FLAT, _forward_pass, regressor_jacobians, regressor_jacobians_pinocchio, regressor_vjp
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.excitation.solver import SlsqpOptimizer
 from lwrlab.numerics.threads import blas_threads
+from plugins.criteria.cond import ConditionNumber
 from plugins.criteria.logdet import LogDet
 from plugins.robots.mdh import load_robot_yaml
 from plugins.trajectories.bspline import BSplineMotion
@@ -62,12 +69,58 @@ def finite_difference_gradient(problem: ExcitationProblem, x: np.ndarray, step: 
     return gradient
 
 
+def forward_mode_vjp(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, weights: np.ndarray) -> np.ndarray:  # noqa: ANN001
+    """Baseline: the vector–Jacobian product by contracting the forward-mode tangents segment by segment
+    (how ``regressor_vjp`` worked before its reverse mode), ∂/∂(q, q̇, q̈) stacked (3, N_J, N)."""
+    n_samples, n = q.shape
+    g_t = np.ascontiguousarray(weights.reshape(n_samples, n, -1).transpose(1, 2, 0))
+    grad = np.zeros((3, n, n_samples))
+    for seg in _forward_pass(robot, q, dq, ddq):
+        i, m = seg.index, seg.index + 1
+        gi = g_t[:m, 10 * i : 10 * i + 10]
+        y = np.einsum("mr,mn->rn", _WRENCH_BASIS_FLAT, seg.state).reshape(6, 10, n_samples)
+        y_bar = np.einsum("kan,kpn->apn", seg.twists, gi)
+        state_bar = np.einsum("mr,rn->mn", _WRENCH_BASIS_FLAT, y_bar.reshape(60, n_samples))
+        grad[:, :m] += np.einsum("cdmn,mn->cdn", seg.state_tangent, state_bar)
+        grad[0, :m] += np.einsum("dkan,kan->dn", seg.twist_tangent, np.einsum("apn,kpn->kan", y, gi))
+    return grad
+
+
+def condition_at_1khz(problem: ExcitationProblem, coefficients: np.ndarray) -> float:
+    """cond of the column-scaled base regressor of the motion resampled at 1 kHz (the optimum's quality)."""
+    motion = problem.parameterisation.with_coefficients(coefficients)
+    w = problem.base.base_regressor(regressor(problem.robot, *motion.evaluate(motion.times(1000.0)))) * problem.scales
+    sigma = np.linalg.svd(w, compute_uv=False)
+    return float(sigma[0] / sigma[-1])
+
+
+def compare_criteria(robot, base, duration: float, seeds: list[int], max_iterations: int) -> None:  # noqa: ANN001
+    """Whole optimisations with logdet (the baseline), the smooth cond and the exact cond, same seeds."""
+    criteria: dict[str, Criterion] = {"logdet": LogDet(), "cond (smooth, p = 32)": ConditionNumber(), "cond (exact σ_max/σ_min)": ConditionNumber(sharpness=None)}
+    rows = {}
+    for name, criterion in criteria.items():
+        problem = ExcitationProblem(robot, BSplineMotion(duration=duration), criterion, base=base)
+        results = [SlsqpOptimizer(max_iterations=max_iterations, seed=seed, show_progress=False).solve(problem) for seed in seeds]
+        rows[name] = (
+            statistics.median(r.seconds for r in results),
+            statistics.median(r.iterations for r in results),
+            statistics.median(r.evaluations for r in results),
+            statistics.median(condition_at_1khz(problem, r.coefficients) for r in results),
+        )
+    t_ref, it_ref = rows["logdet"][0], rows["logdet"][1]
+    print(f"\n| criterion ({duration:g} s, medians over seeds {seeds}) | time [s] | × logdet | iterations | × logdet | evaluations | cond(W_b) at 1 kHz |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for name, (seconds, iterations, evaluations, condition) in rows.items():
+        print(f"| {name} | {seconds:.1f} | {seconds / t_ref:.2f} | {iterations:.0f} | {iterations / it_ref:.2f} | {evaluations:.0f} | {condition:.3f} |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="seeds of the timed optimisations")
     parser.add_argument("--repeat", type=int, default=5, help="repetitions of each gradient timing")
     parser.add_argument("--duration", type=float, default=10.0, help="motion duration T_F (s)")
     parser.add_argument("--max-iterations", type=int, default=200)
+    parser.add_argument("--skip-criteria", action="store_true", help="skip the logdet / cond comparison (section 4)")
     args = parser.parse_args()
     with blas_threads(1):  # as the optimiser runs
         run(args)
@@ -113,6 +166,22 @@ def run(args: argparse.Namespace) -> None:
     print(f"| full tensors, forward-mode recursion | {1e3 * t_ours:.2f} | 1 |")
     print(f"| full tensors, Pinocchio computeRNEADerivatives per column | {1e3 * t_pin:.1f} | {t_pin / t_ours:.1f}× slower |")
 
+    # 2b. the optimiser's VJP on the whole grid: reverse mode vs the forward-mode contraction (baseline)
+    grid = [b @ problem.coefficients(x) for b in problem.bases]
+    grid_weights = rng.normal(size=(len(problem.times), robot.n_joints, robot.n_parameters))
+    t_reverse = median_seconds(lambda: regressor_vjp(robot, *grid, grid_weights), args.repeat)
+    t_forward = median_seconds(lambda: forward_mode_vjp(robot, *grid, grid_weights), args.repeat)
+    reverse = np.stack(regressor_vjp(robot, *grid, grid_weights))
+    forward = forward_mode_vjp(robot, *grid, grid_weights).transpose(0, 2, 1)
+    viscous = 10 * robot.n_links + robot.friction_terms.index("viscous") * robot.n_joints if "viscous" in robot.friction_terms else None
+    if viscous is not None:  # the baseline leaves out the viscous columns' closed form
+        forward[1] += grid_weights[:, np.arange(robot.n_joints), viscous + np.arange(robot.n_joints)]
+    print(f"\n| VJP on the {len(problem.times)}-sample grid | time [ms] | ratio |")
+    print("|---|---|---|")
+    print(f"| reverse mode (regressor_vjp) | {1e3 * t_reverse:.2f} | 1 |")
+    print(f"| forward-mode tangents contracted (baseline) | {1e3 * t_forward:.2f} | {t_forward / t_reverse:.1f}× slower |")
+    print(f"largest relative difference: {np.abs(reverse - forward).max() / np.abs(forward).max():.1e}")
+
     # 3. whole optimisations
     rows = []
     for seed in args.seeds:
@@ -125,6 +194,10 @@ def run(args: argparse.Namespace) -> None:
     print(f"| median wall time [s] | {statistics.median(seconds):.1f} (min {min(seconds):.1f}, max {max(seconds):.1f}, {len(seconds)} seeds) |")
     print(f"| median iterations | {statistics.median([r.iterations for r in rows]):.0f} |")
     print(f"| criterion J (best, worst) | {min(r.cost for r in rows):.2f}, {max(r.cost for r in rows):.2f} |")
+
+    # 4. the criteria: does cond converge like logdet, to as good an optimum?
+    if not args.skip_criteria:
+        compare_criteria(robot, base, args.duration, args.seeds, args.max_iterations)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,9 @@
 For a 7-joint LWR4-like arm (``conf/robot/kuka_lwr4.yaml`` if it exists, otherwise the modified-DH
 table of the KUKA LWR4 with random physically consistent segments) and N random states, it times
 
-* ``regressor(robot, q, dq, ddq)``: the full regressor, inertial and friction columns, (N·N_J, P);
+* ``regressor(robot, q, dq, ddq)``: the full regressor, inertial and friction columns, (N·N_J, P), by
+  the vectorised recursion from ``SMALL_BATCH`` samples on and by the Pinocchio loop below (the
+  "engine" column);
 * the baseline, a Python loop of ``pin.computeJointTorqueRegressor`` stacked into one (N, N_J, 10·N_J)
   array (the loop alone: no column permutation, no friction columns);
 
@@ -25,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.regressor import SMALL_BATCH, regressor
 from lwrlab.model.dh import ModifiedDH, build_dh_model
 from lwrlab.model.inertia import PIN_TO_STANDARD, random_consistent_parameters, to_pin_inertia
 from lwrlab.model.robot import Friction, JointLimits, RobotModel
@@ -93,7 +95,7 @@ def main(argv: list[str] | None = None) -> None:
     model, n = robot.model, robot.n_joints
     rng = np.random.default_rng(args.seed)
     print(f"robot {robot.name}: {n} joints, {robot.n_parameters} parameters, best of {args.repeat}")
-    print(f"{'N':>8} {'ours [samples/s]':>18} {'loop [samples/s]':>18} {'ratio':>7} {'max |diff|':>11}")
+    print(f"{'N':>8} {'engine':>10} {'ours [samples/s]':>18} {'loop [samples/s]':>18} {'ratio':>7} {'max |diff|':>11}")
     for n_samples in args.samples:
         q = rng.uniform(robot.limits.position_lower, robot.limits.position_upper, (n_samples, n))
         dq = rng.uniform(-robot.limits.velocity, robot.limits.velocity, (n_samples, n))
@@ -108,7 +110,8 @@ def main(argv: list[str] | None = None) -> None:
             [lambda: regressor(robot, q, dq, ddq), lambda: pinocchio_loop(model, q, dq, ddq)], args.repeat
         )
         rate_ours, rate_loop = n_samples / t_ours, n_samples / t_loop
-        print(f"{n_samples:>8} {rate_ours:>18,.0f} {rate_loop:>18,.0f} {rate_ours / rate_loop:>7.2f} {difference:>11.1e}")
+        engine = "loop" if n_samples < SMALL_BATCH else "recursion"
+        print(f"{n_samples:>8} {engine:>10} {rate_ours:>18,.0f} {rate_loop:>18,.0f} {rate_ours / rate_loop:>7.2f} {difference:>11.1e}")
 
 
 if __name__ == "__main__":

@@ -27,6 +27,16 @@ def regressor_like(rng: np.random.Generator, rows: int = 60, columns: int = 6) -
     return rng.normal(size=(rows, columns)) @ (np.eye(columns) + 0.3 * rng.normal(size=(columns, columns))) * rng.uniform(0.5, 3.0, columns)
 
 
+def central_difference_gradient(criterion: Criterion, w: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    numeric = np.zeros_like(w)
+    for index in np.ndindex(*w.shape):
+        plus, minus = w.copy(), w.copy()
+        plus[index] += h
+        minus[index] -= h
+        numeric[index] = (criterion.value_and_gradient(plus)[0] - criterion.value_and_gradient(minus)[0]) / (2 * h)
+    return numeric
+
+
 def test_the_paper_criteria_and_the_extensions_are_plugins() -> None:
     assert {"cond", "logdet", "hadamard", "logcond", "a_optimality", "e_optimality"} <= set(CRITERIA)
 
@@ -38,13 +48,7 @@ def test_gradient_equals_central_differences(name: str, rng: np.random.Generator
     w = regressor_like(rng)
     value, gradient = criterion.value_and_gradient(w)
     assert np.isfinite(value) and gradient.shape == w.shape
-    h = 1e-6
-    numeric = np.zeros_like(w)
-    for index in np.ndindex(*w.shape):
-        plus, minus = w.copy(), w.copy()
-        plus[index] += h
-        minus[index] -= h
-        numeric[index] = (criterion.value_and_gradient(plus)[0] - criterion.value_and_gradient(minus)[0]) / (2 * h)
+    numeric = central_difference_gradient(criterion, w)
     assert np.abs(gradient - numeric).max() <= 1e-6 * np.abs(numeric).max()
 
 
@@ -121,3 +125,48 @@ def test_a_criterion_from_outside_the_package(tmp_path: Path, monkeypatch: pytes
     e[5] = 1.0
     numeric = (problem.objective(x + h * e) - problem.objective(x - h * e)) / (2 * h)
     assert gradient[5] == pytest.approx(numeric, rel=1e-5)
+
+
+@pytest.mark.parametrize("sharpness", [None, 4.0, 32.0])
+def test_cond_gradient_equals_central_differences_smooth_or_exact(sharpness: float | None, rng: np.random.Generator) -> None:
+    from plugins.criteria.cond import ConditionNumber
+
+    criterion = ConditionNumber(sharpness=sharpness)
+    w = regressor_like(rng)
+    gradient = criterion.value_and_gradient(w)[1]
+    numeric = central_difference_gradient(criterion, w)
+    assert np.abs(gradient - numeric).max() <= 1e-6 * np.abs(numeric).max()
+
+
+def test_smooth_cond_brackets_cond_and_tends_to_it(rng: np.random.Generator) -> None:
+    """cond ≤ J_p ≤ N_B^(1/p)·cond, and J_p → cond as p grows."""
+    from plugins.criteria.cond import ConditionNumber
+
+    w = regressor_like(rng, columns=8)
+    exact = float(np.linalg.cond(w))
+    assert ConditionNumber(sharpness=None).value_and_gradient(w)[0] == pytest.approx(exact, rel=1e-12)
+    gaps = []
+    for p in (2.0, 8.0, 32.0, 128.0):
+        value = ConditionNumber(sharpness=p).value_and_gradient(w)[0]
+        assert exact * (1 - 1e-12) <= value <= exact * 8 ** (1 / p) * (1 + 1e-12)
+        gaps.append(value / exact - 1.0)
+    assert gaps == sorted(gaps, reverse=True) and gaps[-1] < 0.02
+
+
+def test_smooth_cond_is_smooth_where_the_smallest_singular_values_coincide() -> None:
+    """A double σ_min: the exact ratio has a kink there (one-sided slopes differ), the smooth one does not."""
+    from plugins.criteria.cond import ConditionNumber
+
+    w = np.diag([3.0, 1.0, 1.0])
+    direction = np.diag([0.0, 1.0, -1.0])
+    h = 1e-5
+
+    def one_sided_slopes(criterion: ConditionNumber) -> tuple[float, float]:
+        at = criterion.value_and_gradient(w)[0]
+        return (criterion.value_and_gradient(w + h * direction)[0] - at) / h, (at - criterion.value_and_gradient(w - h * direction)[0]) / h
+
+    right, left = one_sided_slopes(ConditionNumber(sharpness=None))
+    kink = right - left
+    assert kink > 1.0
+    right, left = one_sided_slopes(ConditionNumber(sharpness=32.0))
+    assert abs(right - left) < 1e-2 * kink  # O(h·curvature), not O(1)

@@ -122,8 +122,18 @@ def test_serial_regressor_times_parameters_is_rnea_plus_friction(seed: int, n_jo
     robot = make_robot(random_serial_model(rng, n_joints), rng, terms)
     assert serial_chain(robot.model) is not None
     q, dq, ddq = random_states(rng, 6, n_joints)
-    W = regressor(robot, q, dq, ddq)
-    assert_torques_close(W @ robot.parameters, reference_torque(robot, q, dq, ddq).ravel())
+    for W in both_engines(robot, q, dq, ddq):
+        assert_torques_close(W @ robot.parameters, reference_torque(robot, q, dq, ddq).ravel())
+
+
+def both_engines(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> list[np.ndarray]:
+    """The regressor of a small batch by the vectorised recursion (forced) and by the Pinocchio loop (its default)."""
+    out = []
+    for small_batch in (1, regressor_module.SMALL_BATCH):
+        with pytest.MonkeyPatch.context() as patch:  # a fresh patch per hypothesis example
+            patch.setattr(regressor_module, "SMALL_BATCH", small_batch)
+            out.append(regressor(robot, q, dq, ddq))
+    return out
 
 
 log_cholesky = st.lists(st.floats(-1.5, 1.5, allow_nan=False), min_size=10, max_size=10).map(np.array)
@@ -148,8 +158,8 @@ def test_panda_regressor_with_hypothesis_drawn_consistent_bodies(bodies: list[np
     friction = rng.uniform(0.0, 2.0, 3 * 7)
     robot = base.with_parameters(np.concatenate([phis.ravel(), friction]))
     q, dq, ddq = random_states(rng, 5, 7)
-    W = regressor(robot, q, dq, ddq)
-    assert_torques_close(W @ robot.parameters, reference_torque(robot, q, dq, ddq).ravel())
+    for W in both_engines(robot, q, dq, ddq):
+        assert_torques_close(W @ robot.parameters, reference_torque(robot, q, dq, ddq).ravel())
 
 
 @settings(max_examples=25, deadline=None)
@@ -193,7 +203,27 @@ def test_serial_revolute_chain_does_not_use_loop(monkeypatch: pytest.MonkeyPatch
 
     monkeypatch.setattr(regressor_module, "loop_inertial_regressor", forbidden)
     robot = make_robot(random_serial_model(rng, 4), rng)
-    regressor_module.regressor(robot, *random_states(rng, 3, 4))
+    regressor_module.regressor(robot, *random_states(rng, regressor_module.SMALL_BATCH, 4))
+
+
+def test_small_batches_go_through_the_loop_and_agree_with_the_recursion(rng: np.random.Generator) -> None:
+    """Below SMALL_BATCH samples the loop is faster; both engines give the same regressor to round-off."""
+    robot = make_robot(random_serial_model(rng, 7), rng, ALL_FRICTION)
+    n = regressor_module.SMALL_BATCH
+    q, dq, ddq = random_states(rng, n, 7)
+    calls = []
+
+    def spy(*args: object) -> np.ndarray:
+        calls.append(len(args[1]))
+        return loop_inertial_regressor(*args)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(regressor_module, "loop_inertial_regressor", spy)
+        small = regressor_module.regressor(robot, q[: n - 1], dq[: n - 1], ddq[: n - 1])
+        large = regressor_module.regressor(robot, q, dq, ddq)
+    assert calls == [n - 1]
+    scale = max(1.0, float(np.abs(large).max()))
+    np.testing.assert_allclose(small, large[: 7 * (n - 1)], rtol=0, atol=RELATIVE_TOLERANCE * scale)
 
 
 @pytest.mark.parametrize(

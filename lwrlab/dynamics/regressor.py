@@ -6,8 +6,9 @@ every sample; ``P = 10·N_L + (number of friction terms)·N_J`` in the column or
 :attr:`lwrlab.model.robot.RobotModel.parameter_names`.
 
 Serial chains of revolute joints (every robot built from a DH table, most URDF arms) use a
-vectorised Newton–Euler recursion over all samples at once (:func:`chain_inertial_regressor`).
-Anything else falls back to a loop over Pinocchio's ``computeJointTorqueRegressor``.
+vectorised Newton–Euler recursion over all samples at once (:func:`chain_inertial_regressor`) from
+:data:`SMALL_BATCH` samples on. Smaller batches, and anything else, go through a loop over
+Pinocchio's ``computeJointTorqueRegressor``.
 
 How the vectorised recursion is laid out, and why (each point was measured with
 ``benchmarks/regressor.py`` and ``line_profiler``): a numpy call costs about a microsecond whatever
@@ -28,9 +29,11 @@ per 4 KiB, so
 * each chunk's regressor is assembled as [column, joint, sample] and written to the output, whose
   layout is [sample, joint, column], by one transposition.
 
-Every sample goes through the same floating-point operations whatever the batch around it, so a
-sample's regressor does not depend on the batch to the last bit: products with constant matrices
-use ``np.einsum`` (BLAS picks kernels by size and position) and chunks have at least 2 samples.
+In the recursion every sample goes through the same floating-point operations whatever the batch
+around it, so a sample's regressor does not depend on the batch to the last bit: products with
+constant matrices use ``np.einsum`` (BLAS picks kernels by size and position) and chunks have at
+least 2 samples. Across :data:`SMALL_BATCH` the two engines agree to round-off (~1e-14 relative),
+not to the last bit.
 """
 
 from __future__ import annotations
@@ -46,6 +49,11 @@ import pinocchio as pin
 
 from lwrlab.model.inertia import PIN_TO_STANDARD
 from lwrlab.model.robot import RobotModel
+
+SMALL_BATCH = 128
+"""Below this many samples a serial chain goes through the Pinocchio loop too: the vectorised
+recursion costs ~0.4 ms whatever the batch (a few hundred numpy calls) and ~2 µs per sample, the loop
+~5 µs per sample (``benchmarks/regressor.py``: the two cross near 120 samples on the LWR4)."""
 
 CHUNK_SAMPLES = 1000
 """Samples per chunk of the vectorised recursion (a few MB of working arrays).
@@ -526,12 +534,12 @@ def chain_inertial_regressor(chain: SerialChain, q: np.ndarray, dq: np.ndarray, 
 def loop_inertial_regressor(model: pin.Model, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
     """Inertial regressor by one ``pin.computeJointTorqueRegressor`` call per sample (any model)."""
     data = model.createData()
-    n_samples = q.shape[0]
-    out = np.empty((n_samples, model.nv, 10 * (model.njoints - 1)))
-    for k in range(n_samples):
-        out[k] = pin.computeJointTorqueRegressor(model, data, q[k], dq[k], ddq[k])
-    # Pinocchio orders each segment's parameters differently: permute to the standard order.
-    return out.reshape(n_samples, model.nv, -1, 10)[..., PIN_TO_STANDARD].reshape(n_samples, model.nv, -1)
+    regress = pin.computeJointTorqueRegressor
+    pinocchio_order = np.array([regress(model, data, *state) for state in zip(q, dq, ddq)]).reshape(len(q), model.nv, -1)
+    # Pinocchio orders each segment's parameters differently: permute to the standard order, with
+    # np.take on rows of 10 (indexing the last axis of a 4-D array is 10× slower).
+    n_columns = pinocchio_order.shape[2]
+    return np.take(pinocchio_order.reshape(-1, 10), PIN_TO_STANDARD, axis=1).reshape(len(q), model.nv, n_columns)
 
 
 _FRICTION_BASIS = {"coulomb": np.sign, "viscous": lambda v: v, "offset": np.ones_like}
@@ -581,7 +589,7 @@ def regressor(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
     n = robot.n_joints
     q, dq, ddq = (_as_samples(x, n, name) for x, name in ((q, "q"), (dq, "dq"), (ddq, "ddq")))
     n_inertial = 10 * robot.n_links
-    chain = serial_chain(robot.model)  # tens of µs: cheaper than caching on a mutable model
+    chain = serial_chain(robot.model) if q.shape[0] >= SMALL_BATCH else None  # tens of µs: cheaper than caching on a mutable model
     if chain is not None:
         full = np.empty((q.shape[0], n, n_inertial + robot.n_friction))
         _fill_chain_regressor(chain, q, dq, ddq, robot.friction_terms, full)

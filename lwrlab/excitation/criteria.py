@@ -39,18 +39,24 @@ def gram(w: np.ndarray) -> np.ndarray:
     return 0.5 * (m + m.T)
 
 
-def extreme_singular_pairs(w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
-    """``σ_max, u_max, v_max, σ_min, u_min, v_min`` of ``w`` (``∂σ/∂W = u·vᵀ`` for a simple σ).
+def singular_system(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values ``σ`` (descending) and right singular vectors ``Vᵀ`` (rows) of ``w``.
 
     Via the triangular factor R of ``W = Q·R`` (Householder): R has the singular values and right
     singular vectors of W to full accuracy, and its SVD is N_B×N_B. (The eigenvalues of ``WᵀW`` would
     be as cheap but square the condition number: cond(W) ~ 10³ then costs 1e-10 relative accuracy on
-    σ_min, too much for gradients checked against finite differences.)
+    σ_min, too much for gradients checked against finite differences.) LinAlgError if W is rank deficient.
     """
     r = np.linalg.qr(w, mode="r")
     _, sigma, vt = np.linalg.svd(r)
     if sigma[-1] <= np.sqrt(RANK_TOLERANCE) * sigma[0]:
         raise np.linalg.LinAlgError("the regressor is rank deficient: the motion does not excite every base parameter")
+    return sigma, vt
+
+
+def extreme_singular_pairs(w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
+    """``σ_max, u_max, v_max, σ_min, u_min, v_min`` of ``w`` (``∂σ/∂W = u·vᵀ`` for a simple σ)."""
+    sigma, vt = singular_system(w)
     v_max, v_min = vt[0], vt[-1]
     return sigma[0], w @ v_max / sigma[0], v_max, sigma[-1], w @ v_min / sigma[-1], v_min
 
