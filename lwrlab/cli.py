@@ -19,6 +19,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from lwrlab.tracking import job_state
+from lwrlab.tracking.processes import JobInterrupted
 
 log = logging.getLogger("lwrlab")
 
@@ -59,11 +60,19 @@ def hydra_app(cfg: DictConfig) -> dict[str, float] | float:
 
 
 def main() -> Any:
-    """``lwrlab report|sync ...`` (see their ``--help``), otherwise the Hydra app."""
+    """``lwrlab report|compare|sync ...`` (see their ``--help``), otherwise the Hydra app.
+
+    A stop signal (SIGINT, SIGTERM) ends the process with the shell's status for it (130, 143) after
+    the tracking callback has ended the runs KILLED.
+    """
     if len(sys.argv) > 1 and sys.argv[1] in SUBCOMMANDS:
         command = importlib.import_module(SUBCOMMANDS[sys.argv[1]])
         sys.exit(command.main(sys.argv[2:]))
-    return hydra_app()
+    try:
+        return hydra_app()
+    except JobInterrupted as stop:
+        print(f"lwrlab: {stop}; runs in flight ended KILLED", file=sys.stderr)
+        sys.exit(stop.exit_status)
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ and compare runs afterwards:
 from __future__ import annotations
 
 import atexit
+import contextlib
 import functools
 import getpass
 import hashlib
@@ -39,7 +40,10 @@ import numbers
 import os
 import platform
 import re
+import signal
+import socket
 import subprocess
+import sys
 import time
 import traceback
 import urllib.parse
@@ -63,6 +67,21 @@ from omegaconf import DictConfig, OmegaConf
 
 import lwrlab
 from lwrlab.tracking import job_state, offline
+from lwrlab.tracking.finalise import KILLED_BY_TAG, end_killed, finalise_children, finalise_stale_runs, running_runs
+from lwrlab.tracking.processes import (
+    HOSTNAME_TAG,
+    PID_TAG,
+    JobInterrupted,
+    install_stop_handler,
+    process_alive,
+    process_tags,
+    restore_handlers,
+    send_signal,
+    signal_name,
+    terminate_processes,
+    wait_until,
+    worker_pids,
+)
 from lwrlab.tracking.redaction import Redactor, redacted_folder
 from lwrlab.tracking.store import prepare_sqlite_store, retry_locked, sqlite_database_path, store_lock
 
@@ -83,6 +102,11 @@ RESUMED_FILE = "resumed_from_run.txt"  # written instead of a new run when a swe
 # Config keys that say where a run is logged, not what it computes: left out of the config hash.
 NOT_HASHED_KEYS = frozenset({"tracking"})
 RUN_KIND_TAG = "run_kind"  # "job" or "sweep": filter with runs_table(..., "tags.run_kind = 'job'")
+# After a stop signal, how long a sweep's launching process lets its workers end their own runs
+# (upload what they wrote, mark KILLED) before it terminates them and ends what is left.
+STOP_GRACE_S = 30.0
+# Then how long a worker process gets between SIGTERM and SIGKILL.
+KILL_GRACE_S = 3.0
 
 # Characters MLflow accepts in param and metric keys (mlflow.utils.validation, POSIX flavour).
 _INVALID_KEY_CHARACTERS = re.compile(r"[^/\w.\- :]")
@@ -443,23 +467,183 @@ class MlflowTracking(Callback):
         self._offline_record: dict[str, Any] | None = None
         self._skipped = False
         self._failed_attempts: list[str] = []
+        self._output_dir: Path | None = None
+        self._sweep_config: DictConfig | None = None
+        self._sweep_pid: int | None = None  # the process that launched the sweep (ends its parent run)
+        self._previous_handlers: dict[int, Any] | None = None
+        self._hook_depth = 0  # > 0 while a hook talks to the store: a stop signal waits for its end
+        self._pending_signal: int | None = None
+        self._stopping = False
 
     def __getstate__(self) -> dict[str, Any]:
         # Launchers that run jobs in other processes (joblib, submitit, ray) pickle the callbacks;
-        # a client holds a database engine, so each process makes its own.
+        # a client holds a database engine, so each process makes its own. Signal handlers belong
+        # to the launching process (and may not pickle).
         state = dict(self.__dict__)
-        state["_client"] = None
+        state.update(_client=None, _sweep_config=None, _previous_handlers=None, _hook_depth=0, _pending_signal=None, _stopping=False)
         return state
 
     # -- Hydra hooks ------------------------------------------------------------------------
+    # Each hook holds stop signals until it is done (see _on_stop_signal), then does its work in
+    # the private method of the same name.
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        """Prepare the store, finalise stale runs, open (or reopen) the sweep's parent run; catch stop signals."""
+        self._sweep_pid, self._sweep_config = os.getpid(), config
+        self._install_stop_handler()
+        with self._signals_held():
+            self._on_multirun_start(config, **kwargs)
+        # A launcher that raises (a failed launch, a lost worker) skips on_multirun_end.
+        atexit.register(self._end_sweep_at_exit)
+
+    def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
+        """Close the parent run: FINISHED unless a job already marked it FAILED."""
+        with self._signals_held():
+            self._on_multirun_end(config, **kwargs)
+        atexit.unregister(self._end_sweep_at_exit)
+        self._restore_stop_handler()
+
+    def on_job_start(self, config: DictConfig, **kwargs: Any) -> None:
+        """Start the job's run (params, tags, run id file) or skip an already finished job; catch stop signals."""
+        self._install_stop_handler()
+        with self._signals_held():
+            self._on_job_start(config, **kwargs)
+
+    def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs: Any) -> None:
+        """Log metrics and artifacts, then end the run with the job's status."""
+        with self._signals_held():
+            self._on_job_end(config, job_return, **kwargs)
+        if self._sweep_pid != os.getpid():  # a sweep's launching process keeps its handler to the end
+            self._restore_stop_handler()
+
+    # -- stop signals -----------------------------------------------------------------------
+
+    def _install_stop_handler(self) -> None:
+        previous = install_stop_handler(self._on_stop_signal)
+        if self._previous_handlers is None and previous is not None:
+            self._previous_handlers = previous
+
+    def _restore_stop_handler(self) -> None:
+        restore_handlers(self._previous_handlers)
+        self._previous_handlers = None
+
+    @contextlib.contextmanager
+    def _signals_held(self) -> Iterator[None]:
+        """Defer a stop signal that arrives while a hook talks to the store until the hook is done."""
+        self._hook_depth += 1
+        try:
+            yield
+        finally:
+            self._hook_depth -= 1
+            if self._hook_depth == 0 and self._pending_signal is not None:
+                signum, self._pending_signal = self._pending_signal, None
+                self._on_stop_signal(signum, None)
+
+    def _on_stop_signal(self, signum: int, frame: Any) -> None:
+        """SIGINT/SIGTERM: end this process's runs KILLED (outputs uploaded), then raise :class:`JobInterrupted`.
+
+        In the job's process: its run. In a sweep's launching process: also the in-flight nested
+        runs (their workers are asked to end them, then terminated with every other descendant
+        process, so that none outlives the sweep) and the parent run.
+        """
+        if self._stopping:
+            return  # a second signal while the first one is handled: that one ends the process
+        if self._hook_depth > 0:
+            self._pending_signal = signum
+            return
+        self._stopping = True
+        name = signal_name(signum)
+        is_worker = self._sweep_pid is not None and self._sweep_pid != os.getpid()
+        try:
+            self._end_job_killed(name)
+            if self._parent_run_id is not None and self._sweep_pid == os.getpid():
+                self._end_sweep_killed(name)
+            elif self._sweep_pid == os.getpid():
+                terminate_processes(worker_pids(os.getpid()), KILL_GRACE_S)
+        except Exception as error:
+            self._warn(f"ending the runs after {name}", error)
+        if is_worker:
+            # A pool worker would catch the exception and take the sweep's next job; ending the
+            # process makes the launcher stop handing out jobs (its pool is broken).
+            logging.shutdown()
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(JobInterrupted(signum).exit_status)
+        raise JobInterrupted(signum)
+
+    def _end_job_killed(self, reason: str) -> None:
+        """End the job run of this process KILLED (or its offline record), saying where its outputs are."""
+        if self._offline_record is not None and self._output_dir is not None:
+            self._finish_offline(self._output_dir, {}, "KILLED", f"stopped by {reason}")
+            return
+        run_id, client, settings = self._run_id, self._client, self._settings
+        if run_id is None or client is None or settings is None:
+            return
+        self._run_id = None
+        atexit.unregister(self._end_run_interrupted)
+        where = end_killed(client, run_id, reason, self._output_dir, self._redactor, settings.log_artifacts)
+        log.warning("%s: MLflow run %s ended KILLED; %s", reason, run_id, where)
+
+    def _end_sweep_killed(self, reason: str) -> None:
+        """Let in-flight workers end their runs, terminate every worker, end what is left and the parent."""
+        assert self._parent_run_id is not None and self._parent_settings is not None
+        parent_run_id, own_pid, hostname = self._parent_run_id, os.getpid(), socket.gethostname()
+        client = self._connect(self._parent_settings)
+        experiment_ids = [experiment.experiment_id for experiment in retry_locked(client.search_experiments)]
+        nested = f"tags.`mlflow.parentRunId` = '{parent_run_id}'"
+
+        def local_pid(run: Run) -> int | None:
+            pid = run.data.tags.get(PID_TAG, "")
+            same_host = run.data.tags.get(HOSTNAME_TAG) == hostname
+            return int(pid) if same_host and pid.isdigit() and int(pid) != own_pid and process_alive(int(pid)) else None
+
+        def in_flight() -> list[int]:
+            return [pid for run in running_runs(client, experiment_ids, nested) if (pid := local_pid(run)) is not None]
+
+        workers = in_flight()
+        if workers:
+            log.warning("%s: asking %d worker process(es) to end their runs", reason, len(workers))
+            send_signal(workers, signal.SIGTERM)  # each worker's own handler uploads and ends its run
+            wait_until(lambda: not in_flight(), STOP_GRACE_S)
+        killed = terminate_processes(worker_pids(own_pid), KILL_GRACE_S)
+        if killed:
+            log.warning("%s: %d worker process(es) did not stop on SIGTERM and were killed", reason, len(killed))
+        upload = self._parent_settings.log_artifacts
+        finalise_children(client, experiment_ids, parent_run_id, f"{reason} to the sweep; its worker was terminated", upload)
+        if self._sweep_config is not None:
+            self._guarded("logging the sweep config", self._log_sweep_config, client, self._sweep_config)
+        retry_locked(client.set_tag, parent_run_id, KILLED_BY_TAG, reason)
+        retry_locked(client.set_terminated, parent_run_id, status="KILLED")
+        self._parent_run_id = None
+        log.warning("%s: sweep run %s ended KILLED; no worker process left", reason, parent_run_id)
+
+    def _end_sweep_at_exit(self) -> None:
+        """The launching process ends without on_multirun_end: end the nested runs left RUNNING and the parent FAILED."""
+        if self._parent_run_id is None or self._parent_settings is None or self._sweep_pid != os.getpid():
+            return
+        parent_run_id, self._parent_run_id = self._parent_run_id, None
+        try:
+            client = self._connect(self._parent_settings)
+            experiment_ids = [experiment.experiment_id for experiment in retry_locked(client.search_experiments)]
+            reason = "the sweep's launcher stopped before this job ended"
+            finalise_children(client, experiment_ids, parent_run_id, reason, self._parent_settings.log_artifacts)
+            if retry_locked(client.get_run, parent_run_id).info.status == "RUNNING":
+                retry_locked(client.set_terminated, parent_run_id, status="FAILED")
+                log.warning("the sweep's launcher failed: sweep run %s ended FAILED", parent_run_id)
+        except Exception as error:
+            self._warn("ending the sweep's runs at exit", error)
+
+    # -- hook bodies ------------------------------------------------------------------------
+
+    def _on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
         """Prepare the store and open (or reopen) the parent run of a sweep, before any worker starts."""
         try:
             settings = self.settings_for(config)
             self._redactor = self._redactor_for(config, resolved_job_config(config), settings)
             client = self._connect(settings)  # creates the SQLite schema here, once, not in every worker
             experiment_id = ensure_experiment(client, settings)
+            if self.resume:  # runs an earlier launch left RUNNING when its process died
+                finalise_stale_runs(client, [experiment_id], socket.gethostname(), settings.log_artifacts)
             task_overrides = [str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []]
             sweep_overrides = self._redactor.redact(" ".join(task_overrides))
             sweeper_params = OmegaConf.select(config, "hydra.sweeper.params", default=None)
@@ -476,6 +660,7 @@ class MlflowTracking(Callback):
             else:
                 tags = {
                     RUN_KIND_TAG: "sweep",
+                    **process_tags(),
                     "overrides": truncate(sweep_overrides, TAG_VALUE_MAX_LENGTH),
                     "sweep_hash": identity,
                     "hydra_sweep_dir": str(OmegaConf.select(config, "hydra.sweep.dir", default="")),
@@ -490,7 +675,7 @@ class MlflowTracking(Callback):
         except Exception as error:
             self._warn("opening the parent run of the sweep", error)
 
-    def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
+    def _on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
         """Close the parent run: FINISHED unless a job already marked it FAILED."""
         if self._parent_run_id is None or self._parent_settings is None:
             return
@@ -504,7 +689,7 @@ class MlflowTracking(Callback):
         finally:
             self._parent_run_id = None
 
-    def on_job_start(self, config: DictConfig, **kwargs: Any) -> None:
+    def _on_job_start(self, config: DictConfig, **kwargs: Any) -> None:
         """Start the job's run (params, provenance tags, run id file), or skip an already finished job.
 
         If the store cannot be reached, everything is kept in the output folder for ``lwrlab sync``.
@@ -512,6 +697,7 @@ class MlflowTracking(Callback):
         job_state.reset()
         self._run_id, self._offline_record, self._skipped, self._failed_attempts = None, None, False, []
         output_dir = Path(str(config.hydra.runtime.output_dir))
+        self._output_dir = output_dir
         start_ms = int(time.time() * 1000)
         try:
             settings = self.settings_for(config)
@@ -527,6 +713,8 @@ class MlflowTracking(Callback):
         try:
             client = self._connect(settings)
             experiment_id = ensure_experiment(client, settings)
+            if not self._is_sweep_job(config):  # a sweep's launching process did this for its jobs
+                finalise_stale_runs(client, [experiment_id], socket.gethostname(), settings.log_artifacts)
             if self.resume and self._is_sweep_job(config) and self._skip_if_finished(client, experiment_id, tags, output_dir):
                 return
             run = retry_locked(client.create_run, experiment_id, run_name=run_name, tags=tags, start_time=start_ms)
@@ -550,7 +738,7 @@ class MlflowTracking(Callback):
         except Exception as error:
             self._warn("logging the params", error)
 
-    def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs: Any) -> None:
+    def _on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs: Any) -> None:
         """Log metrics and artifacts, then end the run with the job's status."""
         output_dir = Path(str(config.hydra.runtime.output_dir))
         failed = job_return.status == JobStatus.FAILED
@@ -781,6 +969,7 @@ class MlflowTracking(Callback):
             "hydra_job_name": str(OmegaConf.select(config, "hydra.job.name", default="")),
             "hydra_output_dir": str(config.hydra.runtime.output_dir),
             **provenance_tags(self._original_cwd(config)),
+            **process_tags(),
         }
         if "seed" in job_config:
             tags["seed"] = str(job_config["seed"])

@@ -60,6 +60,8 @@ _MAPPING = re.compile(
 _NOT_A_SECRET = re.compile(r"^(?:|null|None|~|\?\?\?|\*\*\*|\$\{[^}]*\}|\{\}|\[\])$")
 # Shorter values (a flag, a digit) would redact ordinary text and protect nothing.
 MIN_SECRET_LENGTH = 4
+# The configs Hydra saves in a job folder: they name the job's stores and secret-valued keys.
+JOB_CONFIG_FILES = (".hydra/overrides.yaml", ".hydra/config.yaml", ".hydra/hydra.yaml")
 # Text artifacts larger than this are not scanned (measurement CSVs carry numbers, not URIs).
 MAX_SCANNED_BYTES = 20_000_000
 
@@ -169,6 +171,16 @@ class Redactor:
         for text in texts:
             secrets |= passwords_in(str(text)) | secret_values_in(str(text))
         return cls(frozenset(value for value in secrets if len(value) >= MIN_SECRET_LENGTH))
+
+    @classmethod
+    def for_output_folder(cls, output_dir: Path, environ: Mapping[str, str] | None = None) -> Redactor:
+        """Secrets of the job that wrote ``output_dir``, read from its ``.hydra/`` configs and overrides."""
+        texts = []
+        for name in JOB_CONFIG_FILES:
+            path = output_dir / name
+            if path.is_file():
+                texts.append(path.read_text(encoding="utf-8", errors="replace"))
+        return cls.from_texts(texts, environ)
 
     def redact(self, text: str) -> str:
         """``text`` without URI passwords, secret-key values and any of the known secrets."""

@@ -46,16 +46,6 @@ DEFAULT_ARTIFACT_LOCATION = "outputs/mlartifacts"
 RECORD_TAG = "offline_record_id"
 
 
-def _secret_sources(output_dir: Path) -> list[str]:
-    """Texts of the job folder that name its stores (their passwords must not be uploaded)."""
-    texts = []
-    for name in (".hydra/overrides.yaml", ".hydra/config.yaml", ".hydra/hydra.yaml"):
-        path = output_dir / name
-        if path.is_file():
-            texts.append(path.read_text(encoding="utf-8", errors="replace"))
-    return texts
-
-
 class Syncer:
     """Uploads offline records into one store, creating experiments and sweep parents as needed."""
 
@@ -119,7 +109,7 @@ class Syncer:
             log_params(self.client, run_id, record["params"])
             log_metrics(self.client, run_id, record["metrics"], record.get("end_time_ms"))
             if self.log_artifacts:
-                redactor = Redactor.from_texts(_secret_sources(output_dir))
+                redactor = Redactor.for_output_folder(output_dir)
                 log_output_folder(self.client, run_id, output_dir, redactor, exclude=[offline.OFFLINE_RECORD])
             status = record["status"] if record["status"] != "RUNNING" else "KILLED"  # the job never ended
             retry_locked(self.client.set_terminated, run_id, status=status, end_time=record.get("end_time_ms"))

@@ -9,6 +9,7 @@ is the real tracking config of the project::
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 import hydra
@@ -21,6 +22,8 @@ def main(cfg: DictConfig) -> dict[str, object]:
     """Write ``table.csv`` into the job output folder, then fail if ``cfg.fail``, else return metrics."""
     output_dir = Path(HydraConfig.get().runtime.output_dir)
     (output_dir / "table.csv").write_text(f"x,doubled\n{cfg.x},{2 * cfg.x}\n", encoding="utf-8")
+    # A long job to stop with a signal (outside the config, so that a resumed sweep has the same hash).
+    time.sleep(float(os.environ.get("TOY_SLEEP_S", "0")))
     if cfg.fail:
         raise RuntimeError(f"toy failure requested with x={cfg.x}")
     # A failure from outside the config (a crashed node, a full disk): the same config succeeds later.
