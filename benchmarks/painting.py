@@ -38,7 +38,7 @@ from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path
-from lwrlab.planning.path_optimisation import PathProblem, WallBounds, optimise_path
+from lwrlab.planning.path_optimisation import GRADIENTS, PathProblem, WallBounds, optimise_path
 from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall
 from lwrlab.tools.library import load_tool
 from plugins.controllers.force_pi import ForcePIControl
@@ -200,23 +200,23 @@ def mujoco_floor(case: Case, tau: np.ndarray) -> None:
         mujoco.mj_forward(model, data)
 
 
-def timed(function, *args, repeat: int = 1):
-    """(result, least wall time in s over ``repeat`` calls): the least is the one the other jobs on a
-    shared machine disturbed least."""
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = function(*args)
-        times.append(time.perf_counter() - start)
-    return result, min(times)
+def timed(function, *args):
+    """(result, wall time in s) of one call."""
+    start = time.perf_counter()
+    result = function(*args)
+    return result, time.perf_counter() - start
 
 
 def contact_loop_figures(seconds: float, reference_seconds: float, repeat: int) -> None:
-    case = make_case(seconds)
-    run, batched_s = timed(batched_loop, case, repeat=repeat)
-    _, floor_s = timed(mujoco_floor, case, run.tau, repeat=repeat)
-    short = make_case(reference_seconds)
-    reference_run, reference_s = timed(lambda: PerSampleLoop(short).run(), repeat=repeat)
+    case, short = make_case(seconds), make_case(reference_seconds)
+    run = batched_loop(case)  # the torques the floor replays
+    # interleaved rounds: a change of load on a shared machine hits the three loops alike
+    batched_s = floor_s = reference_s = np.inf
+    for _ in range(repeat):
+        batched_s = min(batched_s, timed(batched_loop, case)[1])
+        floor_s = min(floor_s, timed(mujoco_floor, case, run.tau)[1])
+        reference_run, seconds_taken = timed(lambda: PerSampleLoop(short).run())
+        reference_s = min(reference_s, seconds_taken)
     common = len(short.reference)
     batched_short = batched_loop(short)
     estimate_gap = np.abs(batched_short.estimated_wrench[:, 0] - reference_run.estimated_wrench[:common, 0]).max()
@@ -247,9 +247,12 @@ def optimisation_figures(starts: tuple[float, ...], repeat: int) -> None:
     )
     print(f"\n## Painting-path optimisation (eq. 12), large roller, N_r = 2, {len(starts)} SLSQP starts\n")
     print("| gradients | time (s) | iterations | cost |\n|---|---|---|---|")
-    times = {}
-    for gradients in ("analytic", "finite_differences"):
-        solution, times[gradients] = timed(lambda g=gradients: optimise_path(problem, starting_swivels=starts, gradients=g), repeat=repeat)
+    times, solutions = dict.fromkeys(GRADIENTS, np.inf), {}
+    for _ in range(repeat):  # interleaved, as the loops
+        for gradients in GRADIENTS:
+            solutions[gradients], seconds = timed(lambda g=gradients: optimise_path(problem, starting_swivels=starts, gradients=g))
+            times[gradients] = min(times[gradients], seconds)
+    for gradients, solution in solutions.items():
         print(f"| {gradients} | {times[gradients]:.2f} | {solution.iterations} | {sum(solution.cost_terms.values()):.4f} |")
     print(f"\nanalytic / finite differences: {times['finite_differences'] / times['analytic']:.1f}x faster")
 
@@ -259,7 +262,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=6.0, help="simulated seconds of the batched loop and the floor")
     parser.add_argument("--reference-seconds", type=float, default=3.0, help="simulated seconds of the slow per-sample loop")
     parser.add_argument("--starts", type=float, nargs="+", default=[-1.6, -0.8], help="starting swivel angles of the optimisation (rad)")
-    parser.add_argument("--repeat", type=int, default=2, help="runs of each measurement; the least time is reported")
+    parser.add_argument("--repeat", type=int, default=2, help="interleaved rounds of every measurement; each one's least time is reported (the one other jobs on a shared machine disturbed least)")
     args = parser.parse_args()
     contact_loop_figures(args.seconds, args.reference_seconds, args.repeat)
     optimisation_figures(tuple(args.starts), args.repeat)

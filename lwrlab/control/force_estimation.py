@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg.lapack import dposv
+from scipy.linalg.lapack import dgels
 
 from lwrlab.control.filters import FilteredDifferences, FirstOrderLowPass
 from lwrlab.model.robot import RobotModel
@@ -113,9 +113,8 @@ class ExternalForceEstimator:
         dq, ddq = self.differences(q)
         external = tau - pin.rnea(model, data, q, dq, ddq) - self.friction_torque(dq)
         jacobian = pin.computeFrameJacobian(model, data, q, self.frame_id, _BASE_AXES)
-        # eq. (14): (Jᵀ)⁺ = (J·Jᵀ)⁻¹·J for a full-rank 6 × N_J Jacobian (away from singularities);
-        # J·Jᵀ is symmetric positive definite there: a Cholesky solve, least squares where it is not
-        _, wrench, info = dposv(jacobian @ jacobian.T, jacobian @ external)
-        if info != 0:
-            wrench = np.linalg.lstsq(jacobian.T, external, rcond=None)[0]
+        # eq. (14): (Jᵀ)⁺·Γ_ext = (J·Jᵀ)⁻¹·J·Γ_ext, the least-squares solution of Jᵀ·w = Γ_ext; one LAPACK
+        # QR solve (dgels) on Jᵀ, full rank away from singularities; lstsq (SVD) where it is not
+        _, solution, info = dgels(jacobian.T, external)
+        wrench = solution[:6] if info == 0 else np.linalg.lstsq(jacobian.T, external, rcond=None)[0]
         return StateEstimate(q, dq, ddq, external, self.wrench_filter(wrench))
