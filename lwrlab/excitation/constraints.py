@@ -20,6 +20,7 @@ The margins keep the 100 Hz optimum feasible between its samples; the final chec
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from itertools import combinations
 
@@ -30,6 +31,8 @@ from lwrlab.dynamics.base_parameters import random_states
 from lwrlab.kinematics.forward import joint_frame_poses
 from lwrlab.model.collision import CollisionSphere
 from lwrlab.model.robot import RobotModel
+
+log = logging.getLogger(__name__)
 
 FAMILIES = ("position", "velocity", "acceleration", "torque", "ground", "self_collision")
 
@@ -122,7 +125,10 @@ class ConstraintSet:
         spheres = robot.collision_spheres
         names = [s.name for s in spheres]
         self.ground_indices: list[int] = []
-        if settings.z_ground is not None and settings.ground_spheres:
+        if settings.z_ground is not None and settings.ground_spheres and not names:
+            # a robot described without collision geometry (a plain URDF): nothing to keep off the floor
+            log.warning("%s has no collision spheres: the exciting motion is not kept above the floor or free of self-collision", robot.name)
+        elif settings.z_ground is not None and settings.ground_spheres:
             unknown = [name for name in settings.ground_spheres if name not in names]
             if unknown:
                 raise ValueError(
