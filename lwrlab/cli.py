@@ -18,6 +18,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
+from lwrlab.config_checks import check_config
 from lwrlab.tracking import job_state
 from lwrlab.tracking.processes import JobInterrupted
 
@@ -36,6 +37,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
     if finished is not None:  # a re-launched sweep: the tracking callback found this config FINISHED
         log.info("this job's config already finished in MLflow: its metrics are reused, nothing is recomputed")
         return finished
+    check_config(cfg)  # a wrong type or range fails here, naming the key, before anything is built
     stage = instantiate(cfg.task)
     metrics = stage(cfg, output_dir)
     log.info("artifacts written to %s", output_dir)
