@@ -15,10 +15,12 @@ from typing import Any
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
+from hydra.errors import CompactHydraException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from lwrlab.config_checks import check_config
+from lwrlab.errors import UserError
 from lwrlab.tracking import job_state
 from lwrlab.tracking.processes import JobInterrupted
 
@@ -29,6 +31,22 @@ CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 
 SUBCOMMANDS = {"report": "lwrlab.tracking.report", "sync": "lwrlab.tracking.sync"}
 """``lwrlab <name> ...`` runs ``<module>.main(argv)`` instead of a Hydra job."""
+
+
+class UserFacingError(CompactHydraException):
+    """A :class:`~lwrlab.errors.UserError` handed to Hydra, which prints such errors as their message
+    alone and exits with status 1; the tracking callback still records the run FAILED with the whole
+    traceback in ``error.txt``."""
+
+
+def _user_error(error: BaseException) -> UserError | None:
+    """The user error behind ``error`` (itself, or a cause: Hydra wraps errors raised by plugins it builds)."""
+    seen: BaseException | None = error
+    while seen is not None:
+        if isinstance(seen, UserError):
+            return seen
+        seen = seen.__cause__
+    return None
 
 
 def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
@@ -51,7 +69,13 @@ def hydra_app(cfg: DictConfig) -> dict[str, float] | float:
     With ``objective=<metric>`` (set by tuning presets) the job returns that one number, which a
     sweeper such as Optuna minimises; all metrics are still logged.
     """
-    metrics = run(cfg, Path(HydraConfig.get().runtime.output_dir))
+    try:
+        metrics = run(cfg, Path(HydraConfig.get().runtime.output_dir))
+    except Exception as error:
+        user_error = _user_error(error)
+        if user_error is None:
+            raise  # a bug: Hydra prints the traceback
+        raise UserFacingError(f"lwrlab: {user_error}") from error
     job_state.record_metrics(metrics)
     objective = OmegaConf.select(cfg, "objective", default=None)
     if objective is None:
