@@ -68,6 +68,18 @@ from omegaconf import DictConfig, OmegaConf
 import lwrlab
 from lwrlab.tracking import job_state, offline
 from lwrlab.tracking.finalise import KILLED_BY_TAG, end_killed, finalise_children, finalise_stale_runs, running_runs
+from lwrlab.tracking.naming import (
+    DESCRIPTION_TAG,
+    NAME_SEPARATOR,
+    EXPERIMENT_KIND,
+    EXPERIMENT_KIND_TAG,
+    experiment_description,
+    log_file_stem,
+    plugin_choices,
+    run_name,
+    runtime_choices,
+    swept_keys,
+)
 from lwrlab.tracking.processes import (
     HOSTNAME_TAG,
     PID_TAG,
@@ -361,8 +373,16 @@ def sweep_identity(primary_config: Mapping[str, Any], sweep_overrides: Sequence[
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+def experiment_tags(name: str) -> dict[str, str]:
+    """Tags of a new experiment: the model-development kind (MLflow 3's UI opens on its runs) and a description."""
+    return {EXPERIMENT_KIND_TAG: EXPERIMENT_KIND, DESCRIPTION_TAG: experiment_description(name)}
+
+
 def ensure_experiment(client: MlflowClient, settings: TrackingSettings) -> str:
-    """The id of ``settings.experiment``, created (once among parallel processes) or restored if needed."""
+    """The id of ``settings.experiment``, created (once among parallel processes) or restored if needed.
+
+    A new experiment gets :func:`experiment_tags`; an existing one without a kind gets them too.
+    """
     name = settings.experiment
     experiment = retry_locked(client.get_experiment_by_name, name)
     if experiment is None:
@@ -374,7 +394,7 @@ def ensure_experiment(client: MlflowClient, settings: TrackingSettings) -> str:
             experiment = retry_locked(client.get_experiment_by_name, name)
             if experiment is None:
                 try:
-                    return retry_locked(client.create_experiment, name, artifact_location=artifact_location)
+                    return retry_locked(client.create_experiment, name, artifact_location=artifact_location, tags=experiment_tags(name))
                 except MlflowException:
                     # Another process (another machine, for a server) created it first.
                     experiment = client.get_experiment_by_name(name)
@@ -383,6 +403,10 @@ def ensure_experiment(client: MlflowClient, settings: TrackingSettings) -> str:
     if experiment.lifecycle_stage == "deleted":
         log.warning("MLflow experiment %r was deleted; restoring it to log this run", name)
         retry_locked(client.restore_experiment, experiment.experiment_id)
+    if EXPERIMENT_KIND_TAG not in experiment.tags:  # made by an older lwrlab, or by hand
+        for key, value in experiment_tags(name).items():
+            if key not in experiment.tags:
+                retry_locked(client.set_experiment_tag, experiment.experiment_id, key, value)
     return experiment.experiment_id
 
 
@@ -468,6 +492,7 @@ class MlflowTracking(Callback):
         self._skipped = False
         self._failed_attempts: list[str] = []
         self._output_dir: Path | None = None
+        self._swept: list[str] = []  # keys the sweep varies, set by on_multirun_start (run names)
         self._sweep_config: DictConfig | None = None
         self._sweep_pid: int | None = None  # the process that launched the sweep (ends its parent run)
         self._previous_handlers: dict[int, Any] | None = None
@@ -647,11 +672,9 @@ class MlflowTracking(Callback):
             task_overrides = [str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []]
             sweep_overrides = self._redactor.redact(" ".join(task_overrides))
             sweeper_params = OmegaConf.select(config, "hydra.sweeper.params", default=None)
-            identity = sweep_identity(
-                resolved_job_config(config),
-                task_overrides,
-                OmegaConf.to_container(sweeper_params) if OmegaConf.is_config(sweeper_params) else sweeper_params,
-            )
+            search_space = OmegaConf.to_container(sweeper_params) if OmegaConf.is_config(sweeper_params) else sweeper_params
+            identity = sweep_identity(resolved_job_config(config), task_overrides, search_space)
+            self._swept = swept_keys(task_overrides, search_space if isinstance(search_space, Mapping) else None)
             parent = self._previous_parent(client, experiment_id, identity) if self.resume else None
             if parent is not None:
                 retry_locked(client.update_run, parent.info.run_id, status="RUNNING")
@@ -666,9 +689,8 @@ class MlflowTracking(Callback):
                     "hydra_sweep_dir": str(OmegaConf.select(config, "hydra.sweep.dir", default="")),
                     **provenance_tags(self._original_cwd(config)),
                 }
-                job_name = str(OmegaConf.select(config, "hydra.job.name", default="job"))
-                run_name = truncate(f"{job_name} sweep: {sweep_overrides}".strip(), RUN_NAME_MAX_LENGTH)
-                run = retry_locked(client.create_run, experiment_id, run_name=run_name, tags=self._redactor.redact_mapping(tags))
+                sweep_name = truncate(f"sweep{NAME_SEPARATOR}{self._redactor.redact(self._run_name(config))}", RUN_NAME_MAX_LENGTH)
+                run = retry_locked(client.create_run, experiment_id, run_name=sweep_name, tags=self._redactor.redact_mapping(tags))
                 self._parent_run_id = run.info.run_id
             self._parent_settings = settings
             self._client = client
@@ -704,7 +726,8 @@ class MlflowTracking(Callback):
             job_config = resolved_job_config(config)
             self._redactor = self._redactor_for(config, job_config, settings)
             tags = self._redactor.redact_mapping(self._job_tags(config, job_config))
-            params = self._redactor.redact_mapping(self._unique_keys(flatten_config(job_config)))
+            flat = {**flatten_config(job_config), **plugin_choices(runtime_choices(config)), "experiment_name": settings.experiment}
+            params = self._redactor.redact_mapping(self._unique_keys(flat))
             run_name = self._redactor.redact(self._run_name(config))
         except Exception as error:
             self._warn("reading the tracking settings", error)
@@ -810,9 +833,12 @@ class MlflowTracking(Callback):
                 except Exception:  # e.g. ${hydra:...} outside a job: keep the constructor value
                     log.debug("kept the constructor value of %s", field, exc_info=True)
         base_dir = self._original_cwd(config)
+        experiment = values["experiment"]
+        if experiment in (None, "", "None", "null"):  # one experiment per task: named after it
+            experiment = runtime_choices(config).get("task") or OmegaConf.select(config, "hydra.job.name", default=None) or "lwrlab"
         return TrackingSettings(
             tracking_uri=absolute_tracking_uri(str(values["tracking_uri"]), base_dir),
-            experiment=str(values["experiment"]),
+            experiment=str(experiment),
             artifact_location=absolute_artifact_location(
                 None if values["artifact_location"] is None else str(values["artifact_location"]), base_dir
             ),
@@ -954,11 +980,13 @@ class MlflowTracking(Callback):
         self._offline_record = None
 
     def _run_name(self, config: DictConfig) -> str:
-        name = str(OmegaConf.select(config, "hydra.job.name", default="job"))
-        if self._parent_run_id is not None or self._is_sweep_job(config):
-            name += f" #{OmegaConf.select(config, 'hydra.job.num', default=0)}"
-        overrides = str(OmegaConf.select(config, "hydra.job.override_dirname", default="") or "")
-        return truncate(f"{name}: {overrides}" if overrides else name, RUN_NAME_MAX_LENGTH)
+        """What differs: swept overrides first (plugin choices by name), the log file, then the rest."""
+        choices = runtime_choices(config)
+        task_overrides = [str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []]
+        fallback = str(choices.get("task") or OmegaConf.select(config, "hydra.job.name", default="job"))
+        log_stem = log_file_stem(config) if choices.get("plant") == "log" else None
+        name = run_name(task_overrides, self._swept, set(choices), fallback, log_stem)
+        return truncate(name, RUN_NAME_MAX_LENGTH)
 
     def _job_tags(self, config: DictConfig, job_config: Mapping[str, Any]) -> dict[str, str]:
         task_overrides = OmegaConf.select(config, "hydra.overrides.task", default=[]) or []

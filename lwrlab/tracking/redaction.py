@@ -46,7 +46,7 @@ SECRET_ENVIRONMENT_NAME = re.compile(r"(?i)(PASSWORD|PASSWD|SECRET|TOKEN|API_?KE
 # A config key names a secret when its last component contains one of these words (any case).
 SECRET_KEY_WORD = re.compile(r"(?i)(password|passwd|secret|token|api[_.\-]?key|apikey|auth|credential|private[_.\-]?key)")
 # ``api.key`` and ``private.key`` span the last dot: the whole key's tail is checked for them.
-_SECRET_KEY_TAIL = re.compile(r"(?i)(api|private)[_.\-]?key$")
+_SECRET_KEY_TAIL = re.compile(r"(?i)(api|private)\.key[\w\-]*$")
 # ``key=value`` as in Hydra overrides, command lines and query strings (prefixes + ++ ~ allowed).
 _ASSIGNMENT = re.compile(
     r"(?P<head>(?<![\w.\-])[+~]{0,2}(?P<key>\w[\w.\-]*)=)(?P<value>'[^']*'|\"[^\"]*\"|\$\{[^}\s]*\}|(?:[^\s'\"&,]|,(?![+~]{0,2}\w[\w.\-]*=))+)"
