@@ -48,7 +48,7 @@ def test_main_job_runs_the_whole_chain_and_leaves_one_finished_run(tmp_path: Pat
     """The default job: identification at the noise floor, then painting with a sensorless force estimate."""
     completed = run_lwrlab(tmp_path)
     assert completed.returncode == 0, completed.stderr[-3000:]
-    assert "Cross-validation torque error" in completed.stdout and "Table IV" in completed.stdout
+    assert "Validation torque error per joint" in completed.stdout and "Table IV" in completed.stdout
     run = only_run(tmp_path, "paper_chain")
     assert run.info.status == "FINISHED"
     metrics = run.data.metrics
