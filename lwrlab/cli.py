@@ -1,7 +1,8 @@
 """Command-line entry point: ``lwrlab [group=option ...] [key=value ...]`` (a Hydra app).
 
-Two subcommands work on the MLflow store instead of running a job (dispatched before Hydra starts):
-``lwrlab report --help`` (the paper's tables and figures rebuilt from logged runs) and
+Three subcommands work on the MLflow store instead of running a job (dispatched before Hydra starts):
+``lwrlab report --help`` (the paper's tables and figures rebuilt from logged runs),
+``lwrlab compare --help`` (headline metrics grouped by what was swept, seeds as replication) and
 ``lwrlab sync --help`` (upload runs kept on disk while the store was unreachable).
 """
 
@@ -29,7 +30,7 @@ log = logging.getLogger("lwrlab")
 CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
 """The config tree beside the package (an absolute path: a relative one would be read as a module)."""
 
-SUBCOMMANDS = {"report": "lwrlab.tracking.report", "sync": "lwrlab.tracking.sync"}
+SUBCOMMANDS = {"report": "lwrlab.tracking.report", "compare": "lwrlab.tracking.compare", "sync": "lwrlab.tracking.sync"}
 """``lwrlab <name> ...`` runs ``<module>.main(argv)`` instead of a Hydra job."""
 
 

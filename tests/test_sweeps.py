@@ -100,10 +100,25 @@ def test_identification_sweep_3_by_3_with_joblib_and_its_table2_report(tmp_path:
     for errors in by_seed.values():
         assert errors[0.05] < errors[0.1] < errors[0.2]
 
-    report = run_app(None, "report", "--tracking-uri", uri, "--experiment", "noise_sweep", "--output", str(tmp_path / "report"), cwd=tmp_path)
+    # Table II pools seeds, not noise levels: refused for the whole sweep, built for one noise level.
+    pooled = run_app(None, "report", "--tracking-uri", uri, "--experiment", "noise_sweep", "--output", str(tmp_path / "all"), cwd=tmp_path)
+    assert pooled.returncode == 0, pooled.stderr
+    assert "differ in plant.torque_noise_std (0.05, 0.1, 0.2)" in (tmp_path / "all" / "report.md").read_text()
+    assert not (tmp_path / "all" / "table2_base_parameters.csv").exists()
+    report = run_app(
+        None, "report", "--tracking-uri", uri, "--experiment", "noise_sweep", "--param", "plant.torque_noise_std=0.1",
+        "--output", str(tmp_path / "report"), cwd=tmp_path,
+    )
     assert report.returncode == 0, report.stderr
     table = (tmp_path / "report" / "table2_base_parameters.csv").read_text()
     assert "MSY2R" in table and "fig6 skipped" in (tmp_path / "report" / "report.md").read_text()
+
+    compared = run_app(None, "compare", "--tracking-uri", uri, "--experiment", "noise_sweep", cwd=tmp_path)
+    assert compared.returncode == 0, compared.stderr
+    (folder,) = (tmp_path / "outputs" / "compare").iterdir()
+    rows = (folder / "compare.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in rows] == [f"plant.torque_noise_std={v}" for v in ("0.05", "0.1", "0.2")]
+    assert all(row.split(",")[2:4] == ["3", "3"] for row in rows)  # 3 runs, 3 seeds each
 
 
 @pytest.mark.slow

@@ -47,3 +47,29 @@ def error_per_joint(rms: np.ndarray, nrms: np.ndarray, path: Path, title: str, n
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def rms_per_joint_by_group(mean: np.ndarray, spread: np.ndarray, labels: list[str], path: Path, title: str) -> Path:
+    """Grouped bars of the cross-validation RMS per joint (N·m), one colour per group, ± the spread over runs.
+
+    Parameters
+    ----------
+    mean, spread
+        ``(groups, joints)`` arrays: mean and standard deviation over each group's runs (seeds).
+    labels
+        One label per group (``estimator=wls``).
+    """
+    groups, joints = mean.shape
+    positions = np.arange(1, joints + 1)
+    width = 0.8 / max(groups, 1)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.1 * joints + 0.3 * groups), 3.6))
+    for index in range(groups):
+        offset = (index - (groups - 1) / 2) * width
+        ax.bar(positions + offset, mean[index], width, yerr=np.nan_to_num(spread[index]), capsize=2, label=labels[index], color=f"C{index % 10}")
+    ax.set(xlabel="joint", ylabel="cross-validation RMS [N·m]", xticks=positions, title=title)
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=8, ncol=min(groups, 4))
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

@@ -3,8 +3,10 @@
 Selects the FINISHED job runs of one or more experiments (``search_runs`` → pandas, filtered by
 tags and params), downloads their table artifacts (``base_parameters.csv``, ``fig5_duration.csv``,
 ``fig6_criteria.csv``, ``table3_tools.csv``, ``table4_force.csv``), and writes Table II, Fig. 5,
-Fig. 6, Table III and Table IV as Markdown, CSV and PNG into a folder, which is then logged as a
-run of the ``reports`` experiment. An artifact kind that no selected run has is skipped with a note.
+Fig. 6, Table III and Table IV as Markdown, CSV and PNG into a folder under ``outputs/reports/``, which
+is then logged once as a run of the source experiment. An artifact kind that no selected run has is
+skipped with a note; so is a table that would pool runs differing in a parameter (an estimator, a
+noise level) that the table does not itself tell apart: the note names the parameter and its values.
 Works on a SQLite store and on a tracking server alike. Artifacts are read as CSV: nothing executes.
 
 Examples
@@ -34,13 +36,17 @@ from mlflow.tracking import MlflowClient
 from lwrlab.reference import paper_results
 from lwrlab.tracking.mlflow_callback import RUN_KIND_TAG, absolute_tracking_uri, provenance_tags, search_runs_table
 from lwrlab.tracking.paper_artifacts import ARTIFACT_KINDS, ArtifactColumnsError, ReportPart
+from lwrlab.tracking.derived_runs import derived_key, log_derived_run
 from lwrlab.tracking.redaction import Redactor
+from lwrlab.tracking.run_groups import short_name, swept_parameters, value_summary
 from lwrlab.tracking.store import retry_locked
 
 log = logging.getLogger(__name__)
 
 DEFAULT_TRACKING_URI = "sqlite:///outputs/mlflow.db"
-REPORT_EXPERIMENT = "reports"
+REPORT_EXPERIMENT = "reports"  # where older versions logged reports: left out of "all experiments"
+# Columns of the artifacts that say which run a row came from, not what it compares.
+_PROVENANCE_COLUMNS = frozenset({"run_id", "experiment", "seed"})
 
 
 @dataclass
@@ -165,6 +171,7 @@ def build_report(
     client = MlflowClient(tracking_uri=tracking_uri)
     paper = paper_results()
     available = {} if runs.empty else artifact_names(client, runs)
+    differing = swept_parameters(runs)
     with tempfile.TemporaryDirectory(prefix="lwrlab_report_") as download_dir:
         for kind in kinds or ARTIFACT_KINDS:
             artifact, builder = ARTIFACT_KINDS[kind]
@@ -172,6 +179,11 @@ def build_report(
             if frame is None:
                 report.skipped[kind] = f"no selected run has `{artifact}`"
                 log.warning("%s skipped: %s", kind, report.skipped[kind])
+                continue
+            pooled = unseparated_parameters(differing, frame)
+            if pooled:
+                report.skipped[kind] = pooling_refusal(runs, pooled)
+                log.warning("%s refused: %s", kind, report.skipped[kind])
                 continue
             try:
                 part = builder(frame, paper, output_dir)
@@ -187,6 +199,29 @@ def build_report(
         columns = [c for c in ("run_id", "experiment", "status", "tags.overrides", "tags.seed", "tags.config_hash") if c in runs]
         runs[columns].to_csv(output_dir / "runs.csv", index=False)
     return report
+
+
+def unseparated_parameters(differing: Sequence[str], frame: pd.DataFrame) -> list[str]:
+    """The parameters runs differ in that ``frame`` has no column for (a table would pool across them).
+
+    A parameter counts as told apart when the artifact has a column of its short name, or one its
+    short name ends with (``fixture_criterion`` by ``criterion``), as Fig. 6 groups by criterion.
+    """
+    columns = [str(column) for column in frame.columns if column not in _PROVENANCE_COLUMNS]
+    return [
+        parameter for parameter in differing
+        if not any(short_name(parameter) == column or short_name(parameter).endswith("_" + column) for column in columns)
+    ]
+
+
+def pooling_refusal(runs: pd.DataFrame, parameters: Sequence[str]) -> str:
+    """Why a table is not built: the parameters the runs differ in, their values, and what to do."""
+    listed = "; ".join(f"{parameter} ({value_summary(runs, parameter)})" for parameter in parameters)
+    example = parameters[0]
+    return (
+        f"the selected runs differ in {listed}; one table would pool them. Select one value, e.g. "
+        f"`--param {example}=<value>`, or compare them with `lwrlab compare`"
+    )
 
 
 def _write_markdown(report: Report, experiments: Sequence[str] | None, filter_string: str, tracking_uri: str) -> Path:
@@ -208,11 +243,22 @@ def _write_markdown(report: Report, experiments: Sequence[str] | None, filter_st
     return path
 
 
-def log_report(report: Report, tracking_uri: str, experiments: Sequence[str] | None, filter_string: str) -> str:
-    """Log the report folder as a run of the ``reports`` experiment; returns its run id."""
+def log_report(report: Report, tracking_uri: str, experiments: Sequence[str] | None, filter_string: str) -> tuple[str, bool] | None:
+    """Log the report folder once, as a run of its source experiment.
+
+    Returns
+    -------
+    tuple[str, bool] or None
+        The run id and whether it was logged now (``False``: the same report of the same runs was
+        logged before); ``None`` when the runs come from several experiments (nothing is logged).
+    """
+    sources = sorted(set(report.runs["experiment"])) if not report.runs.empty else list(experiments or [])
+    if len(sources) != 1:
+        return None
     client = MlflowClient(tracking_uri=tracking_uri)
-    experiment = client.get_experiment_by_name(REPORT_EXPERIMENT)
-    experiment_id = experiment.experiment_id if experiment else client.create_experiment(REPORT_EXPERIMENT)
+    experiment = retry_locked(client.get_experiment_by_name, sources[0])
+    if experiment is None:
+        return None
     tags = {
         RUN_KIND_TAG: "report",
         "source_experiments": ",".join(experiments or ["all"]),
@@ -222,13 +268,13 @@ def log_report(report: Report, tracking_uri: str, experiments: Sequence[str] | N
         "skipped": "; ".join(f"{k}: {v}" for k, v in report.skipped.items())[:5000],
         **provenance_tags(Path.cwd()),
     }
-    run = client.create_run(experiment_id, run_name=f"report: {tags['source_experiments']}", tags=tags)
-    client.log_artifacts(run.info.run_id, str(report.output_dir))
-    client.set_terminated(run.info.run_id, status="FINISHED")
-    return run.info.run_id
+    source_ids = list(report.runs["run_id"]) if not report.runs.empty else []
+    key = derived_key("report", source_ids, {"filter": filter_string, "kinds": sorted(report.parts)})
+    return log_derived_run(client, experiment.experiment_id, key, report.output_dir, f"report · {', '.join(report.parts) or 'empty'}", tags)
 
 
-def _pairs(values: Sequence[str], what: str) -> dict[str, str]:
+def parse_pairs(values: Sequence[str], what: str) -> dict[str, str]:
+    """``["a=1", "b=x"]`` → ``{"a": "1", "b": "x"}``; a value without ``=`` exits naming the ``--what`` option."""
     pairs = {}
     for value in values:
         key, separator, text = value.partition("=")
@@ -258,7 +304,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     uri = absolute_tracking_uri(arguments.tracking_uri, Path.cwd())
     output = arguments.output or Path("outputs") / "reports" / _dt.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
-    filter_string = selection_filter(_pairs(arguments.tag, "tag"), _pairs(arguments.param, "param"), arguments.filter)
+    filter_string = selection_filter(parse_pairs(arguments.tag, "tag"), parse_pairs(arguments.param, "param"), arguments.filter)
     kinds = [kind.strip() for kind in arguments.kinds.split(",") if kind.strip()]
     try:
         report = build_report(uri, output, arguments.experiment, filter_string, kinds)
@@ -266,10 +312,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(str(error))
     print((output / "report.md").read_text(encoding="utf-8"))
     if not arguments.no_log:
-        report.run_id = log_report(report, uri, arguments.experiment, filter_string)
-        print(f"report logged as run {report.run_id} of experiment {REPORT_EXPERIMENT!r}")
+        logged = log_report(report, uri, arguments.experiment, filter_string)
+        if logged is None:
+            print("report not logged: its runs come from several experiments (name one with --experiment)")
+        else:
+            report.run_id = logged[0]
+            experiment = report.runs["experiment"].iloc[0] if not report.runs.empty else arguments.experiment[0]
+            print(f"report {'logged as' if logged[1] else 'already logged as'} run {report.run_id} of experiment {experiment!r}")
     print(f"report written to {output}")
     return 0
 
 
-__all__ = ["Report", "artifact_names", "build_report", "collect_artifact", "log_report", "main", "select_runs", "selection_filter"]
+__all__ = [
+    "Report",
+    "artifact_names",
+    "build_report",
+    "collect_artifact",
+    "log_report",
+    "main",
+    "parse_pairs",
+    "pooling_refusal",
+    "select_runs",
+    "selection_filter",
+    "unseparated_parameters",
+]

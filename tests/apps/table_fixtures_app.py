@@ -49,7 +49,7 @@ def main(cfg: DictConfig) -> dict[str, float]:
             "nrms": [8.0, 9.0],
         }
     ).to_csv(output_dir / "table4_force.csv", index=False)
-    return {"rms_mean": sum(rms) / len(rms)}
+    return {"rms_mean": sum(rms) / len(rms), **{f"rms_joint{joint}": value for joint, value in zip(JOINTS, rms, strict=True)}}
 
 
 if __name__ == "__main__":

@@ -1,0 +1,64 @@
+"""Runs holding what lwrlab derives from other runs (a report, a comparison): logged once, beside their sources.
+
+A derived run goes into the experiment of the runs it was made from (no stray ``reports`` experiment,
+artifacts under that experiment's artifact location rather than ``./mlruns`` of the current folder),
+nested under the sweep's parent run when it compares one sweep, and is logged once: the same
+selection of the same runs finds the run logged before instead of adding another.
+
+Examples
+--------
+>>> derived_key("compare", ["b", "a"], {"by": ["estimator"]}) == derived_key("compare", ["a", "b"], {"by": ["estimator"]})
+True
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from mlflow.tracking import MlflowClient
+
+from lwrlab.tracking.store import retry_locked
+
+DERIVED_KEY_TAG = "derived_key"
+"""SHA-256 of the kind, the source run ids and the options: the identity of a derived run."""
+
+
+def derived_key(kind: str, source_run_ids: Iterable[str], options: Mapping[str, Any]) -> str:
+    """The identity of a derived run: its kind, the runs it was made from (order-free), its options."""
+    text = json.dumps({"kind": kind, "runs": sorted(map(str, source_run_ids)), "options": options}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def log_derived_run(
+    client: MlflowClient,
+    experiment_id: str,
+    key: str,
+    folder: Path,
+    run_name: str,
+    tags: Mapping[str, str],
+    parent_run_id: str | None = None,
+) -> tuple[str, bool]:
+    """Log ``folder`` as a FINISHED run of ``experiment_id`` unless a run with ``key`` exists.
+
+    Returns
+    -------
+    tuple[str, bool]
+        The run id, and whether it was logged now (``False``: an identical one was logged before).
+    """
+    found = retry_locked(client.search_runs, [experiment_id], filter_string=f"tags.{DERIVED_KEY_TAG} = '{key}'", max_results=1)
+    if found:
+        return found[0].info.run_id, False
+    all_tags = {**tags, DERIVED_KEY_TAG: key}
+    if parent_run_id is not None:
+        all_tags["mlflow.parentRunId"] = parent_run_id
+    run = retry_locked(client.create_run, experiment_id, run_name=run_name, tags=all_tags)
+    client.log_artifacts(run.info.run_id, str(folder))
+    retry_locked(client.set_terminated, run.info.run_id, status="FINISHED")
+    return run.info.run_id, True
+
+
+__all__ = ["DERIVED_KEY_TAG", "derived_key", "log_derived_run"]
