@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
+from lwrlab.errors import ConfigError
 from lwrlab.signal.velocity import VelocityChoice, choose_velocity
 
 CUTOFF_PER_MOTION_FREQUENCY = 15.0
@@ -176,11 +177,11 @@ def _resolve_cutoff(cutoff_hz: float | str | None, q: np.ndarray, rate: float) -
         return None
     if isinstance(cutoff_hz, str):
         if cutoff_hz != "auto":
-            raise ValueError(f"measurement.processing.cutoff_hz must be a number (Hz), auto or null, got {cutoff_hz!r}")
+            raise ConfigError(f"measurement.processing.cutoff_hz must be a number (Hz), auto or null, got {cutoff_hz!r}")
         return auto_cutoff(q, rate)
     cutoff = float(cutoff_hz)
     if not 0.0 < cutoff < rate / 2:
-        raise ValueError(
+        raise ConfigError(
             f"measurement.processing.cutoff_hz = {cutoff:g} Hz must lie in (0, {rate / 2:g}) Hz, the Nyquist band of a "
             f"{rate:g} Hz measurement (is the time column in the declared unit? see data.time_unit)"
         )
@@ -219,9 +220,9 @@ def process(
         predicts the logged torques.
     """
     if velocity not in VELOCITY_SOURCES:
-        raise ValueError(f"velocity must be one of {list(VELOCITY_SOURCES)}, got {velocity!r}")
+        raise ConfigError(f"measurement.processing.velocity must be one of {list(VELOCITY_SOURCES)}, got {velocity!r}")
     if velocity == "logged" and dq is None:
-        raise ValueError("velocity=logged, but the measurement has no logged velocities (columns dq1…dqN)")
+        raise ConfigError("data.velocity=logged, but the log has no velocities (columns dq1…dqN, or a mapped dq array)")
     rate = float((len(t) - 1) / (t[-1] - t[0]))
     cutoff = _resolve_cutoff(cutoff_hz, q, rate)
     if cutoff is not None:
@@ -246,12 +247,12 @@ def process(
     trim = (TRIM_PER_CUTOFF_PERIOD / cutoff if cutoff is not None else 0.0) if trim_s is None else float(trim_s)
     first = int(round(trim * working_rate))
     if 2 * first >= len(t) - 1:
-        raise ValueError(f"trimming {trim:.3g} s at each end leaves nothing of a {t[-1] - t[0]:.3f} s measurement")
+        raise ConfigError(f"measurement.processing.trim_s: trimming {trim:.3g} s at each end leaves nothing of a {t[-1] - t[0]:.3f} s measurement")
     target = rate_hz if rate_hz is not None else (DECIMATED_RATE_PER_CUTOFF * cutoff if cutoff is not None else working_rate)
     if target <= 0:
-        raise ValueError(f"measurement.processing.rate_hz must be positive, got {target}")
+        raise ConfigError(f"measurement.processing.rate_hz must be positive, got {target}")
     if cutoff is not None and target < 2.0 * cutoff:
-        raise ValueError(f"measurement.processing.rate_hz = {target:g} Hz aliases the {cutoff:g} Hz band: give at least {2 * cutoff:g} Hz")
+        raise ConfigError(f"measurement.processing.rate_hz = {target:g} Hz aliases the {cutoff:g} Hz band: give at least {2 * cutoff:g} Hz")
     decimation = 1 if every_sample else max(1, int(np.floor(working_rate / target + 1e-9)))
     index = np.arange(first, len(t) - first, decimation)
     return ProcessedData(
