@@ -17,12 +17,12 @@ import yaml
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
+from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.io.artifacts import save_identified_model
 from lwrlab.io.logs import joint_columns, log_frame, write_log
 from lwrlab.model.inertia import standard_parameters
 from lwrlab.model.robot import RobotModel
-from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.plants.core import Measurement
 from lwrlab.tools.library import load_tool
 from plugins.plants.simulated import SimulatedPlant
