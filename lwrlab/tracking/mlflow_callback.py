@@ -4,11 +4,15 @@ The numeric core never imports mlflow. A job only returns its metrics and writes
 Hydra job output directory; this callback, enabled by the ``tracking`` config group, turns each Hydra
 job into one MLflow run:
 
-* ``on_job_start``: experiment (created if missing), run named after the job, the flattened resolved
-  config as params, provenance tags (overrides, git commit, config hash, seed, library versions).
+* ``on_job_start``: experiment (created if missing, as a model-development experiment with a
+  description of the headline metrics), run named by what differs (``wls · seed=1``), the flattened
+  resolved config and the short name of every plugin choice (``estimator=wls``) as params,
+  provenance tags (overrides, git commit, config hash, seed, library versions, pid and hostname).
 * ``on_job_end``: numeric metrics from the return value, the whole job output directory as artifacts,
   and the run status (FINISHED, or FAILED with the error and ``error.txt``).
 * a Hydra multirun becomes a parent run with one nested run per job.
+* SIGINT and SIGTERM end the runs KILLED, with what the job wrote uploaded (see ``_on_stop_signal``);
+  a resumed sweep or a new job ends KILLED the runs a dead process of this host left RUNNING.
 
 Tracking problems never hide the job's own result: they are logged once as a warning and the job
 goes on untracked.
