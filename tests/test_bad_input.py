@@ -138,6 +138,7 @@ CASES = [
     Case("unknown log format", LOG, _frame, suffix=".xlsx", error=LogError, fragment="unknown log format '.xlsx'"),
     Case("velocity logged but none in the log", (*LOG, "data.velocity=logged"), _frame, error=ConfigError, fragment="the log has no velocities"),
     Case("cut-off beyond Nyquist", (*LOG, "measurement.processing.cutoff_hz=400"), _frame, error=ConfigError, fragment="data.time_unit"),
+    Case("simulated tool stage on logs", ("task=table3_tools", "plant=log", "tracking=none"), _frame, error=ConfigError, fragment="task=payload"),
     # settings checked where they are read
     Case("seed not an integer", ("task=identification", "tracking=none", "seed=1.5"), error=ConfigError, fragment="seed=1.5"),
     Case("noise not a number", ("task=identification", "tracking=none", "plant.torque_noise_std=abc"), error=ConfigError, fragment="plant.torque_noise_std"),

@@ -25,6 +25,7 @@ from tqdm.auto import tqdm
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
+from lwrlab.errors import ConfigError
 from lwrlab.identification.payload import (
     PayloadEstimate,
     identify_payload,
@@ -138,6 +139,11 @@ def _setup(
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
+    if OmegaConf.select(cfg, "plant._target_", default="").endswith("LogPlant"):
+        raise ConfigError(
+            "the simulated tool stages (Table III, recognition benchmark) attach tools to a simulated robot; "
+            "for a payload in recorded logs use task=payload plant=log 'task.unloaded_paths=[…]' 'task.loaded_paths=[…]'"
+        )
     robot = instantiate(cfg.robot)
     rate = float(cfg.measurement.rate_hz)
     bench = ToolBench.for_robot(robot, OmegaConf.to_container(cfg.measurement.processing, resolve=True))
