@@ -69,6 +69,7 @@ def test_a_single_run_has_no_spread_and_an_unknown_group_is_named(runs: pd.DataF
 def test_tables_refuse_to_pool_what_their_columns_do_not_tell_apart(runs: pd.DataFrame) -> None:
     base_parameters = pd.DataFrame({"run_id": [], "parameter": [], "estimate": []})
     assert unseparated_parameters(["estimator"], base_parameters) == ["estimator"]
-    assert unseparated_parameters(["fixture_criterion"], pd.DataFrame({"criterion": [], "rms": []})) == []
+    assert unseparated_parameters(["fixture_criterion"], pd.DataFrame({"criterion": ["cond"], "rms": [0.1]})) == []
+    assert unseparated_parameters(["plant.torque_noise_std"], pd.DataFrame({"parameter": ["XX1"], "std": [0.1]})) == ["plant.torque_noise_std"]
     message = pooling_refusal(runs, ["estimator"])
     assert "estimator (ols, sdp, wls)" in message and "--param estimator=" in message

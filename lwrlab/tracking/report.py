@@ -204,13 +204,15 @@ def build_report(
 def unseparated_parameters(differing: Sequence[str], frame: pd.DataFrame) -> list[str]:
     """The parameters runs differ in that ``frame`` has no column for (a table would pool across them).
 
-    A parameter counts as told apart when the artifact has a column of its short name, or one its
-    short name ends with (``fixture_criterion`` by ``criterion``), as Fig. 6 groups by criterion.
+    A parameter counts as told apart when the artifact has a column of its short name, or a column
+    of labels its short name ends with (``fixture_criterion`` by ``criterion``, as Fig. 6 groups by
+    criterion); a numeric column (``std``) labels nothing.
     """
     columns = [str(column) for column in frame.columns if column not in _PROVENANCE_COLUMNS]
+    labels = [column for column in columns if not pd.api.types.is_numeric_dtype(frame[column])]
     return [
         parameter for parameter in differing
-        if not any(short_name(parameter) == column or short_name(parameter).endswith("_" + column) for column in columns)
+        if short_name(parameter) not in columns and not any(short_name(parameter).endswith("_" + column) for column in labels)
     ]
 
 
