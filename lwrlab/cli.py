@@ -22,13 +22,11 @@ from omegaconf import DictConfig, OmegaConf
 
 from lwrlab.config_checks import check_config
 from lwrlab.errors import UserError
+from lwrlab.resources import CONFIG_SEARCH_PATH
 from lwrlab.tracking import job_state
 from lwrlab.tracking.processes import JobInterrupted
 
 log = logging.getLogger("lwrlab")
-
-CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "conf")
-"""The config tree beside the package (an absolute path: a relative one would be read as a module)."""
 
 SUBCOMMANDS = {"report": "lwrlab.tracking.report", "compare": "lwrlab.tracking.compare", "sync": "lwrlab.tracking.sync"}
 """``lwrlab <name> ...`` runs ``<module>.main(argv)`` instead of a Hydra job."""
@@ -63,7 +61,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
     return metrics
 
 
-@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="config")
+@hydra.main(version_base="1.3", config_path=CONFIG_SEARCH_PATH, config_name="config")
 def hydra_app(cfg: DictConfig) -> dict[str, float] | float:
     """Hydra entry point; the tracking callback logs the metrics and the output folder.
 
