@@ -184,9 +184,9 @@ def test_tree_with_prismatic_joints_uses_loop_fallback_and_keeps_invariant(seed:
     assert serial_chain(robot.model) is None
     calls = []
 
-    def spy(*args: object) -> np.ndarray:
+    def spy(*args: object, **kwargs: object) -> np.ndarray:
         calls.append(args)
-        return loop_inertial_regressor(*args)
+        return loop_inertial_regressor(*args, **kwargs)
 
     with pytest.MonkeyPatch.context() as patch:  # a fresh patch per hypothesis example
         patch.setattr(regressor_module, "loop_inertial_regressor", spy)
@@ -198,7 +198,7 @@ def test_tree_with_prismatic_joints_uses_loop_fallback_and_keeps_invariant(seed:
 
 
 def test_serial_revolute_chain_does_not_use_loop(monkeypatch: pytest.MonkeyPatch, rng: np.random.Generator) -> None:
-    def forbidden(*args: object) -> np.ndarray:
+    def forbidden(*args: object, **kwargs: object) -> np.ndarray:
         raise AssertionError("serial revolute chain went through the per-sample loop")
 
     monkeypatch.setattr(regressor_module, "loop_inertial_regressor", forbidden)
@@ -213,9 +213,9 @@ def test_small_batches_go_through_the_loop_and_agree_with_the_recursion(rng: np.
     q, dq, ddq = random_states(rng, n, 7)
     calls = []
 
-    def spy(*args: object) -> np.ndarray:
+    def spy(*args: object, **kwargs: object) -> np.ndarray:
         calls.append(len(args[1]))
-        return loop_inertial_regressor(*args)
+        return loop_inertial_regressor(*args, **kwargs)
 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(regressor_module, "loop_inertial_regressor", spy)

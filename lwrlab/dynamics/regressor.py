@@ -53,7 +53,8 @@ from lwrlab.model.robot import RobotModel
 SMALL_BATCH = 128
 """Below this many samples a serial chain goes through the Pinocchio loop too: the vectorised
 recursion costs ~0.4 ms whatever the batch (a few hundred numpy calls) and ~2 µs per sample, the loop
-~5 µs per sample (``benchmarks/regressor.py``: the two cross near 120 samples on the LWR4)."""
+~5 µs per sample; on the LWR4 the two cross between 120 and 200 samples, depending on the load of
+the machine (``benchmarks/regressor.py``)."""
 
 CHUNK_SAMPLES = 1000
 """Samples per chunk of the vectorised recursion (a few MB of working arrays).
@@ -531,15 +532,33 @@ def chain_inertial_regressor(chain: SerialChain, q: np.ndarray, dq: np.ndarray, 
     return out
 
 
-def loop_inertial_regressor(model: pin.Model, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-    """Inertial regressor by one ``pin.computeJointTorqueRegressor`` call per sample (any model)."""
+def loop_inertial_regressor(model: pin.Model, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Inertial regressor by one ``pin.computeJointTorqueRegressor`` call per sample (any model).
+
+    ``out``: an (N, N_J, 10·N_L) array (a view will do) to write into; a new one if None.
+    """
     data = model.createData()
     regress = pin.computeJointTorqueRegressor
-    pinocchio_order = np.array([regress(model, data, *state) for state in zip(q, dq, ddq)]).reshape(len(q), model.nv, -1)
-    # Pinocchio orders each segment's parameters differently: permute to the standard order, with
-    # np.take on rows of 10 (indexing the last axis of a 4-D array is 10× slower).
-    n_columns = pinocchio_order.shape[2]
-    return np.take(pinocchio_order.reshape(-1, 10), PIN_TO_STANDARD, axis=1).reshape(len(q), model.nv, n_columns)
+    n_samples, n_columns = len(q), 10 * (model.njoints - 1)
+    # Pinocchio's rows land in a buffer kept between calls (fresh memory costs a page fault per
+    # 4 KiB, about as much as the calls themselves for small batches), then are permuted to the
+    # standard order by np.take on rows of 10 (indexing the last axis of a 4-D array is 10× slower).
+    pinocchio_order = _loop_buffer(n_samples * model.nv * n_columns).reshape(n_samples, model.nv, n_columns)
+    for k, state in enumerate(zip(q, dq, ddq)):
+        pinocchio_order[k] = regress(model, data, *state)
+    out = np.empty((n_samples, model.nv, n_columns)) if out is None else out
+    np.take(pinocchio_order.reshape(n_samples, model.nv, -1, 10), PIN_TO_STANDARD, axis=3, out=out.reshape(n_samples, model.nv, -1, 10))
+    return out
+
+
+def _loop_buffer(size: int) -> np.ndarray:
+    """This thread's scratch of at least ``size`` floats for :func:`loop_inertial_regressor` (kept up to 1 MB)."""
+    buffer = _thread_state.__dict__.get("loop_buffer")
+    if buffer is None or buffer.size < size:
+        buffer = np.empty(size)
+        if size <= 1 << 17:
+            _thread_state.loop_buffer = buffer
+    return buffer[:size]
 
 
 _FRICTION_BASIS = {"coulomb": np.sign, "viscous": lambda v: v, "offset": np.ones_like}
@@ -594,7 +613,8 @@ def regressor(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
         full = np.empty((q.shape[0], n, n_inertial + robot.n_friction))
         _fill_chain_regressor(chain, q, dq, ddq, robot.friction_terms, full)
     else:
-        full = np.zeros((q.shape[0], n, n_inertial + robot.n_friction))
-        full[:, :, :n_inertial] = loop_inertial_regressor(robot.model, q, dq, ddq)
+        full = np.empty((q.shape[0], n, n_inertial + robot.n_friction))
+        loop_inertial_regressor(robot.model, q, dq, ddq, out=full[:, :, :n_inertial])
+        full[:, :, n_inertial:] = 0.0
         _fill_friction_regressor(dq, robot.friction_terms, full[:, :, n_inertial:])
     return full.reshape(-1, full.shape[2]) if stacked else full
