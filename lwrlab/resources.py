@@ -37,12 +37,17 @@ _extracted = ExitStack()  # files copied out of a zipped package live until the 
 atexit.register(_extracted.close)
 
 
-def config_group(group: str) -> dict[str, Traversable]:
+def _on_disk(resource: Traversable) -> Path:
+    """A package file as a path on disk (a zipped package's file is copied out until exit)."""
+    return resource if isinstance(resource, Path) else _extracted.enter_context(as_file(resource))
+
+
+def config_group(group: str) -> dict[str, Path]:
     """The options of the shipped config group ``group`` (``tool``, ``robot``, …): name → YAML file."""
     folder = files(CONFIG_PACKAGE).joinpath(group)
     if not folder.is_dir():
         raise FileNotFoundError(f"no config group {group!r} in {CONFIG_SEARCH_PATH}")
-    return {entry.name.removesuffix(".yaml"): entry for entry in folder.iterdir() if entry.name.endswith(".yaml")}
+    return {entry.name.removesuffix(".yaml"): _on_disk(entry) for entry in folder.iterdir() if entry.name.endswith(".yaml")}
 
 
 def package_file(reference: str) -> Path:
@@ -56,7 +61,7 @@ def package_file(reference: str) -> Path:
         raise FileNotFoundError(f"{reference}: no package {package!r}") from error
     if not inner or not resource.is_file():
         raise FileNotFoundError(f"{reference}: no file {inner!r} in package {package!r}")
-    return resource if isinstance(resource, Path) else _extracted.enter_context(as_file(resource))
+    return _on_disk(resource)
 
 
 def resolve_data_path(path: str | Path) -> Path:

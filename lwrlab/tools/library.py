@@ -1,5 +1,8 @@
 """The tool library: every tool described by one YAML file in ``conf/tool/`` (config group ``tool``).
 
+The library is read through the package (:func:`lwrlab.resources.config_group`), so it loads the same
+from the source tree and from an installed wheel; each file is built with ``hydra.utils.instantiate``.
+
 A tool file names its builder with ``_target_`` and passes it keyword arguments, e.g.::
 
     # conf/tool/large_roller.yaml
@@ -26,61 +29,70 @@ Examples
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hydra.errors import InstantiationException
+from hydra.utils import instantiate
 
 from lwrlab.io.yaml_files import read_yaml_mapping
+from lwrlab.resources import config_group
 from lwrlab.tools.model import GEOMETRY_NAMES, Tool
 
-LIBRARY_DIR = Path(__file__).resolve().parents[2] / "conf" / "tool"
-"""Where the tool YAMLs live: the ``tool`` config group beside the package."""
+LIBRARY_GROUP = "tool"
+"""The config group holding the shipped library (``conf/tool/``, shipped in the package ``lwrlab.conf``)."""
 
 PAPER_TOOLS: tuple[str, str] = ("large_roller", "small_roller")
 """The two rollers of Katsumata et al. (§VI, Table III)."""
 
 
 def build_tool(description: Mapping[str, Any], source: str = "tool description") -> Tool:
-    """Build a tool from a mapping with a ``_target_`` builder and its keyword arguments."""
-    description = dict(description)
-    target = description.pop("_target_", None)
+    """Build a tool from a mapping with a ``_target_`` builder and its keyword arguments (``instantiate``)."""
+    target = description.get("_target_")
     if not isinstance(target, str) or "." not in target:
         raise ValueError(f"{source}: needs `_target_: module.builder` (e.g. lwrlab.tools.painting.paint_roller), got {target!r}")
-    module_name, _, attribute = target.rpartition(".")
     try:
-        builder = getattr(importlib.import_module(module_name), attribute)
-    except (ImportError, AttributeError) as error:
-        raise ValueError(f"{source}: cannot import builder {target!r}: {error}") from None
-    try:
-        tool = builder(**description)
-    except TypeError as error:
-        raise ValueError(f"{source}: bad arguments for {target}: {error}") from None
+        tool = instantiate(description, _convert_="all")
+    except InstantiationException as error:
+        cause = error.__cause__
+        if isinstance(cause, TypeError):
+            raise ValueError(f"{source}: bad arguments for {target}: {cause}") from None
+        if isinstance(cause, ValueError):  # the builder refused a value: its message names it
+            raise ValueError(f"{source}: {cause}") from cause
+        raise ValueError(f"{source}: cannot import builder {target!r}: {cause or error}") from None
     if not isinstance(tool, Tool):
         raise TypeError(f"{source}: {target} returned {type(tool).__name__}, not a Tool")
     return tool
 
 
-def tool_names(directory: str | Path | None = None) -> list[str]:
-    """Names of the tools in a library folder (the YAML file stems), sorted."""
-    folder = Path(directory) if directory is not None else LIBRARY_DIR
+def _library_files(directory: str | Path | None) -> dict[str, Path]:
+    """Tool name → YAML file: the shipped library (``directory=None``) or a folder of the user's."""
+    if directory is None:
+        return config_group(LIBRARY_GROUP)
+    folder = Path(directory)
     if not folder.is_dir():
         raise FileNotFoundError(f"tool library folder {folder} does not exist")
-    return sorted(path.stem for path in folder.glob("*.yaml"))
+    return {path.stem: path for path in folder.glob("*.yaml")}
+
+
+def tool_names(directory: str | Path | None = None) -> list[str]:
+    """Names of the tools in the shipped library or in a folder (the YAML file stems), sorted."""
+    return sorted(_library_files(directory))
 
 
 def load_tool(name: str, directory: str | Path | None = None) -> Tool:
     """The tool ``name`` of the library (``conf/tool/<name>.yaml``): geometry and flange-frame parameters."""
-    folder = Path(directory) if directory is not None else LIBRARY_DIR
-    path = folder / f"{name}.yaml"
-    if not path.is_file():
-        raise KeyError(f"no tool named {name!r} in {folder}; available: {tool_names(folder)}")
-    description = read_yaml_mapping(path, "tool")
+    library = _library_files(directory)
+    if name not in library:
+        where = directory if directory is not None else f"the tool library ({LIBRARY_GROUP} config group)"
+        raise KeyError(f"no tool named {name!r} in {where}; available: {sorted(library)}")
+    source = library[name]
+    description = read_yaml_mapping(source, "tool")
     description.setdefault("name", name)
-    return build_tool(description, source=str(path))
+    return build_tool(description, source=str(source))
 
 
 @dataclass(frozen=True)

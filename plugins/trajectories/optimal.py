@@ -42,7 +42,9 @@ class OptimalExcitingMotion:
     rate_hz : optimisation grid rate (Hz).
     window_s : constraint aggregation window (s).
     coulomb_smoothing : ε (rad/s) of the smooth Coulomb columns during the optimisation.
-    from_file : an exciting-motion file to use when it matches the robot and the duration.
+    from_file : an exciting-motion file to use when it matches the robot and the duration: a path of
+        the user's, or ``pkg://<package>/<path>`` for one shipped inside a package
+        (:func:`lwrlab.resources.resolve_data_path`).
     """
 
     def __init__(
@@ -97,8 +99,9 @@ class OptimalExcitingMotion:
     def _load(self, robot: RobotModel) -> LinearParameterisation | None:
         """The motion of ``from_file`` if it was made for this robot and duration, else None (logged)."""
         from lwrlab.io.exciting_motion import load_motion_description
+        from lwrlab.resources import resolve_data_path
 
-        description = load_motion_description(self.from_file)  # type: ignore[arg-type]
+        description = load_motion_description(resolve_data_path(self.from_file))  # type: ignore[arg-type]
         provenance = description.get("provenance", {})
         made_for, criterion = provenance.get("robot"), provenance.get("criterion")
         bare = self.parameterisation(duration=float(description["duration"]))
