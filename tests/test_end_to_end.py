@@ -58,7 +58,7 @@ def test_main_job_runs_the_whole_chain_and_leaves_one_finished_run(tmp_path: Pat
     cad = metrics["rms_large_roller_cad_estimate_estimated_vs_measured"]
     assert identified <= 1.0 and identified < cad  # N: the identified model estimates the force better
     assert metrics["coverage_large_roller_identified_estimate"] > 0.98
-    for name in ("summary.md", "base_parameters.csv", "identified_model.yaml", "torque_overlay.png", "exciting_motion.csv",
+    for name in ("summary.md", "base_parameters.csv", "identified_model.yaml", "torque_overlay.png", "exciting_motion.parquet",
                  "painting/table4_force.csv", "painting/fig12_large_roller.png", "painting/fig13_large_roller.png"):
         assert (tmp_path / "run" / name).is_file(), name
 

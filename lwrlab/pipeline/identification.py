@@ -27,7 +27,7 @@ from lwrlab.identification.context import IdentificationContext, bind_estimator
 from lwrlab.identification.core import Estimator, torque_errors
 from lwrlab.identification.identifiability import IdentifiabilityReport, assess_identifiability, format_prior_note
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
-from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory_csv
+from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory
 from lwrlab.io.urdf_export import export_urdf
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement, Plant
@@ -386,13 +386,19 @@ def predicted_torque_frame(report: IdentificationReport) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True)
 
 
-def write_report(report: IdentificationReport, output_dir: Path, robot_config: dict[str, Any]) -> dict[str, Path]:
-    """Write tables (CSV, Markdown), predicted torques (Parquet), the identified model (YAML) and figures."""
+def write_report(report: IdentificationReport, output_dir: Path, robot_config: dict[str, Any], motion_format: str = "parquet") -> dict[str, Path]:
+    """Write tables (CSV, Markdown), predicted torques (Parquet), the identified model (YAML) and figures.
+
+    ``motion_format``: ``parquet`` (default) or ``csv`` for the 1 kHz motions played (CSV: what a
+    robot controller reads).
+    """
+    if motion_format not in ("parquet", "csv"):
+        raise ValueError(f"motion_format must be parquet or csv, got {motion_format!r}")
     output_dir.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
     if not report.recorded:  # simulated: the motions played and what the sensors gave (a log holds them already)
-        files["trajectory"] = save_trajectory_csv(report.motion, output_dir / "exciting_motion.csv")
-        files["validation_trajectory"] = save_trajectory_csv(report.validation_motion, output_dir / "validation_motion.csv")
+        files["trajectory"] = save_trajectory(report.motion, output_dir / f"exciting_motion.{motion_format}")
+        files["validation_trajectory"] = save_trajectory(report.validation_motion, output_dir / f"validation_motion.{motion_format}")
         files["measurement"] = save_measurement(report.measurement, output_dir / "measurement.npz")
         files["validation_measurement"] = save_measurement(report.validation_measurement, output_dir / "validation_measurement.npz")
     files["identified_model"] = save_identified_model(report.identified, robot_config, output_dir / "identified_model.yaml")
@@ -454,11 +460,11 @@ def identify_configured(cfg: Any) -> IdentificationReport:
     )
 
 
-def run_identification(cfg: Any, output_dir: Path) -> dict[str, float]:
+def run_identification(cfg: Any, output_dir: Path, motion_format: str = "parquet") -> dict[str, float]:
     """Task ``identification``: build the configured objects, identify, write and print the report."""
     from omegaconf import OmegaConf
 
     report = identify_configured(cfg)
-    write_report(report, output_dir, OmegaConf.to_container(cfg.robot, resolve=True))
+    write_report(report, output_dir, OmegaConf.to_container(cfg.robot, resolve=True), motion_format)
     print(format_report(report))
     return report.metrics
