@@ -11,7 +11,9 @@ from lwrlab.numerics.threads import blas_threads, dense_algebra
 
 
 def blas_thread_counts() -> set[int]:
-    return {library["num_threads"] for library in ThreadpoolController().info() if library["user_api"] == "blas"}
+    """Thread counts of numpy's and scipy's BLAS (another loaded BLAS, e.g. SCS's single-threaded one, keeps its own)."""
+    libraries = ThreadpoolController().info()
+    return {lib["num_threads"] for lib in libraries if lib["user_api"] == "blas" and ("numpy" in lib["filepath"] or "scipy" in lib["filepath"])}
 
 
 @pytest.fixture
