@@ -386,6 +386,20 @@ def predicted_torque_frame(report: IdentificationReport) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True)
 
 
+RUN_TAGS_FILE = "tags.json"
+"""Tags a run carries beside its metrics: what a reader must know before trusting the numbers."""
+
+
+def run_tags(report: IdentificationReport) -> dict[str, str]:
+    """``identifiability`` (good, poor, rank_deficient), ``warnings`` (count) and ``data`` (logs or simulation)."""
+    warnings = sum(len(m.metadata.get("warnings", [])) for m in [*report.measurements, *report.validation_measurements])
+    return {
+        "identifiability": report.identifiability.status,
+        "warnings": str(warnings + (0 if report.identifiability.ok else 1)),
+        "data": "logs" if report.recorded else "simulation",
+    }
+
+
 def write_report(report: IdentificationReport, output_dir: Path, robot_config: dict[str, Any], motion_format: str = "parquet") -> dict[str, Path]:
     """Write tables (CSV, Markdown), predicted torques (Parquet), the identified model (YAML) and figures.
 
@@ -417,6 +431,8 @@ def write_report(report: IdentificationReport, output_dir: Path, robot_config: d
     files["summary"].write_text(format_report(report) + "\n")
     files["metrics"] = output_dir / "metrics.json"
     files["metrics"].write_text(json.dumps(report.metrics, indent=2))
+    files["tags"] = output_dir / RUN_TAGS_FILE  # the tracking callback tags the run with these
+    files["tags"].write_text(json.dumps(run_tags(report), indent=2))
     first = report.validation_predictions[0]
     files["torque_overlay"] = torque_overlay(
         report.validation_times,
