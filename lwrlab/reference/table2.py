@@ -15,6 +15,7 @@ import pandas as pd
 from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.model.robot import RobotModel
 from lwrlab.reference import paper_results
+from lwrlab.resources import config_group
 
 CAD_COLUMN = 0
 """Position of the CAD value in each row of ``table2_base_parameters``."""
@@ -47,7 +48,7 @@ def main(argv: list[str] | None = None) -> None:
     from plugins.robots.mdh import load_robot_yaml
 
     argv = sys.argv[1:] if argv is None else argv
-    path = Path(argv[0]) if argv else Path(__file__).resolve().parents[2] / "conf" / "robot" / "kuka_lwr4.yaml"
+    path = Path(argv[0]) if argv else config_group("robot")["kuka_lwr4"]  # the shipped config, also from a wheel
     table = table2_cad_comparison(load_robot_yaml(path))
     print(f"Base parameters of {path} vs the CAD column of Table II (Katsumata et al. 2019)\n")
     print(table.to_markdown(floatfmt=".4g"))
