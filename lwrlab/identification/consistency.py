@@ -22,11 +22,14 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
-import cvxpy as cp
 import numpy as np
 
 from lwrlab.model.inertia import min_pseudo_inertia_eigenvalue, pseudo_inertia
+
+if TYPE_CHECKING:  # cvxpy costs ~1 s to import: only the convex programmes below load it
+    import cvxpy as cp
 
 SEGMENT_SIZE = 10
 """Standard parameters per segment."""
@@ -59,6 +62,8 @@ def pseudo_inertia_expression(phi_segment: cp.Expression) -> cp.Expression:
     """
     if phi_segment.shape != (SEGMENT_SIZE,):
         raise ValueError(f"a segment has {SEGMENT_SIZE} standard parameters, got an expression of shape {phi_segment.shape}")
+    import cvxpy as cp
+
     # One matrix product and a reshape: a tenth of the expression tree of Σ_k φ_k·E_k, so cvxpy
     # compiles a 7-segment problem about twice as fast.
     return cp.reshape(_BASIS_MATRIX @ phi_segment, (4, 4), order="C")
@@ -121,6 +126,8 @@ def consistency_margin(
     dissipative : indices of friction parameters that must be ≥ ε too (Coulomb, viscous).
     cap : upper bound on ε (kg·m² scale) so the programme is bounded.
     """
+    import cvxpy as cp
+
     phi = cp.Variable(regrouping.shape[1])
     margin = cp.Variable()
     constraints = [regrouping @ phi == base_values, margin <= cap]
