@@ -164,9 +164,11 @@ def test_optimal_plugin_loads_a_matching_file_and_optimises_otherwise(lwr4: Robo
     np.testing.assert_allclose(loaded.q, BSplineMotion(from_file=str(SHIPPED)).sample(lwr4, 1000.0).q)
     assert loaded.metadata["criterion"] == "logdet" and "file" in loaded.metadata
     other = source(duration=2.0)  # the file holds a 10 s motion
+    settings_before = dict(vars(other))
     with caplog.at_level("WARNING"):
         motion = other.sample(lwr4, 100.0)
-    assert "optimising instead" in caplog.text and other.result is not None
+    assert "optimising instead" in caplog.text and "cost" in motion.metadata
+    assert vars(other) == settings_before  # sampling leaves the source as it was: no state kept
     assert motion.duration == pytest.approx(2.0)
 
 

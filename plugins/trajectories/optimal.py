@@ -68,10 +68,6 @@ class OptimalExcitingMotion:
         self.window_s = window_s
         self.coulomb_smoothing = coulomb_smoothing
         self.from_file = from_file
-        self.result: ExcitationResult | None = None
-        """The last optimisation's result (None if the motion was loaded)."""
-        self.motion: LinearParameterisation | None = None
-        """The last motion handed out (parameterisation with its coefficients)."""
 
     def problem(self, robot: RobotModel, base: BaseParameters | None = None) -> ExcitationProblem:
         """The excitation problem for ``robot`` with these settings (``base`` computed if None)."""
@@ -90,10 +86,10 @@ class OptimalExcitingMotion:
         """Solve the excitation problem; the motion (with coefficients), the result and the problem.
 
         ``base``: the robot's base parameters, when a caller optimising many motions has them.
+        The source itself is left unchanged (no state kept between calls).
         """
         problem = self.problem(robot, base)
         result = self.optimizer.solve(problem)
-        self.result = result
         return problem.parameterisation.with_coefficients(result.coefficients), result, problem
 
     def _load(self, robot: RobotModel) -> LinearParameterisation | None:
@@ -118,14 +114,17 @@ class OptimalExcitingMotion:
         return bare.with_coefficients(description["coefficients"])
 
     def sample(self, robot: RobotModel, rate_hz: float) -> Trajectory:
-        """The exciting motion at ``rate_hz`` (Hz), checked against every constraint at that rate."""
+        """The exciting motion at ``rate_hz`` (Hz), checked against every constraint at that rate.
+
+        Sampling changes nothing on the source: what an optimisation found travels in the
+        trajectory's metadata (``cost``), the motion in the trajectory itself.
+        """
         motion = self._load(robot) if self.from_file else None
         cost = None
         if motion is None:
             motion, result, _ = self.optimise(robot)
             cost = result.cost
         check_motion(robot, motion, self.constraints, rate_hz)
-        self.motion = motion
         trajectory = motion.sample(robot, rate_hz)
         metadata = {**trajectory.metadata, "source": "optimal", "parameterisation": motion.kind, "criterion": self.criterion.name}
         if cost is not None:
