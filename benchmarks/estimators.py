@@ -94,24 +94,24 @@ def main() -> None:
     t_compress, t_compress_default = both_settings(compress_limited, args.repeat)
     estimators = {
         "ols": OrdinaryLeastSquares(),
-        "wls": WeightedLeastSquares(context),
-        "irls": IterativelyReweightedLeastSquares(context),
-        "iv": InstrumentalVariables(context),
-        "sdp (euclidean)": PhysicallyConsistentSDP(context, regularization="euclidean", weight=1e-2),
-        "sdp (entropic)": PhysicallyConsistentSDP(context, regularization="entropic", weight=1e-4),
-        "sdp (none)": PhysicallyConsistentSDP(context, regularization="none"),
+        "wls": WeightedLeastSquares(),
+        "irls": IterativelyReweightedLeastSquares(),
+        "iv": InstrumentalVariables(),
+        "sdp (euclidean)": PhysicallyConsistentSDP(regularization="euclidean", weight=1e-2),
+        "sdp (entropic)": PhysicallyConsistentSDP(regularization="entropic", weight=1e-4),
+        "sdp (none)": PhysicallyConsistentSDP(regularization="none"),
     }
     print(f"| estimator | fit (s), best of {args.repeat} | BLAS default threads (s) | default / limited | ‖β̂−β‖/‖β‖ |")
     print("|---|---:|---:|---:|---:|")
     print(f"| QR compression alone | {t_compress:.4f} | {t_compress_default:.4f} | {t_compress_default / t_compress:.1f} | |")
     for name, estimator in estimators.items():
-        seconds, default = both_settings(lambda e=estimator: e.fit(w, tau), args.repeat)
+        seconds, default = both_settings(lambda e=estimator: e.fit(w, tau, context=context), args.repeat)
         error = np.linalg.norm(estimator.phi_ - beta) / np.linalg.norm(beta)
         print(f"| {name} | {seconds:.4f} | {default:.4f} | {default / seconds:.1f} | {error:.3e} |")
-    compressed = best_time(lambda: estimators["sdp (euclidean)"].fit(w, tau), args.repeat)
+    compressed = best_time(lambda: estimators["sdp (euclidean)"].fit(w, tau, context=context), args.repeat)
     if not args.skip_uncompressed:
-        uncompressed_estimator = PhysicallyConsistentSDP(context, regularization="euclidean", weight=1e-2, compress=False)
-        uncompressed = best_time(lambda: uncompressed_estimator.fit(w, tau), 1)
+        uncompressed_estimator = PhysicallyConsistentSDP(regularization="euclidean", weight=1e-2, compress=False)
+        uncompressed = best_time(lambda: uncompressed_estimator.fit(w, tau, context=context), 1)
         difference = np.linalg.norm(uncompressed_estimator.phi_ - estimators["sdp (euclidean)"].phi_) / np.linalg.norm(beta)
         print(f"| sdp (euclidean), uncompressed (baseline, 1 run) | {uncompressed:.3f} | |")
         print(f"\nSDP: compressed {compressed:.3f} s (compression included) vs uncompressed {uncompressed:.2f} s: "

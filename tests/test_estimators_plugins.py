@@ -1,12 +1,13 @@
 """Conformance suite over every estimator plugin of conf/estimator/, and estimator-specific checks.
 
-Every config is instantiated as the pipeline does (partial configs get the identification
-context), fitted on noiseless LWR4 data, and must give back the true base parameters.
+Every config is instantiated as the pipeline does (a plain object: hyper-parameters only), follows
+scikit-learn's parameter protocol (``get_params`` / ``set_params``, ``sklearn.base.clone`` where
+scikit-learn is installed), is fitted on noiseless LWR4 data with the identification context given
+to ``fit``, and must give back the true base parameters.
 """
 
 from __future__ import annotations
 
-import functools
 import logging
 from pathlib import Path
 
@@ -19,7 +20,8 @@ from omegaconf import OmegaConf
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.identification.consistency import consistency_margin
-from lwrlab.identification.context import IdentificationContext, bind_estimator
+from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.hyperparameters import clone_estimator
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.simulation import perturbed_robot
 from plugins.estimators.irls import IterativelyReweightedLeastSquares
@@ -49,21 +51,74 @@ def _relative_error(estimate: np.ndarray, truth: np.ndarray) -> float:
     return float(np.linalg.norm(estimate - truth) / np.linalg.norm(truth))
 
 
+def _estimator(name: str):
+    return instantiate(OmegaConf.load(CONF / f"{name}.yaml"))
+
+
+def _learned(estimator: object) -> list[str]:
+    return [key for key in vars(estimator) if key.endswith("_") and not key.startswith("_")]
+
+
+def _same_params(a: dict, b: dict) -> bool:
+    return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray) else a[k] == b[k] for k in a)
+
+
 @pytest.mark.parametrize("name", ESTIMATOR_CONFIGS)
 def test_every_estimator_recovers_true_base_parameters_from_noiseless_data(name: str, problem: dict) -> None:
-    estimator = bind_estimator(instantiate(OmegaConf.load(CONF / f"{name}.yaml")), problem["context"])
-    assert estimator.fit(problem["w"], problem["tau"]) is estimator
+    estimator = _estimator(name)
+    assert estimator.fit(problem["w"], problem["tau"], context=problem["context"]) is estimator
     assert _relative_error(estimator.phi_, problem["beta"]) < 1e-6
     for attribute in ("std_", "relative_std_", "residual_std_", "cond_"):
         assert hasattr(estimator, attribute), attribute
     np.testing.assert_allclose(estimator.predict(problem["w"]), problem["tau"], atol=1e-6 * np.abs(problem["tau"]).max())
 
 
-def test_partial_configs_get_the_context_and_plain_ones_do_not(problem: dict) -> None:
-    plain = OrdinaryLeastSquares()
-    assert bind_estimator(plain, problem["context"]) is plain
-    bound = bind_estimator(functools.partial(WeightedLeastSquares, min_relative_std=0.0), problem["context"])
-    assert bound.context is problem["context"]
+@pytest.mark.parametrize("name", ESTIMATOR_CONFIGS)
+def test_every_estimator_config_holds_hyper_parameters_only(name: str) -> None:
+    """The YAML's keys are exactly the estimator's hyper-parameters, stored untouched: no context, no data."""
+    config = OmegaConf.to_container(OmegaConf.load(CONF / f"{name}.yaml"))
+    estimator = _estimator(name)
+    params = estimator.get_params(deep=False)
+    assert "_partial_" not in config and "context" not in params
+    assert set(config) - {"_target_"} <= set(params)
+    for key in set(config) - {"_target_"}:
+        assert params[key] == config[key], key
+
+
+@pytest.mark.parametrize("name", ESTIMATOR_CONFIGS)
+def test_every_estimator_follows_the_parameter_protocol(name: str, problem: dict) -> None:
+    """get_params / set_params round-trip; a clone of a fitted estimator is unfitted with equal settings."""
+    estimator = _estimator(name)
+    params = estimator.get_params()
+    assert estimator.set_params(**params) is estimator
+    assert _same_params(estimator.get_params(), params)
+    with pytest.raises(ValueError, match="invalid parameter"):
+        estimator.set_params(not_a_setting=1)
+    estimator.fit(problem["w"], problem["tau"], context=problem["context"])
+    assert _learned(estimator)
+    copy = clone_estimator(estimator)
+    assert type(copy) is type(estimator) and copy is not estimator
+    assert _same_params(copy.get_params(), params) and not _learned(copy)
+    assert copy.fit(problem["w"], problem["tau"], context=problem["context"]) is copy
+    np.testing.assert_allclose(copy.phi_, estimator.phi_, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ESTIMATOR_CONFIGS)
+def test_sklearn_clone_copies_every_estimator(name: str, problem: dict) -> None:
+    sklearn_base = pytest.importorskip("sklearn.base")
+    estimator = _estimator(name).fit(problem["w"], problem["tau"], context=problem["context"])
+    copy = sklearn_base.clone(estimator)  # checks that __init__ stores every parameter untouched
+    assert type(copy) is type(estimator) and not _learned(copy)
+    assert _same_params(copy.get_params(), estimator.get_params())
+    assert copy.fit(problem["w"], problem["tau"], context=problem["context"]) is copy
+
+
+def test_setting_a_hyper_parameter_changes_the_fit(problem: dict) -> None:
+    """set_params reaches the fit: an SDP asked for tight mass bounds keeps the masses there."""
+    sdp = PhysicallyConsistentSDP().set_params(mass_bounds=[0.99, 1.01])
+    sdp.fit(problem["w"], problem["tau"], context=problem["context"])
+    masses, prior = sdp.standard_phi_[0:70:10], problem["context"].prior[0:70:10]
+    assert np.all(masses >= 0.99 * prior - 1e-7) and np.all(masses <= 1.01 * prior + 1e-7)
 
 
 def test_wls_downweights_the_noisy_joint(rng: np.random.Generator) -> None:
@@ -79,7 +134,7 @@ def test_wls_downweights_the_noisy_joint(rng: np.random.Generator) -> None:
 
 
 def test_wls_without_joint_count_says_what_it_needs(rng: np.random.Generator) -> None:
-    with pytest.raises(ValueError, match="n_joints= or context="):
+    with pytest.raises(ValueError, match="n_joints= or call fit"):
         WeightedLeastSquares().fit(rng.normal(size=(10, 2)), np.zeros(10))
 
 
@@ -102,7 +157,7 @@ def test_iv_removes_the_bias_of_a_noisy_regressor(rng: np.random.Generator) -> N
     phi = np.array([1.0, 2.0, -1.0])
     w_measured = z + 0.5 * rng.normal(size=z.shape)
     tau = z @ phi + 0.1 * rng.normal(size=20000)
-    iv = InstrumentalVariables(instruments=z).fit(w_measured, tau)
+    iv = InstrumentalVariables().fit(w_measured, tau, instruments=z)
     ols = OrdinaryLeastSquares().fit(w_measured, tau)
     assert np.linalg.norm(iv.phi_ - phi) < 0.03
     assert np.linalg.norm(ols.phi_ - phi) > 0.3
@@ -123,7 +178,7 @@ def test_ols_on_short_noisy_data_is_inconsistent_where_sdp_is_not(lwr4: RobotMod
     tau = (problem["truth"].inverse_dynamics(motion.q, motion.dq, motion.ddq) + 0.5 * np.random.default_rng(0).normal(size=(len(motion.t), 7))).ravel()
     dissipative = np.concatenate([context.friction_indices("coulomb"), context.friction_indices("viscous")])
     ols = OrdinaryLeastSquares().fit(w, tau)
-    sdp = PhysicallyConsistentSDP(context).fit(w, tau)
+    sdp = PhysicallyConsistentSDP().fit(w, tau, context=context)
     assert consistency_margin(base.regrouping, ols.phi_, lwr4.n_links, dissipative) < -1e-3
     assert consistency_margin(base.regrouping, sdp.phi_, lwr4.n_links, dissipative) > -1e-9
     assert sdp.min_eigenvalues_.min() >= -1e-12
@@ -133,7 +188,7 @@ def test_ols_on_short_noisy_data_is_inconsistent_where_sdp_is_not(lwr4: RobotMod
 @pytest.mark.parametrize("regularization", ["none", "euclidean", "entropic"])
 def test_sdp_regularisations_give_consistent_models(regularization: str, problem: dict) -> None:
     noisy = problem["tau"] + 0.2 * np.random.default_rng(1).normal(size=problem["tau"].shape)
-    sdp = PhysicallyConsistentSDP(problem["context"], regularization=regularization, weight=1e-4).fit(problem["w"], noisy)
+    sdp = PhysicallyConsistentSDP(regularization=regularization, weight=1e-4).fit(problem["w"], noisy, context=problem["context"])
     assert sdp.solver_ == "CLARABEL" and not sdp.solver_fallback_
     assert sdp.min_eigenvalues_.min() >= -1e-12
     assert _relative_error(sdp.phi_, problem["beta"]) < 0.05
@@ -141,13 +196,13 @@ def test_sdp_regularisations_give_consistent_models(regularization: str, problem
 
 def test_sdp_compressed_and_uncompressed_agree(problem: dict) -> None:
     noisy = problem["tau"] + 0.2 * np.random.default_rng(2).normal(size=problem["tau"].shape)
-    compressed = PhysicallyConsistentSDP(problem["context"]).fit(problem["w"], noisy)
-    full = PhysicallyConsistentSDP(problem["context"], compress=False).fit(problem["w"], noisy)
+    compressed = PhysicallyConsistentSDP().fit(problem["w"], noisy, context=problem["context"])
+    full = PhysicallyConsistentSDP(compress=False).fit(problem["w"], noisy, context=problem["context"])
     assert _relative_error(compressed.phi_, full.phi_) < 1e-5
 
 
 def test_sdp_mass_bounds_hold(problem: dict) -> None:
-    sdp = PhysicallyConsistentSDP(problem["context"], mass_bounds=[0.95, 1.05]).fit(problem["w"], problem["tau"])
+    sdp = PhysicallyConsistentSDP(mass_bounds=[0.95, 1.05]).fit(problem["w"], problem["tau"], context=problem["context"])
     masses = sdp.standard_phi_[0 : 10 * 7 : 10]
     prior = problem["context"].prior[0 : 10 * 7 : 10]
     assert np.all(masses >= 0.95 * prior - 1e-7) and np.all(masses <= 1.05 * prior + 1e-7)
@@ -157,18 +212,19 @@ def test_sdp_falls_back_and_says_so(problem: dict, caplog: pytest.LogCaptureFixt
     """A primary solver that cannot run the problem (OSQP has no SDP cones) falls back to SCS."""
     noisy = problem["tau"] + 0.2 * np.random.default_rng(3).normal(size=problem["tau"].shape)
     with caplog.at_level(logging.WARNING):
-        sdp = PhysicallyConsistentSDP(problem["context"], solver="OSQP").fit(problem["w"], noisy)
+        sdp = PhysicallyConsistentSDP(solver="OSQP").fit(problem["w"], noisy, context=problem["context"])
     assert sdp.solver_ == "SCS" and sdp.solver_fallback_ and sdp.diagnostics_["solver_fallback"] == 1.0
     assert "fallback solver SCS" in caplog.text
 
 
 def test_sdp_failure_without_fallback_and_bad_settings_are_clear(problem: dict) -> None:
+    w, tau, context = problem["w"], problem["tau"], problem["context"]
     with pytest.raises(SolverFailure, match="OSQP"):
-        PhysicallyConsistentSDP(problem["context"], solver="OSQP", fallback_solver=None).fit(problem["w"], problem["tau"])
+        PhysicallyConsistentSDP(solver="OSQP", fallback_solver=None).fit(w, tau, context=context)
     with pytest.raises(ValueError, match="mass_bounds"):
-        PhysicallyConsistentSDP(problem["context"], mass_bounds=[2.0, 1.0]).fit(problem["w"], problem["tau"])
+        PhysicallyConsistentSDP(mass_bounds=[2.0, 1.0]).fit(w, tau, context=context)
     with pytest.raises(ValueError, match="valid"):
-        PhysicallyConsistentSDP(problem["context"], regularization="ridge").fit(problem["w"], problem["tau"])
-    with pytest.raises(ValueError, match="_partial_"):
-        PhysicallyConsistentSDP().fit(problem["w"], problem["tau"])
+        PhysicallyConsistentSDP(regularization="ridge").fit(w, tau, context=context)
+    with pytest.raises(ValueError, match="context="):
+        PhysicallyConsistentSDP().fit(w, tau)
     assert cp.CLARABEL in cp.installed_solvers()

@@ -26,7 +26,7 @@ def identified(lwr4: RobotModel) -> RobotModel:
     q, dq, ddq = random_states(lwr4, 300, np.random.default_rng(12))
     tau = truth.inverse_dynamics(q, dq, ddq) + 0.1 * np.random.default_rng(13).normal(size=q.shape)
     w = base.base_regressor(regressor(lwr4, q, dq, ddq))
-    sdp = PhysicallyConsistentSDP(IdentificationContext.from_robot(lwr4, base)).fit(w, tau.ravel())
+    sdp = PhysicallyConsistentSDP().fit(w, tau.ravel(), context=IdentificationContext.from_robot(lwr4, base))
     return lwr4.with_parameters(sdp.standard_phi_)
 
 

@@ -16,7 +16,8 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from lwrlab.identification.core import Estimator
+from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.hyperparameters import clone_estimator
 
 
 @dataclass(frozen=True)
@@ -35,11 +36,6 @@ class BootstrapResult:
     """Confidence level of the intervals (e.g. 0.95)."""
 
 
-def clone_estimator(estimator: Any) -> Estimator:
-    """A fresh, unfitted estimator with the same hyperparameters (the non-``_`` attributes)."""
-    return type(estimator)(**{k: v for k, v in vars(estimator).items() if not k.endswith("_") and not k.startswith("_")})
-
-
 def block_bootstrap(
     estimator: Any,
     W: np.ndarray,  # noqa: N803 - the paper's symbol
@@ -50,12 +46,14 @@ def block_bootstrap(
     confidence: float = 0.95,
     seed: int = 0,
     show_progress: bool = True,
+    context: IdentificationContext | None = None,
 ) -> BootstrapResult:
     """Moving-block bootstrap of ``estimator`` on sample-major rows ``W``, ``tau``.
 
     Parameters
     ----------
-    estimator : a fitted or unfitted estimator; clones of it are fitted (it is left untouched).
+    estimator : a fitted or unfitted estimator; clones of it (same hyper-parameters,
+        :func:`lwrlab.identification.hyperparameters.clone_estimator`) are fitted, it is left untouched.
     W, tau : stacked regressor and torques, rows ``k·N_J + j``.
     n_joints : N_J.
     block_samples : samples per block (choose it longer than the correlation time of the errors).
@@ -63,6 +61,8 @@ def block_bootstrap(
     confidence : level of the percentile intervals.
     seed : seed of the block draws.
     show_progress : show a progress bar.
+    context : the identification context of the rows, passed to every refit with its
+        row-aligned data (the reference regressor) resampled like the rows.
     """
     tau = np.asarray(tau, dtype=float).ravel()
     n_samples = W.shape[0] // n_joints
@@ -74,7 +74,8 @@ def block_bootstrap(
     for _ in tqdm(range(resamples), desc="block bootstrap", unit="fit", disable=not show_progress, leave=False):
         starts = rng.integers(0, n_samples - block_samples + 1, size=n_blocks)
         rows = (starts[:, None] * n_joints + rows_of_block).ravel()[: n_samples * n_joints]
-        estimates.append(clone_estimator(estimator).fit(W[rows], tau[rows]).phi_)
+        resampled_context = None if context is None else context.take_rows(rows)
+        estimates.append(clone_estimator(estimator).fit(W[rows], tau[rows], context=resampled_context).phi_)
     estimates_array = np.array(estimates)
     alpha = (1.0 - confidence) / 2
     lower, upper = np.quantile(estimates_array, [alpha, 1.0 - alpha], axis=0)

@@ -4,20 +4,18 @@ Most estimators only need the stacked base regressor and torques. Some need more
 estimators the joint of each row, the physically consistent SDP the regrouping matrix K (to fit
 base-parameter data with standard parameters), the CAD prior and the friction layout, the
 instrumental-variable estimator the regressor of the commanded motion. The pipeline builds one
-:class:`IdentificationContext` per identification and hands it to estimator configs marked
-``_partial_: true`` as the keyword ``context`` (:func:`bind_estimator`); estimators whose config is
-not partial are used as they are. So a new estimator plugin needs no core edit either way.
+:class:`IdentificationContext` per identification and passes it to every estimator as
+``fit(W, τ, context=context)``: derived from the data, it is no hyper-parameter, so an estimator's
+config holds only its settings and a new estimator plugin needs no core edit.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters
-from lwrlab.identification.core import Estimator
 from lwrlab.model.robot import FRICTION_TERMS, RobotModel
 
 
@@ -64,6 +62,12 @@ class IdentificationContext:
         """Length P of the standard vector."""
         return self.regrouping.shape[1]
 
+    def take_rows(self, rows: np.ndarray) -> IdentificationContext:
+        """The context of the regressor rows ``rows`` (a resampling): the reference regressor follows them."""
+        if self.reference_regressor is None:
+            return self
+        return replace(self, reference_regressor=self.reference_regressor[rows])
+
     def friction_indices(self, term: str) -> np.ndarray:
         """Indices of friction ``term``'s parameters in the standard vector (empty if not modelled)."""
         if term not in FRICTION_TERMS:
@@ -74,20 +78,11 @@ class IdentificationContext:
         return np.arange(start, start + self.n_joints)
 
 
-def bind_estimator(spec: Any, context: IdentificationContext) -> Estimator:
-    """The estimator to fit: ``spec`` itself, or ``spec(context=context)`` for a partial config."""
-    if hasattr(spec, "fit"):
-        return spec
-    if callable(spec):
-        return spec(context=context)
-    raise TypeError(f"an estimator config must build an object with fit() or a partial taking context=, got {spec!r}")
-
-
-def row_joints(n_rows: int, n_joints: int) -> np.ndarray:
-    """Joint index (0-based) of each sample-major regressor row."""
+def row_joints(n_rows: int, n_joints: int, offset: int = 0) -> np.ndarray:
+    """Joint index (0-based, plus ``offset``) of each sample-major regressor row: its row group."""
     if n_rows % n_joints:
         raise ValueError(f"{n_rows} regressor rows are not a whole number of samples of {n_joints} joints")
-    return np.tile(np.arange(n_joints), n_rows // n_joints)
+    return offset + np.tile(np.arange(n_joints), n_rows // n_joints)
 
 
 def resolve_joint_count(n_joints: int | None, context: IdentificationContext | None, who: str) -> int:
@@ -96,4 +91,4 @@ def resolve_joint_count(n_joints: int | None, context: IdentificationContext | N
         return int(n_joints)
     if context is not None:
         return context.n_joints
-    raise ValueError(f"{who} needs the joint of each regressor row: pass n_joints= or context= (its config is _partial_)")
+    raise ValueError(f"{who} needs the joint of each regressor row: set n_joints= or call fit(W, tau, context=...)")

@@ -2,16 +2,23 @@
 
 from __future__ import annotations
 
-from typing import Protocol, Self
+from typing import TYPE_CHECKING, Any, Protocol, Self
 
 import numpy as np
 
+if TYPE_CHECKING:  # the context module builds on the model; the protocol only names it
+    from lwrlab.identification.context import IdentificationContext
+
 
 class Estimator(Protocol):
-    """An estimator plugin (config group ``estimator``).
+    """An estimator plugin (config group ``estimator``), scikit-learn's protocol.
 
-    Hyperparameters are keyword arguments of ``__init__`` stored untouched; ``fit`` learns the
-    attributes ending in ``_``:
+    Hyper-parameters are keyword arguments of ``__init__`` stored untouched, read and set by
+    ``get_params`` / ``set_params`` (:class:`lwrlab.identification.hyperparameters.HyperParameters`
+    implements both), so ``sklearn.base.clone`` copies an estimator. What comes from the data
+    (the joint of each row, the regrouping matrix, the prior, the instruments) arrives in
+    ``fit(W, tau, context=...)`` (:class:`lwrlab.identification.context.IdentificationContext`).
+    ``fit`` learns the attributes ending in ``_``:
 
     - ``phi_``: (N_B,) estimated base parameters;
     - ``covariance_``: (N_B, N_B) their covariance (where defined);
@@ -21,26 +28,21 @@ class Estimator(Protocol):
     - ``cond_``: condition number of the (scaled) regressor.
     """
 
-    def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """The hyper-parameters, by ``__init__`` keyword."""
+        ...
+
+    def set_params(self, **params: Any) -> Self:
+        """Set hyper-parameters by ``__init__`` keyword; returns the estimator."""
+        ...
+
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
         """Fit base parameters to stacked regressor ``W`` (rows) and torques ``tau`` (same rows)."""
         ...
 
     def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803
         """Torques predicted for regressor rows ``W``."""
         ...
-
-
-def parameter_covariance(W: np.ndarray, residual: np.ndarray) -> tuple[np.ndarray, float]:  # noqa: N803
-    """Covariance ``σ²·(WᵀW)⁻¹`` of least-squares estimates, with σ² = ‖r‖²/(rows − columns).
-
-    Returns the covariance and σ (N·m). Gautier's classical hypothesis: the residual is zero-mean
-    white noise of equal variance on every row.
-    """
-    rows, columns = W.shape
-    if rows <= columns:
-        raise ValueError(f"{rows} rows cannot estimate {columns} parameters with a residual variance")
-    sigma2 = float(residual @ residual) / (rows - columns)
-    return sigma2 * np.linalg.inv(W.T @ W), float(np.sqrt(sigma2))
 
 
 def relative_std(phi: np.ndarray, std: np.ndarray) -> np.ndarray:

@@ -1,4 +1,11 @@
-"""Weighted least squares and its statistics, shared by the least-squares family of estimators."""
+"""Weighted least squares and its statistics: the one solver of base-parameter and payload identification.
+
+:func:`weighted_least_squares` solves eq. (6) for given row weights; :func:`grouped_least_squares`
+is Gautier's weighting on top of it (rows in groups, one joint of one motion each, weighted by
+``1/σ_g²`` from the residual of the previous fit). The least-squares estimators
+(``plugins/estimators``) and the payload identification of eq. (7)
+(:mod:`lwrlab.identification.payload`) all solve through these two functions.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lwrlab.identification.compression import compress
 from lwrlab.identification.core import column_scaled_condition_number, relative_std
 from lwrlab.numerics.threads import dense_algebra
 
@@ -17,35 +25,130 @@ class LeastSquaresFit:
     phi: np.ndarray
     """(N_B,) estimate."""
     covariance: np.ndarray
-    """(N_B, N_B) covariance ``s²·(WᵀPW)⁻¹`` with s² the weighted residual variance."""
+    """(N_B, N_B) covariance: ``s²·(WᵀPW)⁻¹`` with s² the weighted residual variance, or
+    ``(WᵀPW)⁻¹`` when the weights are taken as known inverse variances (:func:`grouped_least_squares`)."""
     residual: np.ndarray
     """(rows,) unweighted residual τ − W·φ (N·m)."""
+    weights: np.ndarray | None = None
+    """(rows,) the row weights ``P`` of the solve (None: unit weights)."""
+    group_std: np.ndarray | None = None
+    """(groups,) σ_g of each row group behind the weights (:func:`grouped_least_squares`), N·m."""
 
     @property
     def std(self) -> np.ndarray:
         """Standard deviations σ of the estimate."""
         return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
 
+    def weighted_system(self, W: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # noqa: N803
+        """``(√P·W, √P·τ)``: the rows as the solver saw them (for a constrained or total least-squares re-solve)."""
+        if self.weights is None:
+            return W, np.asarray(tau, dtype=float).ravel()
+        root = np.sqrt(self.weights)
+        return W * root[:, None], np.asarray(tau, dtype=float).ravel() * root
 
-@dense_algebra()
-def weighted_least_squares(W: np.ndarray, tau: np.ndarray, weights: np.ndarray | None = None, rcond: float | None = None) -> LeastSquaresFit:  # noqa: N803
-    """Eq. (6) of the paper: ``φ = (WᵀPW)⁻¹WᵀPτ`` with ``P = diag(weights)``.
 
-    The covariance is ``s²·(WᵀPW)⁻¹`` with ``s² = Σ w r² / (rows − columns)``: with weights
-    ``1/σ_j²`` and a well-chosen σ_j, ``s² ≈ 1``; with unit weights it is Gautier's OLS covariance.
-    """
-    tau = np.asarray(tau, dtype=float).ravel()
+def _check_shapes(W: np.ndarray, tau: np.ndarray) -> None:  # noqa: N803
     rows, columns = W.shape
     if rows != tau.shape[0]:
         raise ValueError(f"W has {rows} rows but tau has {tau.shape[0]}")
     if rows <= columns:
         raise ValueError(f"{rows} rows cannot estimate {columns} parameters with a residual variance")
-    root = np.ones(rows) if weights is None else np.sqrt(np.asarray(weights, dtype=float))
-    scaled = W * root[:, None]
-    phi, *_ = np.linalg.lstsq(scaled, tau * root, rcond=rcond)
+
+
+@dense_algebra()
+def weighted_least_squares(
+    W: np.ndarray,  # noqa: N803 - the paper's symbol
+    tau: np.ndarray,
+    weights: np.ndarray | None = None,
+    rcond: float | None = None,
+    known_variance: bool = False,
+) -> LeastSquaresFit:
+    """Eq. (6) of the paper: ``φ = (WᵀPW)⁻¹WᵀPτ`` with ``P = diag(weights)``.
+
+    The weighted rows are QR-compressed (:func:`lwrlab.identification.compression.compress`) and
+    the small triangular system solved by ``lstsq``: the minimum-norm solution of the full system
+    (same singular values, same ``rcond``), 1.5–3× faster than ``lstsq`` on the tall rows.
+
+    The covariance is ``s²·(WᵀPW)⁻¹`` with ``s² = Σ w r² / (rows − columns)``: with unit weights it
+    is Gautier's OLS covariance ``σ²·(WᵀW)⁻¹``. With ``known_variance`` the weights are inverse
+    variances and the covariance is ``(WᵀPW)⁻¹``.
+    """
+    tau = np.asarray(tau, dtype=float).ravel()
+    _check_shapes(W, tau)
+    root = None if weights is None else np.sqrt(np.asarray(weights, dtype=float))
+    weighted_w, weighted_tau = (W, tau) if root is None else (W * root[:, None], tau * root)
+    compressed = compress(weighted_w, weighted_tau)
+    phi, *_ = np.linalg.lstsq(compressed.R, compressed.y, rcond=rcond)
     residual = tau - W @ phi
-    s2 = float(np.sum((root * residual) ** 2)) / (rows - columns)
-    return LeastSquaresFit(phi=phi, covariance=s2 * np.linalg.pinv(scaled.T @ scaled), residual=residual)
+    r_inverse = np.linalg.pinv(compressed.R)
+    covariance = r_inverse @ r_inverse.T  # (WᵀPW)⁻¹ = R⁻¹R⁻ᵀ, without squaring cond(W)
+    if not known_variance:
+        weighted_residual = residual if root is None else root * residual
+        covariance = covariance * float(weighted_residual @ weighted_residual) / (W.shape[0] - W.shape[1])
+    return LeastSquaresFit(phi=phi, covariance=covariance, residual=residual, weights=None if weights is None else np.asarray(weights, dtype=float))
+
+
+def group_residual_std(residual: np.ndarray, groups: np.ndarray, n_parameters: int) -> np.ndarray:
+    """σ_g of the residual of each row group (indexed by group label), the parameters' degrees of
+    freedom shared between groups by row share.
+
+    Gautier's weighting (the paper's eq. (6)) uses ``σ_g² = ‖r_g‖² / (r_g − c_g)``; here ``c_g`` is
+    the share ``N_B · r_g / r`` of the degrees of freedom used by the group's rows.
+    """
+    groups = np.asarray(groups, dtype=int)
+    count = np.bincount(groups).astype(float)
+    squares = np.bincount(groups, weights=residual**2)
+    dof = count * (1.0 - n_parameters / residual.size)
+    return np.sqrt(squares / np.maximum(dof, 1.0))
+
+
+def weighting_std(sigma: np.ndarray, min_relative_std: float = 0.0) -> np.ndarray:
+    """The σ_g that weight the rows: at least ``min_relative_std`` × the largest, a noiseless group
+    (σ_g = 0 with no floor) as the largest, and all ones when every σ_g is 0 (exact data: equal weights)."""
+    largest = float(sigma.max())
+    if largest <= 0.0:
+        return np.ones_like(sigma)
+    sigma = np.maximum(sigma, min_relative_std * largest)
+    return np.where(sigma > 0.0, sigma, largest)
+
+
+@dense_algebra()
+def grouped_least_squares(
+    W: np.ndarray,  # noqa: N803 - the paper's symbol
+    tau: np.ndarray,
+    groups: np.ndarray | None,
+    steps: int = 1,
+    min_relative_std: float = 0.0,
+    known_variance: bool = False,
+) -> LeastSquaresFit:
+    """Gautier's weighted least squares over row groups (eq. (6) with ``P`` per group).
+
+    An ordinary least-squares fit gives the residual σ_g of each group (:func:`group_residual_std`);
+    the rows are weighted by ``1/σ_g²`` and solved again, ``steps`` times in all, each σ_g from the
+    previous weighted fit's residual.
+
+    Parameters
+    ----------
+    W, tau : stacked regressor (rows, N) and right-hand side (rows,).
+    groups : (rows,) group label of each row (0, 1, …: a joint of a motion), or None for one group.
+    steps : weighted solves after the ordinary one (at least 1).
+    min_relative_std : floor of σ_g relative to the largest (:func:`weighting_std`).
+    known_variance : covariance ``(Wᵀ·Σ⁻¹·W)⁻¹`` with the σ_g as the noise (payload identification),
+        instead of scaling it by the weighted residual variance s² (the base-parameter WLS).
+
+    Returns the last weighted fit, with its ``weights`` and ``group_std`` (the σ_g behind them).
+    """
+    tau = np.asarray(tau, dtype=float).ravel()
+    groups = np.zeros(tau.shape[0], dtype=int) if groups is None else np.asarray(groups, dtype=int)
+    fit = weighted_least_squares(W, tau)
+    for _ in range(max(1, int(steps))):
+        residual_std = group_residual_std(fit.residual, groups, W.shape[1])
+        sigma = weighting_std(residual_std, min_relative_std)
+        fit = weighted_least_squares(W, tau, 1.0 / sigma[groups] ** 2, known_variance=known_variance)
+    covariance = fit.covariance
+    if known_variance and not residual_std.any():  # every σ_g is 0: exact data, no spread
+        covariance = np.zeros_like(covariance)
+    return LeastSquaresFit(fit.phi, covariance, fit.residual, fit.weights, group_std=sigma)
 
 
 @dense_algebra()
@@ -70,17 +173,3 @@ def set_learned_attributes(estimator: object, fit: LeastSquaresFit, W: np.ndarra
     rows, columns = W.shape
     estimator.residual_std_ = float(np.sqrt(fit.residual @ fit.residual / (rows - columns)))  # type: ignore[attr-defined]
     estimator.cond_ = column_scaled_condition_number(W)  # type: ignore[attr-defined]
-
-
-def per_joint_residual_std(residual: np.ndarray, joints: np.ndarray, n_joints: int, n_parameters: int) -> np.ndarray:
-    """σ_j of each joint's residual, with the parameter count shared between joints by row share.
-
-    Gautier's weighting (the paper's eq. (6)) uses ``σ_j² = ‖r_j‖² / (r_j − c_j)``; here ``c_j`` is
-    the share ``N_B · r_j / r`` of the degrees of freedom used by the joint's rows.
-    """
-    sigma = np.empty(n_joints)
-    for j in range(n_joints):
-        r_j = residual[joints == j]
-        dof = r_j.size - n_parameters * r_j.size / residual.size
-        sigma[j] = np.sqrt(r_j @ r_j / max(dof, 1.0))
-    return sigma

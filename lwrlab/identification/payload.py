@@ -12,7 +12,8 @@ parameters regroup into others. :func:`identify_payload_only` is the cheaper var
 already identified, ``Γˡ − W_bˡ·Φ_b = W_Lˡ·Φ_L`` needs the loaded motion only.
 
 Both solve a weighted least-squares problem (eq. (6) with P from the residual variance of each
-(motion, joint) row group, Gautier 1997) and give the covariance ``(Wᵀ·P·W)⁻¹`` hence %σ as in
+(motion, joint) row group, Gautier 1997; :func:`lwrlab.identification.least_squares.grouped_least_squares`,
+the solver of the base-parameter estimators too) and give the covariance ``(Wᵀ·P·W)⁻¹`` hence %σ as in
 Table III. ``consistent=True`` solves the same problem as a semidefinite programme with the tool's
 pseudo-inertia ``J(Φ_L) ⪰ 0`` (a physically realisable body; :mod:`lwrlab.identification.consistency`).
 
@@ -27,10 +28,12 @@ from dataclasses import dataclass, field
 
 import cvxpy as cp
 import numpy as np
-import scipy.linalg
 
+from lwrlab.identification.compression import compress
 from lwrlab.identification.consistency import pseudo_inertia_expression
-from lwrlab.identification.core import relative_std
+from lwrlab.identification.context import row_joints
+from lwrlab.identification.core import column_scaled_condition_number, relative_std
+from lwrlab.identification.least_squares import grouped_least_squares
 
 
 @dataclass(frozen=True)
@@ -78,85 +81,19 @@ class PayloadEstimate:
         return inverse @ self.covariance @ inverse.T
 
 
-def joint_groups(n_rows: int, n_joints: int, offset: int = 0) -> np.ndarray:
-    """Row-group label of each sample-major regressor row: its joint (plus ``offset``)."""
-    if n_rows % n_joints:
-        raise ValueError(f"{n_rows} rows are not a whole number of samples of {n_joints} joints")
-    return offset + np.tile(np.arange(n_joints), n_rows // n_joints)
-
-
-def group_residual_std(residual: np.ndarray, groups: np.ndarray, n_parameters: int) -> np.ndarray:
-    """σ of the residual of each row group, with the degrees of freedom shared in proportion to its rows."""
-    labels = np.unique(groups)
-    n_rows = residual.shape[0]
-    std = np.empty(labels.max() + 1)
-    for label in labels:
-        rows = residual[groups == label]
-        dof = rows.size * (1.0 - n_parameters / n_rows)
-        std[label] = np.sqrt(rows @ rows / max(dof, 1.0))
-    return std
-
-
 def _consistent_solution(weighted_w: np.ndarray, weighted_tau: np.ndarray, tool_columns: slice, solver: str | None) -> tuple[np.ndarray, str]:
-    """argmin ‖τ_w − W_w·θ‖² s.t. J(θ[tool_columns]) ⪰ 0, on the compressed, column-scaled system."""
-    r, target, scale = _compressed(weighted_w, weighted_tau)
+    """argmin ‖τ_w − W_w·θ‖² s.t. J(θ[tool_columns]) ⪰ 0, on the QR-compressed, column-scaled system."""
+    scale = np.linalg.norm(weighted_w, axis=0)
+    scale[scale == 0] = 1.0
+    compressed = compress(weighted_w / scale, weighted_tau)
     theta_scaled = cp.Variable(weighted_w.shape[1])
     phi_tool = cp.multiply(1.0 / scale[tool_columns], theta_scaled[tool_columns])
-    problem = cp.Problem(cp.Minimize(cp.sum_squares(r @ theta_scaled - target)), [pseudo_inertia_expression(phi_tool) >> 0])
+    objective = cp.sum_squares(compressed.R @ theta_scaled - compressed.y)
+    problem = cp.Problem(cp.Minimize(objective), [pseudo_inertia_expression(phi_tool) >> 0])
     problem.solve(solver=solver)
     if theta_scaled.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         raise RuntimeError(f"payload SDP (tool pseudo-inertia J(Φ_L) ⪰ 0) failed: solver status {problem.status!r}")
     return theta_scaled.value / scale, str(problem.status)
-
-
-def _compressed(W: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # noqa: N803
-    """(R, y, scale) with ``‖τ − W·θ‖² = ‖R·(scale·θ) − y‖² + const``, R upper triangular (P × P).
-
-    R is the Cholesky factor of the Gram matrix of the column-scaled W (the R of its QR, up to
-    signs): one pass over the rows, far cheaper than a QR or an SVD of a tall W, and accurate here
-    since column scaling keeps cond(W) small (its square is what the Gram matrix sees).
-    """
-    scale = np.linalg.norm(W, axis=0)
-    scale[scale == 0] = 1.0
-    scaled = W / scale
-    try:
-        r = scipy.linalg.cholesky(scaled.T @ scaled, lower=False)
-    except np.linalg.LinAlgError:
-        raise np.linalg.LinAlgError("the regressor is rank deficient: the motion does not excite every parameter") from None
-    y = scipy.linalg.solve_triangular(r, scaled.T @ tau, trans="T")
-    return r, y, scale
-
-
-def _least_squares(W: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # noqa: N803
-    """θ minimising ‖τ − W·θ‖² and ``(WᵀW)⁻¹``."""
-    r, y, scale = _compressed(W, tau)
-    theta = scipy.linalg.solve_triangular(r, y) / scale
-    r_inverse = scipy.linalg.solve_triangular(r, np.eye(r.shape[0]))
-    return theta, (r_inverse @ r_inverse.T) / np.outer(scale, scale)
-
-
-def weighted_least_squares(
-    W: np.ndarray,  # noqa: N803 - the paper's symbol
-    tau: np.ndarray,
-    groups: np.ndarray,
-    weighted: bool = True,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Gautier's weighted least squares over row groups.
-
-    An ordinary least-squares pass gives the residual σ_g of each group; rows are then divided by
-    their σ_g and solved again. Returns θ, its covariance ``(Wᵀ·Σ⁻¹·W)⁻¹``, the σ_g, and the
-    weighted system (W_w, τ_w) for further use. With ``weighted=False`` every row has one σ.
-    """
-    theta, _ = _least_squares(W, tau)
-    residual = tau - W @ theta
-    if not weighted:
-        groups = np.zeros_like(groups)
-    sigma = group_residual_std(residual, groups, W.shape[1])
-    sigma = np.where(sigma > 0, sigma, max(sigma.max(), 1e-300))  # noiseless data: any equal weights
-    weights = 1.0 / sigma[groups]
-    weighted_w, weighted_tau = W * weights[:, None], tau * weights
-    theta, covariance = _least_squares(weighted_w, weighted_tau)
-    return theta, covariance, sigma, weighted_w, weighted_tau
 
 
 def _fit(
@@ -171,7 +108,9 @@ def _fit(
     method: str,
 ) -> PayloadEstimate:
     """Solve ``τ = W·[Φ_b; Φ_L]`` (the first ``n_base`` columns the robot's, the last 10 the tool's)."""
-    theta, covariance, sigma, weighted_w, weighted_tau = weighted_least_squares(W, tau, groups, weighted)
+    fit = grouped_least_squares(W, tau, groups if weighted else None, known_variance=True)
+    theta, covariance = fit.phi, fit.covariance
+    weighted_w, weighted_tau = fit.weighted_system(W, tau)
     extras: dict[str, float] = {}
     if consistent:
         theta, status = _consistent_solution(weighted_w, weighted_tau, slice(n_base, n_base + 10), solver)
@@ -181,8 +120,8 @@ def _fit(
         covariance=covariance[n_base:, n_base:],
         flange_to_joint=flange_to_joint,
         method=method,
-        cond=float(np.linalg.cond(_compressed(weighted_w, weighted_tau)[0])),
-        residual_std=sigma,
+        cond=column_scaled_condition_number(weighted_w),
+        residual_std=fit.group_std,
         robot_base=theta[:n_base] if n_base else None,
         robot_base_std=np.sqrt(np.diag(covariance)[:n_base]) if n_base else None,
         extras=extras,
@@ -223,7 +162,7 @@ def identify_payload(
     stacked = np.block([[w_base_unloaded, np.zeros((w_base_unloaded.shape[0], 10))], [w_base_loaded, w_tool_loaded]])
     tau = np.concatenate([np.ravel(tau_unloaded), np.ravel(tau_loaded)])
     groups = np.concatenate(
-        [joint_groups(w_base_unloaded.shape[0], n_joints), joint_groups(w_base_loaded.shape[0], n_joints, offset=n_joints)]
+        [row_joints(w_base_unloaded.shape[0], n_joints), row_joints(w_base_loaded.shape[0], n_joints, offset=n_joints)]
     )
     return _fit(stacked, tau, groups, n_base, flange_to_joint, weighted, consistent, solver, "joint")
 
@@ -246,7 +185,7 @@ def identify_payload_only(
     the robot's identified base parameters.
     """
     tau = np.ravel(tau_loaded) - w_base_loaded @ np.asarray(robot_base, dtype=float)
-    groups = joint_groups(w_tool_loaded.shape[0], n_joints)
+    groups = row_joints(w_tool_loaded.shape[0], n_joints)
     return _fit(w_tool_loaded, tau, groups, 0, flange_to_joint, weighted, consistent, solver, "payload_only")
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import logging
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -23,7 +22,7 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import IdentifiabilityError
 from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
-from lwrlab.identification.context import IdentificationContext, bind_estimator
+from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.core import Estimator, torque_errors
 from lwrlab.identification.identifiability import IdentifiabilityReport, assess_identifiability, format_prior_note
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
@@ -174,7 +173,7 @@ def identify(
     motion_source: MotionSource | None,
     validation_source: MotionSource | None,
     plant: Plant,
-    estimator: Estimator | Callable[..., Estimator],
+    estimator: Estimator,
     rate_hz: float = 1000.0,
     processing: dict[str, Any] | None = None,
     statistics: dict[str, Any] | None = None,
@@ -188,8 +187,8 @@ def identify(
     motion_source, validation_source : the exciting motion and the validation motion; not used
         (may be None) for a plant that replays recorded logs: the logs are the motions.
     plant : the robot (simulated, or recorded logs) that executes them.
-    estimator : fits base parameters to the processed data; a callable without ``fit`` (a
-        ``_partial_`` config) is called with ``context=`` (:class:`IdentificationContext`) first.
+    estimator : fits base parameters to the processed data, as ``estimator.fit(W_b, τ, context=...)``
+        with the :class:`IdentificationContext` of this identification.
     rate_hz : sampling rate of a simulated measurement (Hz).
     processing : keyword arguments of :func:`lwrlab.signal.processing.process`.
     statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k}``: with n > 0, block
@@ -220,7 +219,7 @@ def identify(
     identifiability = assess_identifiability(
         w_base, base.names, *(np.vstack([getattr(d, name)[d.index] for d in processed]) for name in ("q", "dq", "ddq")), robot.limits
     )
-    has_prior = bool(getattr(estimator, "uses_prior", False) or getattr(getattr(estimator, "func", None), "uses_prior", False))
+    has_prior = bool(getattr(estimator, "uses_prior", False))
     if identifiability.status == "rank_deficient" and not has_prior:
         raise IdentifiabilityError(
             f"{identifiability.warning_text().removeprefix('WARNING: ')}\n"
@@ -228,10 +227,9 @@ def identify(
         )
     if not identifiability.ok:
         print(identifiability.warning_text())
-    if not hasattr(estimator, "fit"):  # a `_partial_` estimator config: it needs the context
-        estimator = bind_estimator(estimator, _context(robot, base, motion if len(processed) == 1 else None, processed[0]))
+    context = _context(robot, base, motion if len(processed) == 1 else None, processed[0])
     cpu_start = time.process_time()
-    estimator.fit(w_base, tau)
+    estimator.fit(w_base, tau, context=context)
     fit_cpu_s = time.process_time() - cpu_start
     standard = getattr(estimator, "standard_phi_", None)  # physically consistent estimators give it
     if standard is None:
@@ -268,6 +266,7 @@ def identify(
             estimator, w_base, tau, robot.n_joints,
             block_samples=max(1, int(round(statistics.get("block_s", 1.0) * processed[0].rate_hz))),
             resamples=int(statistics["resamples"]), confidence=float(statistics.get("confidence", 0.95)), seed=int(statistics.get("seed", 0)),
+            context=context,
         )
         parameters["ci_lower"], parameters["ci_upper"], parameters["bootstrap_std"] = interval.lower, interval.upper, interval.std
     fit_measured = np.vstack([p.measured[p.scored] for p in fit_predictions])

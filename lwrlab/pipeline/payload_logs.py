@@ -43,12 +43,13 @@ import yaml
 
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.identification.core import relative_std
+from lwrlab.identification.context import row_joints
+from lwrlab.identification.core import column_scaled_condition_number
+from lwrlab.identification.least_squares import grouped_least_squares
 from lwrlab.identification.payload import (
     PayloadEstimate,
     identify_payload_only,
-    joint_groups,
     tool_columns,
-    weighted_least_squares,
 )
 from lwrlab.io.artifacts import load_identified_model
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
@@ -356,7 +357,7 @@ def known_payload(mass: float | None = None, com: Sequence[float] | None = None,
 
 def _current_columns(currents: np.ndarray, n_joints: int) -> np.ndarray:
     """(rows, N_J): each row's current in its joint's column (sample-major rows)."""
-    joints = joint_groups(currents.size, n_joints)
+    joints = row_joints(currents.size, n_joints)
     columns = np.zeros((currents.size, n_joints))
     columns[np.arange(currents.size), joints] = currents
     return columns
@@ -394,16 +395,13 @@ def estimate_drive_gains(
         [loaded.w_base, w_payload[:, ~known], -_current_columns(loaded.tau, n)],
     ])
     rhs = np.concatenate([np.zeros(unloaded.tau.size), -w_payload[:, known] @ payload[known]])
-    groups = np.concatenate([joint_groups(unloaded.tau.size, n), joint_groups(loaded.tau.size, n, offset=n)])
-    theta, covariance, _, weighted_matrix, weighted_rhs = weighted_least_squares(matrix, rhs, groups, weighted)
-    if method == "total_least_squares":
-        theta = _total_least_squares(weighted_matrix, weighted_rhs)
-    scale = np.linalg.norm(weighted_matrix, axis=0)
-    scale[scale == 0] = 1.0
-    std = np.sqrt(np.diag(covariance))
+    groups = np.concatenate([row_joints(unloaded.tau.size, n), row_joints(loaded.tau.size, n, offset=n)])
+    fit = grouped_least_squares(matrix, rhs, groups if weighted else None, known_variance=True)
+    weighted_matrix, weighted_rhs = fit.weighted_system(matrix, rhs)
+    theta = _total_least_squares(weighted_matrix, weighted_rhs) if method == "total_least_squares" else fit.phi
     return DriveGainEstimate(
-        gains=theta[n_base + n_unknown :], std=std[n_base + n_unknown :], robot_base=theta[:n_base],
-        payload_unknown=theta[n_base : n_base + n_unknown], method=method, cond=float(np.linalg.cond(weighted_matrix / scale)),
+        gains=theta[n_base + n_unknown :], std=fit.std[n_base + n_unknown :], robot_base=theta[:n_base],
+        payload_unknown=theta[n_base : n_base + n_unknown], method=method, cond=column_scaled_condition_number(weighted_matrix),
     )
 
 

@@ -26,13 +26,13 @@ from tqdm.auto import tqdm
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import ConfigError
+from lwrlab.identification.context import row_joints
+from lwrlab.identification.least_squares import grouped_least_squares
 from lwrlab.identification.payload import (
     PayloadEstimate,
     identify_payload,
     identify_payload_only,
-    joint_groups,
     tool_columns,
-    weighted_least_squares,
 )
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES
 from lwrlab.model.payload import flange_placement, frame_change_matrix
@@ -100,7 +100,7 @@ def identify_tool(bench: ToolBench, unloaded: ToolData, loaded: ToolData, method
     if method == "joint":
         return identify_payload(unloaded.w_base, unloaded.tau, loaded.w_base, loaded.w_tool, loaded.tau, bench.flange_to_joint, n, weighted, consistent)
     if method == "payload_only":
-        robot_base = weighted_least_squares(unloaded.w_base, unloaded.tau, joint_groups(unloaded.tau.size, n), weighted)[0]
+        robot_base = grouped_least_squares(unloaded.w_base, unloaded.tau, row_joints(unloaded.tau.size, n) if weighted else None).phi
         return identify_payload_only(loaded.w_base, robot_base, loaded.w_tool, loaded.tau, bench.flange_to_joint, n, weighted, consistent)
     raise ValueError(f"unknown tool identification method {method!r}; valid: {list(METHODS)}")
 

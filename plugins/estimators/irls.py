@@ -15,6 +15,7 @@ from typing import Self
 import numpy as np
 
 from lwrlab.identification.context import IdentificationContext, resolve_joint_count, row_joints
+from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import set_learned_attributes, weighted_least_squares
 from lwrlab.numerics.threads import dense_algebra
 
@@ -30,13 +31,12 @@ def robust_weights(u: np.ndarray, loss: str) -> np.ndarray:
     return np.where(a < 1.0, (1.0 - u**2) ** 2, 0.0)
 
 
-class IterativelyReweightedLeastSquares:
+class IterativelyReweightedLeastSquares(HyperParameters):
     """Robust base-parameter estimate by IRLS with per-joint robust scale.
 
     Parameters
     ----------
-    context : identification context (gives N_J); set by the pipeline for ``_partial_`` configs.
-    n_joints : number of joints, overriding the context's.
+    n_joints : number of joints N_J (None: the ``context`` given to :meth:`fit`).
     loss : ``"huber"`` or ``"bisquare"``.
     tuning : tuning constant (None = the loss's usual one, :data:`LOSSES`).
     max_iter : iteration limit.
@@ -48,14 +48,12 @@ class IterativelyReweightedLeastSquares:
 
     def __init__(
         self,
-        context: IdentificationContext | None = None,
         n_joints: int | None = None,
         loss: str = "huber",
         tuning: float | None = None,
         max_iter: int = 50,
         tol: float = 1e-10,
     ) -> None:
-        self.context = context
         self.n_joints = n_joints
         self.loss = loss
         self.tuning = tuning
@@ -63,11 +61,12 @@ class IterativelyReweightedLeastSquares:
         self.tol = tol
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+        """Fit to regressor rows ``W`` and torques ``tau``; ``context`` gives N_J when ``n_joints`` is None."""
         if self.loss not in LOSSES:
             raise ValueError(f"unknown loss {self.loss!r}; valid: {sorted(LOSSES)}")
         tau = np.asarray(tau, dtype=float).ravel()
-        n_joints = resolve_joint_count(self.n_joints, self.context, "irls")
+        n_joints = resolve_joint_count(self.n_joints, context, "irls")
         joints = row_joints(W.shape[0], n_joints)
         c = self.tuning if self.tuning is not None else LOSSES[self.loss]
         fit = weighted_least_squares(W, tau)  # start from OLS (Huber's loss is convex: any start)

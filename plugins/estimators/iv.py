@@ -16,29 +16,25 @@ from typing import Self
 import numpy as np
 
 from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
 from lwrlab.numerics.threads import dense_algebra
 
 
-class InstrumentalVariables:
+class InstrumentalVariables(HyperParameters):
     """Two-stage least squares with the reference motion's regressor as instruments.
 
-    Parameters
-    ----------
-    context : identification context; its ``reference_regressor`` holds the instruments (rows
-        aligned with ``W``). Set by the pipeline for ``_partial_`` configs.
-    instruments : instruments given directly (rows, ≥ N_B columns), overriding the context's.
+    No hyper-parameters: the instruments are data, given to :meth:`fit` (the context's
+    ``reference_regressor``, which the pipeline fills with the commanded motion's regressor, or
+    ``instruments`` directly).
 
     Learned attributes: the protocol's; the covariance is ``σ²·(ŴᵀŴ)⁻¹`` with σ² from the
     residual ``τ − W·φ``.
     """
 
-    def __init__(self, context: IdentificationContext | None = None, instruments: np.ndarray | None = None) -> None:
-        self.context = context
-        self.instruments = instruments
-
-    def _instruments(self, rows: int) -> np.ndarray:
-        z = self.instruments if self.instruments is not None else getattr(self.context, "reference_regressor", None)
+    @staticmethod
+    def _instruments(rows: int, context: IdentificationContext | None, instruments: np.ndarray | None) -> np.ndarray:
+        z = instruments if instruments is not None else getattr(context, "reference_regressor", None)
         if z is None:
             raise ValueError(
                 "iv needs instruments: the regressor of the commanded motion (context.reference_regressor), "
@@ -50,12 +46,23 @@ class InstrumentalVariables:
         return z
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
+    def fit(
+        self,
+        W: np.ndarray,  # noqa: N803 - the paper's symbol
+        tau: np.ndarray,
+        *,
+        context: IdentificationContext | None = None,
+        instruments: np.ndarray | None = None,
+    ) -> Self:
+        """Fit to regressor rows ``W`` and torques ``tau``.
+
+        ``instruments`` (rows aligned with ``W``, ≥ N_B columns), or else ``context.reference_regressor``.
+        """
         tau = np.asarray(tau, dtype=float).ravel()
         rows = W.shape[0]
         if rows != tau.shape[0]:
             raise ValueError(f"W has {rows} rows but tau has {tau.shape[0]}")
-        q_z, _ = np.linalg.qr(self._instruments(rows))
+        q_z, _ = np.linalg.qr(self._instruments(rows, context, instruments))
         projected = q_z @ (q_z.T @ W)  # first stage: Ŵ = P_Z·W
         phi, *_ = np.linalg.lstsq(projected, tau, rcond=None)
         set_learned_attributes(self, fit_with_covariance(W, tau, phi, projected.T @ projected), W)

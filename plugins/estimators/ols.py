@@ -6,12 +6,18 @@ from typing import Self
 
 import numpy as np
 
-from lwrlab.identification.core import column_scaled_condition_number, parameter_covariance, relative_std
+from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.hyperparameters import HyperParameters
+from lwrlab.identification.least_squares import set_learned_attributes, weighted_least_squares
 from lwrlab.numerics.threads import dense_algebra
 
 
-class OrdinaryLeastSquares:
-    """Base parameters minimising ‖τ − W·φ‖², with their covariance and %σ.
+class OrdinaryLeastSquares(HyperParameters):
+    """Base parameters minimising ‖τ − W·φ‖², with their covariance σ²·(WᵀW)⁻¹ and %σ.
+
+    Parameters
+    ----------
+    rcond : cut-off of small singular values of ``W`` (``numpy.linalg.lstsq``).
 
     Examples
     --------
@@ -25,15 +31,9 @@ class OrdinaryLeastSquares:
         self.rcond = rcond
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
-        tau = np.asarray(tau, dtype=float).ravel()
-        if W.shape[0] != tau.shape[0]:
-            raise ValueError(f"W has {W.shape[0]} rows but tau has {tau.shape[0]}")
-        self.phi_, *_ = np.linalg.lstsq(W, tau, rcond=self.rcond)
-        self.covariance_, self.residual_std_ = parameter_covariance(W, tau - W @ self.phi_)
-        self.std_ = np.sqrt(np.diag(self.covariance_))
-        self.relative_std_ = relative_std(self.phi_, self.std_)
-        self.cond_ = column_scaled_condition_number(W)
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+        """Fit to regressor rows ``W`` and torques ``tau``; ``context`` is not needed (accepted for the protocol)."""
+        set_learned_attributes(self, weighted_least_squares(W, tau, rcond=self.rcond), W)
         return self
 
     def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803

@@ -41,6 +41,7 @@ import numpy as np
 from lwrlab.identification.compression import compress
 from lwrlab.identification.consistency import consistency_constraints, min_pseudo_inertia_eigenvalues, pseudo_inertia_expression, segment_slices
 from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
 from lwrlab.model.inertia import from_pseudo_inertia, pseudo_inertia
 from lwrlab.numerics.threads import dense_algebra
@@ -55,13 +56,11 @@ class SolverFailure(RuntimeError):
     """Neither the solver nor its fallback returned a solution."""
 
 
-class PhysicallyConsistentSDP:
+class PhysicallyConsistentSDP(HyperParameters):
     """Standard parameters of physically consistent bodies fitting the base-parameter data.
 
     Parameters
     ----------
-    context : identification context (regrouping K, CAD prior, friction layout); required, set by
-        the pipeline (the config is ``_partial_``).
     regularization : ``"entropic"`` (default), ``"euclidean"`` or ``"none"``.
     weight : weight of the regularisation (N·m per unit of divergence).
     min_eigenvalue : ε, the smallest eigenvalue asked of every pseudo-inertia (kg·m²).
@@ -70,6 +69,9 @@ class PhysicallyConsistentSDP:
     compress : QR-compress the regressor before the solver (False only to measure the gain).
     solver, fallback_solver : cvxpy solver names.
     solver_options : keyword arguments of the primary solver.
+
+    :meth:`fit` needs the identification context (regrouping K, CAD prior, friction layout), which
+    the pipeline passes as ``fit(W, tau, context=...)``.
 
     Learned attributes: the protocol's (``std_`` is the least-squares covariance at the solution,
     exact while no constraint is active), plus ``standard_phi_`` (P,) the consistent standard
@@ -84,7 +86,6 @@ class PhysicallyConsistentSDP:
 
     def __init__(
         self,
-        context: IdentificationContext | None = None,
         regularization: str = "entropic",
         weight: float = 1e-4,
         min_eigenvalue: float = 0.0,
@@ -95,7 +96,6 @@ class PhysicallyConsistentSDP:
         fallback_solver: str | None = "SCS",
         solver_options: dict | None = None,
     ) -> None:
-        self.context = context
         self.regularization = regularization
         self.weight = weight
         self.min_eigenvalue = min_eigenvalue
@@ -106,16 +106,16 @@ class PhysicallyConsistentSDP:
         self.fallback_solver = fallback_solver
         self.solver_options = solver_options
 
-    def _check(self) -> IdentificationContext:
-        if self.context is None:
-            raise ValueError("sdp needs the identification context (regrouping K, CAD prior): its config must be _partial_")
+    def _check(self, context: IdentificationContext | None) -> IdentificationContext:
+        if context is None:
+            raise ValueError("sdp needs the identification context (regrouping K, CAD prior): call fit(W, tau, context=...)")
         if self.regularization not in REGULARIZATIONS:
             raise ValueError(f"unknown regularization {self.regularization!r}; valid: {list(REGULARIZATIONS)}")
         if self.mass_bounds is not None:
             low, high = self.mass_bounds
             if not 0.0 <= low <= high:
                 raise ValueError(f"mass_bounds {list(self.mass_bounds)} must satisfy 0 ≤ low ≤ high (factors of the CAD masses)")
-        return self.context
+        return context
 
     def _regularizer(self, phi: cp.Variable, context: IdentificationContext) -> cp.Expression:
         n_inertial = 10 * context.n_links
@@ -188,8 +188,9 @@ class PhysicallyConsistentSDP:
         return standard
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
-        context = self._check()
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+        """Fit to regressor rows ``W`` and torques ``tau``; ``context`` (regrouping K, CAD prior) is required."""
+        context = self._check(context)
         tau = np.asarray(tau, dtype=float).ravel()
         rows = W.shape[0]
         if rows != tau.shape[0]:

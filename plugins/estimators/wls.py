@@ -12,17 +12,17 @@ from typing import Self
 import numpy as np
 
 from lwrlab.identification.context import IdentificationContext, resolve_joint_count, row_joints
-from lwrlab.identification.least_squares import per_joint_residual_std, set_learned_attributes, weighted_least_squares
+from lwrlab.identification.hyperparameters import HyperParameters
+from lwrlab.identification.least_squares import grouped_least_squares, set_learned_attributes
 from lwrlab.numerics.threads import dense_algebra
 
 
-class WeightedLeastSquares:
+class WeightedLeastSquares(HyperParameters):
     """Base parameters minimising ``Σ_j ‖τ_j − W_j·φ‖² / σ_j²`` (eq. (6)), with covariance and %σ.
 
     Parameters
     ----------
-    context : identification context (gives N_J); set by the pipeline for ``_partial_`` configs.
-    n_joints : number of joints, overriding the context's.
+    n_joints : number of joints N_J (None: the ``context`` given to :meth:`fit`).
     min_relative_std : floor of σ_j relative to the largest one, so a noiseless joint does not get
         an infinite weight.
     reweight_steps : σ_j estimated from the OLS residual, then re-estimated from each weighted
@@ -41,27 +41,18 @@ class WeightedLeastSquares:
     True
     """
 
-    def __init__(
-        self, context: IdentificationContext | None = None, n_joints: int | None = None, min_relative_std: float = 1e-6, reweight_steps: int = 2
-    ) -> None:
-        self.context = context
+    def __init__(self, n_joints: int | None = None, min_relative_std: float = 1e-6, reweight_steps: int = 2) -> None:
         self.n_joints = n_joints
         self.min_relative_std = min_relative_std
         self.reweight_steps = reweight_steps
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray) -> Self:  # noqa: N803 - the paper's symbol
-        tau = np.asarray(tau, dtype=float).ravel()
-        n_joints = resolve_joint_count(self.n_joints, self.context, "wls")
-        joints = row_joints(W.shape[0], n_joints)
-        fit = weighted_least_squares(W, tau)
-        for _ in range(max(1, int(self.reweight_steps))):
-            sigma = per_joint_residual_std(fit.residual, joints, n_joints, W.shape[1])
-            floor = self.min_relative_std * sigma.max()
-            sigma = np.maximum(sigma, floor) if floor > 0 else np.ones(n_joints)  # exact data: equal weights
-            fit = weighted_least_squares(W, tau, 1.0 / sigma[joints] ** 2)
-        self.joint_std_ = sigma
-        self.weights_ = 1.0 / sigma**2
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+        """Fit to regressor rows ``W`` and torques ``tau``; ``context`` gives N_J when ``n_joints`` is None."""
+        n_joints = resolve_joint_count(self.n_joints, context, "wls")
+        fit = grouped_least_squares(W, tau, row_joints(W.shape[0], n_joints), self.reweight_steps, self.min_relative_std)
+        self.joint_std_ = fit.group_std
+        self.weights_ = 1.0 / fit.group_std**2
         set_learned_attributes(self, fit, W)
         return self
 
