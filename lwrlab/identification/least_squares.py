@@ -67,7 +67,9 @@ def weighted_least_squares(
 
     The weighted rows are QR-compressed (:func:`lwrlab.identification.compression.compress`) and
     the small triangular system solved by ``lstsq``: the minimum-norm solution of the full system
-    (same singular values, same ``rcond``), 1.5–3× faster than ``lstsq`` on the tall rows.
+    (same singular values, same ``rcond``), without squaring the condition number as a Gram matrix
+    would. Measured (``benchmarks/least_squares.py``, one BLAS thread): 2.4× faster than ``lstsq``
+    on the tall rows at 67 200 × 57, 1.5× slower (7 ms) at 3 500 × 57.
 
     The covariance is ``s²·(WᵀPW)⁻¹`` with ``s² = Σ w r² / (rows − columns)``: with unit weights it
     is Gautier's OLS covariance ``σ²·(WᵀW)⁻¹``. With ``known_variance`` the weights are inverse
