@@ -600,7 +600,7 @@ def regressor(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
 
     Examples
     --------
-    >>> from plugins.robots.mdh import load_robot  # doctest: +SKIP
+    >>> from lwrlab.model.description import load_robot_yaml  # doctest: +SKIP
     >>> W = regressor(robot, q, dq, ddq)           # doctest: +SKIP
     >>> np.allclose(W @ robot.parameters, robot.inverse_dynamics(q, dq, ddq).ravel())  # doctest: +SKIP
     True

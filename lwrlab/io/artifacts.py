@@ -64,6 +64,23 @@ def load_measurement(path: Path) -> Measurement:
         return Measurement(t=data["t"], q=data["q"], tau=data["tau"], metadata=yaml.safe_load(str(data["metadata"])))
 
 
+IDENTIFIED_MODEL_FILE = "identified_model.yaml"
+"""File name of an identified model in a run folder (and as an MLflow artifact)."""
+
+
+def identified_model_path(source: str | Path) -> Path:
+    """The ``identified_model.yaml`` at ``source``: the file itself, or the run folder holding it.
+
+    Raises ``FileNotFoundError`` naming the path when there is no such file.
+    """
+    path = Path(source).expanduser()
+    if path.is_dir():
+        path = path / IDENTIFIED_MODEL_FILE
+    if not path.is_file():
+        raise FileNotFoundError(f"identified model {path} does not exist")
+    return path
+
+
 def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], path: Path) -> Path:
     """Write an identified model as YAML, with the robot description it refines (to rebuild it)."""
     document = {

@@ -51,7 +51,7 @@ from lwrlab.identification.payload import (
     identify_payload_only,
     tool_columns,
 )
-from lwrlab.io.artifacts import load_identified_model
+from lwrlab.io.artifacts import identified_model_path, load_identified_model
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
 from lwrlab.pipeline.tools import METHODS, ToolBench, ToolData, identify_tool
 from lwrlab.plants.core import Measurement
@@ -132,9 +132,7 @@ def earlier_robot_base(bench: ToolBench, model_path: str | Path) -> np.ndarray:
     Raises a ``ValueError`` when its base parameters are not this robot's (another robot, other
     friction terms).
     """
-    path = Path(model_path)
-    if path.is_dir():
-        path = path / "identified_model.yaml"
+    path = identified_model_path(model_path)
     model, _ = load_identified_model(path)
     if tuple(model.base_names) != tuple(bench.base.names):
         raise ValueError(

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters
+from lwrlab.model.description import load_robot_yaml
 from lwrlab.model.robot import RobotModel
 from lwrlab.reference import paper_results
 from lwrlab.resources import config_group
@@ -45,8 +46,6 @@ def table2_cad_comparison(robot: RobotModel) -> pd.DataFrame:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from plugins.robots.mdh import load_robot_yaml
-
     argv = sys.argv[1:] if argv is None else argv
     path = Path(argv[0]) if argv else config_group("robot")["kuka_lwr4"]  # the shipped config, also from a wheel
     table = table2_cad_comparison(load_robot_yaml(path))

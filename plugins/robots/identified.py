@@ -4,49 +4,73 @@
 of an MLflow run that logged one. The file carries the robot description it refined; the robot is
 rebuilt from it and given the identified standard parameters (inertial and friction), which
 reproduce the identified base parameters exactly.
+
+Building a description from its ``_target_`` and looking a run up in MLflow belong to the edges
+(Hydra, tracking): the config ``conf/robot/identified.yaml`` hands them in as ``build_robot``
+(``hydra.utils.instantiate``) and ``fetch_run_artifact``
+(:func:`lwrlab.tracking.run_artifacts.download_run_artifact`), so this plugin needs neither.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
-import hydra.utils
-
-from lwrlab.io.artifacts import load_identified_model
+from lwrlab.io.artifacts import IDENTIFIED_MODEL_FILE, identified_model_path, load_identified_model
 from lwrlab.model.robot import RobotModel
 
-ARTIFACT = "identified_model.yaml"
+RobotBuilder = Callable[[Mapping[str, Any]], RobotModel]
+"""Builds a robot from a description with a ``_target_`` (``hydra.utils.instantiate``)."""
+RunArtifactFetcher = Callable[[str, str, str | None], str | Path]
+"""(run id, artifact path, tracking URI) → local path of the downloaded artifact."""
+
 _ALLOWED_TARGET_PREFIX = "plugins.robots."
 
 
-def _locate(source: str, tracking_uri: str | None) -> Path:
-    path = Path(source).expanduser()
-    if path.is_dir():
-        path = path / ARTIFACT
-    if path.is_file():
-        return path
-    if path.suffix in {".yaml", ".yml"} or "/" in source:
-        raise FileNotFoundError(f"identified model {path} does not exist")
-    import mlflow.artifacts  # only when the source is a run id: keeps file-based use light
-
-    try:
-        return Path(mlflow.artifacts.download_artifacts(run_id=source, artifact_path=ARTIFACT, tracking_uri=tracking_uri))
-    except Exception as error:  # noqa: BLE001 - re-raised with the context a user needs
-        raise FileNotFoundError(
-            f"no {ARTIFACT} for MLflow run {source!r} in store {tracking_uri or '(default)'}: {error}"
-        ) from error
+def _is_file_reference(source: str) -> bool:
+    """A path (a separator or a YAML suffix) rather than an MLflow run id."""
+    return "/" in source or Path(source).suffix in {".yaml", ".yml"} or Path(source).expanduser().exists()
 
 
-def load_identified_robot(source: str, tracking_uri: str | None = None) -> RobotModel:
-    """The robot identified by an earlier run (file path, run folder, or MLflow run id)."""
-    path = _locate(str(source), tracking_uri)
+def _locate(source: str, tracking_uri: str | None, fetch_run_artifact: RunArtifactFetcher | None) -> Path:
+    if _is_file_reference(source):
+        return identified_model_path(source)
+    if fetch_run_artifact is None:
+        raise FileNotFoundError(f"identified model {source!r} is not a file or run folder, and no run look-up was given (fetch_run_artifact)")
+    return Path(fetch_run_artifact(source, IDENTIFIED_MODEL_FILE, tracking_uri))
+
+
+def load_identified_robot(
+    source: str,
+    tracking_uri: str | None = None,
+    *,
+    build_robot: RobotBuilder,
+    fetch_run_artifact: RunArtifactFetcher | None = None,
+) -> RobotModel:
+    """The robot identified by an earlier run.
+
+    Parameters
+    ----------
+    source : an ``identified_model.yaml``, the run folder holding it, or an MLflow run id.
+    tracking_uri : the store a run id is looked up in (``None``: MLflow's default).
+    build_robot : builds the robot description stored in the file (e.g. ``hydra.utils.instantiate``);
+        only robot plugins (``_target_: plugins.robots.*``) are built.
+    fetch_run_artifact : downloads a run's artifact (needed for a run id only).
+
+    Examples
+    --------
+    >>> import hydra.utils  # doctest: +SKIP
+    >>> load_identified_robot("outputs/runs/<run>", build_robot=hydra.utils.instantiate)  # doctest: +SKIP
+    """
+    path = _locate(str(source), tracking_uri, fetch_run_artifact)
     identified, robot_config = load_identified_model(path)
     target = str(robot_config.get("_target_", ""))
     # The description comes from a file that may be shared: build only known robot plugins.
     if not target.startswith(_ALLOWED_TARGET_PREFIX):
         raise ValueError(f"{path}: robot _target_ {target!r} is not a robot plugin ({_ALLOWED_TARGET_PREFIX}*)")
-    prior: RobotModel = hydra.utils.instantiate(robot_config)
+    prior = build_robot(robot_config)
     if tuple(prior.parameter_names) != identified.standard_names:
         raise ValueError(f"{path}: its standard parameters do not match the robot it describes ({prior.name})")
     robot = prior.with_parameters(identified.standard_values)

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.model.description import build_friction
 from lwrlab.model.robot import JointLimits, RobotModel
-from plugins.robots.mdh import build_friction
 
 _FLOATING_JOINTS = ("JointModelFreeFlyer", "JointModelPlanar")
 

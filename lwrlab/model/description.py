@@ -1,0 +1,150 @@
+"""Robots from a description: a mapping of modified Denavit–Hartenberg rows, inertials, limits, friction.
+
+The keys, as in the robot configs (``conf/robot/<name>.yaml``) or any YAML file with the same keys::
+
+    name: my_arm
+    gravity: [0, 0, -9.81]                  # m/s², base frame
+    mdh:                                    # Khalil–Kleinfinger, one entry per joint
+      alpha: [...]                          # rad
+      d: [...]                              # m
+      theta_offset: [...]                   # rad
+      r: [...]                              # m
+    flange: [0, 0, 0.078]                   # optional: flange origin in the last frame (m)
+    links:                                  # one per moving segment, in its DH frame
+      - mass: 2.0                           # kg
+        com: [0, 0.02, 0.1]                 # m
+        inertia: [xx, yy, zz, xy, xz, yz]   # kg·m², about the CoM, axes of the DH frame
+    limits:
+      position_lower: [...]                 # rad
+      position_upper: [...]                 # rad
+      velocity: [...]                       # rad/s
+      acceleration: [...]                   # rad/s²
+      torque: [...]                         # N·m
+    friction:                               # nominal joint friction
+      coulomb: [...]                        # N·m
+      viscous: [...]                        # N·m·s/rad
+      offset: [...]                         # N·m (optional, default 0)
+    friction_terms: [coulomb, viscous]      # columns of the regressor; add offset if needed
+    rotor_inertia: [...]                    # optional: drive inertia reflected to the joint (kg·m²)
+    collision_spheres:                      # optional: self-collision spheres (lwrlab/model/collision.py)
+      - {name: elbow, link: 4, center: [0, 0, 0], radius: 0.08}   # link 0 = base; center in the joint frame (m)
+
+``build_robot`` takes these keys as arguments (what Hydra's ``instantiate`` passes through the robot
+plugin ``plugins.robots.mdh``); ``load_robot_yaml`` reads them from a file. ``build_limits`` and
+``build_friction`` serve every robot loader (the URDF plugin too).
+
+Examples
+--------
+>>> from lwrlab.resources import config_group
+>>> robot = load_robot_yaml(config_group("robot")["kuka_lwr4"])
+>>> robot.name, robot.n_joints
+('kuka_lwr4', 7)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lwrlab.io.yaml_files import read_yaml_mapping
+from lwrlab.model.collision import build_collision_spheres
+from lwrlab.model.dh import ModifiedDH, build_dh_model
+from lwrlab.model.inertia import standard_parameters, to_pin_inertia
+from lwrlab.model.robot import Friction, JointLimits, RobotModel
+
+
+def _array(values: Sequence[float], n: int, what: str) -> np.ndarray:
+    array = np.asarray(values, dtype=float).ravel()
+    if array.shape != (n,):
+        raise ValueError(f"{what}: expected {n} values, got {array.size}")
+    return array
+
+
+def _inertia_tensor(values: Sequence[float], what: str) -> np.ndarray:
+    xx, yy, zz, xy, xz, yz = _array(values, 6, what)
+    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+
+
+def build_limits(limits: Mapping[str, Sequence[float]], n: int, robot: str) -> JointLimits:
+    """Joint limits from a mapping of lists (units in the module docstring)."""
+    keys = ("position_lower", "position_upper", "velocity", "acceleration", "torque")
+    missing = [k for k in keys if k not in limits]
+    if missing:
+        raise ValueError(f"robot {robot!r}: limits lack {missing}")
+    return JointLimits(**{k: _array(limits[k], n, f"robot {robot!r} limits.{k}") for k in keys})
+
+
+def build_friction(friction: Mapping[str, Sequence[float]] | None, n: int, robot: str) -> Friction:
+    """Friction values; a missing term is zero."""
+    friction = friction or {}
+    return Friction(
+        **{k: _array(friction.get(k, np.zeros(n)), n, f"robot {robot!r} friction.{k}") for k in ("coulomb", "viscous", "offset")}
+    )
+
+
+def build_robot(
+    name: str,
+    mdh: Mapping[str, Sequence[float]],
+    links: Sequence[Mapping[str, Any]],
+    limits: Mapping[str, Sequence[float]],
+    friction: Mapping[str, Sequence[float]] | None = None,
+    gravity: Sequence[float] = (0.0, 0.0, -9.81),
+    friction_terms: Sequence[str] = ("coulomb", "viscous"),
+    flange: Sequence[float] | None = None,
+    rotor_inertia: Sequence[float] | None = None,
+    collision_spheres: Sequence[Mapping[str, Any]] | None = None,
+    **documentation: Any,
+) -> RobotModel:
+    """Build a :class:`RobotModel` from a modified-DH description (keys in the module docstring).
+
+    Extra keys (``source``, ``notes``, …) document the data and are ignored.
+    """
+    del documentation
+    table = ModifiedDH(
+        alpha=np.asarray(mdh["alpha"], dtype=float),
+        d=np.asarray(mdh["d"], dtype=float),
+        r=np.asarray(mdh["r"], dtype=float),
+        theta_offset=np.asarray(mdh.get("theta_offset", np.zeros(len(mdh["alpha"]))), dtype=float),
+    )
+    n = table.n_joints
+    if len(links) != n:
+        raise ValueError(f"robot {name!r}: {n} DH rows but {len(links)} links")
+    inertias = [
+        to_pin_inertia(
+            standard_parameters(
+                float(link["mass"]),
+                _array(link["com"], 3, f"robot {name!r} link {j} com"),
+                _inertia_tensor(link["inertia"], f"robot {name!r} link {j} inertia"),
+            )
+        )
+        for j, link in enumerate(links, start=1)
+    ]
+    flange_pose = None
+    if flange is not None:
+        flange_pose = np.eye(4)
+        flange_pose[:3, 3] = _array(flange, 3, f"robot {name!r} flange")
+    model = build_dh_model(table, inertias, np.asarray(gravity, dtype=float), flange=flange_pose)
+    return RobotModel(
+        name=name,
+        model=model,
+        limits=build_limits(limits, n, name),
+        friction=build_friction(friction, n, name),
+        friction_terms=tuple(friction_terms),
+        rotor_inertia=None if rotor_inertia is None else _array(rotor_inertia, n, f"robot {name!r} rotor_inertia"),
+        collision_spheres=build_collision_spheres(collision_spheres, n, name),
+    )
+
+
+def load_robot_yaml(path: str | Path, **overrides: Any) -> RobotModel:
+    """Build a robot from a modified-DH YAML file; keyword arguments override the file's keys."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"robot description {path} does not exist")
+    description = read_yaml_mapping(path, "robot")
+    description.pop("_target_", None)
+    description.update(overrides)
+    description.setdefault("name", path.stem)
+    return build_robot(**description)

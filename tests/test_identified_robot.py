@@ -1,0 +1,72 @@
+"""The ``identified`` robot plugin: an earlier run's identified model rebuilt through the real config."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hydra import compose, initialize_config_dir
+from hydra.utils import instantiate
+
+from lwrlab.identification.identified import IdentifiedModel
+from lwrlab.io.artifacts import save_identified_model
+from lwrlab.model.robot import RobotModel
+from plugins.robots.identified import load_identified_robot
+
+CONF = Path(__file__).resolve().parents[1] / "conf"
+
+
+def _identified_run(lwr4: RobotModel, folder: Path, target: str = "plugins.robots.mdh.build_robot") -> np.ndarray:
+    """A run folder whose identified_model.yaml moves the LWR4's standard parameters; returns them."""
+    description = yaml.safe_load((CONF / "robot" / "kuka_lwr4.yaml").read_text())
+    description["_target_"] = target
+    standard = lwr4.parameters * (1.0 + 0.05 * np.sin(np.arange(lwr4.parameters.size)))
+    model = IdentifiedModel(
+        base_names=("ZZ1R",), base_values=np.ones(1), base_std=np.ones(1),
+        standard_names=tuple(lwr4.parameter_names), standard_values=standard,
+    )
+    folder.mkdir(parents=True, exist_ok=True)
+    save_identified_model(model, description, folder / "identified_model.yaml")
+    return standard
+
+
+def test_the_config_rebuilds_the_identified_robot_from_a_run_folder(lwr4: RobotModel, tmp_path: Path) -> None:
+    standard = _identified_run(lwr4, tmp_path / "run")
+    with initialize_config_dir(config_dir=str(CONF), version_base=None):
+        cfg = compose("config", overrides=["robot=identified", f"robot.source={tmp_path / 'run'}"])
+    robot = instantiate(cfg.robot)
+    assert robot.name == "kuka_lwr4_identified"
+    np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)
+    assert not np.allclose(robot.parameters, lwr4.parameters)
+
+
+def test_a_run_id_is_fetched_through_the_given_lookup(lwr4: RobotModel, tmp_path: Path) -> None:
+    standard = _identified_run(lwr4, tmp_path)
+    calls = []
+
+    def fetch(run_id: str, artifact: str, uri: str | None) -> Path:
+        calls.append((run_id, artifact, uri))
+        return tmp_path / artifact
+
+    robot = load_identified_robot("0123abcd", "sqlite:///x.db", build_robot=instantiate, fetch_run_artifact=fetch)
+    assert calls == [("0123abcd", "identified_model.yaml", "sqlite:///x.db")]
+    np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)
+    with pytest.raises(FileNotFoundError, match="fetch_run_artifact"):
+        load_identified_robot("0123abcd", build_robot=instantiate)
+
+
+def test_only_robot_plugins_are_built_and_missing_files_are_named(lwr4: RobotModel, tmp_path: Path) -> None:
+    _identified_run(lwr4, tmp_path, target="os.system")
+    with pytest.raises(ValueError, match="not a robot plugin"):
+        load_identified_robot(str(tmp_path), build_robot=instantiate)
+    with pytest.raises(FileNotFoundError, match="missing.yaml"):
+        load_identified_robot(str(tmp_path / "missing.yaml"), build_robot=instantiate)
+
+
+def test_the_tracking_lookup_names_a_missing_run(tmp_path: Path) -> None:
+    from lwrlab.tracking.run_artifacts import download_run_artifact
+
+    with pytest.raises(FileNotFoundError, match="identified_model.yaml for MLflow run 'feedbeef'"):
+        download_run_artifact("feedbeef", "identified_model.yaml", (tmp_path / "mlruns").as_uri())
