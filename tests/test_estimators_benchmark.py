@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 from hydra import compose, initialize_config_dir
 
-from lwrlab.pipeline.estimator_benchmark import METRICS, collect, run_estimator_benchmark, write_summary
+from lwrlab.pipeline.estimator_benchmark import run_estimator_benchmark
+from lwrlab.tracking.benchmark_tables import METRICS, collect, write_summary
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 

@@ -25,7 +25,7 @@ Files of a job (``estimator_benchmark.csv``, one row), columns:
 - ``residual_std`` (N·m): torque residual σ.
 
 and ``parameter_errors.csv``: per base parameter its truth, estimate, error and relative error.
-The summary (sweep folder) has ``estimator_benchmark.csv`` (all rows), ``estimator_benchmark_summary.csv``
+The summary (sweep folder, :mod:`lwrlab.tracking.benchmark_tables`) has ``estimator_benchmark.csv`` (all rows), ``estimator_benchmark_summary.csv``
 and ``.md`` (mean and spread per estimator and preset), ``estimator_benchmark_parameters.csv`` (per
 parameter: mean and spread of the relative error) and ``estimator_benchmark.png``.
 """
@@ -43,12 +43,9 @@ import pandas as pd
 from lwrlab.identification.consistency import consistency_margin
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.pipeline.identification import identify
+from lwrlab.tracking.benchmark_tables import JOB_TABLE, METRICS, PARAMETER_TABLE, write_summary
 
 log = logging.getLogger(__name__)
-
-JOB_TABLE = "estimator_benchmark.csv"
-PARAMETER_TABLE = "parameter_errors.csv"
-METRICS = ("base_parameter_error", "rms_mean", "nrms_mean", "min_pseudo_inertia_eigenvalue", "consistency_margin", "fit_cpu_s", "residual_std")
 
 
 def _estimator_name(cfg: Any) -> str:
@@ -94,109 +91,7 @@ def run_estimator_benchmark(cfg: Any, output_dir: Path, noise: str, noise_preset
     return {m: float(metrics[m]) for m in METRICS}
 
 
-def collect(sweep_dir: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """All job rows of a sweep, and all per-parameter errors (with estimator, preset, seed)."""
-    rows, parameters = [], []
-    for table in sorted(Path(sweep_dir).glob(f"*/{JOB_TABLE}")):
-        row = pd.read_csv(table)
-        rows.append(row)
-        errors = pd.read_csv(table.parent / PARAMETER_TABLE)
-        parameters.append(errors.assign(**{k: row[k].iloc[0] for k in ("estimator", "preset", "seed")}))
-    if not rows:
-        raise FileNotFoundError(f"no {JOB_TABLE} under {sweep_dir}/*/: did the benchmark jobs run?")
-    return pd.concat(rows, ignore_index=True), pd.concat(parameters, ignore_index=True)
-
-
-def summarize(rows: pd.DataFrame) -> pd.DataFrame:
-    """Mean and standard deviation over seeds of every metric, per estimator and preset, plus the
-    share of seeds whose estimate is physically consistent (consistency margin ≥ −1e-9)."""
-    grouped = rows.groupby(["preset", "estimator"], sort=True)
-    table = grouped[list(METRICS)].agg(["mean", "std"])
-    table.columns = [f"{metric}_{stat}" for metric, stat in table.columns]
-    table["consistent_share"] = grouped["consistency_margin"].apply(lambda m: float(np.mean(m >= -1e-9)))
-    table["seeds"] = grouped.size()
-    return table
-
-
-def summary_markdown(table: pd.DataFrame) -> str:
-    """The summary as a compact Markdown table (mean ± std)."""
-    def pm(metric: str, fmt: str) -> pd.Series:
-        return table.apply(lambda r: f"{r[f'{metric}_mean']:{fmt}} ± {r[f'{metric}_std']:{fmt}}", axis=1)
-
-    view = pd.DataFrame({
-        "preset": table.index.get_level_values("preset"),
-        "estimator": table.index.get_level_values("estimator"),
-        "‖β̂−β‖/‖β‖": pm("base_parameter_error", ".3g"),
-        "CV RMS (N·m)": pm("rms_mean", ".4g"),
-        "min eig J (kg·m²)": table["min_pseudo_inertia_eigenvalue_mean"].map(lambda v: f"{v:.2g}"),
-        "consistent": table["consistent_share"].map(lambda v: f"{100 * v:.0f} %"),
-        "CPU fit (s)": pm("fit_cpu_s", ".3g"),
-        "seeds": table["seeds"],
-    }, index=table.index)
-    return view.to_markdown(index=False)
-
-
-def parameter_summary(parameters: pd.DataFrame) -> pd.DataFrame:
-    """Per (preset, estimator, parameter): mean and spread (std) of the relative error over seeds."""
-    grouped = parameters.groupby(["preset", "estimator", "parameter"], sort=False)["relative_error"]
-    return grouped.agg(relative_error_mean="mean", relative_error_std="std").reset_index()
-
-
-def benchmark_figure(rows: pd.DataFrame, path: Path) -> Path:
-    """Box plots of the relative base-parameter error and of the fit CPU time per estimator, one
-    group per noise preset (log scales)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    presets = sorted(rows["preset"].unique())
-    estimators = sorted(rows["estimator"].unique())
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    width = 0.8 / len(presets)
-    for i, preset in enumerate(presets):
-        subset = rows[rows["preset"] == preset]
-        positions = np.arange(len(estimators)) + (i - (len(presets) - 1) / 2) * width
-        for ax, metric in zip(axes, ("base_parameter_error", "fit_cpu_s"), strict=True):
-            data = [subset.loc[subset["estimator"] == e, metric].to_numpy() for e in estimators]
-            box = ax.boxplot(data, positions=positions, widths=width * 0.9, patch_artist=True, manage_ticks=False)
-            for patch in box["boxes"]:
-                patch.set_facecolor(f"C{i}")
-            axes[0].plot([], [], color=f"C{i}", lw=6, label=preset) if metric == "base_parameter_error" else None
-    for ax, label in zip(axes, ("relative base-parameter error ‖β̂−β‖/‖β‖", "CPU time of the fit (s)"), strict=True):
-        ax.set_xticks(np.arange(len(estimators)), estimators)
-        ax.set_yscale("log")
-        ax.set_ylabel(label)
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(title="noise preset")
-    fig.suptitle(f"Monte-Carlo estimator benchmark ({rows['seed'].nunique()} seeds per cell)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=150)
-    plt.close(fig)
-    return path
-
-
-def write_summary(sweep_dir: Path) -> dict[str, Path]:
-    """Aggregate a finished sweep into its folder; returns the files written."""
-    sweep_dir = Path(sweep_dir)
-    rows, parameters = collect(sweep_dir)
-    table = summarize(rows)
-    files = {
-        "rows": sweep_dir / "estimator_benchmark.csv",
-        "summary_csv": sweep_dir / "estimator_benchmark_summary.csv",
-        "summary_md": sweep_dir / "estimator_benchmark_summary.md",
-        "parameters": sweep_dir / "estimator_benchmark_parameters.csv",
-    }
-    rows.sort_values(["preset", "estimator", "seed"]).to_csv(files["rows"], index=False)
-    table.to_csv(files["summary_csv"])
-    files["summary_md"].write_text(summary_markdown(table) + "\n")
-    parameter_summary(parameters).to_csv(files["parameters"], index=False)
-    files["figure"] = benchmark_figure(rows, sweep_dir / "estimator_benchmark.png")
-    print(summary_markdown(table))
-    return files
-
-
-if __name__ == "__main__":  # re-aggregate an earlier sweep: python -m lwrlab.pipeline.estimator_benchmark <sweep_dir>
+if __name__ == "__main__":  # re-aggregate an earlier sweep (also python -m lwrlab.tracking.benchmark_tables <sweep_dir>)
     import sys
 
     write_summary(Path(sys.argv[1]))

@@ -28,11 +28,11 @@ from tqdm.auto import tqdm
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.excitation.solver import ExcitationResult, InfeasibleExcitationError, verify_motion
+from lwrlab.figures.excitation import criteria_figure, duration_figure, motion_figure
 from lwrlab.io.artifacts import save_trajectory_csv
 from lwrlab.io.exciting_motion import save_motion_description
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
-from lwrlab.tracking.excitation_figures import criteria_figure, duration_figure, motion_figure
 
 log = logging.getLogger(__name__)
 

@@ -20,6 +20,8 @@ import pandas as pd
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import IdentifiabilityError
+from lwrlab.figures.residuals import residuals_per_log
+from lwrlab.figures.torques import error_per_joint, torque_overlay
 from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
 from lwrlab.identification.context import IdentificationContext
@@ -31,8 +33,6 @@ from lwrlab.io.urdf_export import export_urdf
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement, Plant
 from lwrlab.signal.processing import ProcessedData, process
-from lwrlab.figures.residuals import residuals_per_log
-from lwrlab.tracking.figures import error_per_joint, torque_overlay
 from lwrlab.trajectory.core import MotionSource, Trajectory, check_limits
 
 log = logging.getLogger(__name__)

@@ -26,6 +26,7 @@ from tqdm.auto import tqdm
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import ConfigError
+from lwrlab.figures.tools import confusion_matrices, relative_std_bars
 from lwrlab.identification.context import row_joints
 from lwrlab.identification.least_squares import grouped_least_squares
 from lwrlab.identification.payload import (
@@ -44,7 +45,6 @@ from lwrlab.tools.excitation import select_tool_motion
 from lwrlab.tools.library import PAPER_TOOLS, ToolLibrary, load_library
 from lwrlab.tools.model import GEOMETRY_NAMES, Tool
 from lwrlab.tools.recognition import Recognition, ToolClassifier
-from lwrlab.tracking.tool_figures import confusion_matrices, relative_std_bars
 from lwrlab.trajectory.core import Trajectory, check_limits
 
 log = logging.getLogger(__name__)

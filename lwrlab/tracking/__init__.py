@@ -1,7 +1,8 @@
-"""Tracking at the edge of the pipeline: MLflow logging as a Hydra callback, run comparison, figures.
+"""Tracking at the edge of the pipeline: MLflow logging as a Hydra callback, run comparison.
 
-``MlflowTracking`` and ``runs_table`` are loaded on first access (PEP 562) so that importing
-``lwrlab.tracking.figures`` from the pipeline does not pay for importing mlflow.
+``MlflowTracking`` and ``runs_table`` are loaded on first access (PEP 562) so that importing a
+light module of the package (``lwrlab.tracking.benchmark_tables``) does not pay for importing mlflow.
+Figures live in :mod:`lwrlab.figures`.
 
 Examples
 --------

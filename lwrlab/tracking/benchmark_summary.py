@@ -1,7 +1,7 @@
 """Hydra callback closing an ``experiment=estimator_benchmark`` sweep: the summary table and figure.
 
 At the end of the multirun it aggregates the jobs' ``estimator_benchmark.csv`` files
-(:func:`lwrlab.pipeline.estimator_benchmark.write_summary`) into the sweep folder, and, when a
+(:func:`lwrlab.tracking.benchmark_tables.write_summary`) into the sweep folder, and, when a
 tracking URI is set, logs them as one extra MLflow run (tag ``run_kind=summary``) in the
 benchmark's experiment beside the per-job runs, with the summary's mean metrics.
 """
@@ -15,6 +15,8 @@ from typing import Any
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig
 
+from lwrlab.tracking.benchmark_tables import collect, summarize, write_summary
+
 log = logging.getLogger(__name__)
 
 
@@ -26,8 +28,6 @@ class EstimatorBenchmarkSummary(Callback):
         self.experiment = experiment
 
     def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
-        from lwrlab.pipeline.estimator_benchmark import collect, summarize, write_summary
-
         sweep_dir = Path(str(config.hydra.sweep.dir))
         try:
             files = write_summary(sweep_dir)

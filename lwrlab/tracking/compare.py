@@ -164,7 +164,7 @@ def per_joint_rms(runs: pd.DataFrame, labels: pd.Series) -> tuple[np.ndarray, np
 
 def write_comparison(comparison: Comparison, output_dir: Path, title: str) -> list[Path]:
     """Write ``compare.md``, ``compare.csv``, ``runs.csv`` and ``rms_per_joint.png`` (if per-joint RMS exist)."""
-    from lwrlab.tracking.figures import rms_per_joint_by_group
+    from lwrlab.figures.torques import rms_per_joint_by_group
 
     output_dir.mkdir(parents=True, exist_ok=True)
     grouped_by = ", ".join(comparison.groups) or "nothing (the runs do not differ)"

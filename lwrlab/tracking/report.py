@@ -33,9 +33,9 @@ import mlflow
 import pandas as pd
 from mlflow.tracking import MlflowClient
 
+from lwrlab.figures.paper_artifacts import ARTIFACT_KINDS, ArtifactColumnsError, ReportPart
 from lwrlab.reference import paper_results
 from lwrlab.tracking.mlflow_callback import RUN_KIND_TAG, absolute_tracking_uri, provenance_tags, search_runs_table
-from lwrlab.tracking.paper_artifacts import ARTIFACT_KINDS, ArtifactColumnsError, ReportPart
 from lwrlab.tracking.derived_runs import derived_key, log_derived_run
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.run_groups import short_name, swept_parameters, value_summary

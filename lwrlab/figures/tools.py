@@ -5,15 +5,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")  # files only: no display on servers and CI
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from lwrlab.figures.backend import pyplot
 
 
 def relative_std_bars(parameters: Sequence[str], series: Mapping[str, np.ndarray], path: Path, title: str) -> Path:
     """%σ of each tool parameter (log scale), one group of bars per parameter, one colour per series."""
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 3.5))
     width = 0.8 / max(1, len(series))
     x = np.arange(len(parameters))
@@ -33,6 +32,7 @@ def relative_std_bars(parameters: Sequence[str], series: Mapping[str, np.ndarray
 
 def confusion_matrices(names: Sequence[str], matrices: Mapping[str, np.ndarray], accuracies: Mapping[str, float], path: Path) -> Path:
     """One confusion matrix per classifier (rows: true tool, columns: recognised tool, share of trials)."""
+    plt = pyplot()
     n = len(matrices)
     fig, axes = plt.subplots(1, n, figsize=(4.2 * n + 0.8, 4.6), squeeze=False)
     for ax, (label, matrix) in zip(axes[0], matrices.items(), strict=True):

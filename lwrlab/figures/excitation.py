@@ -4,16 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")  # files only
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from lwrlab.figures.backend import pyplot
 
 
 def motion_figure(t: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, torque: np.ndarray, path: Path, title: str) -> Path:
     """Joint positions, velocities, accelerations and CAD torques over time, one panel each (like Fig. 9)."""
+    plt = pyplot()
     fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
     for ax, values, label in zip(axes, (q, dq, ddq, torque), ("q [rad]", "q̇ [rad/s]", "q̈ [rad/s²]", "Γ (CAD) [N·m]"), strict=True):
         for j in range(values.shape[1]):
@@ -38,6 +37,7 @@ def duration_figure(costs: pd.DataFrame, knees: dict[str, float], recommended: f
     shows each one's cost rescaled to [0, 1] over the durations, and (b) each one's successive
     differences over its total decrease, with the knee threshold ``fraction``.
     """
+    plt = pyplot()
     criteria = list(dict.fromkeys(costs["criterion"]))
     fig, (ax_cost, ax_diff) = plt.subplots(1, 2, figsize=(11, 4))
     for i, criterion in enumerate(criteria):
@@ -66,6 +66,7 @@ def criteria_figure(summary: pd.DataFrame, path: Path) -> Path:
     ``summary``: columns criterion, joint, rms_mean, rms_std, nrms_mean, nrms_std, and optionally
     model_rms_mean, model_rms_std (a third panel).
     """
+    plt = pyplot()
     criteria = list(dict.fromkeys(summary["criterion"]))
     joints = np.sort(summary["joint"].unique())
     width = 0.8 / len(criteria)

@@ -4,15 +4,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")  # files only: no display on servers and CI
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from lwrlab.figures.backend import pyplot
 
 
 def torque_overlay(t: np.ndarray, measured: np.ndarray, estimated: np.ndarray, path: Path, title: str) -> Path:
     """Measured vs estimated torque of every joint over time, one panel per joint."""
+    plt = pyplot()
     n = measured.shape[1]
     fig, axes = plt.subplots(n, 1, figsize=(8, 1.5 * n + 1), sharex=True)
     for j, ax in enumerate(np.atleast_1d(axes)):
@@ -31,6 +30,7 @@ def torque_overlay(t: np.ndarray, measured: np.ndarray, estimated: np.ndarray, p
 
 def error_per_joint(rms: np.ndarray, nrms: np.ndarray, path: Path, title: str, noise_std: np.ndarray | None = None) -> Path:
     """Bar charts of RMS (N·m) and NRMS (%) per joint, with the torque-noise floor if known."""
+    plt = pyplot()
     joints = np.arange(1, rms.shape[0] + 1)
     fig, (ax_rms, ax_nrms) = plt.subplots(1, 2, figsize=(9, 3.2))
     ax_rms.bar(joints, rms, color="C0")
@@ -59,6 +59,7 @@ def rms_per_joint_by_group(mean: np.ndarray, spread: np.ndarray, labels: list[st
     labels
         One label per group (``estimator=wls``).
     """
+    plt = pyplot()
     groups, joints = mean.shape
     positions = np.arange(1, joints + 1)
     width = 0.8 / max(groups, 1)

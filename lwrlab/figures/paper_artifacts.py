@@ -22,12 +22,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")  # files only: no display on servers and CI
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from lwrlab.figures.backend import pyplot
 
 
 @dataclass
@@ -104,6 +102,7 @@ def table2_base_parameters(frame: pd.DataFrame, paper: Mapping[str, Any], output
 
 def fig5_duration(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path) -> ReportPart:
     """Criterion value of the optimised motion vs its duration, one curve per criterion (mean ± std)."""
+    plt = pyplot()
     _require(frame, "fig5_duration.csv", ["criterion", "duration_s", "cost"])
     stats = frame.groupby(["criterion", "duration_s"])["cost"].agg(["mean", "std", "count"]).reset_index()
     pivot = frame.groupby(["duration_s", "criterion"])["cost"].apply(_mean_std).unstack("criterion")
@@ -138,6 +137,7 @@ def fig5_duration(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
 
 def fig6_criteria(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path) -> ReportPart:
     """Cross-validation RMS/NRMS per joint per criterion, mean and spread over seeds."""
+    plt = pyplot()
     _require(frame, "fig6_criteria.csv", ["criterion", "joint", "rms", "nrms"])
     if "seed" not in frame.columns:
         frame = frame.assign(seed=0)

@@ -5,11 +5,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from lwrlab.figures.backend import pyplot
 
 
 def path_on_wall(desired: np.ndarray, actual: np.ndarray, wall: tuple[float, float, float, float], path: Path, title: str) -> Path:
@@ -17,6 +15,7 @@ def path_on_wall(desired: np.ndarray, actual: np.ndarray, wall: tuple[float, flo
 
     ``desired``, ``actual``: (N, 3) positions (m); ``wall``: (y_min, y_max, z_min, z_max) (m).
     """
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(4.5, 5.0))
     y_min, y_max, z_min, z_max = wall
     ax.add_patch(plt.Rectangle((y_min, z_min), y_max - y_min, z_max - z_min, fill=False, color="0.6", lw=1.0, ls="--", label="wall"))
@@ -38,6 +37,7 @@ def normal_force(t: np.ndarray, panels: Mapping[str, Mapping[str, np.ndarray]], 
 
     ``panels``: panel title → {"estimated": (N,), "measured": (N,)} (N); ``desired`` (N).
     """
+    plt = pyplot()
     fig, axes = plt.subplots(len(panels), 1, figsize=(7.0, 2.4 * len(panels)), sharex=True, squeeze=False)
     for ax, (name, series) in zip(axes[:, 0], panels.items(), strict=True):
         ax.plot(t, series["measured"], color="tab:blue", lw=0.8, label="measured (wall sensor)")
