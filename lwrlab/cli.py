@@ -20,8 +20,8 @@ from hydra.errors import CompactHydraException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
-from lwrlab.config_checks import check_config
 from lwrlab.errors import UserError
+from lwrlab.pipeline.config_checks import check_config
 from lwrlab.resources import CONFIG_SEARCH_PATH
 from lwrlab.tracking import job_state
 from lwrlab.tracking.processes import JobInterrupted

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from hydra import compose, initialize_config_dir
 
-from lwrlab.config_checks import RULES, check_config, violations
 from lwrlab.errors import ConfigError
+from lwrlab.pipeline.config_checks import RULES, check_config, violations
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 
