@@ -8,10 +8,12 @@ were killed outright (SIGKILL, nothing can run) is finalised when it is resumed.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -20,7 +22,7 @@ from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
 from lwrlab.tracking.mlflow_callback import RUN_ID_FILE
-from lwrlab.tracking.processes import descendant_pids, process_alive
+from lwrlab.tracking.processes import descendant_pids, process_alive, wait_until
 from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, runs_of
 
 # A real identification job that runs ~10 s on one core (a 30 s motion), so a signal finds it busy.
@@ -176,3 +178,31 @@ def test_a_resumed_sweep_finalises_runs_whose_processes_were_killed_outright(tmp
     assert sorted(run.data.params["x"] for run in finished) == ["1", "2", "3"]
     assert all(run.data.tags.get("retried_by") for run in stale)
     assert len(parents) == 1 and parents[0].info.status == "FINISHED"  # the same parent, reopened and ended
+
+
+RAY_MISSING = importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is None
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(RAY_MISSING, reason="optional extra [ray] (hydra-ray-launcher) not installed: pip install -e '.[ray]'")
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_a_stopped_ray_sweep_leaves_no_run_running_and_no_ray_process_alive(tmp_path: Path, signum: int) -> None:
+    env = {"TOY_SLEEP_S": "60", "RAY_USAGE_STATS_ENABLED": "0", "RAY_TMPDIR": tempfile.mkdtemp(prefix="ray", dir="/tmp")}
+    sweep_dir = tmp_path / "sweep"
+    process = start(TOY_APP, "hydra/launcher=ray_local", "experiment_name=stop_ray", f"hydra.sweep.dir={sweep_dir}", "x=1,2,3,4",
+                    store=tmp_path, multirun=True, env=env)
+    wait_for_runs(sweep_dir, 2, process, timeout=180)
+    time.sleep(1.0)
+    ray_processes = descendant_pids(process.pid)  # raylet, GCS, workers…
+    output = stop(process, signum)
+    wait_until(lambda: not any(process_alive(pid) for pid in ray_processes), 20.0)  # Ray's clean-up is asynchronous
+    assert not [pid for pid in ray_processes if process_alive(pid)], f"Ray processes left:\n{output[-3000:]}"
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    jobs, parents = jobs_and_parents(runs_of(uri, "stop_ray"))
+    assert [run.info.status for run in parents] == ["KILLED"], output[-3000:]
+    assert len(jobs) >= 2 and {run.info.status for run in jobs} == {"KILLED"}
+    client = MlflowClient(uri)
+    # Ray's driver handles SIGTERM itself (it exits): the exit ends the runs. SIGINT reaches lwrlab's handler.
+    reason = "exited before this job ended" if signum == signal.SIGTERM else "SIGINT"
+    for run in jobs:
+        assert_killed_with_outputs(client, run.info.run_id, reason, "table.csv")

@@ -54,7 +54,8 @@ def end_killed(
     client, run_id
         The store and the run.
     reason
-        Why it was stopped (``"SIGTERM"``, :func:`stale_reason`), tagged ``killed_by``.
+        Why it was stopped (``"SIGTERM"``, :func:`stale_reason`), tagged ``killed_by`` unless the run
+        already says why (a sweep's launching process tags its jobs before it stops them).
     output_dir
         The job output folder on this machine, if any.
     redactor
@@ -79,7 +80,8 @@ def end_killed(
             where = f"outputs written so far uploaded as artifacts (and kept in {output_dir})"
         except Exception as error:  # the store may be going away too: say where the files are
             where = f"outputs written so far left on disk in {output_dir} (upload failed: {type(error).__name__})"
-    retry_locked(client.set_tag, run_id, KILLED_BY_TAG, reason)
+    if KILLED_BY_TAG not in retry_locked(client.get_run, run_id).data.tags:
+        retry_locked(client.set_tag, run_id, KILLED_BY_TAG, reason)
     retry_locked(client.set_tag, run_id, OUTPUTS_TAG, where)
     retry_locked(client.set_terminated, run_id, status="KILLED")
     return where

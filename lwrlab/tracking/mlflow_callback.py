@@ -40,6 +40,7 @@ import getpass
 import hashlib
 import json
 import logging
+import multiprocessing
 import numbers
 import os
 import platform
@@ -423,6 +424,15 @@ def _without_userinfo(uri: str) -> str:
     return urllib.parse.urlunsplit((parts.scheme, netloc, parts.path, parts.query, parts.fragment))
 
 
+def _ray_is_initialized() -> bool:
+    """Whether a launcher connected this process to Ray (a local instance or a cluster)."""
+    ray = sys.modules.get("ray")
+    try:
+        return bool(ray is not None and ray.is_initialized())
+    except Exception:
+        return False
+
+
 class MlflowTracking(Callback):
     """Hydra callback that logs every Hydra job as an MLflow run.
 
@@ -582,23 +592,30 @@ class MlflowTracking(Callback):
             return
         self._stopping = True
         name = signal_name(signum)
-        is_worker = self._sweep_pid is not None and self._sweep_pid != os.getpid()
+        # A process-pool worker (loky, multiprocessing) of this sweep; Ray workers are not (raylet starts them).
+        is_pool_worker = self._sweep_pid not in (None, os.getpid()) and multiprocessing.parent_process() is not None
         try:
             self._end_job_killed(name)
             if self._parent_run_id is not None and self._sweep_pid == os.getpid():
                 self._end_sweep_killed(name)
-            elif self._sweep_pid == os.getpid():
+            elif self._sweep_pid == os.getpid() and not _ray_is_initialized():  # no parent run (untracked)
                 terminate_processes(worker_pids(os.getpid()), KILL_GRACE_S)
         except Exception as error:
             self._warn(f"ending the runs after {name}", error)
-        if is_worker:
+        if is_pool_worker:
             # A pool worker would catch the exception and take the sweep's next job; ending the
-            # process makes the launcher stop handing out jobs (its pool is broken).
+            # process makes the launcher stop handing out jobs (its pool is broken). A Ray worker
+            # raises instead: Ray would retry a task whose worker died.
             logging.shutdown()
             sys.stdout.flush()
             sys.stderr.flush()
             os._exit(JobInterrupted(signum).exit_status)
         raise JobInterrupted(signum)
+
+    def _sweep_is_stopping(self, client: MlflowClient) -> bool:
+        """Whether the sweep's launching process has begun to stop (it tags the parent run first)."""
+        assert self._parent_run_id is not None
+        return KILLED_BY_TAG in retry_locked(client.get_run, self._parent_run_id).data.tags
 
     def _end_job_killed(self, reason: str) -> None:
         """End the job run of this process KILLED (or its offline record), saying where its outputs are."""
@@ -629,12 +646,18 @@ class MlflowTracking(Callback):
         def in_flight() -> list[int]:
             return [pid for run in running_runs(client, experiment_ids, nested) if (pid := local_pid(run)) is not None]
 
+        # Jobs that a launcher hands out from now on see this tag and do not start.
+        retry_locked(client.set_tag, parent_run_id, KILLED_BY_TAG, reason)
+        for run in running_runs(client, experiment_ids, nested):  # the cause, whatever signal the worker gets
+            self._guarded("tagging a stopped job", retry_locked, client.set_tag, run.info.run_id, KILLED_BY_TAG, f"{reason} to the sweep")
         workers = in_flight()
         if workers:
             log.warning("%s: asking %d worker process(es) to end their runs", reason, len(workers))
             send_signal(workers, signal.SIGTERM)  # each worker's own handler uploads and ends its run
             wait_until(lambda: not in_flight(), STOP_GRACE_S)
-        killed = terminate_processes(worker_pids(own_pid), KILL_GRACE_S)
+        # Ray's own at-exit shutdown stops a local instance's processes (killing them from here
+        # would stall it, and calling it from a signal handler may deadlock inside ray.get).
+        killed = [] if _ray_is_initialized() else terminate_processes(worker_pids(own_pid), KILL_GRACE_S)
         if killed:
             log.warning("%s: %d worker process(es) did not stop on SIGTERM and were killed", reason, len(killed))
         upload = self._parent_settings.log_artifacts
@@ -647,18 +670,26 @@ class MlflowTracking(Callback):
         log.warning("%s: sweep run %s ended KILLED; no worker process left", reason, parent_run_id)
 
     def _end_sweep_at_exit(self) -> None:
-        """The launching process ends without on_multirun_end: end the nested runs left RUNNING and the parent FAILED."""
+        """The launching process ends without on_multirun_end: end the nested runs left RUNNING, and the parent.
+
+        The parent ends KILLED when jobs were still in flight (the process was stopped: e.g. Ray's
+        driver replaces this callback's SIGTERM handler by one that exits), FAILED otherwise (a
+        launch that failed before any job ran, such as a Ray cluster refusing the connection).
+        """
         if self._parent_run_id is None or self._parent_settings is None or self._sweep_pid != os.getpid():
             return
         parent_run_id, self._parent_run_id = self._parent_run_id, None
         try:
             client = self._connect(self._parent_settings)
             experiment_ids = [experiment.experiment_id for experiment in retry_locked(client.search_experiments)]
-            reason = "the sweep's launcher stopped before this job ended"
-            finalise_children(client, experiment_ids, parent_run_id, reason, self._parent_settings.log_artifacts)
+            reason = "the sweep's launching process exited before this job ended"
+            in_flight = finalise_children(client, experiment_ids, parent_run_id, reason, self._parent_settings.log_artifacts)
             if retry_locked(client.get_run, parent_run_id).info.status == "RUNNING":
-                retry_locked(client.set_terminated, parent_run_id, status="FAILED")
-                log.warning("the sweep's launcher failed: sweep run %s ended FAILED", parent_run_id)
+                status = "KILLED" if in_flight else "FAILED"
+                if in_flight:
+                    retry_locked(client.set_tag, parent_run_id, KILLED_BY_TAG, f"{reason}, with {len(in_flight)} job(s) in flight")
+                retry_locked(client.set_terminated, parent_run_id, status=status)
+                log.warning("the sweep's launcher stopped: sweep run %s ended %s", parent_run_id, status)
         except Exception as error:
             self._warn("ending the sweep's runs at exit", error)
 
@@ -682,6 +713,8 @@ class MlflowTracking(Callback):
             parent = self._previous_parent(client, experiment_id, identity) if self.resume else None
             if parent is not None:
                 retry_locked(client.update_run, parent.info.run_id, status="RUNNING")
+                if KILLED_BY_TAG in parent.data.tags:  # stopped before: its jobs may start again
+                    retry_locked(client.delete_tag, parent.info.run_id, KILLED_BY_TAG)
                 self._parent_run_id = parent.info.run_id
                 log.info("re-launched sweep: jobs are nested under the existing parent run %s", parent.info.run_id)
             else:
@@ -742,6 +775,8 @@ class MlflowTracking(Callback):
             experiment_id = ensure_experiment(client, settings)
             if not self._is_sweep_job(config):  # a sweep's launching process did this for its jobs
                 finalise_stale_runs(client, [experiment_id], socket.gethostname(), settings.log_artifacts)
+            if self._parent_run_id is not None and self._sweep_is_stopping(client):
+                raise JobInterrupted(signal.SIGTERM)  # dispatched while the sweep stops: do not start
             if self.resume and self._is_sweep_job(config) and self._skip_if_finished(client, experiment_id, tags, output_dir):
                 return
             run = retry_locked(client.create_run, experiment_id, run_name=run_name, tags=tags, start_time=start_ms)
