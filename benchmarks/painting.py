@@ -38,10 +38,10 @@ from lwrlab.control.joint_pd import ControlSetup
 from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path
 from lwrlab.planning.path_optimisation import GRADIENTS, PathProblem, WallBounds, optimise_path
 from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall
-from lwrlab.tools.library import load_tool
 from plugins.controllers.force_pi import ForcePIControl
 from plugins.robots.mdh import load_robot_yaml
 

@@ -9,7 +9,7 @@ import pytest
 from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
-from lwrlab.tools.library import load_library
+from lwrlab.pipeline.tool_library import load_library
 from lwrlab.tools.recognition import interpolate_geometry, recognise
 
 CLASSIFIERS = sorted(Path(__file__).resolve().parents[1].joinpath("conf", "classifier").glob("*.yaml"))

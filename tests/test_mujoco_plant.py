@@ -7,8 +7,8 @@ import pytest
 
 from lwrlab.kinematics import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
+from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall, mujoco_inverse_dynamics, mujoco_xml
-from lwrlab.tools.library import load_tool
 
 
 def _states(robot, rng, n=30):

@@ -8,10 +8,10 @@ from scipy.interpolate import BPoly
 
 from lwrlab.kinematics import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
+from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.planning.coverage import painted_fraction
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path, way_point_times
 from lwrlab.planning.path_optimisation import InfeasiblePath, PathProblem, WallBounds, optimise_path
-from lwrlab.tools.library import load_tool
 
 PARAMETERS = PaintingPathParameters(duration=30.0, swivel=0.0, z_upper=0.6, z_lower=0.2, y_start=0.1, y_step=0.2, n_steps=2)
 

@@ -10,8 +10,8 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.identification.payload import identify_payload, identify_payload_only, tool_columns
 from lwrlab.model.inertia import is_physically_consistent
 from lwrlab.model.payload import flange_to_joint_matrix, payload_in_joint_frame
+from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.signal.processing import process
-from lwrlab.tools.library import load_tool
 from plugins.plants.simulated import SimulatedPlant
 from plugins.trajectories.multisine import MultisineMotion
 

@@ -23,8 +23,8 @@ from lwrlab.io.artifacts import save_identified_model
 from lwrlab.io.logs import joint_columns, log_frame, write_log
 from lwrlab.model.inertia import standard_parameters
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.plants.core import Measurement
-from lwrlab.tools.library import load_tool
 from plugins.plants.simulated import SimulatedPlant
 from plugins.trajectories.multisine import MultisineMotion
 

@@ -9,7 +9,8 @@ import pytest
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.model.inertia import inertia_matrix, is_physically_consistent, random_consistent_parameters
 from lwrlab.model.payload import attach_payload, change_frame, flange_placement, frame_change_matrix, payload_in_joint_frame
-from lwrlab.tools.library import PAPER_TOOLS, build_tool, load_library, load_tool, tool_names
+from lwrlab.pipeline.tool_library import build_tool, load_library, load_tool, tool_names
+from lwrlab.tools.library import PAPER_TOOLS
 from lwrlab.tools.model import composite_tool
 from lwrlab.tools.shapes import Box, Cylinder, Sphere
 

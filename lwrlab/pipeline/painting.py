@@ -198,7 +198,7 @@ def run_painting(
 
     from lwrlab.pipeline.identification import identify_configured
     from lwrlab.pipeline.tools import ToolBench, identify_tool
-    from lwrlab.tools.library import load_library
+    from lwrlab.pipeline.tool_library import load_library
     from lwrlab.figures.painting import normal_force, path_on_wall
 
     output_dir.mkdir(parents=True, exist_ok=True)

@@ -53,10 +53,10 @@ from lwrlab.identification.payload import (
 )
 from lwrlab.io.artifacts import identified_model_path, load_identified_model
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
+from lwrlab.pipeline.tool_library import load_library, load_tool
 from lwrlab.pipeline.tools import METHODS, ToolBench, ToolData, identify_tool
 from lwrlab.plants.core import Measurement
 from lwrlab.signal.processing import process
-from lwrlab.tools.library import load_library, load_tool
 from lwrlab.tools.recognition import Recognition, ToolClassifier
 
 log = logging.getLogger(__name__)

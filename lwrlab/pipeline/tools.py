@@ -38,11 +38,12 @@ from lwrlab.identification.payload import (
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES
 from lwrlab.model.payload import flange_placement, frame_change_matrix
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.tool_library import load_library
 from lwrlab.plants.core import Plant
 from lwrlab.reference import paper_results
 from lwrlab.signal.processing import process
 from lwrlab.tools.excitation import select_tool_motion
-from lwrlab.tools.library import PAPER_TOOLS, ToolLibrary, load_library
+from lwrlab.tools.library import PAPER_TOOLS, ToolLibrary
 from lwrlab.tools.model import GEOMETRY_NAMES, Tool
 from lwrlab.tools.recognition import Recognition, ToolClassifier
 from lwrlab.trajectory.core import Trajectory, check_limits

@@ -34,7 +34,7 @@ class PCALookup(DistanceClassifier):
 
     Examples
     --------
-    >>> from lwrlab.tools.library import load_library
+    >>> from lwrlab.pipeline.tool_library import load_library
     >>> library = load_library()
     >>> pca = PCALookup(n_components=4).fit(library)
     >>> pca.predict(library["small_roller"].parameters).tool
