@@ -19,7 +19,9 @@ JOB_TABLE = "estimator_benchmark.csv"
 """A job's one-row table (in its output folder)."""
 PARAMETER_TABLE = "parameter_errors.csv"
 """A job's per-base-parameter errors (in its output folder)."""
-METRICS = ("base_parameter_error", "rms_mean", "nrms_mean", "min_pseudo_inertia_eigenvalue", "consistency_margin", "fit_cpu_s", "residual_std")
+METRICS = (
+    "base_parameter_error", "rms_mean", "nrms_mean", "min_pseudo_inertia_eigenvalue", "consistency_margin", "fit_cpu_s", "residual_std"
+)
 """The metrics of a job's row, summarised over seeds."""
 
 

@@ -23,6 +23,8 @@ def download_run_artifact(run_id: str, artifact_path: str, tracking_uri: str | N
     from mlflow.exceptions import MlflowException
 
     try:
-        return Path(mlflow.artifacts.download_artifacts(run_id=run_id, artifact_path=artifact_path, tracking_uri=tracking_uri))
+        local = mlflow.artifacts.download_artifacts(run_id=run_id, artifact_path=artifact_path, tracking_uri=tracking_uri)
     except (MlflowException, OSError) as error:
-        raise FileNotFoundError(f"no {artifact_path} for MLflow run {run_id!r} in store {tracking_uri or '(default)'}: {error}") from error
+        store = tracking_uri or "(default)"
+        raise FileNotFoundError(f"no {artifact_path} for MLflow run {run_id!r} in store {store}: {error}") from error
+    return Path(local)
