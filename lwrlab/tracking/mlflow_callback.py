@@ -612,6 +612,20 @@ class MlflowTracking(Callback):
             os._exit(JobInterrupted(signum).exit_status)
         raise JobInterrupted(signum)
 
+    def _end_earlier_attempts(self, client: MlflowClient, experiment_id: str, tags: Mapping[str, str], upload: bool) -> None:
+        """End KILLED the RUNNING runs of this very job (same sweep, job number and config): attempts
+        whose node or worker died, which the launcher (Ray) now retries here; the retry links them."""
+        same_job = (
+            f"tags.`mlflow.parentRunId` = '{self._parent_run_id}' and tags.hydra_job_num = '{tags.get('hydra_job_num', '')}' "
+            f"and tags.config_hash = '{tags['config_hash']}'"
+        )
+        earlier = running_runs(client, [experiment_id], same_job)
+        reason = f"its worker was lost; the launcher retried the job in process {os.getpid()} on {socket.gethostname()}"
+        for run in earlier:
+            end_killed(client, run.info.run_id, reason, None, None, upload)
+            log.warning("run %s of this job was left RUNNING by a lost worker: ended KILLED", run.info.run_id)
+        self._failed_attempts += [run.info.run_id for run in earlier]
+
     def _sweep_is_stopping(self, client: MlflowClient) -> bool:
         """Whether the sweep's launching process has begun to stop (it tags the parent run first)."""
         assert self._parent_run_id is not None
@@ -779,6 +793,8 @@ class MlflowTracking(Callback):
                 raise JobInterrupted(signal.SIGTERM)  # dispatched while the sweep stops: do not start
             if self.resume and self._is_sweep_job(config) and self._skip_if_finished(client, experiment_id, tags, output_dir):
                 return
+            if self._parent_run_id is not None:
+                self._end_earlier_attempts(client, experiment_id, tags, settings.log_artifacts)
             run = retry_locked(client.create_run, experiment_id, run_name=run_name, tags=tags, start_time=start_ms)
         except Exception as error:
             self._warn("starting the MLflow run", error)

@@ -1,0 +1,36 @@
+"""TEST HELPER: a two-node Ray cluster (a head and one worker node) on this machine, on 127.0.0.1 only.
+
+Prints ``address <gcs address>`` once both nodes are up, keeps the cluster until its stdin closes,
+then stops it. Ray binds to loopback only when it does not treat the machine as part of a cluster
+network (``RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0``, set here before Ray is imported); its
+``cluster_utils.Cluster`` then starts both nodes' raylets on 127.0.0.1 (``ray start`` would
+replace 127.0.0.1 by the network interface's address)::
+
+    python tests/apps/ray_loopback_cluster.py <temp_dir>
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
+os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
+
+from ray.cluster_utils import Cluster  # noqa: E402
+
+
+def main(temp_dir: str) -> None:
+    cluster = Cluster(
+        initialize_head=True,
+        head_node_args={"num_cpus": 1, "include_dashboard": False, "node_ip_address": "127.0.0.1", "temp_dir": temp_dir},
+    )
+    cluster.add_node(num_cpus=1, node_ip_address="127.0.0.1")
+    cluster.wait_for_nodes()
+    print(f"address {cluster.address}", flush=True)
+    sys.stdin.read()  # until the test closes the pipe
+    cluster.shutdown()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
