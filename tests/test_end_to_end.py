@@ -71,6 +71,20 @@ def test_noiseless_data_give_the_true_base_parameters(tmp_path: Path) -> None:
     assert metrics["base_parameter_error"] < 1e-6
 
 
+def test_a_poorly_exciting_motion_is_warned_and_tagged_in_mlflow(tmp_path: Path) -> None:
+    """A tiny motion still gives numbers: they come with a printed warning and the run's tags say so."""
+    completed = run_lwrlab(
+        tmp_path, "task=identification", "trajectory=multisine", "trajectory.duration=4", "trajectory.harmonics=2",
+        "trajectory.limit_fraction=0.001", "validation.duration=4",
+    )
+    assert completed.returncode == 0, completed.stderr[-3000:]
+    assert "WARNING: identifiability poor" in completed.stdout
+    run = only_run(tmp_path, "identification")  # the experiment is named after the task
+    assert run.info.status == "FINISHED"
+    assert run.data.tags["identifiability"] == "poor" and int(run.data.tags["warnings"]) >= 1 and run.data.tags["data"] == "simulation"
+    assert run.data.metrics["cond_W_b_scaled"] > 500
+
+
 def test_unknown_robot_lists_the_available_ones(tmp_path: Path) -> None:
     completed = run_lwrlab(tmp_path, "robot=nonexistent", "tracking=none", tracked=False)
     assert completed.returncode != 0

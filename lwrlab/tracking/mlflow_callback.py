@@ -115,6 +115,8 @@ ERROR_TAG_MAX_LENGTH = 1000  # a readable summary; the full traceback goes to er
 
 RUN_ID_FILE = "mlflow_run_id.txt"
 ERROR_FILE = "error.txt"
+JOB_TAGS_FILE = "tags.json"
+"""Tags a stage asks for (written into its output folder): set on the run before it ends."""
 RESUMED_FILE = "resumed_from_run.txt"  # written instead of a new run when a sweep job already finished
 # Config keys that say where a run is logged, not what it computes: left out of the config hash.
 NOT_HASHED_KEYS = frozenset({"tracking"})
@@ -841,6 +843,7 @@ class MlflowTracking(Callback):
             return  # tracking was unavailable at job start (already warned)
         try:
             self._guarded("logging metrics", log_metrics, client, run_id, metrics)
+            self._guarded("tagging what the job reported", self._log_job_tags, client, run_id, output_dir)
             if failed:
                 self._guarded("tagging the error", retry_locked, client.set_tag, run_id, "error", error_summary)
             if settings.log_artifacts:
@@ -857,6 +860,19 @@ class MlflowTracking(Callback):
             atexit.unregister(self._end_run_interrupted)
 
     # -- internals --------------------------------------------------------------------------
+
+    def _log_job_tags(self, client: MlflowClient, run_id: str, output_dir: Path) -> None:
+        """Tags a stage wrote into ``tags.json`` (e.g. ``identifiability=poor``): what a reader must know first."""
+        path = output_dir / JOB_TAGS_FILE
+        if not path.is_file():
+            return
+        try:
+            tags = json.loads(path.read_text())
+        except (OSError, ValueError) as error:
+            log.warning("%s is not readable JSON (%s): its tags are not logged", path, error)
+            return
+        for key, value in dict(tags).items():
+            retry_locked(client.set_tag, run_id, str(key), self._redactor.redact(str(value)))
 
     def settings_for(self, config: DictConfig) -> TrackingSettings:
         """This callback's settings as ``config`` resolves them, with paths made absolute.
