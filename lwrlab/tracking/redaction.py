@@ -45,6 +45,13 @@ _QUERY_SECRET = re.compile(r"(?i)(?P<head>\b(?:password|passwd|pwd|token|secret|
 SECRET_ENVIRONMENT_NAME = re.compile(r"(?i)(PASSWORD|PASSWD|SECRET|TOKEN|API_?KEY|ACCESS_KEY|PRIVATE_KEY|CREDENTIAL)")
 # A config key names a secret when its last component contains one of these words (any case).
 SECRET_KEY_WORD = re.compile(r"(?i)(password|passwd|secret|token|api[_.\-]?key|apikey|auth|credential|private[_.\-]?key)")
+# The literal spellings of SECRET_KEY_WORD's words (lower case), for a quick test on raw bytes.
+_SECRET_KEY_WORD_LITERALS = tuple(
+    word.encode() for word in ("password", "passwd", "secret", "token", "apikey", "auth", "credential")
+    + tuple(f"{head}{separator}key" for head in ("api", "private") for separator in ("", "_", ".", "-"))
+)
+# Non-ASCII letters that match ASCII ones under re.IGNORECASE (İ, ı, ſ, K), as UTF-8, with that letter.
+_ASCII_CASE_FOLDINGS = tuple((letter.encode(), ascii_letter.encode()) for letter, ascii_letter in zip("\u0130\u0131\u017f\u212a", "iisk"))
 # ``api.key`` and ``private.key`` span the last dot: the whole key's tail is checked for them.
 _SECRET_KEY_TAIL = re.compile(r"(?i)(api|private)\.key[\w\-]*$")
 # ``key=value`` as in Hydra overrides, command lines and query strings (prefixes + ++ ~ allowed).
@@ -190,18 +197,31 @@ class Redactor:
         return text
 
     def needs_redaction(self, data: bytes) -> bool:
-        """Whether ``data`` holds a known secret or a URI password."""
+        """Whether ``data`` holds a known secret, a URI password or a secret-key assignment."""
         if any(secret.encode("utf-8") in data for secret in self.secrets):
             return True
-        text = data.decode("utf-8", errors="replace")
-        if b"://" in data and passwords_in(text):
+        if b"://" in data and passwords_in(data.decode("utf-8", errors="replace")):
             return True
+        if not _may_name_a_secret_key(data):  # most artifacts (numbers, images): no regex over megabytes
+            return False
+        text = data.decode("utf-8", errors="replace")
         return redact_secret_assignments(text) != text
 
     def redact_mapping(self, values: Mapping[str, str]) -> dict[str, str]:
         """Redact every value (and key) of a params or tags mapping; secret keys lose their whole value."""
         values = redact_secret_params({str(key): str(value) for key, value in values.items()})
         return {self.redact(key): self.redact(value) for key, value in values.items()}
+
+
+def _may_name_a_secret_key(data: bytes) -> bool:
+    """A necessary condition for a match of :data:`SECRET_KEY_WORD` in ``data`` decoded: one of its words,
+    once ASCII letters are lowered and the non-ASCII letters that Python's case-insensitive matching
+    equates with ASCII ones are replaced by them. Byte searches, far faster than the regex on a decoded
+    binary file (a Parquet table, an image)."""
+    for letter, ascii_letter in _ASCII_CASE_FOLDINGS:
+        data = data.replace(letter, ascii_letter)
+    lowered = data.lower()  # ASCII letters only
+    return any(word in lowered for word in _SECRET_KEY_WORD_LITERALS)
 
 
 def _files_needing_redaction(folder: Path, redactor: Redactor) -> Iterator[Path]:
