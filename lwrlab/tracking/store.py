@@ -6,7 +6,8 @@ new database at once (migration races), two processes creating the same experime
 
 * :func:`store_lock` — an exclusive file lock (``<db>.lock``) held while a process creates the
   schema or an experiment, so that only one does it;
-* :func:`prepare_sqlite_store` — creates the schema once and switches the database to WAL
+* :func:`prepare_sqlite_store` — creates the schema once (a new store copies an empty migrated
+  database, see :mod:`lwrlab.tracking.schema_template`) and switches the database to WAL
   journaling (readers no longer block the writer; the setting persists in the file);
 * :func:`retry_locked` — retries a store call that failed with ``database is locked``, with
   jittered exponential back-off.
@@ -22,6 +23,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TypeVar
+
+from lwrlab.tracking.schema_template import copy_schema_template
 
 try:  # POSIX only; elsewhere the lock is a no-op and retries carry the load
     import fcntl
@@ -82,6 +85,7 @@ def prepare_sqlite_store(tracking_uri: str) -> None:
     from mlflow.tracking import MlflowClient
 
     with store_lock(tracking_uri):
+        copy_schema_template(database)  # a new store: MLflow's schema copied, not migrated again
         MlflowClient(tracking_uri=tracking_uri).search_experiments(max_results=1)  # creates or migrates the schema
         _use_wal_journal(database)
 
