@@ -5,9 +5,13 @@ temporary folder, then times, in alternating rounds (so a change of machine load
 
 - ``python -c "import numpy, pinocchio"``: the floor no Python robotics tool goes below;
 - ``lwrlab task=identification plant=log …`` with tracking off;
-- the same with tracking on (a fresh SQLite MLflow store per round).
+- the same with tracking on, logging into a new SQLite MLflow store each round (a new project);
+- the same with tracking on, logging into one store that earlier runs created (the usual case).
 
-Prints the median wall time of each and its ratio to the floor.
+A new store is a copy of MLflow's empty migrated database (:mod:`lwrlab.tracking.schema_template`),
+built once per MLflow version; it is built before the rounds, so that all rounds time the same thing.
+Prints the median wall time of each and its ratio to the floor, and the same for CPU time (user +
+system), which other processes on a busy machine disturb less than wall time.
 
     .venv/bin/python benchmarks/startup.py [--rounds 3]
 """
@@ -15,6 +19,7 @@ Prints the median wall time of each and its ratio to the floor.
 from __future__ import annotations
 
 import argparse
+import resource
 import statistics
 import subprocess
 import sys
@@ -26,10 +31,14 @@ REPOSITORY = Path(__file__).resolve().parents[1]
 LWRLAB = [sys.executable, "-m", "lwrlab.cli"]
 
 
-def _timed(command: list[str], cwd: Path) -> float:
+def _timed(command: list[str], cwd: Path) -> tuple[float, float]:
+    """Wall time and CPU time (user + system, the process and its children) of ``command``."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     subprocess.run(command, cwd=cwd, check=True, capture_output=True, text=True)
-    return time.perf_counter() - started
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def main() -> None:
@@ -42,20 +51,31 @@ def main() -> None:
                        cwd=REPOSITORY, check=True, capture_output=True)
         job = [*LWRLAB, "task=identification", "plant=log", f"data.path={folder / 'identification.csv'}",
                f"data.validation_path={folder / 'validation.csv'}"]
-        times: dict[str, list[float]] = {"import numpy, pinocchio (floor)": [], "identification, tracking off": [], "identification, tracking on": []}
+
+        def tracked(store: Path, run_dir: Path) -> list[str]:
+            return [*job, f"hydra.run.dir={run_dir}", f"hydra.callbacks.mlflow.tracking_uri=sqlite:///{store / 'mlflow.db'}",
+                    f"hydra.callbacks.mlflow.artifact_location={store / 'artifacts'}"]
+
+        shared_store = folder / "shared_store"
+        subprocess.run(tracked(shared_store, folder / "first"), cwd=REPOSITORY, check=True, capture_output=True)  # also builds the template
+        times: dict[str, list[tuple[float, float]]] = {
+            "import numpy, pinocchio (floor)": [],
+            "identification, tracking off": [],
+            "identification, tracking on, new store": [],
+            "identification, tracking on, existing store": [],
+        }
         for k in range(args.rounds):
             times["import numpy, pinocchio (floor)"].append(_timed([sys.executable, "-c", "import numpy, pinocchio"], folder))
             times["identification, tracking off"].append(_timed([*job, "tracking=none", f"hydra.run.dir={folder / f'off{k}'}"], REPOSITORY))
-            store = folder / f"store{k}"
-            times["identification, tracking on"].append(_timed(
-                [*job, f"hydra.run.dir={folder / f'on{k}'}", f"hydra.callbacks.mlflow.tracking_uri=sqlite:///{store / 'mlflow.db'}",
-                 f"hydra.callbacks.mlflow.artifact_location={store / 'artifacts'}"], REPOSITORY))
-            print(f"round {k + 1}/{args.rounds}: " + ", ".join(f"{name} {values[-1]:.2f} s" for name, values in times.items()), flush=True)
-    floor = statistics.median(times["import numpy, pinocchio (floor)"])
-    print(f"\n| what | median wall (s) | × floor |\n|---|---:|---:|")
-    for name, values in times.items():
-        median = statistics.median(values)
-        print(f"| {name} | {median:.2f} | {median / floor:.1f} |")
+            times["identification, tracking on, new store"].append(_timed(tracked(folder / f"store{k}", folder / f"on{k}"), REPOSITORY))
+            times["identification, tracking on, existing store"].append(_timed(tracked(shared_store, folder / f"shared{k}"), REPOSITORY))
+            print(f"round {k + 1}/{args.rounds}: " + ", ".join(f"{name} {values[-1][0]:.2f} s" for name, values in times.items()), flush=True)
+    walls = {name: statistics.median(wall for wall, _ in values) for name, values in times.items()}
+    cpus = {name: statistics.median(cpu for _, cpu in values) for name, values in times.items()}
+    floor = "import numpy, pinocchio (floor)"
+    print("\n| what | median wall (s) | × floor | median CPU (s) | × floor |\n|---|---:|---:|---:|---:|")
+    for name in times:
+        print(f"| {name} | {walls[name]:.2f} | {walls[name] / walls[floor]:.1f} | {cpus[name]:.2f} | {cpus[name] / cpus[floor]:.1f} |")
 
 
 if __name__ == "__main__":
