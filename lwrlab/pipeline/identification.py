@@ -86,7 +86,8 @@ class IdentificationReport:
     identifiability: IdentifiabilityReport
     """What the data can determine (rank, cond, weak directions, still joints)."""
     notes: list[str] = field(default_factory=list)
-    """Warnings to print with the result and tag the run with (identifiability, implausible logs)."""
+    """What the processing chose per log, and the warnings to print with the result (identifiability,
+    implausible logs)."""
     metrics: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -211,8 +212,6 @@ def identify(
         validation_measurements = [_named(plant.measure(validation_motion), "validation_motion", "validation")]
 
     processed = [_process(m, processing) for m in measurements]
-    for m, data in zip(measurements, processed, strict=True):
-        print(f"{m.name}: {data.describe()}")  # what the processing chose, on the console
     rows = [data.rows(lambda q, dq, ddq: base.base_regressor(regressor(robot, q, dq, ddq))) for data in processed]
     w_base = np.vstack([w for w, _ in rows])
     tau = np.concatenate([t for _, t in rows])
@@ -225,8 +224,6 @@ def identify(
             f"{identifiability.warning_text().removeprefix('WARNING: ')}\n"
             "The data cannot determine these parameters: excite the named joints more, or use an estimator with a prior (estimator=sdp)."
         )
-    if not identifiability.ok:
-        print(identifiability.warning_text())
     context = _context(robot, base, motion if len(processed) == 1 else None, processed[0])
     cpu_start = time.process_time()
     estimator.fit(w_base, tau, context=context)
@@ -295,7 +292,8 @@ def identify(
         with np.errstate(divide="ignore", invalid="ignore"):
             parameters["relative_error"] = np.abs(estimator.phi_ - true_base) / np.abs(true_base)
         metrics["base_parameter_error"] = float(np.linalg.norm(estimator.phi_ - true_base) / np.linalg.norm(true_base))
-    notes = [] if identifiability.ok else [identifiability.warning_text()]
+    notes = [f"processing of {m.name}: {data.describe()}" for m, data in zip(measurements, processed, strict=True)]
+    notes += [] if identifiability.ok else [identifiability.warning_text()]
     if not identifiability.ok and has_prior:
         notes.append(format_prior_note(identifiability))
     notes += [f"WARNING: {w}" for m in [*measurements, *validation_measurements] for w in m.metadata.get("warnings", [])]
