@@ -76,6 +76,10 @@ def test_every_format_round_trips_to_the_in_memory_identification(lwr4: RobotMod
     tolerance = 1e-9 if fmt in ("sqlite3", "mcap") else 1e-12
     np.testing.assert_allclose(from_log.identified.base_values, in_memory.identified.base_values, rtol=tolerance * 1e3, atol=tolerance)
     assert from_log.metrics["validation_rel_error"] == pytest.approx(in_memory.metrics["validation_rel_error"], rel=1e-6)
+    # the identification log is predicted with the velocity source its fit chose
+    fit_prediction = from_log.predictions[0]
+    assert fit_prediction.role == "identification"
+    assert fit_prediction.processing.endswith("logged q̇") == ("velocity: logged" in from_log.notes[0])
 
 
 def _compose(*overrides: str):

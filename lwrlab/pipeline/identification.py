@@ -144,6 +144,11 @@ def _process(measurement: Measurement, processing: dict[str, Any], every_sample:
     return process(measurement.t, measurement.q, measurement.tau, measurement.dq, every_sample=every_sample, **processing)
 
 
+def _as_chosen(processing: dict[str, Any], data: ProcessedData) -> dict[str, Any]:
+    """``processing`` with the cut-off and velocity source that ``data``'s processing chose."""
+    return {**processing, "cutoff_hz": data.cutoff_hz, "velocity": "logged" if data.velocity.logged else "differentiated"}
+
+
 def _context(robot: RobotModel, base: BaseParameters, motion: Trajectory | None, data: ProcessedData) -> IdentificationContext:
     """The estimator's context; the commanded motion's regressor only when the plant executed it."""
     reference = None
@@ -224,7 +229,7 @@ def identify(
             f"{identifiability.warning_text().removeprefix('WARNING: ')}\n"
             "The data cannot determine these parameters: excite the named joints more, or use an estimator with a prior (estimator=sdp)."
         )
-    context = _context(robot, base, motion if len(processed) == 1 else None, processed[0])
+    context = _context(robot, base, motion, processed[0])
     cpu_start = time.process_time()
     estimator.fit(w_base, tau, context=context)
     fit_cpu_s = time.process_time() - cpu_start
@@ -233,9 +238,15 @@ def identify(
         standard = standard_from_base(base, estimator.phi_, robot.parameters)
     identified = IdentifiedModel(base.names, estimator.phi_.copy(), estimator.std_.copy(), robot.parameter_names, standard)
 
-    predictions = [predict_measurement(robot, base, estimator.phi_, m, processing) for m in [*measurements, *validation_measurements]]
-    validation_predictions = [replace(p, role="validation") for p in predictions[len(measurements):]]
-    fit_predictions = [replace(p, role="identification") for p in predictions[: len(measurements)]]
+    # An identification log is predicted with the cut-off and velocity source its fit used; a
+    # validation log gets its own, as a new log would.
+    fit_predictions = [
+        replace(predict_measurement(robot, base, estimator.phi_, m, _as_chosen(processing, data)), role="identification")
+        for m, data in zip(measurements, processed, strict=True)
+    ]
+    validation_predictions = [
+        replace(predict_measurement(robot, base, estimator.phi_, m, processing), role="validation") for m in validation_measurements
+    ]
     predictions = fit_predictions + validation_predictions
     measured = np.vstack([p.measured[p.scored] for p in validation_predictions])
     estimated = np.vstack([p.predicted[p.scored] for p in validation_predictions])
@@ -359,8 +370,8 @@ def format_report(report: IdentificationReport) -> str:
         f"cond(W_b) {report.metrics['cond_W_b']:.4g}, smallest pseudo-inertia eigenvalue "
         f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} of the reported standard set (< 0: not a rigid body)",
     ]
-    if any(m.metadata.get("resampled") for m in [*report.measurements, *report.validation_measurements]):
-        resampled = [m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")]
+    resampled = [m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")]
+    if resampled:
         lines.append(f"NOTE: irregular time stamps in {', '.join(resampled)}: processed on a uniform grid, scored at the logged samples")
     lines.append(report.identifiability.summary())
     lines += report.notes

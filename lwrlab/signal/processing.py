@@ -208,8 +208,8 @@ def process(
     ----------
     t, q, tau : raw times (s), positions (rad) and torques (N·m) on a uniform grid.
     dq : logged velocities (rad/s), or None.
-    cutoff_hz : Butterworth cut-off (Hz), ``"auto"`` (10 × the motion's RMS frequency), or ``None``
-        for no filter (noiseless simulations).
+    cutoff_hz : Butterworth cut-off (Hz), ``"auto"`` (15 × the motion's frequency ‖q̈‖/(2π‖q̇‖), see
+        :func:`auto_cutoff`), or ``None`` for no filter (noiseless simulations).
     order : Butterworth order.
     difference_accuracy : order of the centred differences, 2 (paper) or 4.
     trim_s : seconds dropped at each end (filter edge transients); None: 2 / cut-off (0 without filter).
