@@ -78,6 +78,7 @@ class LogPlant:
             "topic": topic,
             "limits": robot.limits,
         }
+        self._loaded: dict[Path, Measurement] = {}
 
     @property
     def truth(self) -> None:
@@ -90,8 +91,11 @@ class LogPlant:
         return self.paths[0]
 
     def load(self, path: str | Path, role: str) -> Measurement:
-        """One log as a measurement, tagged with its ``role`` (identification or validation)."""
-        measurement = load_log(path, **self._options).to_measurement()
+        """One log as a measurement, tagged with its ``role`` (identification or validation); each file is read once."""
+        key = Path(path)
+        if key not in self._loaded:
+            self._loaded[key] = load_log(key, **self._options).to_measurement()
+        measurement = self._loaded[key]
         return replace(measurement, metadata={**measurement.metadata, "role": role})
 
     def _split(self, whole: Measurement, validation: bool) -> Measurement:
