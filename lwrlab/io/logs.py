@@ -189,7 +189,8 @@ def _read(path: Path, mapping: dict[str, str], n_joints: int, joint_names: Seque
     raise LogError(f"{path}: unknown log format {path.suffix!r}; formats: {', '.join(FORMATS)}")
 
 
-def _where(path: Path, row: int) -> str:
+def row_location(path: Path, row: int) -> str:
+    """``row 41`` of a log's data, with the file's line for text files (``(line 43 of the file)``)."""
     line = f" (line {row + 2} of the file)" if path.suffix.lower() in (".csv", ".txt") else ""
     return f"row {row}{line}"
 
@@ -207,7 +208,7 @@ def _numeric_column(frame: pd.DataFrame, name: str, schema_name: str, path: Path
         what = "missing value (NaN)" if str(cell).strip().lower() in ("", "nan", "none", "null") else f"non-numeric value {cell!r}"
         if np.isinf(values[row]) or (isinstance(cell, float) and np.isinf(cell)):
             what = f"non-finite value {cell!r}"
-        raise LogError(f"{path}: column {name!r}, {_where(path, row)}: {what}")
+        raise LogError(f"{path}: column {name!r}, {row_location(path, row)}: {what}")
     return values
 
 
@@ -291,11 +292,11 @@ def load_log(
     steps = np.diff(t)
     if np.any(steps <= 0):
         row = int(np.argmax(steps <= 0)) + 1
-        raise LogError(f"{path}: column {name('t')!r}, {_where(path, row)}: time {t[row]:.9g} s does not increase (previous {t[row - 1]:.9g} s)")
+        raise LogError(f"{path}: column {name('t')!r}, {row_location(path, row)}: time {t[row]:.9g} s does not increase (previous {t[row - 1]:.9g} s)")
     median = float(np.median(steps))
     if np.any(steps > max_gap * median):
         row = int(np.argmax(steps > max_gap * median)) + 1
-        raise LogError(f"{path}: column {name('t')!r}, {_where(path, row)}: gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)")
+        raise LogError(f"{path}: column {name('t')!r}, {row_location(path, row)}: gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)")
     q = block("q") * POSITION_UNITS[position_unit]
     tau = block("tau") if drive_gains is None else block("current") * np.asarray(drive_gains, dtype=float)
     columns = [q, tau] + ([block("dq") * POSITION_UNITS[position_unit]] if has_velocity else [])

@@ -40,7 +40,7 @@ from typing import Protocol
 import numpy as np
 import pandas as pd
 
-from lwrlab.io.logs import POSITION_UNITS, TIME_UNITS, LogError, joint_columns
+from lwrlab.io.logs import POSITION_UNITS, TIME_UNITS, LogError, joint_columns, row_location
 
 SEVERITIES = ("error", "warning")
 
@@ -134,11 +134,6 @@ class PlausibilityThresholds:
     """Largest magnitude with any physical meaning: s, rad, rad/s, N·m."""
 
 
-def _row_text(path: Path, row: int) -> str:
-    line = f" (line {row + 2} of the file)" if path.suffix.lower() in (".csv", ".txt") else ""
-    return f"row {row}{line}"
-
-
 def _sound_columns(values: np.ndarray, names: Sequence[str], skip: set[str]) -> Iterator[tuple[int, str, np.ndarray]]:
     """``(joint index, column name, values)`` of the columns not already reported as corrupt."""
     return ((j, name, values[:, j]) for j, name in enumerate(names) if name not in skip)
@@ -152,7 +147,7 @@ def _absurd(path: Path, column: str, values: np.ndarray, bound: float, unit: str
     others = f" ({int(bad.sum()) - 1} more rows like it)" if bad.sum() > 1 else ""
     return Finding(
         "error", str(path), column, "absurd_value",
-        f"{_row_text(path, row)}: value {values[row]:.6g} {unit} is beyond any physical meaning (|value| > {bound:.0e}): a corrupt cell?{others}",
+        f"{row_location(path, row)}: value {values[row]:.6g} {unit} is beyond any physical meaning (|value| > {bound:.0e}): a corrupt cell?{others}",
     )
 
 
@@ -207,7 +202,7 @@ def _position_findings(path: Path, q: np.ndarray, names: Sequence[str], limits: 
         severity = "error" if excess > thresholds.position_tolerance or degrees_like else "warning"
         findings.append(Finding(
             severity, str(path), name, "position_limit",
-            f"joint {j + 1} position {column[row]:.4g} rad ({_row_text(path, row)}) is beyond its {side} rad "
+            f"joint {j + 1} position {column[row]:.4g} rad ({row_location(path, row)}) is beyond its {side} rad "
             f"by {excess:.3g} rad ({np.degrees(excess):.3g}°){hint}",
         ))
     largest_range = float(np.max(np.ptp(sound, axis=0)))
@@ -246,7 +241,7 @@ def _torque_findings(path: Path, tau: np.ndarray, names: Sequence[str], limits: 
             far = ratio > thresholds.torque_error_factor
             findings.append(Finding(
                 "error" if far else "warning", str(path), name, "torque_limit",
-                f"joint {j + 1} torque {column[row]:.4g} N·m ({_row_text(path, row)}) is {ratio:.3g}× its limit {limit:.4g} N·m"
+                f"joint {j + 1} torque {column[row]:.4g} N·m ({row_location(path, row)}) is {ratio:.3g}× its limit {limit:.4g} N·m"
                 + (f": {units_hint}" if far else ""),
             ))
     return findings
@@ -260,7 +255,7 @@ def _velocity_findings(path: Path, dq: np.ndarray, names: Sequence[str], limits:
         if ratio > thresholds.velocity_error_factor:
             findings.append(Finding(
                 "error", str(path), name, "velocity_limit",
-                f"joint {j + 1} velocity {column[row]:.4g} rad/s ({_row_text(path, row)}) is {ratio:.3g}× its limit {limit:.4g} rad/s: "
+                f"joint {j + 1} velocity {column[row]:.4g} rad/s ({row_location(path, row)}) is {ratio:.3g}× its limit {limit:.4g} rad/s: "
                 f"degrees per second? (data.position_unit applies to velocities too)",
             ))
     return findings
