@@ -140,7 +140,7 @@ def _setup(
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
-    if OmegaConf.select(cfg, "plant._target_", default="").endswith("LogPlant"):
+    if getattr(getattr(instantiate(cfg.plant), "func", None), "recorded", False):  # a plant that replays logs
         raise ConfigError(
             "the simulated tool stages (Table III, recognition benchmark) attach tools to a simulated robot; "
             "for a payload in recorded logs use task=payload plant=log 'task.unloaded_paths=[…]' 'task.loaded_paths=[…]'"
