@@ -42,6 +42,7 @@ import numpy as np
 import yaml
 
 from lwrlab.dynamics.regressor import regressor
+from lwrlab.errors import ConfigError
 from lwrlab.identification.core import relative_std
 from lwrlab.identification.context import row_joints
 from lwrlab.identification.core import column_scaled_condition_number
@@ -77,7 +78,7 @@ def log_rows(bench: ToolBench, measurements: Sequence[Measurement]) -> ToolData:
     The regressor columns are filtered like τ (:meth:`lwrlab.signal.processing.ProcessedData.rows`).
     """
     if not measurements:
-        raise ValueError("no log to build rows from")
+        raise ConfigError("no log to build rows from")
     parts = []
     for measurement in measurements:
         processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **bench.processing)
@@ -99,7 +100,7 @@ def _log_reader(cfg: Any, robot: Any, paths: Sequence[str], unit_gains: bool = F
     from omegaconf import OmegaConf
 
     if OmegaConf.select(cfg, "data") is None:
-        raise ValueError(
+        raise ConfigError(
             "this task reads recorded logs: run it with plant=log (and the data.* options the logs need: "
             "data.column_map, data.time_unit, data.drive_gains, …)"
         )
@@ -135,7 +136,7 @@ def earlier_robot_base(bench: ToolBench, model_path: str | Path) -> np.ndarray:
     path = identified_model_path(model_path)
     model, _ = load_identified_model(path)
     if tuple(model.base_names) != tuple(bench.base.names):
-        raise ValueError(
+        raise ConfigError(
             f"{path}: its base parameters {list(model.base_names)} are not those of {bench.robot.name} with "
             f"friction terms {list(bench.robot.friction_terms)} ({list(bench.base.names)}); identify the unloaded "
             "robot with the same robot and robot.friction_terms"
@@ -158,14 +159,14 @@ def identify_payload_from_rows(
     ``unloaded`` or ``robot_base``), or None: ``joint`` with unloaded rows, else ``payload_only``.
     """
     if (unloaded is None) == (robot_base is None):
-        raise ValueError("give the unloaded robot either as unloaded logs (task.unloaded_paths) or as an identified model (task.unloaded_model), not both")
+        raise ConfigError("give the unloaded robot either as unloaded logs (task.unloaded_paths) or as an identified model (task.unloaded_model), not both")
     method = method or ("joint" if unloaded is not None else "payload_only")
     if method not in METHODS:
-        raise ValueError(f"unknown payload method {method!r}; valid: {list(METHODS)}")
+        raise ConfigError(f"unknown payload method {method!r}; valid: {list(METHODS)}")
     if unloaded is not None:
         return identify_tool(bench, unloaded, loaded, method, weighted, consistent)
     if method == "joint":
-        raise ValueError("method=joint (eq. (7)) needs unloaded logs; with an identified model use method=payload_only")
+        raise ConfigError("method=joint (eq. (7)) needs unloaded logs; with an identified model use method=payload_only")
     n = bench.robot.n_joints
     return identify_payload_only(loaded.w_base, robot_base, loaded.w_tool, loaded.tau, bench.flange_to_joint, n, weighted, consistent)
 
@@ -278,9 +279,9 @@ def run_payload(
 
     output_dir.mkdir(parents=True, exist_ok=True)
     if not loaded_paths:
-        raise ValueError("task=payload needs the loaded log(s): 'task.loaded_paths=[loaded.csv]'")
+        raise ConfigError("task=payload needs the loaded log(s): 'task.loaded_paths=[loaded.csv]'")
     if not unloaded_paths and not unloaded_model:
-        raise ValueError("task=payload needs the unloaded robot: 'task.unloaded_paths=[unloaded.csv]' or task.unloaded_model=<run>/identified_model.yaml")
+        raise ConfigError("task=payload needs the unloaded robot: 'task.unloaded_paths=[unloaded.csv]' or task.unloaded_model=<run>/identified_model.yaml")
     robot = instantiate(cfg.robot)
     bench = ToolBench.for_robot(robot, _processing(cfg))
     if unloaded_paths and unloaded_model:
@@ -345,7 +346,7 @@ def known_payload(mass: float | None = None, com: Sequence[float] | None = None,
     if tool is not None:
         return np.asarray(tool.parameters, dtype=float), np.ones(10, dtype=bool)
     if mass is None or mass <= 0:
-        raise ValueError("the drive gains need a known payload: task.payload.mass (kg, > 0), optionally task.payload.com, or task.payload.tool")
+        raise ConfigError("the drive gains need a known payload: task.payload.mass (kg, > 0), optionally task.payload.com, or task.payload.tool")
     phi, known = np.zeros(10), np.zeros(10, dtype=bool)
     phi[0], known[0] = float(mass), True
     if com is not None:
@@ -381,10 +382,10 @@ def estimate_drive_gains(
     weighted : Gautier's weighting per (log set, joint) row group.
     """
     if method not in GAIN_METHODS:
-        raise ValueError(f"unknown drive-gain method {method!r}; valid: {list(GAIN_METHODS)}")
+        raise ConfigError(f"unknown drive-gain method {method!r}; valid: {list(GAIN_METHODS)}")
     known = np.asarray(known, dtype=bool)
     if not known.any():
-        raise ValueError("without any known payload parameter the drive gains have a free scale")
+        raise ConfigError("without any known payload parameter the drive gains have a free scale")
     n = bench.robot.n_joints
     w_payload = loaded.w_tool @ bench.flange_to_joint  # flange-frame columns
     n_base, n_unknown = unloaded.w_base.shape[1], int((~known).sum())
@@ -460,7 +461,7 @@ def run_drive_gains(
 
     output_dir.mkdir(parents=True, exist_ok=True)
     if not unloaded_paths or not loaded_paths:
-        raise ValueError("task=drive_gains needs current logs without and with the payload: 'task.unloaded_paths=[u.csv]' 'task.loaded_paths=[l.csv]'")
+        raise ConfigError("task=drive_gains needs current logs without and with the payload: 'task.unloaded_paths=[u.csv]' 'task.loaded_paths=[l.csv]'")
     payload = dict(payload or {})
     tool = load_tool(payload["tool"]) if payload.get("tool") else None
     phi, known = known_payload(payload.get("mass"), payload.get("com"), tool)
