@@ -72,7 +72,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--duration", type=float, default=10.0, help="s of motion at 1 kHz")
-    parser.add_argument("--skip-uncompressed", action="store_true", help="skip the slow uncompressed SDP baseline")
+    parser.add_argument(
+        "--skip-uncompressed", action="store_true", help="skip the slow uncompressed SDP baseline"
+    )
     args = parser.parse_args()
 
     robot = load_robot_yaml(REPO / "conf" / "robot" / "kuka_lwr4.yaml")
@@ -85,7 +87,9 @@ def main() -> None:
     tau = (truth.inverse_dynamics(q, dq, ddq) + 0.05 * np.random.default_rng(1).normal(size=q.shape)).ravel()
     beta = base.base_values(truth.parameters)
     context = IdentificationContext.from_robot(robot, base, reference_regressor=w)
-    print(f"{robot.name}: {args.duration:g} s at 1 kHz → W_b {w.shape[0]} rows × {w.shape[1]} base parameters\n")
+    print(
+        f"{robot.name}: {args.duration:g} s at 1 kHz → W_b {w.shape[0]} rows × {w.shape[1]} base parameters\n"
+    )
 
     def compress_limited() -> object:
         with threads.dense_algebra():  # as the SDP runs it
@@ -101,21 +105,31 @@ def main() -> None:
         "sdp (entropic)": PhysicallyConsistentSDP(regularization="entropic", weight=1e-4),
         "sdp (none)": PhysicallyConsistentSDP(regularization="none"),
     }
-    print(f"| estimator | fit (s), best of {args.repeat} | BLAS default threads (s) | default / limited | ‖β̂−β‖/‖β‖ |")
+    print(
+        f"| estimator | fit (s), best of {args.repeat} | BLAS default threads (s) | default / limited | ‖β̂−β‖/‖β‖ |"
+    )
     print("|---|---:|---:|---:|---:|")
-    print(f"| QR compression alone | {t_compress:.4f} | {t_compress_default:.4f} | {t_compress_default / t_compress:.1f} | |")
+    print(
+        f"| QR compression alone | {t_compress:.4f} | {t_compress_default:.4f} | {t_compress_default / t_compress:.1f} | |"
+    )
     for name, estimator in estimators.items():
         seconds, default = both_settings(lambda e=estimator: e.fit(w, tau, context=context), args.repeat)
         error = np.linalg.norm(estimator.phi_ - beta) / np.linalg.norm(beta)
         print(f"| {name} | {seconds:.4f} | {default:.4f} | {default / seconds:.1f} | {error:.3e} |")
     compressed = best_time(lambda: estimators["sdp (euclidean)"].fit(w, tau, context=context), args.repeat)
     if not args.skip_uncompressed:
-        uncompressed_estimator = PhysicallyConsistentSDP(regularization="euclidean", weight=1e-2, compress=False)
+        uncompressed_estimator = PhysicallyConsistentSDP(
+            regularization="euclidean", weight=1e-2, compress=False
+        )
         uncompressed = best_time(lambda: uncompressed_estimator.fit(w, tau, context=context), 1)
-        difference = np.linalg.norm(uncompressed_estimator.phi_ - estimators["sdp (euclidean)"].phi_) / np.linalg.norm(beta)
+        difference = np.linalg.norm(
+            uncompressed_estimator.phi_ - estimators["sdp (euclidean)"].phi_
+        ) / np.linalg.norm(beta)
         print(f"| sdp (euclidean), uncompressed (baseline, 1 run) | {uncompressed:.3f} | |")
-        print(f"\nSDP: compressed {compressed:.3f} s (compression included) vs uncompressed {uncompressed:.2f} s: "
-              f"{uncompressed / compressed:.0f}× faster; solutions differ by {difference:.1e} (relative to ‖β‖)")
+        print(
+            f"\nSDP: compressed {compressed:.3f} s (compression included) vs uncompressed {uncompressed:.2f} s: "
+            f"{uncompressed / compressed:.0f}× faster; solutions differ by {difference:.1e} (relative to ‖β‖)"
+        )
 
 
 if __name__ == "__main__":

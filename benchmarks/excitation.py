@@ -35,8 +35,14 @@ import numpy as np
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.regressor_derivatives import (
+    _WRENCH_BASIS_FLAT,
+    _forward_pass,
+    regressor_jacobians,
+    regressor_jacobians_pinocchio,
+    regressor_vjp,
+)
 from lwrlab.excitation.criteria import Criterion
-from lwrlab.dynamics.regressor_derivatives import _WRENCH_BASIS_FLAT, _forward_pass, regressor_jacobians, regressor_jacobians_pinocchio, regressor_vjp
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.excitation.solver import SlsqpOptimizer
 from lwrlab.numerics.threads import blas_threads
@@ -69,7 +75,9 @@ def finite_difference_gradient(problem: ExcitationProblem, x: np.ndarray, step: 
     return gradient
 
 
-def forward_mode_vjp(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, weights: np.ndarray) -> np.ndarray:  # noqa: ANN001
+def forward_mode_vjp(
+    robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, weights: np.ndarray
+) -> np.ndarray:
     """Baseline: the vector–Jacobian product by contracting the forward-mode tangents segment by segment
     (how ``regressor_vjp`` worked before its reverse mode), ∂/∂(q, q̇, q̈) stacked (3, N_J, N)."""
     n_samples, n = q.shape
@@ -89,18 +97,28 @@ def forward_mode_vjp(robot, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, weig
 def condition_at_1khz(problem: ExcitationProblem, coefficients: np.ndarray) -> float:
     """cond of the column-scaled base regressor of the motion resampled at 1 kHz (the optimum's quality)."""
     motion = problem.parameterisation.with_coefficients(coefficients)
-    w = problem.base.base_regressor(regressor(problem.robot, *motion.evaluate(motion.times(1000.0)))) * problem.scales
+    w = (
+        problem.base.base_regressor(regressor(problem.robot, *motion.evaluate(motion.times(1000.0))))
+        * problem.scales
+    )
     sigma = np.linalg.svd(w, compute_uv=False)
     return float(sigma[0] / sigma[-1])
 
 
-def compare_criteria(robot, base, duration: float, seeds: list[int], max_iterations: int) -> None:  # noqa: ANN001
+def compare_criteria(robot, base, duration: float, seeds: list[int], max_iterations: int) -> None:
     """Whole optimisations with logdet (the baseline), the smooth cond and the exact cond, same seeds."""
-    criteria: dict[str, Criterion] = {"logdet": LogDet(), "cond (smooth, p = 32)": ConditionNumber(), "cond (exact σ_max/σ_min)": ConditionNumber(sharpness=None)}
+    criteria: dict[str, Criterion] = {
+        "logdet": LogDet(),
+        "cond (smooth, p = 32)": ConditionNumber(),
+        "cond (exact σ_max/σ_min)": ConditionNumber(sharpness=None),
+    }
     rows = {}
     for name, criterion in criteria.items():
         problem = ExcitationProblem(robot, BSplineMotion(duration=duration), criterion, base=base)
-        results = [SlsqpOptimizer(max_iterations=max_iterations, seed=seed, show_progress=False).solve(problem) for seed in seeds]
+        results = [
+            SlsqpOptimizer(max_iterations=max_iterations, seed=seed, show_progress=False).solve(problem)
+            for seed in seeds
+        ]
         rows[name] = (
             statistics.median(r.seconds for r in results),
             statistics.median(r.iterations for r in results),
@@ -108,19 +126,29 @@ def compare_criteria(robot, base, duration: float, seeds: list[int], max_iterati
             statistics.median(condition_at_1khz(problem, r.coefficients) for r in results),
         )
     t_ref, it_ref = rows["logdet"][0], rows["logdet"][1]
-    print(f"\n| criterion ({duration:g} s, medians over seeds {seeds}) | time [s] | × logdet | iterations | × logdet | evaluations | cond(W_b) at 1 kHz |")
+    print(
+        f"\n| criterion ({duration:g} s, medians over seeds {seeds}) | time [s] | × logdet | iterations | × logdet | evaluations | cond(W_b) at 1 kHz |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|")
     for name, (seconds, iterations, evaluations, condition) in rows.items():
-        print(f"| {name} | {seconds:.1f} | {seconds / t_ref:.2f} | {iterations:.0f} | {iterations / it_ref:.2f} | {evaluations:.0f} | {condition:.3f} |")
+        print(
+            f"| {name} | {seconds:.1f} | {seconds / t_ref:.2f} | {iterations:.0f} | {iterations / it_ref:.2f} | {evaluations:.0f} | {condition:.3f} |"
+        )
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="seeds of the timed optimisations")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--seeds", type=int, nargs="+", default=[0, 1, 2], help="seeds of the timed optimisations"
+    )
     parser.add_argument("--repeat", type=int, default=5, help="repetitions of each gradient timing")
     parser.add_argument("--duration", type=float, default=10.0, help="motion duration T_F (s)")
     parser.add_argument("--max-iterations", type=int, default=200)
-    parser.add_argument("--skip-criteria", action="store_true", help="skip the logdet / cond comparison (section 4)")
+    parser.add_argument(
+        "--skip-criteria", action="store_true", help="skip the logdet / cond comparison (section 4)"
+    )
     args = parser.parse_args()
     with blas_threads(1):  # as the optimiser runs
         run(args)
@@ -134,8 +162,10 @@ def run(args: argparse.Namespace) -> None:
     rng = np.random.default_rng(0)
     x = problem.parameterisation.initial_coefficients(robot, rng, 0.3).ravel()
 
-    print(f"robot {robot.name}: {base.count} base parameters, {problem.n_variables} variables, "
-          f"{len(problem.times)} samples at {problem.rate_hz:g} Hz, {len(problem.constraint_labels())} aggregated constraints")
+    print(
+        f"robot {robot.name}: {base.count} base parameters, {problem.n_variables} variables, "
+        f"{len(problem.times)} samples at {problem.rate_hz:g} Hz, {len(problem.constraint_labels())} aggregated constraints"
+    )
 
     # 1. analytic gradient vs central finite differences
     def analytic() -> np.ndarray:
@@ -149,7 +179,9 @@ def run(args: argparse.Namespace) -> None:
     print("\n| criterion gradient (logdet, 10 s) | time [ms] | ratio |")
     print("|---|---|---|")
     print(f"| analytic (regressor VJP + B-spline pull-back) | {1e3 * t_analytic:.1f} | 1 |")
-    print(f"| central finite differences ({2 * x.size} evaluations) | {1e3 * t_fd:.1f} | {t_fd / t_analytic:.1f}× slower |")
+    print(
+        f"| central finite differences ({2 * x.size} evaluations) | {1e3 * t_fd:.1f} | {t_fd / t_analytic:.1f}× slower |"
+    )
     print(f"largest relative difference analytic vs finite differences: {gap:.2e}")
 
     # 2. regressor derivatives: forward-mode recursion vs Pinocchio column by column
@@ -164,7 +196,9 @@ def run(args: argparse.Namespace) -> None:
     print(f"| regressor W itself | {1e3 * t_w:.2f} | |")
     print(f"| vector–Jacobian product (what the optimiser uses) | {1e3 * t_vjp:.2f} | |")
     print(f"| full tensors, forward-mode recursion | {1e3 * t_ours:.2f} | 1 |")
-    print(f"| full tensors, Pinocchio computeRNEADerivatives per column | {1e3 * t_pin:.1f} | {t_pin / t_ours:.1f}× slower |")
+    print(
+        f"| full tensors, Pinocchio computeRNEADerivatives per column | {1e3 * t_pin:.1f} | {t_pin / t_ours:.1f}× slower |"
+    )
 
     # 2b. the optimiser's VJP on the whole grid: reverse mode vs the forward-mode contraction (baseline)
     grid = [b @ problem.coefficients(x) for b in problem.bases]
@@ -173,25 +207,38 @@ def run(args: argparse.Namespace) -> None:
     t_forward = median_seconds(lambda: forward_mode_vjp(robot, *grid, grid_weights), args.repeat)
     reverse = np.stack(regressor_vjp(robot, *grid, grid_weights))
     forward = forward_mode_vjp(robot, *grid, grid_weights).transpose(0, 2, 1)
-    viscous = 10 * robot.n_links + robot.friction_terms.index("viscous") * robot.n_joints if "viscous" in robot.friction_terms else None
+    viscous = (
+        10 * robot.n_links + robot.friction_terms.index("viscous") * robot.n_joints
+        if "viscous" in robot.friction_terms
+        else None
+    )
     if viscous is not None:  # the baseline leaves out the viscous columns' closed form
         forward[1] += grid_weights[:, np.arange(robot.n_joints), viscous + np.arange(robot.n_joints)]
     print(f"\n| VJP on the {len(problem.times)}-sample grid | time [ms] | ratio |")
     print("|---|---|---|")
     print(f"| reverse mode (regressor_vjp) | {1e3 * t_reverse:.2f} | 1 |")
-    print(f"| forward-mode tangents contracted (baseline) | {1e3 * t_forward:.2f} | {t_forward / t_reverse:.1f}× slower |")
+    print(
+        f"| forward-mode tangents contracted (baseline) | {1e3 * t_forward:.2f} | {t_forward / t_reverse:.1f}× slower |"
+    )
     print(f"largest relative difference: {np.abs(reverse - forward).max() / np.abs(forward).max():.1e}")
 
     # 3. whole optimisations
     rows = []
     for seed in args.seeds:
-        result = SlsqpOptimizer(max_iterations=args.max_iterations, seed=seed, show_progress=False).solve(problem)
+        result = SlsqpOptimizer(max_iterations=args.max_iterations, seed=seed, show_progress=False).solve(
+            problem
+        )
         rows.append(result)
-        print(f"seed {seed}: {result.seconds:.1f} s, {result.iterations} iterations, J = {result.cost:.3f}", flush=True)
+        print(
+            f"seed {seed}: {result.seconds:.1f} s, {result.iterations} iterations, J = {result.cost:.3f}",
+            flush=True,
+        )
     seconds = [r.seconds for r in rows]
     print("\n| optimisation (10 s, 7 joints, logdet, all constraints, 1 start) | value |")
     print("|---|---|")
-    print(f"| median wall time [s] | {statistics.median(seconds):.1f} (min {min(seconds):.1f}, max {max(seconds):.1f}, {len(seconds)} seeds) |")
+    print(
+        f"| median wall time [s] | {statistics.median(seconds):.1f} (min {min(seconds):.1f}, max {max(seconds):.1f}, {len(seconds)} seeds) |"
+    )
     print(f"| median iterations | {statistics.median([r.iterations for r in rows]):.0f} |")
     print(f"| criterion J (best, worst) | {min(r.cost for r in rows):.2f}, {max(r.cost for r in rows):.2f} |")
 

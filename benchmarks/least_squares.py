@@ -30,7 +30,7 @@ from lwrlab.numerics.threads import dense_algebra
 
 
 @dense_algebra()
-def tall_lstsq(W: np.ndarray, tau: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # noqa: N803
+def tall_lstsq(W: np.ndarray, tau: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The former estimator path: ``lstsq`` on the weighted rows, covariance ``pinv(WᵀPW)``."""
     root = np.sqrt(weights)
     scaled = W * root[:, None]
@@ -39,7 +39,7 @@ def tall_lstsq(W: np.ndarray, tau: np.ndarray, weights: np.ndarray) -> tuple[np.
 
 
 @dense_algebra()
-def gram_cholesky(W: np.ndarray, tau: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # noqa: N803
+def gram_cholesky(W: np.ndarray, tau: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The former payload path: Cholesky of the column-scaled Gram matrix of the weighted rows."""
     root = np.sqrt(weights)
     scaled_w, scaled_tau = W * root[:, None], tau * root
@@ -61,23 +61,35 @@ def median_time(call: Callable[[], object], repeat: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
     rng = np.random.default_rng(0)
-    print("| problem | QR + lstsq (s) | tall lstsq (s) | ratio | Gram Cholesky (s) | ratio | max rel. diff of φ |")
+    print(
+        "| problem | QR + lstsq (s) | tall lstsq (s) | ratio | Gram Cholesky (s) | ratio | max rel. diff of φ |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|")
-    for label, rows, columns in [("50 Hz rows", 3500, 57), ("1 kHz rows", 67200, 57), ("payload eq. (7), 1 kHz", 56000, 67)]:
-        W = rng.normal(size=(rows, columns)) * np.logspace(0, 3, columns)  # noqa: N806
+    for label, rows, columns in [
+        ("50 Hz rows", 3500, 57),
+        ("1 kHz rows", 67200, 57),
+        ("payload eq. (7), 1 kHz", 56000, 67),
+    ]:
+        W = rng.normal(size=(rows, columns)) * np.logspace(0, 3, columns)
         tau = W @ rng.normal(size=columns) + rng.normal(size=rows)
         weights = np.tile(1.0 / rng.uniform(0.05, 1.0, size=7) ** 2, rows // 7)
         new = median_time(lambda: weighted_least_squares(W, tau, weights), args.repeat)
         old_estimators = median_time(lambda: tall_lstsq(W, tau, weights), args.repeat)
         old_payload = median_time(lambda: gram_cholesky(W, tau, weights), args.repeat)
         phi = weighted_least_squares(W, tau, weights).phi
-        difference = max(np.max(np.abs(phi - f(W, tau, weights)[0]) / np.abs(phi)) for f in (tall_lstsq, gram_cholesky))
-        print(f"| {label} ({rows} × {columns}) | {new:.4f} | {old_estimators:.4f} | {old_estimators / new:.2f} | "
-              f"{old_payload:.4f} | {old_payload / new:.2f} | {difference:.1e} |")
+        difference = max(
+            np.max(np.abs(phi - f(W, tau, weights)[0]) / np.abs(phi)) for f in (tall_lstsq, gram_cholesky)
+        )
+        print(
+            f"| {label} ({rows} × {columns}) | {new:.4f} | {old_estimators:.4f} | {old_estimators / new:.2f} | "
+            f"{old_payload:.4f} | {old_payload / new:.2f} | {difference:.1e} |"
+        )
 
 
 if __name__ == "__main__":

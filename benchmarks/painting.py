@@ -46,7 +46,9 @@ from plugins.controllers.force_pi import ForcePIControl
 from plugins.robots.mdh import load_robot_yaml
 
 REPO = Path(__file__).resolve().parents[1]
-PATH = PaintingPathParameters(duration=38.45, swivel=-1.673, z_upper=0.5355, z_lower=0.2403, y_start=0.1331, y_step=0.1835, n_steps=2)
+PATH = PaintingPathParameters(
+    duration=38.45, swivel=-1.673, z_upper=0.5355, z_lower=0.2403, y_start=0.1331, y_step=0.1835, n_steps=2
+)
 """The large roller's optimised path (identified model, README Table IV)."""
 BRANCH = Branch(1, -1, -1)
 PERIOD = 1e-3
@@ -67,7 +69,9 @@ class Case:
     start: np.ndarray
 
     def plant(self) -> MujocoContactPlant:
-        return MujocoContactPlant(self.truth, self.tool_contact, self.wall, contact_time_constant=0.02, seed=0)
+        return MujocoContactPlant(
+            self.truth, self.tool_contact, self.wall, contact_time_constant=0.02, seed=0
+        )
 
     def setup(self) -> ControlSetup:
         return ControlSetup(self.model, SwivelIK(self.model), self.tcp, PATH.swivel, BRANCH, PERIOD)
@@ -85,7 +89,16 @@ def make_case(seconds: float) -> Case:
     start = reference[0].copy()
     start[0, 3] += 0.005  # 5 mm off the wall
     contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
-    return Case(robot, attach_payload(robot, tool.parameters), contact, tcp, wall, reference, np.arange(len(reference)) >= 2000, start)
+    return Case(
+        robot,
+        attach_payload(robot, tool.parameters),
+        contact,
+        tcp,
+        wall,
+        reference,
+        np.arange(len(reference)) >= 2000,
+        start,
+    )
 
 
 class PerSampleLoop:
@@ -137,7 +150,12 @@ class PerSampleLoop:
         self.plant.reset(q0, gravity)  # MuJoCo state and the tare; the noise below is drawn per sample
         rng = np.random.default_rng(0)
         q_meas, tau_meas, force_meas, _ = self.read(gravity - self.plant.armature * self.plant.data.qacc, rng)
-        previous_q, velocity, previous_velocity, acceleration = q_meas.copy(), np.zeros(7), np.zeros(7), np.zeros(7)
+        previous_q, velocity, previous_velocity, acceleration = (
+            q_meas.copy(),
+            np.zeros(7),
+            np.zeros(7),
+            np.zeros(7),
+        )
         wrench_state, integral = np.zeros(6), np.zeros(3)
         previous_desired = q0.copy()
         friction, terms = case.model.friction, case.model.friction_terms
@@ -161,7 +179,9 @@ class PerSampleLoop:
             if "offset" in terms:
                 tau_friction += friction.offset
             external = tau_meas - pin.rnea(self.model, self.data, q_meas, dq, ddq) - tau_friction
-            jacobian = pin.computeFrameJacobian(self.model, self.data, q_meas, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+            jacobian = pin.computeFrameJacobian(
+                self.model, self.data, q_meas, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+            )
             wrench = np.linalg.solve(jacobian @ jacobian.T, jacobian @ external)
             wrench_state = wrench_state + self.wrench_gain * (wrench - wrench_state)
             # eq. (15) then eq. (13), the IK of one pose per period
@@ -174,17 +194,36 @@ class PerSampleLoop:
             previous_desired = q_desired.copy()
             gravity = pin.computeGeneralizedGravity(case.model.model, self.gravity_data, q_meas).copy()
             tau = JOINT_KP * (q_desired - q_meas) + JOINT_KD * (dq_desired - dq) + gravity
-            out["actual"][k], out["measured"][k], wrench_log[k] = self.plant.tcp_position, force_meas, wrench_state
+            out["actual"][k], out["measured"][k], wrench_log[k] = (
+                self.plant.tcp_position,
+                force_meas,
+                wrench_state,
+            )
             q_meas, tau_meas, force_meas, _ = self.plant_step(tau, rng)
         empty = np.empty((n, 7))
-        return ContactRun(np.arange(n) * PERIOD, case.reference[:, :3, 3], out["actual"], out["actual"], wrench_log, out["measured"], empty, empty, empty, case.painting)
+        return ContactRun(
+            np.arange(n) * PERIOD,
+            case.reference[:, :3, 3],
+            out["actual"],
+            out["actual"],
+            wrench_log,
+            out["measured"],
+            empty,
+            empty,
+            empty,
+            case.painting,
+        )
 
 
 def batched_loop(case: Case) -> ContactRun:
     """The loop of the painting stage."""
-    controller = ForcePIControl(kp=JOINT_KP, kd=JOINT_KD, desired_force=(DESIRED, 0, 0), force_kp=(0, 0, 0), force_ki=(FORCE_KI, 0, 0))
+    controller = ForcePIControl(
+        kp=JOINT_KP, kd=JOINT_KD, desired_force=(DESIRED, 0, 0), force_kp=(0, 0, 0), force_ki=(FORCE_KI, 0, 0)
+    )
     estimator = ExternalForceEstimator(case.model, case.tcp, PERIOD, coulomb_smoothing=0.01)
-    return simulate_contact(case.plant(), controller, estimator, case.setup(), case.reference, case.painting, start=case.start)
+    return simulate_contact(
+        case.plant(), controller, estimator, case.setup(), case.reference, case.painting, start=case.start
+    )
 
 
 def mujoco_floor(case: Case, tau: np.ndarray) -> None:
@@ -228,10 +267,16 @@ def contact_loop_figures(seconds: float, reference_seconds: float, repeat: int) 
         best["per-sample"] = np.minimum(best["per-sample"], taken)
     common = len(short.reference)
     batched_short = batched_loop(short)
-    estimate_gap = np.abs(batched_short.estimated_wrench[:, 0] - reference_run.estimated_wrench[:common, 0]).max()
+    estimate_gap = np.abs(
+        batched_short.estimated_wrench[:, 0] - reference_run.estimated_wrench[:common, 0]
+    ).max()
     measured_gap = np.abs(batched_short.measured_force[:, 0] - reference_run.measured_force[:common, 0]).max()
     simulated = {"batched": seconds, "floor": seconds, "per-sample": reference_seconds}
-    labels = {"batched": "batched loop", "per-sample": "per-sample loop (before)", "floor": "MuJoCo alone (floor)"}
+    labels = {
+        "batched": "batched loop",
+        "per-sample": "per-sample loop (before)",
+        "floor": "MuJoCo alone (floor)",
+    }
     print("## Contact loop (1 kHz, 2 MuJoCo substeps)\n")
     print("| loop | simulated s per wall s | per CPU s |\n|---|---|---|")
     for name in ("batched", "per-sample", "floor"):
@@ -242,10 +287,16 @@ def contact_loop_figures(seconds: float, reference_seconds: float, repeat: int) 
         """Speed of loop ``a`` over loop ``b`` by wall (0) or CPU (1) time."""
         return (simulated[a] / best[a][clock]) / (simulated[b] / best[b][clock])
 
-    print(f"\nbatched / per-sample: {ratio('batched', 'per-sample', 0):.1f}x faster (CPU time: {ratio('batched', 'per-sample', 1):.1f}x)")
-    print(f"MuJoCo's share of the batched loop: {1 / ratio('floor', 'batched', 0):.0%} (floor / batched time; CPU time: {1 / ratio('floor', 'batched', 1):.0%})")
-    print(f"over the first {reference_seconds:g} s the two loops' normal forces differ by at most "
-          f"{estimate_gap:.2e} N (estimated) and {measured_gap:.2e} N (measured, unfiltered)")
+    print(
+        f"\nbatched / per-sample: {ratio('batched', 'per-sample', 0):.1f}x faster (CPU time: {ratio('batched', 'per-sample', 1):.1f}x)"
+    )
+    print(
+        f"MuJoCo's share of the batched loop: {1 / ratio('floor', 'batched', 0):.0%} (floor / batched time; CPU time: {1 / ratio('floor', 'batched', 1):.0%})"
+    )
+    print(
+        f"over the first {reference_seconds:g} s the two loops' normal forces differ by at most "
+        f"{estimate_gap:.2e} N (estimated) and {measured_gap:.2e} N (measured, unfiltered)"
+    )
     painting = run.painting
     if painting.any():
         print(f"batched run: mean measured F_x while painting {run.measured_force[painting, 0].mean():.2f} N")
@@ -259,26 +310,52 @@ def optimisation_figures(starts: tuple[float, ...], repeat: int) -> None:
     loaded = attach_payload(robot, tool.parameters)
     wall = Wall()
     problem = PathProblem(
-        loaded, SwivelIK(loaded), tcp, WallBounds(wall.x, *wall.y_bounds, *wall.z_bounds), tool.width, n_steps=2, branch=BRANCH, stripe_overlap=0.01
+        loaded,
+        SwivelIK(loaded),
+        tcp,
+        WallBounds(wall.x, *wall.y_bounds, *wall.z_bounds),
+        tool.width,
+        n_steps=2,
+        branch=BRANCH,
+        stripe_overlap=0.01,
     )
     print(f"\n## Painting-path optimisation (eq. 12), large roller, N_r = 2, {len(starts)} SLSQP starts\n")
     print("| gradients | time (s) | iterations | cost |\n|---|---|---|---|")
     times, solutions = dict.fromkeys(GRADIENTS, np.inf), {}
     for _ in range(repeat):  # interleaved, as the loops
         for gradients in GRADIENTS:
-            solutions[gradients], seconds = timed(lambda g=gradients: optimise_path(problem, starting_swivels=starts, gradients=g))
+            solutions[gradients], seconds = timed(
+                lambda g=gradients: optimise_path(problem, starting_swivels=starts, gradients=g)
+            )
             times[gradients] = min(times[gradients], seconds)
     for gradients, solution in solutions.items():
-        print(f"| {gradients} | {times[gradients]:.2f} | {solution.iterations} | {sum(solution.cost_terms.values()):.4f} |")
+        print(
+            f"| {gradients} | {times[gradients]:.2f} | {solution.iterations} | {sum(solution.cost_terms.values()):.4f} |"
+        )
     print(f"\nanalytic / finite differences: {times['finite_differences'] / times['analytic']:.1f}x faster")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=6.0, help="simulated seconds of the batched loop and the floor")
-    parser.add_argument("--reference-seconds", type=float, default=3.0, help="simulated seconds of the slow per-sample loop")
-    parser.add_argument("--starts", type=float, nargs="+", default=[-1.6, -0.8], help="starting swivel angles of the optimisation (rad)")
-    parser.add_argument("--repeat", type=int, default=2, help="interleaved rounds of every measurement; each one's least time is reported (the one other jobs on a shared machine disturbed least)")
+    parser.add_argument(
+        "--seconds", type=float, default=6.0, help="simulated seconds of the batched loop and the floor"
+    )
+    parser.add_argument(
+        "--reference-seconds", type=float, default=3.0, help="simulated seconds of the slow per-sample loop"
+    )
+    parser.add_argument(
+        "--starts",
+        type=float,
+        nargs="+",
+        default=[-1.6, -0.8],
+        help="starting swivel angles of the optimisation (rad)",
+    )
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=2,
+        help="interleaved rounds of every measurement; each one's least time is reported (the one other jobs on a shared machine disturbed least)",
+    )
     args = parser.parse_args()
     contact_loop_figures(args.seconds, args.reference_seconds, args.repeat)
     optimisation_figures(tuple(args.starts), args.repeat)

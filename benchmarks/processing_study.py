@@ -78,10 +78,23 @@ class Setting:
     """on, off, or default (on for logs)."""
 
 
-DEFAULTS = {"cutoff_hz": "auto", "order": 5, "difference_accuracy": 2, "trim_s": 0.2, "rate_hz": None, "velocity": "auto"}
+DEFAULTS = {
+    "cutoff_hz": "auto",
+    "order": 5,
+    "difference_accuracy": 2,
+    "trim_s": 0.2,
+    "rate_hz": None,
+    "velocity": "auto",
+}
 OLD = {"cutoff_hz": 10.0, "order": 5, "difference_accuracy": 2, "trim_s": 0.2, "velocity": "differentiated"}
 SETTINGS = [
-    Setting("old: τ-only filter 10 Hz, every 20th sample, wls, no offset", {**OLD, "rate_hz": None}, parallel=False, estimator="wls", offset="off"),
+    Setting(
+        "old: τ-only filter 10 Hz, every 20th sample, wls, no offset",
+        {**OLD, "rate_hz": None},
+        parallel=False,
+        estimator="wls",
+        offset="off",
+    ),
     Setting("defaults", DEFAULTS),
     Setting("cut-off 10 Hz", {**DEFAULTS, "cutoff_hz": 10.0}),
     Setting("cut-off 4 Hz", {**DEFAULTS, "cutoff_hz": 4.0}),
@@ -106,10 +119,14 @@ def _old_rows(data: Any, regress: Callable[..., np.ndarray], every: int) -> tupl
 
 def evaluate(data_set: DataSet, setting: Setting) -> dict[str, float]:
     """Fit ``data_set`` with ``setting``; validation error (%), base-parameter error (%) when known."""
-    if setting.processing.get("velocity") == "logged" and any(m.dq is None for m in data_set.fit + data_set.validation):
+    if setting.processing.get("velocity") == "logged" and any(
+        m.dq is None for m in data_set.fit + data_set.validation
+    ):
         return {"validation_%": float("nan")}  # no logged velocities in this data set
     offset = setting.offset == "on" or (setting.offset == "default" and data_set.recorded)
-    robot = replace(data_set.robot, friction_terms=("coulomb", "viscous", "offset")) if offset else data_set.robot
+    robot = (
+        replace(data_set.robot, friction_terms=("coulomb", "viscous", "offset")) if offset else data_set.robot
+    )
     base: BaseParameters = compute_base_parameters(robot)
     processing = dict(setting.processing)
     if not setting.parallel:  # the old pipeline: 1 kHz logs decimated by 20 samples, whatever their rate
@@ -126,15 +143,30 @@ def evaluate(data_set: DataSet, setting: Setting) -> dict[str, float]:
     w = np.vstack([b[0] for b in blocks])
     tau = np.concatenate([b[1] for b in blocks])
     kind = setting.estimator if setting.estimator != "default" else ("ols" if data_set.recorded else "wls")
-    estimator = (OrdinaryLeastSquares() if kind == "ols" else WeightedLeastSquares(n_joints=robot.n_joints)).fit(w, tau)
-    row = {"validation_%": float(np.mean([100 * predict_measurement(robot, base, estimator.phi_, m, processing).relative_error for m in data_set.validation]))}
+    estimator = (
+        OrdinaryLeastSquares() if kind == "ols" else WeightedLeastSquares(n_joints=robot.n_joints)
+    ).fit(w, tau)
+    row = {
+        "validation_%": float(
+            np.mean(
+                [
+                    100 * predict_measurement(robot, base, estimator.phi_, m, processing).relative_error
+                    for m in data_set.validation
+                ]
+            )
+        )
+    }
     row["seconds"] = time.perf_counter() - started
     if data_set.truth is not None:
         truth = np.concatenate([data_set.truth, np.zeros(robot.n_joints)]) if offset else data_set.truth
         true_base = base.base_values(truth)
-        row["base_error_%"] = float(100 * np.linalg.norm(estimator.phi_ - true_base) / np.linalg.norm(true_base))
+        row["base_error_%"] = float(
+            100 * np.linalg.norm(estimator.phi_ - true_base) / np.linalg.norm(true_base)
+        )
         coulomb = [base.names.index(f"FC{j}") for j in range(1, robot.n_joints + 1)]
-        row["coulomb_max_error_%"] = float(100 * np.max(np.abs(estimator.phi_[coulomb] / true_base[coulomb] - 1)))
+        row["coulomb_max_error_%"] = float(
+            100 * np.max(np.abs(estimator.phi_[coulomb] / true_base[coulomb] - 1))
+        )
     return row
 
 
@@ -144,12 +176,16 @@ def ours(seed: int) -> DataSet:
     from hydra.utils import instantiate
 
     with initialize_config_dir(config_dir=str(REPOSITORY / "conf"), version_base=None):
-        cfg = compose("config", overrides=["task=identification", f"seed={seed}", "plant.show_progress=false"])
+        cfg = compose(
+            "config", overrides=["task=identification", f"seed={seed}", "plant.show_progress=false"]
+        )
     robot = instantiate(cfg.robot)
     plant = instantiate(cfg.plant)(robot=robot)
     fit = plant.measure(instantiate(cfg.trajectory).sample(robot, cfg.measurement.rate_hz))
     validation = plant.measure(instantiate(cfg.validation).sample(robot, cfg.measurement.rate_hz))
-    return DataSet(f"ours (seed {seed})", robot, [fit], [validation], truth=plant.truth.robot.parameters, recorded=False)
+    return DataSet(
+        f"ours (seed {seed})", robot, [fit], [validation], truth=plant.truth.robot.parameters, recorded=False
+    )
 
 
 def real_lwr4() -> list[DataSet]:
@@ -160,7 +196,12 @@ def real_lwr4() -> list[DataSet]:
     from plugins.robots.urdf import load_urdf_robot
 
     robot = load_urdf_robot(REAL_LWR4 / "kuka_lwr4.urdf")
-    runs = {i: load_log(REAL_LWR4 / f"measurements_{i}.npz", 7, column_map=NPZ_MAP, limits=robot.limits).to_measurement() for i in (1, 2, 3)}
+    runs = {
+        i: load_log(
+            REAL_LWR4 / f"measurements_{i}.npz", 7, column_map=NPZ_MAP, limits=robot.limits
+        ).to_measurement()
+        for i in (1, 2, 3)
+    }
     return [
         DataSet("lwr4+ 2+3→1", robot, [runs[2], runs[3]], [runs[1]]),
         DataSet("lwr4+ 3→1,2", robot, [runs[3]], [runs[1], runs[2]]),
@@ -180,10 +221,20 @@ def second_simulator(folder: Path) -> list[DataSet]:
 
     write_logs(folder, seed=0)
     robot = load_robot_yaml(REPOSITORY / "conf" / "robot" / "kuka_lwr4.yaml")
-    load = lambda name: load_log(folder / f"{name}.npz", 7, column_map=NPZ_MAP, limits=robot.limits).to_measurement()  # noqa: E731
-    names = yaml.safe_load((folder / "splits.yaml").read_text()) if (folder / "splits.yaml").is_file() else None
-    splits = names or {"a+b→c": (["motion_a_1", "motion_b"], ["motion_c"]), "b→a": (["motion_b"], ["motion_a_1", "motion_a_2"])}
-    return [DataSet(f"second sim {key}", robot, [load(n) for n in fit], [load(n) for n in validation]) for key, (fit, validation) in splits.items()]
+    load = lambda name: load_log(
+        folder / f"{name}.npz", 7, column_map=NPZ_MAP, limits=robot.limits
+    ).to_measurement()
+    names = (
+        yaml.safe_load((folder / "splits.yaml").read_text()) if (folder / "splits.yaml").is_file() else None
+    )
+    splits = names or {
+        "a+b→c": (["motion_a_1", "motion_b"], ["motion_c"]),
+        "b→a": (["motion_b"], ["motion_a_1", "motion_a_2"]),
+    }
+    return [
+        DataSet(f"second sim {key}", robot, [load(n) for n in fit], [load(n) for n in validation])
+        for key, (fit, validation) in splits.items()
+    ]
 
 
 def main() -> None:
@@ -198,15 +249,25 @@ def main() -> None:
             for setting in SETTINGS:
                 result = evaluate(data_set, setting)
                 rows.append({"data": data_set.name, "setting": setting.name, **result})
-                print(f"{data_set.name:22s} {setting.name:60s} " + "  ".join(f"{k} {v:.4g}" for k, v in result.items()), flush=True)
+                print(
+                    f"{data_set.name:22s} {setting.name:60s} "
+                    + "  ".join(f"{k} {v:.4g}" for k, v in result.items()),
+                    flush=True,
+                )
     table = pd.DataFrame(rows)
     args.output.parent.mkdir(parents=True, exist_ok=True)
     table.to_csv(args.output, index=False)
-    wide = table.pivot(index="setting", columns="data", values="validation_%").reindex([s.name for s in SETTINGS])
+    wide = table.pivot(index="setting", columns="data", values="validation_%").reindex(
+        [s.name for s in SETTINGS]
+    )
     print("\nvalidation ‖τ−τ̂‖/‖τ‖ (%) on motions not in the fit\n")
     print(wide.to_markdown(floatfmt=".3g"))
     if "base_error_%" in table:
-        simulated = table.dropna(subset=["base_error_%"]).pivot(index="setting", columns="data", values="base_error_%").reindex([s.name for s in SETTINGS])
+        simulated = (
+            table.dropna(subset=["base_error_%"])
+            .pivot(index="setting", columns="data", values="base_error_%")
+            .reindex([s.name for s in SETTINGS])
+        )
         print("\nbase-parameter error ‖β̂ − β‖/‖β‖ (%), our simulator\n")
         print(simulated.to_markdown(floatfmt=".3g"))
     print(f"\nwritten {args.output}")

@@ -56,7 +56,9 @@ def lwr4_like_robot(seed: int = 0) -> RobotModel:
     model = build_dh_model(LWR4_MDH, inertias, np.array([0.0, 0.0, -9.81]))
     ones = np.ones(n)
     limits = JointLimits(-2.9 * ones, 2.9 * ones, 2.0 * ones, 10.0 * ones, 100.0 * ones)
-    friction = Friction(coulomb=rng.uniform(0.5, 3.0, n), viscous=rng.uniform(0.5, 3.0, n), offset=np.zeros(n))
+    friction = Friction(
+        coulomb=rng.uniform(0.5, 3.0, n), viscous=rng.uniform(0.5, 3.0, n), offset=np.zeros(n)
+    )
     return RobotModel(name="lwr4_like", model=model, limits=limits, friction=friction)
 
 
@@ -86,7 +88,9 @@ def best_times(functions: list[Callable[[], object]], repeat: int) -> list[float
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--samples", type=int, nargs="+", default=[100, 1000, 10000], help="numbers of samples N")
+    parser.add_argument(
+        "--samples", type=int, nargs="+", default=[100, 1000, 10000], help="numbers of samples N"
+    )
     parser.add_argument("--repeat", type=int, default=5, help="timed calls per N (the best one counts)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the random segments and states")
     args = parser.parse_args(argv)
@@ -95,7 +99,9 @@ def main(argv: list[str] | None = None) -> None:
     model, n = robot.model, robot.n_joints
     rng = np.random.default_rng(args.seed)
     print(f"robot {robot.name}: {n} joints, {robot.n_parameters} parameters, best of {args.repeat}")
-    print(f"{'N':>8} {'engine':>10} {'ours [samples/s]':>18} {'loop [samples/s]':>18} {'ratio':>7} {'max |diff|':>11}")
+    print(
+        f"{'N':>8} {'engine':>10} {'ours [samples/s]':>18} {'loop [samples/s]':>18} {'ratio':>7} {'max |diff|':>11}"
+    )
     for n_samples in args.samples:
         q = rng.uniform(robot.limits.position_lower, robot.limits.position_upper, (n_samples, n))
         dq = rng.uniform(-robot.limits.velocity, robot.limits.velocity, (n_samples, n))
@@ -111,7 +117,9 @@ def main(argv: list[str] | None = None) -> None:
         )
         rate_ours, rate_loop = n_samples / t_ours, n_samples / t_loop
         engine = "loop" if n_samples < SMALL_BATCH else "recursion"
-        print(f"{n_samples:>8} {engine:>10} {rate_ours:>18,.0f} {rate_loop:>18,.0f} {rate_ours / rate_loop:>7.2f} {difference:>11.1e}")
+        print(
+            f"{n_samples:>8} {engine:>10} {rate_ours:>18,.0f} {rate_loop:>18,.0f} {rate_ours / rate_loop:>7.2f} {difference:>11.1e}"
+        )
 
 
 if __name__ == "__main__":

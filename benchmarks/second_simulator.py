@@ -138,7 +138,9 @@ BANDWIDTH = 25.0
 """Closed-loop bandwidth of the joint PD (rad/s), critically damped."""
 
 
-def true_robot(nominal: RobotModel, rng: np.random.Generator, spread: float = 0.1, com_shift: float = 0.005) -> RobotModel:
+def true_robot(
+    nominal: RobotModel, rng: np.random.Generator, spread: float = 0.1, com_shift: float = 0.005
+) -> RobotModel:
     """The CAD robot with each segment's mass, inertia and CoM perturbed (consistent by construction)."""
     perturbed = []
     for phi in nominal.link_parameters:
@@ -152,7 +154,9 @@ def true_robot(nominal: RobotModel, rng: np.random.Generator, spread: float = 0.
 
 def mujoco_model(robot: RobotModel, friction: FrictionTruth) -> mujoco.MjModel:
     """MuJoCo model of ``robot`` with its rotor inertia as armature and the true joint friction."""
-    model = mujoco.MjModel.from_xml_string(mujoco_xml(robot, timestep=1.0 / CONTROL_RATE_HZ / SUBSTEPS, with_armature=True))
+    model = mujoco.MjModel.from_xml_string(
+        mujoco_xml(robot, timestep=1.0 / CONTROL_RATE_HZ / SUBSTEPS, with_armature=True)
+    )
     model.dof_frictionloss[:] = friction.frictionloss
     model.dof_damping[:] = friction.damping
     # MuJoCo's dry friction is a soft constraint: below a speed set by its time constant it acts
@@ -169,21 +173,30 @@ def _quintic_window(t: np.ndarray, total: float) -> tuple[np.ndarray, np.ndarray
 
     def ramp(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         s = np.clip(s, 0.0, 1.0)
-        return 10 * s**3 - 15 * s**4 + 6 * s**5, (30 * s**2 - 60 * s**3 + 30 * s**4) / FADE, (60 * s - 180 * s**2 + 120 * s**3) / FADE**2
+        return (
+            10 * s**3 - 15 * s**4 + 6 * s**5,
+            (30 * s**2 - 60 * s**3 + 30 * s**4) / FADE,
+            (60 * s - 180 * s**2 + 120 * s**3) / FADE**2,
+        )
 
     up, dup, ddup = ramp((t - REST) / FADE)
     down, ddown, dddown = ramp((total - REST - t) / FADE)
     return up * down, dup * down - up * ddown, ddup * down - 2 * dup * ddown + up * dddown
 
 
-def reference_motion(spec: MotionSpec, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def reference_motion(
+    spec: MotionSpec, robot: RobotModel
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Times (s) and reference q, q̇, q̈ (rad, rad/s, rad/s²) of a motion at the control rate."""
     total = 2 * REST + 2 * FADE + spec.duration
     t = np.arange(int(round(total * CONTROL_RATE_HZ)) + 1) / CONTROL_RATE_HZ
     rng = np.random.default_rng(spec.seed)
     omega = 2 * np.pi * spec.base_frequency * np.arange(1, spec.harmonics + 1)
     # Coefficients fall off with the harmonic so the highest ones do not dominate q̈.
-    a, b = (rng.normal(size=(spec.harmonics, robot.n_joints)) / np.arange(1, spec.harmonics + 1)[:, None] for _ in range(2))
+    a, b = (
+        rng.normal(size=(spec.harmonics, robot.n_joints)) / np.arange(1, spec.harmonics + 1)[:, None]
+        for _ in range(2)
+    )
     phase = np.outer(t, omega)
     f = np.sin(phase) @ a + np.cos(phase) @ b
     df = (np.cos(phase) * omega) @ a - (np.sin(phase) * omega) @ b
@@ -203,7 +216,14 @@ def _feedforward(nominal: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.nda
     return rigid + nominal.rotor_inertia * ddq + friction
 
 
-def simulate(model: mujoco.MjModel, nominal: RobotModel, friction: FrictionTruth, sensors: SensorModel, reference: tuple[np.ndarray, ...], rng: np.random.Generator) -> dict[str, np.ndarray]:
+def simulate(
+    model: mujoco.MjModel,
+    nominal: RobotModel,
+    friction: FrictionTruth,
+    sensors: SensorModel,
+    reference: tuple[np.ndarray, ...],
+    rng: np.random.Generator,
+) -> dict[str, np.ndarray]:
     """Track ``reference`` in MuJoCo; the true state and sensor readings at every control period.
 
     Per period: read the sensors at the current state (``mj_forward`` gives q̈ for the link-side
@@ -218,12 +238,17 @@ def simulate(model: mujoco.MjModel, nominal: RobotModel, friction: FrictionTruth
     data = mujoco.MjData(model)
     data.qpos[:] = q_ref[0]
     armature = model.dof_armature.copy()
-    out = {key: np.empty((n, nj)) for key in ("q", "dq", "ddq", "tau_command", "tau_link", "stribeck", "q_encoder")}
+    out = {
+        key: np.empty((n, nj))
+        for key in ("q", "dq", "ddq", "tau_command", "tau_link", "stribeck", "q_encoder")
+    }
     encoder_noise = rng.normal(scale=sensors.encoder_noise_std, size=(n, nj))
     controller_velocity_noise = rng.normal(scale=sensors.controller_velocity_noise_std, size=(n, nj))
     for k in range(n):
         bump = friction.stribeck(data.qvel)
-        q_encoder = np.round((data.qpos + encoder_noise[k]) / sensors.encoder_resolution) * sensors.encoder_resolution
+        q_encoder = (
+            np.round((data.qpos + encoder_noise[k]) / sensors.encoder_resolution) * sensors.encoder_resolution
+        )
         dq_controller = data.qvel + controller_velocity_noise[k]
         command = feedforward[k] + kp * (q_ref[k] - q_encoder) + kd * (dq_ref[k] - dq_controller)
         data.qfrc_applied[:] = command - bump
@@ -238,23 +263,40 @@ def simulate(model: mujoco.MjModel, nominal: RobotModel, friction: FrictionTruth
     return out
 
 
-def recorded_signals(run: dict[str, np.ndarray], friction: FrictionTruth, sensors: SensorModel, rng: np.random.Generator) -> dict[str, np.ndarray]:
+def recorded_signals(
+    run: dict[str, np.ndarray], friction: FrictionTruth, sensors: SensorModel, rng: np.random.Generator
+) -> dict[str, np.ndarray]:
     """The recorder's view at the control rate: quantised q, low-passed noisy q̇, noisy offset τ."""
     dt = 1.0 / CONTROL_RATE_HZ
     alpha = dt / (sensors.velocity_time_constant + dt)
     # y_k = y_{k-1} + α (x_k − y_{k-1}), started at rest like the robot.
     velocity = scipy.signal.lfilter([alpha], [1.0, alpha - 1.0], run["dq"], axis=0)
     velocity += rng.normal(scale=sensors.velocity_noise_std, size=velocity.shape)
-    torque = run["tau_link"] + np.asarray(friction.sensor_offset) + rng.normal(size=run["tau_link"].shape) * np.asarray(sensors.torque_noise_std)
-    return {"times": run["t"].copy(), "positions": run["q_encoder"].copy(), "velocities": velocity, "torques": torque}
+    torque = (
+        run["tau_link"]
+        + np.asarray(friction.sensor_offset)
+        + rng.normal(size=run["tau_link"].shape) * np.asarray(sensors.torque_noise_std)
+    )
+    return {
+        "times": run["t"].copy(),
+        "positions": run["q_encoder"].copy(),
+        "velocities": velocity,
+        "torques": torque,
+    }
 
 
-def log_arrays(recorded: dict[str, np.ndarray], keep_every: int, jitter_std: float, rng: np.random.Generator) -> dict[str, np.ndarray]:
+def log_arrays(
+    recorded: dict[str, np.ndarray], keep_every: int, jitter_std: float, rng: np.random.Generator
+) -> dict[str, np.ndarray]:
     """Decimate by keeping every ``keep_every``-th sample; jitter the time stamps (σ, kept increasing)."""
-    arrays = {key: np.ascontiguousarray(value[::keep_every], dtype=np.float64) for key, value in recorded.items()}
+    arrays = {
+        key: np.ascontiguousarray(value[::keep_every], dtype=np.float64) for key, value in recorded.items()
+    }
     if jitter_std > 0.0:
         period = keep_every / CONTROL_RATE_HZ
-        jitter = np.clip(rng.normal(scale=jitter_std, size=arrays["times"].shape), -0.4 * period, 0.4 * period)
+        jitter = np.clip(
+            rng.normal(scale=jitter_std, size=arrays["times"].shape), -0.4 * period, 0.4 * period
+        )
         arrays["times"] = arrays["times"] + jitter
     return arrays
 
@@ -288,7 +330,9 @@ def rigid_body_check(truth: RobotModel, model: mujoco.MjModel, run: dict[str, np
     return worst
 
 
-def least_squares_check(runs: dict[str, dict[str, np.ndarray]], friction: FrictionTruth, moving_only: bool = False) -> dict[str, float]:
+def least_squares_check(
+    runs: dict[str, dict[str, np.ndarray]], friction: FrictionTruth, moving_only: bool = False
+) -> dict[str, float]:
     """Plain OLS with lwrlab's regressor (Coulomb, viscous, offset) on the noiseless signals.
 
     Uses MuJoCo's true q, q̇, q̈ and the link-side torque plus offset without noise, so what remains
@@ -329,25 +373,39 @@ def _link_entries(robot: RobotModel) -> list[dict[str, object]]:
     for phi in robot.link_parameters:
         mass, com, inertia = mass_com_inertia(phi)
         tensor = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
-        entries.append({"mass": float(mass), "com": [float(c) for c in com], "inertia": [float(i) for i in tensor]})
+        entries.append(
+            {"mass": float(mass), "com": [float(c) for c in com], "inertia": [float(i) for i in tensor]}
+        )
     return entries
 
 
-def truth_document(truth: RobotModel, friction: FrictionTruth, sensors: SensorModel, seed: int, logs: dict[str, dict[str, float]]) -> dict[str, object]:
+def truth_document(
+    truth: RobotModel,
+    friction: FrictionTruth,
+    sensors: SensorModel,
+    seed: int,
+    logs: dict[str, dict[str, float]],
+) -> dict[str, object]:
     """Everything the logs were made from, as plain YAML-able values."""
     base = compute_base_parameters(truth.with_parameters(truth.link_parameters.ravel()))
     base_values = base.base_values(truth.parameters)
-    inertial_base = {name: float(v) for name, v in zip(base.names, base_values, strict=True) if not name.startswith("F")}
+    inertial_base = {
+        name: float(v) for name, v in zip(base.names, base_values, strict=True) if not name.startswith("F")
+    }
     names = [f"{p}{j}" for j in range(1, truth.n_links + 1) for p in LINK_PARAMETER_NAMES]
     return {
-        "simulator": "MuJoCo " + mujoco.__version__ + f", Euler, {1e3 / CONTROL_RATE_HZ / SUBSTEPS:g} ms steps, {SUBSTEPS} per 1 kHz control period",
+        "simulator": "MuJoCo "
+        + mujoco.__version__
+        + f", Euler, {1e3 / CONTROL_RATE_HZ / SUBSTEPS:g} ms steps, {SUBSTEPS} per 1 kHz control period",
         "seed": seed,
         "robot": {
             "nominal": "conf/robot/kuka_lwr4.yaml (CAD)",
             "perturbation": "per segment: mass x (1 + 0.1 N(0,1)), inertia about the CoM x (1 + 0.1 N(0,1)) turned by N(0, 3 deg) "
             "per axis, CoM + N(0, 5 mm) per axis (factors clipped to [0.75, 1.25])",
             "links": _link_entries(truth),
-            "standard_parameters": dict(zip(names, (float(v) for v in truth.link_parameters.ravel()), strict=True)),
+            "standard_parameters": dict(
+                zip(names, (float(v) for v in truth.link_parameters.ravel()), strict=True)
+            ),
             "base_parameters": inertial_base,
             "armature": [float(a) for a in truth.rotor_inertia],
         },
@@ -356,13 +414,19 @@ def truth_document(truth: RobotModel, friction: FrictionTruth, sensors: SensorMo
             "exp(-(dq/stribeck_velocity)^2); "
             "f_dry = MuJoCo frictionloss (soft constraint, solreffriction = [dry_friction_time_constant, 1]): "
             "|f_dry| <= frictionloss, = frictionloss sign(dq) once sliding, anything in between at rest (stiction)",
-            **{key: (list(value) if isinstance(value, tuple) else value) for key, value in asdict(friction).items()},
+            **{
+                key: (list(value) if isinstance(value, tuple) else value)
+                for key, value in asdict(friction).items()
+            },
         },
         "sensors": {
             "torque": "commanded torque - armature ddq + sensor_offset + N(0, torque_noise_std)",
             "velocity": "first-order causal low-pass of MuJoCo's dq (velocity_time_constant, at 1 kHz, before decimation) + noise",
             "position": "round((q + N(0, encoder_noise_std)) / encoder_resolution) * encoder_resolution",
-            **{key: (list(value) if isinstance(value, tuple) else value) for key, value in asdict(sensors).items()},
+            **{
+                key: (list(value) if isinstance(value, tuple) else value)
+                for key, value in asdict(sensors).items()
+            },
         },
         "controller": f"PD (bandwidth {BANDWIDTH:g} rad/s, critically damped, on the encoder and a noisy dq) + "
         "feed-forward of the CAD model (RNEA + rotor inertia + CAD friction), 1 kHz; the reference starts and ends at rest",
@@ -433,7 +497,14 @@ def write_logs(folder: Path, seed: int = 0) -> dict[str, object]:
     for spec in MOTIONS:
         reference = reference_motion(spec, nominal)
         for stem, keep_every, jitter_std in spec.logs:
-            run = simulate(model, nominal, friction, sensors, reference, np.random.default_rng([seed, spec.seed, len(runs)]))
+            run = simulate(
+                model,
+                nominal,
+                friction,
+                sensors,
+                reference,
+                np.random.default_rng([seed, spec.seed, len(runs)]),
+            )
             arrays = log_arrays(recorded_signals(run, friction, sensors, rng), keep_every, jitter_std, rng)
             path = folder / f"{stem}.npz"
             np.savez(path, **arrays)
@@ -447,8 +518,12 @@ def write_logs(folder: Path, seed: int = 0) -> dict[str, object]:
             }
     simulated = time.perf_counter()
     checks = {
-        "mj_inverse vs logged torque without noise/offset (N·m)": max(mujoco_inverse_check(model, run) for run in runs.values()),
-        "RNEA(truth) + MuJoCo friction vs same (N·m)": max(rigid_body_check(truth, model, run) for run in runs.values()),
+        "mj_inverse vs logged torque without noise/offset (N·m)": max(
+            mujoco_inverse_check(model, run) for run in runs.values()
+        ),
+        "RNEA(truth) + MuJoCo friction vs same (N·m)": max(
+            rigid_body_check(truth, model, run) for run in runs.values()
+        ),
     }
     least_squares = {
         **{f"all samples, {k}": v for k, v in least_squares_check(runs, friction).items()},
@@ -456,14 +531,22 @@ def write_logs(folder: Path, seed: int = 0) -> dict[str, object]:
     }
     document = truth_document(truth, friction, sensors, seed, logs)
     document["noiseless_ols_relative_torque_error"] = least_squares
-    (folder / "truth.yaml").write_text(yaml.safe_dump(document, sort_keys=False, allow_unicode=True, default_flow_style=None, width=120))
+    (folder / "truth.yaml").write_text(
+        yaml.safe_dump(document, sort_keys=False, allow_unicode=True, default_flow_style=None, width=120)
+    )
     table = "\n".join(
         f"| `{stem}.npz` | {stem.split('_')[1]} | {log['rate_hz']:g} Hz | {log['samples']} | {log['peak_velocity_rad_s']:.2f} | "
         + ("time stamps jittered" if log["time_stamp_jitter_std_s"] else "")
         + " |"
         for stem, log in logs.items()
     )
-    readme = README.format(seed=seed, table=table, folder=folder, ls_error=100 * least_squares["all samples, fit a_1+b, validate c"], ls_moving=100 * least_squares["moving only, fit a_1+b, validate c"])
+    readme = README.format(
+        seed=seed,
+        table=table,
+        folder=folder,
+        ls_error=100 * least_squares["all samples, fit a_1+b, validate c"],
+        ls_moving=100 * least_squares["moving only, fit a_1+b, validate c"],
+    )
     (folder / "README.md").write_text(readme)
     files += [folder / "truth.yaml", folder / "README.md"]
     seconds = {"simulation": simulated - start, "checks and files": time.perf_counter() - simulated}

@@ -47,17 +47,38 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         folder = Path(scratch)
-        subprocess.run([*LWRLAB, "task=write_example_logs", "tracking=none", f"task.directory={folder}", f"hydra.run.dir={folder / 'write'}"],
-                       cwd=REPOSITORY, check=True, capture_output=True)
-        job = [*LWRLAB, "task=identification", "plant=log", f"data.path={folder / 'identification.csv'}",
-               f"data.validation_path={folder / 'validation.csv'}"]
+        subprocess.run(
+            [
+                *LWRLAB,
+                "task=write_example_logs",
+                "tracking=none",
+                f"task.directory={folder}",
+                f"hydra.run.dir={folder / 'write'}",
+            ],
+            cwd=REPOSITORY,
+            check=True,
+            capture_output=True,
+        )
+        job = [
+            *LWRLAB,
+            "task=identification",
+            "plant=log",
+            f"data.path={folder / 'identification.csv'}",
+            f"data.validation_path={folder / 'validation.csv'}",
+        ]
 
         def tracked(store: Path, run_dir: Path) -> list[str]:
-            return [*job, f"hydra.run.dir={run_dir}", f"hydra.callbacks.mlflow.tracking_uri=sqlite:///{store / 'mlflow.db'}",
-                    f"hydra.callbacks.mlflow.artifact_location={store / 'artifacts'}"]
+            return [
+                *job,
+                f"hydra.run.dir={run_dir}",
+                f"hydra.callbacks.mlflow.tracking_uri=sqlite:///{store / 'mlflow.db'}",
+                f"hydra.callbacks.mlflow.artifact_location={store / 'artifacts'}",
+            ]
 
         shared_store = folder / "shared_store"
-        subprocess.run(tracked(shared_store, folder / "first"), cwd=REPOSITORY, check=True, capture_output=True)  # also builds the template
+        subprocess.run(
+            tracked(shared_store, folder / "first"), cwd=REPOSITORY, check=True, capture_output=True
+        )  # also builds the template
         times: dict[str, list[tuple[float, float]]] = {
             "import numpy, pinocchio (floor)": [],
             "identification, tracking off": [],
@@ -65,17 +86,31 @@ def main() -> None:
             "identification, tracking on, existing store": [],
         }
         for k in range(args.rounds):
-            times["import numpy, pinocchio (floor)"].append(_timed([sys.executable, "-c", "import numpy, pinocchio"], folder))
-            times["identification, tracking off"].append(_timed([*job, "tracking=none", f"hydra.run.dir={folder / f'off{k}'}"], REPOSITORY))
-            times["identification, tracking on, new store"].append(_timed(tracked(folder / f"store{k}", folder / f"on{k}"), REPOSITORY))
-            times["identification, tracking on, existing store"].append(_timed(tracked(shared_store, folder / f"shared{k}"), REPOSITORY))
-            print(f"round {k + 1}/{args.rounds}: " + ", ".join(f"{name} {values[-1][0]:.2f} s" for name, values in times.items()), flush=True)
+            times["import numpy, pinocchio (floor)"].append(
+                _timed([sys.executable, "-c", "import numpy, pinocchio"], folder)
+            )
+            times["identification, tracking off"].append(
+                _timed([*job, "tracking=none", f"hydra.run.dir={folder / f'off{k}'}"], REPOSITORY)
+            )
+            times["identification, tracking on, new store"].append(
+                _timed(tracked(folder / f"store{k}", folder / f"on{k}"), REPOSITORY)
+            )
+            times["identification, tracking on, existing store"].append(
+                _timed(tracked(shared_store, folder / f"shared{k}"), REPOSITORY)
+            )
+            print(
+                f"round {k + 1}/{args.rounds}: "
+                + ", ".join(f"{name} {values[-1][0]:.2f} s" for name, values in times.items()),
+                flush=True,
+            )
     walls = {name: statistics.median(wall for wall, _ in values) for name, values in times.items()}
     cpus = {name: statistics.median(cpu for _, cpu in values) for name, values in times.items()}
     floor = "import numpy, pinocchio (floor)"
     print("\n| what | median wall (s) | × floor | median CPU (s) | × floor |\n|---|---:|---:|---:|---:|")
     for name in times:
-        print(f"| {name} | {walls[name]:.2f} | {walls[name] / walls[floor]:.1f} | {cpus[name]:.2f} | {cpus[name] / cpus[floor]:.1f} |")
+        print(
+            f"| {name} | {walls[name]:.2f} | {walls[name] / walls[floor]:.1f} | {cpus[name]:.2f} | {cpus[name] / cpus[floor]:.1f} |"
+        )
 
 
 if __name__ == "__main__":

@@ -75,13 +75,19 @@ def median_seconds(function: Callable[[], object], repeat: int) -> dict[int, flo
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--busy", type=int, nargs="+", default=[0, 1, 2], help="numbers of cores kept busy by spinning processes")
+    parser.add_argument(
+        "--busy",
+        type=int,
+        nargs="+",
+        default=[0, 1, 2],
+        help="numbers of cores kept busy by spinning processes",
+    )
     parser.add_argument("--repeat", type=int, default=5, help="timed calls per setting (the median counts)")
     args = parser.parse_args()
     ops = operations()
     for function in ops.values():  # warm-up: imports, caches, BLAS thread start
         function()
-    print(f"| operation | busy cores | 1 thread [ms] | 2 threads [ms] | t(2)/t(1) |")
+    print("| operation | busy cores | 1 thread [ms] | 2 threads [ms] | t(2)/t(1) |")
     print("|---|---:|---:|---:|---:|")
     for busy in args.busy:
         spinners = [subprocess.Popen([sys.executable, "-c", SPIN]) for _ in range(busy)]
@@ -89,7 +95,10 @@ def main() -> None:
             time.sleep(0.5)
             for name, function in ops.items():
                 t = median_seconds(function, args.repeat)
-                print(f"| {name} | {busy} | {1e3 * t[1]:.1f} | {1e3 * t[2]:.1f} | {t[2] / t[1]:.2f} |", flush=True)
+                print(
+                    f"| {name} | {busy} | {1e3 * t[1]:.1f} | {1e3 * t[2]:.1f} | {t[2] / t[1]:.2f} |",
+                    flush=True,
+                )
         finally:
             for spinner in spinners:
                 spinner.kill()

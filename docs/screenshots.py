@@ -78,9 +78,16 @@ def run_sweep(store: Path, full: bool) -> str:
     """
     uri = f"sqlite:///{store / 'mlflow.db'}"
     command = [
-        sys.executable, "-m", "lwrlab.cli", "-m", *SWEEP, *([] if full else SHORT_MOTIONS),
-        "plant.show_progress=false", f"tracking.uri={uri}",
-        f"tracking.artifact_location={store / 'mlartifacts'}", f"hydra.sweep.dir={store / 'multirun'}",
+        sys.executable,
+        "-m",
+        "lwrlab.cli",
+        "-m",
+        *SWEEP,
+        *([] if full else SHORT_MOTIONS),
+        "plant.show_progress=false",
+        f"tracking.uri={uri}",
+        f"tracking.artifact_location={store / 'mlartifacts'}",
+        f"hydra.sweep.dir={store / 'multirun'}",
     ]
     print("sweep:", " ".join(command[3:]), flush=True)
     completed = subprocess.run(command, cwd=REPO_ROOT, capture_output=True, text=True)
@@ -91,8 +98,18 @@ def run_sweep(store: Path, full: bool) -> str:
 
 def run_compare(uri: str, output: Path) -> None:
     """``lwrlab compare --experiment identification`` on the store; prints its table."""
-    command = [sys.executable, "-m", "lwrlab.cli", "compare", "--experiment", EXPERIMENT,
-               "--tracking-uri", uri, "--output", str(output)]
+    command = [
+        sys.executable,
+        "-m",
+        "lwrlab.cli",
+        "compare",
+        "--experiment",
+        EXPERIMENT,
+        "--tracking-uri",
+        uri,
+        "--output",
+        str(output),
+    ]
     completed = subprocess.run(command, cwd=REPO_ROOT, capture_output=True, text=True)
     if completed.returncode != 0:
         raise SystemExit(f"lwrlab compare failed:\n{completed.stderr[-3000:]}")
@@ -111,8 +128,18 @@ def mlflow_server(uri: str, log: Path, timeout_s: float = 120.0) -> Iterator[str
     """Serve the store with ``mlflow server`` on 127.0.0.1 only; yield its base URL, stop it after."""
     port = free_port()
     mlflow = Path(sys.executable).with_name("mlflow")
-    command = [str(mlflow), "server", "--host", "127.0.0.1", "--port", str(port), "--workers", "1",
-               "--backend-store-uri", uri]
+    command = [
+        str(mlflow),
+        "server",
+        "--host",
+        "127.0.0.1",
+        "--port",
+        str(port),
+        "--workers",
+        "1",
+        "--backend-store-uri",
+        uri,
+    ]
     with log.open("w") as log_file:
         # A session of its own, so that stopping it also stops the workers it forks.
         server = subprocess.Popen(command, stdout=log_file, stderr=subprocess.STDOUT, start_new_session=True)
@@ -164,11 +191,25 @@ class HeadlessChromium:
             os.dup2(browser_in, 3)
             os.dup2(browser_out, 4)
 
-        command = [executable, "--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
-                   "--no-first-run", "--remote-debugging-pipe", f"--user-data-dir={profile}",
-                   f"--window-size={WINDOW[0]},{WINDOW[1]}", "about:blank"]
-        self.process = subprocess.Popen(command, pass_fds=(3, 4), preexec_fn=wire_pipes,
-                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        command = [
+            executable,
+            "--headless=new",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            "--no-first-run",
+            "--remote-debugging-pipe",
+            f"--user-data-dir={profile}",
+            f"--window-size={WINDOW[0]},{WINDOW[1]}",
+            "about:blank",
+        ]
+        self.process = subprocess.Popen(
+            command,
+            pass_fds=(3, 4),
+            preexec_fn=wire_pipes,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         os.close(browser_in)
         os.close(browser_out)
         self._write_fd = to_browser_write
@@ -205,8 +246,10 @@ class HeadlessChromium:
         """Open a tab of the window's size and attach to it."""
         target = self.send("Target.createTarget", {"url": "about:blank"})["targetId"]
         self.session = self.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
-        self.send("Emulation.setDeviceMetricsOverride",
-                  {"width": WINDOW[0], "height": WINDOW[1], "deviceScaleFactor": 1, "mobile": False})
+        self.send(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": WINDOW[0], "height": WINDOW[1], "deviceScaleFactor": 1, "mobile": False},
+        )
 
     def evaluate(self, expression: str) -> object:
         """The value of a JavaScript expression in the page."""
@@ -217,21 +260,29 @@ class HeadlessChromium:
         """Load ``url`` and wait until the page's text holds every one of ``ready_texts``."""
         self.send("Page.navigate", {"url": "about:blank"})  # a real load, not a hash change
         self.send("Page.navigate", {"url": url})
-        condition = " && ".join(f"document.body.innerText.includes({json.dumps(text)})" for text in ready_texts)
+        condition = " && ".join(
+            f"document.body.innerText.includes({json.dumps(text)})" for text in ready_texts
+        )
         deadline = time.monotonic() + timeout_s
         while not self.evaluate(f"Boolean(document.body) && {condition}"):
             if time.monotonic() > deadline:
                 text = self.evaluate("document.body ? document.body.innerText.slice(0, 2000) : ''")
-                raise SystemExit(f"{url} did not show {ready_texts} within {timeout_s:.0f} s; it shows:\n{text}")
+                raise SystemExit(
+                    f"{url} did not show {ready_texts} within {timeout_s:.0f} s; it shows:\n{text}"
+                )
             time.sleep(0.5)
         # MLflow 3 opens its assistant panel beside the page: close it to leave the room to the runs.
-        self.evaluate("document.querySelector('[data-component-id=\"mlflow.assistant.chat_panel.close\"]')?.click()")
+        self.evaluate(
+            "document.querySelector('[data-component-id=\"mlflow.assistant.chat_panel.close\"]')?.click()"
+        )
         time.sleep(2.0)  # let the grid lay its columns out and charts finish animating
 
     def update_local_storage(self, key: str, values: dict) -> None:
         """Merge ``values`` into the JSON object kept under ``key`` in the page's local storage."""
-        self.evaluate(f"localStorage.setItem({json.dumps(key)}, JSON.stringify("
-                      f"Object.assign(JSON.parse(localStorage.getItem({json.dumps(key)}) || '{{}}'), {json.dumps(values)})))")
+        self.evaluate(
+            f"localStorage.setItem({json.dumps(key)}, JSON.stringify("
+            f"Object.assign(JSON.parse(localStorage.getItem({json.dumps(key)}) || '{{}}'), {json.dumps(values)})))"
+        )
 
     def screenshot(self, path: Path) -> None:
         """Write the viewport as a PNG."""
@@ -290,7 +341,10 @@ def take_screenshots(uri: str, browser: HeadlessChromium, base_url: str, output:
     }
     grouped_view = {
         **table_view,
-        "groupBy": {"aggregateFunction": "average", "groupByKeys": [{"mode": "param", "groupByData": "estimator"}]},
+        "groupBy": {
+            "aggregateFunction": "average",
+            "groupByKeys": [{"mode": "param", "groupByData": "estimator"}],
+        },
     }
     table_view["groupBy"] = None
     written = []
@@ -298,16 +352,26 @@ def take_screenshots(uri: str, browser: HeadlessChromium, base_url: str, output:
     # The first visit lets the UI write its own view state; the views below are merged into it.
     browser.show(runs_url, ["matching runs"])
     for name, view, ready in [
-        ("mlflow_runs.png", table_view, ["matching runs", "base_parameter_error", jobs[0].info.run_name[:12]]),
-        ("mlflow_runs_grouped.png", grouped_view, ["matching runs", "base_parameter_error", f"Group: {estimators[0]}"]),
+        (
+            "mlflow_runs.png",
+            table_view,
+            ["matching runs", "base_parameter_error", jobs[0].info.run_name[:12]],
+        ),
+        (
+            "mlflow_runs_grouped.png",
+            grouped_view,
+            ["matching runs", "base_parameter_error", f"Group: {estimators[0]}"],
+        ),
     ]:
         browser.update_local_storage(view_state_key(experiment.experiment_id), view)
         browser.show(runs_url, ready)
         browser.screenshot(output / name)
         written.append(output / name)
     run_ids = json.dumps([run.info.run_id for run in sorted(jobs, key=lambda run: run.info.run_name)])
-    compare_url = (f"{base_url}/#/compare-runs?runs={urllib.parse.quote(run_ids)}"
-                   f"&experiments={urllib.parse.quote(json.dumps([experiment.experiment_id]))}")
+    compare_url = (
+        f"{base_url}/#/compare-runs?runs={urllib.parse.quote(run_ids)}"
+        f"&experiments={urllib.parse.quote(json.dumps([experiment.experiment_id]))}"
+    )
     browser.show(compare_url, ["Comparing", "Parallel Coordinates Plot", "Run details"])
     browser.screenshot(output / "mlflow_compare.png")
     written.append(output / "mlflow_compare.png")
@@ -320,10 +384,17 @@ def main(argv: list[str] | None = None) -> None:
     """Run the walk-through and write its screenshots."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tracking-uri", help="an existing store holding the sweep (skips the sweep)")
-    parser.add_argument("--full", action="store_true", help="run the README's sweep without shortened motions")
-    parser.add_argument("--output", type=Path, default=IMAGES, help="folder for the PNGs (default docs/images)")
-    parser.add_argument("--chromium", default=shutil.which("chromium") or shutil.which("chromium-browser"),
-                        help="the chromium binary (default: from PATH)")
+    parser.add_argument(
+        "--full", action="store_true", help="run the README's sweep without shortened motions"
+    )
+    parser.add_argument(
+        "--output", type=Path, default=IMAGES, help="folder for the PNGs (default docs/images)"
+    )
+    parser.add_argument(
+        "--chromium",
+        default=shutil.which("chromium") or shutil.which("chromium-browser"),
+        help="the chromium binary (default: from PATH)",
+    )
     args = parser.parse_args(argv)
     if not args.chromium:
         raise SystemExit("chromium not found: apt-get install chromium, or give --chromium PATH")
@@ -341,8 +412,10 @@ def main(argv: list[str] | None = None) -> None:
             finally:
                 browser.close()
     for path in written:
-        print(f"{path.relative_to(REPO_ROOT) if path.is_relative_to(REPO_ROOT) else path}: "
-              f"{path.stat().st_size / 1000:.0f} kB")
+        print(
+            f"{path.relative_to(REPO_ROOT) if path.is_relative_to(REPO_ROOT) else path}: "
+            f"{path.stat().st_size / 1000:.0f} kB"
+        )
 
 
 if __name__ == "__main__":

@@ -28,7 +28,11 @@ from lwrlab.tracking.processes import JobInterrupted
 
 log = logging.getLogger("lwrlab")
 
-SUBCOMMANDS = {"report": "lwrlab.tracking.report", "compare": "lwrlab.tracking.compare", "sync": "lwrlab.tracking.sync"}
+SUBCOMMANDS = {
+    "report": "lwrlab.tracking.report",
+    "compare": "lwrlab.tracking.compare",
+    "sync": "lwrlab.tracking.sync",
+}
 """``lwrlab <name> ...`` runs ``<module>.main(argv)`` instead of a Hydra job."""
 
 
@@ -52,7 +56,9 @@ def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
     """Run the pipeline stage selected by ``cfg.task`` (a function ``(cfg, output_dir) -> metrics``)."""
     finished = job_state.completed_metrics()
     if finished is not None:  # a re-launched sweep: the tracking callback found this config FINISHED
-        log.info("this job's config already finished in MLflow: its metrics are reused, nothing is recomputed")
+        log.info(
+            "this job's config already finished in MLflow: its metrics are reused, nothing is recomputed"
+        )
         return finished
     check_config(cfg)  # a wrong type or range fails here, naming the key, before anything is built
     stage = instantiate(cfg.task)

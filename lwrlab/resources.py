@@ -47,7 +47,11 @@ def config_group(group: str) -> dict[str, Path]:
     folder = files(CONFIG_PACKAGE).joinpath(group)
     if not folder.is_dir():
         raise FileNotFoundError(f"no config group {group!r} in {CONFIG_SEARCH_PATH}")
-    return {entry.name.removesuffix(".yaml"): _on_disk(entry) for entry in folder.iterdir() if entry.name.endswith(".yaml")}
+    return {
+        entry.name.removesuffix(".yaml"): _on_disk(entry)
+        for entry in folder.iterdir()
+        if entry.name.endswith(".yaml")
+    }
 
 
 def package_file(reference: str) -> Path:

@@ -23,7 +23,7 @@ from hydra import compose, initialize_config_dir
 
 from lwrlab.cli import run
 from lwrlab.errors import ConfigError, IdentifiabilityError, UserError
-from lwrlab.io.logs import LogError, log_frame, write_log
+from lwrlab.io.logs import LogError, log_frame
 from lwrlab.plants.core import Measurement
 from plugins.plants.simulated import SimulatedPlant
 from plugins.trajectories.multisine import MultisineMotion
@@ -117,36 +117,128 @@ class Case:
 LOG = ("task=identification", "plant=log", "tracking=none")
 CASES = [
     # confident garbage before: now a printed warning beside the result
-    Case("tiny multisine motion", ("task=identification", "tracking=none", "trajectory=multisine", "trajectory.harmonics=2",
-                                    "trajectory.limit_fraction=0.001", "trajectory.duration=4", "validation.duration=4"),
-         fragment="WARNING: identifiability poor"),
+    Case(
+        "tiny multisine motion",
+        (
+            "task=identification",
+            "tracking=none",
+            "trajectory=multisine",
+            "trajectory.harmonics=2",
+            "trajectory.limit_fraction=0.001",
+            "trajectory.duration=4",
+            "validation.duration=4",
+        ),
+        fragment="WARNING: identifiability poor",
+    ),
     Case("joint 5 never moves", LOG, _still_joint_5, fragment="joint 5"),
     # implausible logs: errors naming the file, the column, the check
     Case("positions in degrees", LOG, _degrees, error=LogError, fragment="data.position_unit=deg"),
     Case("one 1e30 cell", LOG, _cell("tau2", 321, "1e30"), error=LogError, fragment="'tau2'"),
     Case("all torques zero", LOG, _zero_torques, error=LogError, fragment="zero_torque"),
-    Case("boolean torque column (Parquet)", LOG, _boolean_torque, suffix=".parquet", error=LogError, fragment="'tau3'"),
+    Case(
+        "boolean torque column (Parquet)",
+        LOG,
+        _boolean_torque,
+        suffix=".parquet",
+        error=LogError,
+        fragment="'tau3'",
+    ),
     Case("time in ms declared as s", LOG, _milliseconds, error=LogError, fragment="data.time_unit=ms"),
-    Case("datetime time column (Parquet)", LOG, _datetime_time, suffix=".parquet", error=LogError, fragment="seconds"),
+    Case(
+        "datetime time column (Parquet)",
+        LOG,
+        _datetime_time,
+        suffix=".parquet",
+        error=LogError,
+        fragment="seconds",
+    ),
     Case("NaN cell", LOG, _cell("q6", 40, "nan"), error=LogError, fragment="column 'q6', row 40"),
-    Case("text in a number column", LOG, _cell("tau1", 7, "n/a"), error=LogError, fragment="non-numeric value 'n/a'"),
+    Case(
+        "text in a number column",
+        LOG,
+        _cell("tau1", 7, "n/a"),
+        error=LogError,
+        fragment="non-numeric value 'n/a'",
+    ),
     Case("missing torque column", LOG, _missing_column, error=LogError, fragment="missing column 'tau4'"),
     Case("time going backwards", LOG, _time_backwards, error=LogError, fragment="does not increase"),
     Case("empty CSV", LOG, lambda clean: pd.DataFrame(), error=LogError, fragment="empty file"),
     Case("no log named", LOG, error=LogError, fragment="data.paths"),
     Case("a directory as the log", (*LOG, "data.path={tmp}"), error=LogError, fragment="a directory"),
-    Case("unknown log format", LOG, _frame, suffix=".xlsx", error=LogError, fragment="unknown log format '.xlsx'"),
-    Case("velocity logged but none in the log", (*LOG, "data.velocity=logged"), _frame, error=ConfigError, fragment="the log has no velocities"),
-    Case("cut-off beyond Nyquist", (*LOG, "measurement.processing.cutoff_hz=400"), _frame, error=ConfigError, fragment="data.time_unit"),
-    Case("simulated tool stage on logs", ("task=table3_tools", "plant=log", "tracking=none"), _frame, error=ConfigError, fragment="task=payload"),
+    Case(
+        "unknown log format",
+        LOG,
+        _frame,
+        suffix=".xlsx",
+        error=LogError,
+        fragment="unknown log format '.xlsx'",
+    ),
+    Case(
+        "velocity logged but none in the log",
+        (*LOG, "data.velocity=logged"),
+        _frame,
+        error=ConfigError,
+        fragment="the log has no velocities",
+    ),
+    Case(
+        "cut-off beyond Nyquist",
+        (*LOG, "measurement.processing.cutoff_hz=400"),
+        _frame,
+        error=ConfigError,
+        fragment="data.time_unit",
+    ),
+    Case(
+        "simulated tool stage on logs",
+        ("task=table3_tools", "plant=log", "tracking=none"),
+        _frame,
+        error=ConfigError,
+        fragment="task=payload",
+    ),
     # settings checked where they are read
-    Case("seed not an integer", ("task=identification", "tracking=none", "seed=1.5"), error=ConfigError, fragment="seed=1.5"),
-    Case("noise not a number", ("task=identification", "tracking=none", "plant.torque_noise_std=abc"), error=ConfigError, fragment="plant.torque_noise_std"),
-    Case("negative noise", ("task=identification", "tracking=none", "plant.torque_noise_std=-1"), error=ConfigError, fragment="must be a number ≥ 0"),
-    Case("zero duration", ("task=identification", "tracking=none", "trajectory=multisine", "trajectory.duration=0"), error=ConfigError, fragment="trajectory.duration=0"),
-    Case("negative decimated rate", ("task=identification", "tracking=none", "measurement.processing.rate_hz=-50"), error=ConfigError, fragment="measurement.processing.rate_hz"),
-    Case("unknown velocity source", (*LOG, "data.velocity=encoder"), _frame, error=ConfigError, fragment="measurement.processing.velocity='encoder'"),
-    Case("validation fraction out of range", (*LOG, "data.validation_fraction=1.5"), _frame, error=ConfigError, fragment="data.validation_fraction=1.5"),
+    Case(
+        "seed not an integer",
+        ("task=identification", "tracking=none", "seed=1.5"),
+        error=ConfigError,
+        fragment="seed=1.5",
+    ),
+    Case(
+        "noise not a number",
+        ("task=identification", "tracking=none", "plant.torque_noise_std=abc"),
+        error=ConfigError,
+        fragment="plant.torque_noise_std",
+    ),
+    Case(
+        "negative noise",
+        ("task=identification", "tracking=none", "plant.torque_noise_std=-1"),
+        error=ConfigError,
+        fragment="must be a number ≥ 0",
+    ),
+    Case(
+        "zero duration",
+        ("task=identification", "tracking=none", "trajectory=multisine", "trajectory.duration=0"),
+        error=ConfigError,
+        fragment="trajectory.duration=0",
+    ),
+    Case(
+        "negative decimated rate",
+        ("task=identification", "tracking=none", "measurement.processing.rate_hz=-50"),
+        error=ConfigError,
+        fragment="measurement.processing.rate_hz",
+    ),
+    Case(
+        "unknown velocity source",
+        (*LOG, "data.velocity=encoder"),
+        _frame,
+        error=ConfigError,
+        fragment="measurement.processing.velocity='encoder'",
+    ),
+    Case(
+        "validation fraction out of range",
+        (*LOG, "data.validation_fraction=1.5"),
+        _frame,
+        error=ConfigError,
+        fragment="data.validation_fraction=1.5",
+    ),
 ]
 
 
@@ -166,7 +258,9 @@ def _run_case(case: Case, clean: Measurement, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
-def test_bad_input_is_never_a_silent_result(case: Case, clean: Measurement, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_bad_input_is_never_a_silent_result(
+    case: Case, clean: Measurement, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     if case.error is None:
         _run_case(case, clean, tmp_path)
         assert case.fragment in capsys.readouterr().out
@@ -179,14 +273,18 @@ def test_bad_input_is_never_a_silent_result(case: Case, clean: Measurement, tmp_
     assert isinstance(error.value, UserError)  # printed as one line by lwrlab
 
 
-def test_a_rank_deficient_fit_fails_naming_what_the_data_cannot_determine(lwr4, clean: Measurement, tmp_path: Path) -> None:
+def test_a_rank_deficient_fit_fails_naming_what_the_data_cannot_determine(
+    lwr4, clean: Measurement, tmp_path: Path
+) -> None:
     frame = _still_joint_5(clean)
     frame["q5"] = 0.0
     frame["q6"] = 0.0  # two joints still: structurally unidentifiable columns, noiseless positions
     path = tmp_path / "still.csv"
     frame.to_csv(path, index=False, float_format="%.17g")
     with initialize_config_dir(config_dir=str(CONF), version_base=None):
-        cfg = compose("config", overrides=[*LOG, f"data.path={path}", "robot.friction_terms=[coulomb,viscous]"])
+        cfg = compose(
+            "config", overrides=[*LOG, f"data.path={path}", "robot.friction_terms=[coulomb,viscous]"]
+        )
     with pytest.raises(IdentifiabilityError, match="rank") as error:
         run(cfg, tmp_path / "run")
     assert "FC5" in str(error.value) and "estimator=sdp" in str(error.value)
@@ -194,13 +292,22 @@ def test_a_rank_deficient_fit_fails_naming_what_the_data_cannot_determine(lwr4, 
 
 @pytest.mark.parametrize(
     "overrides, fragment",
-    [(("task=identification", "seed=1.5"), "seed=1.5: must be an integer"), (("task=identification", "plant=log"), "data.paths")],
+    [
+        (("task=identification", "seed=1.5"), "seed=1.5: must be an integer"),
+        (("task=identification", "plant=log"), "data.paths"),
+    ],
 )
-def test_lwrlab_prints_one_clear_line_and_exits_non_zero(tmp_path: Path, overrides: tuple[str, ...], fragment: str) -> None:
+def test_lwrlab_prints_one_clear_line_and_exits_non_zero(
+    tmp_path: Path, overrides: tuple[str, ...], fragment: str
+) -> None:
     environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
     completed = subprocess.run(
         [sys.executable, "-m", "lwrlab.cli", f"hydra.run.dir={tmp_path}", "tracking=none", *overrides],
-        cwd=REPOSITORY, env=environment, capture_output=True, text=True, timeout=300,
+        cwd=REPOSITORY,
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert completed.returncode == 1
     assert fragment in completed.stderr

@@ -12,7 +12,9 @@ from lwrlab.model.robot import RobotModel
 from plugins.trajectories.bspline import BSplineMotion
 
 
-def test_spline_passes_through_its_via_points_at_rest_at_both_ends(lwr4: RobotModel, rng: np.random.Generator) -> None:
+def test_spline_passes_through_its_via_points_at_rest_at_both_ends(
+    lwr4: RobotModel, rng: np.random.Generator
+) -> None:
     spline = BSplineMotion(duration=6.0)
     assert spline.n_coefficients == 7  # N_P = T_F + 1 via points, one per second
     via = spline.initial_coefficients(lwr4, rng, 0.5)
@@ -28,7 +30,9 @@ def test_basis_derivatives_equal_central_differences_in_time() -> None:
     h = 1e-5
     for derivative in (1, 2):
         numeric = (spline.basis(t + h, derivative - 1) - spline.basis(t - h, derivative - 1)) / (2 * h)
-        np.testing.assert_allclose(spline.basis(t, derivative), numeric, rtol=1e-6, atol=1e-6 * np.abs(numeric).max())
+        np.testing.assert_allclose(
+            spline.basis(t, derivative), numeric, rtol=1e-6, atol=1e-6 * np.abs(numeric).max()
+        )
 
 
 def test_motion_jacobian_is_the_basis(lwr4: RobotModel, rng: np.random.Generator) -> None:

@@ -64,7 +64,9 @@ def test_pca_lookup_is_the_papers_projection(library) -> None:
 
     pca = PCALookup(n_components=4).fit(library)
     u, _, _ = np.linalg.svd(library.parameters.T, full_matrices=False)  # Φ̄ = U·S·Vᵀ, 10 × N_T
-    np.testing.assert_allclose(np.abs(pca.transform(library.parameters)), np.abs(library.parameters @ u[:, :4]), atol=1e-15)
+    np.testing.assert_allclose(
+        np.abs(pca.transform(library.parameters)), np.abs(library.parameters @ u[:, :4]), atol=1e-15
+    )
     assert pca.explained_ > 0.999
     with pytest.raises(ValueError, match="scaling"):
         PCALookup(scaling="minmax").fit(library)
@@ -81,10 +83,13 @@ def test_geometry_interpolation(rng: np.random.Generator) -> None:
     features = rng.normal(size=(8, 3))
     geometry = features @ rng.normal(size=(3, 2)) + np.array([0.3, 0.1])  # an affine relation
     query = rng.normal(size=3)
-    expected = query @ np.linalg.lstsq(np.column_stack([features, np.ones(8)]), geometry, rcond=None)[0][:3] + np.linalg.lstsq(
-        np.column_stack([features, np.ones(8)]), geometry, rcond=None
-    )[0][3]
-    np.testing.assert_allclose(interpolate_geometry(features, geometry, query, "linear", ridge=0.0), expected, atol=1e-10)
+    expected = (
+        query @ np.linalg.lstsq(np.column_stack([features, np.ones(8)]), geometry, rcond=None)[0][:3]
+        + np.linalg.lstsq(np.column_stack([features, np.ones(8)]), geometry, rcond=None)[0][3]
+    )
+    np.testing.assert_allclose(
+        interpolate_geometry(features, geometry, query, "linear", ridge=0.0), expected, atol=1e-10
+    )
     np.testing.assert_array_equal(interpolate_geometry(features, geometry, features[2], "idw"), geometry[2])
     blended = interpolate_geometry(features, geometry, query, "idw", neighbours=3)
     assert np.all(blended >= geometry.min(axis=0)) and np.all(blended <= geometry.max(axis=0))

@@ -26,13 +26,24 @@ def runs() -> pd.DataFrame:
     for estimator in ESTIMATORS:
         for seed in SEEDS:
             per_joint = [_rms(estimator, seed, joint) for joint in (1, 2, 3)]
-            rows.append({
-                "run_id": f"{estimator}{seed}", "params.estimator": estimator, "params.estimator._target_": f"plugins.{estimator.upper()}",
-                "params.seed": str(seed), "params.trajectory.seed": str(seed), "params.tracking.uri": f"sqlite:///{seed}.db",
-                "params.plant.torque_noise_std": "0.1", "metrics.rms_mean": float(np.mean(per_joint)),
-                "metrics.fit_cpu_s": 0.5 + seed, "metrics.doubled": 3.0,
-                **{f"metrics.rms_joint{joint}": value for joint, value in zip((1, 2, 3), per_joint, strict=True)},
-            })
+            rows.append(
+                {
+                    "run_id": f"{estimator}{seed}",
+                    "params.estimator": estimator,
+                    "params.estimator._target_": f"plugins.{estimator.upper()}",
+                    "params.seed": str(seed),
+                    "params.trajectory.seed": str(seed),
+                    "params.tracking.uri": f"sqlite:///{seed}.db",
+                    "params.plant.torque_noise_std": "0.1",
+                    "metrics.rms_mean": float(np.mean(per_joint)),
+                    "metrics.fit_cpu_s": 0.5 + seed,
+                    "metrics.doubled": 3.0,
+                    **{
+                        f"metrics.rms_joint{joint}": value
+                        for joint, value in zip((1, 2, 3), per_joint, strict=True)
+                    },
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -69,7 +80,12 @@ def test_a_single_run_has_no_spread_and_an_unknown_group_is_named(runs: pd.DataF
 def test_tables_refuse_to_pool_what_their_columns_do_not_tell_apart(runs: pd.DataFrame) -> None:
     base_parameters = pd.DataFrame({"run_id": [], "parameter": [], "estimate": []})
     assert unseparated_parameters(["estimator"], base_parameters) == ["estimator"]
-    assert unseparated_parameters(["fixture_criterion"], pd.DataFrame({"criterion": ["cond"], "rms": [0.1]})) == []
-    assert unseparated_parameters(["plant.torque_noise_std"], pd.DataFrame({"parameter": ["XX1"], "std": [0.1]})) == ["plant.torque_noise_std"]
+    assert (
+        unseparated_parameters(["fixture_criterion"], pd.DataFrame({"criterion": ["cond"], "rms": [0.1]}))
+        == []
+    )
+    assert unseparated_parameters(
+        ["plant.torque_noise_std"], pd.DataFrame({"parameter": ["XX1"], "std": [0.1]})
+    ) == ["plant.torque_noise_std"]
     message = pooling_refusal(runs, ["estimator"])
     assert "estimator (ols, sdp, wls)" in message and "--param estimator=" in message

@@ -37,8 +37,14 @@ def test_the_log_plant_passes_with_its_defaults() -> None:
         ("plant.encoder_noise_std=[0.1,-0.1]", "plant.encoder_noise_std=[0.1, -0.1]"),
         ("trajectory.duration=0", "trajectory.duration=0: must be a number > 0"),
         ("measurement.rate_hz=-5", "measurement.rate_hz=-5"),
-        ("measurement.processing.cutoff_hz=fast", "measurement.processing.cutoff_hz='fast': must be a number > 0 (Hz), auto or null"),
-        ("measurement.processing.rate_hz=0", "measurement.processing.rate_hz=0: must be a number > 0 or null"),
+        (
+            "measurement.processing.cutoff_hz=fast",
+            "measurement.processing.cutoff_hz='fast': must be a number > 0 (Hz), auto or null",
+        ),
+        (
+            "measurement.processing.rate_hz=0",
+            "measurement.processing.rate_hz=0: must be a number > 0 or null",
+        ),
         ("measurement.processing.difference_accuracy=3", "must be one of [2, 4]"),
         ("measurement.processing.velocity=measured", "measurement.processing.velocity='measured'"),
         ("statistics.resamples=-1", "statistics.resamples=-1: must be an integer ≥ 0"),
@@ -52,11 +58,15 @@ def test_a_bad_value_fails_naming_its_key(override: str, fragment: str) -> None:
 
 
 def test_log_settings_are_checked_only_with_the_log_plant() -> None:
-    found = violations(_compose("plant=log", "data.paths=[a.csv]", "data.time_unit=minutes", "data.validation_fraction=1.5"))
-    assert sorted(found) == sorted([
-        "data.validation_fraction=1.5: must be a number in (0, 1)",
-        "data.time_unit='minutes': must be one of ['s', 'ms', 'us', 'ns']",
-    ])
+    found = violations(
+        _compose("plant=log", "data.paths=[a.csv]", "data.time_unit=minutes", "data.validation_fraction=1.5")
+    )
+    assert sorted(found) == sorted(
+        [
+            "data.validation_fraction=1.5: must be a number in (0, 1)",
+            "data.time_unit='minutes': must be one of ['s', 'ms', 'us', 'ns']",
+        ]
+    )
     assert not any(rule.key.startswith("plant.torque") for rule in RULES if rule.key in " ".join(found))
     # a simulated job has no data.* keys: nothing to check there, nothing reported
     assert violations(_compose("task=identification")) == []

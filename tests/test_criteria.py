@@ -24,7 +24,11 @@ def build(name: str) -> Criterion:
 
 def regressor_like(rng: np.random.Generator, rows: int = 60, columns: int = 6) -> np.ndarray:
     """A full-rank matrix with unequal, correlated columns (like a base regressor)."""
-    return rng.normal(size=(rows, columns)) @ (np.eye(columns) + 0.3 * rng.normal(size=(columns, columns))) * rng.uniform(0.5, 3.0, columns)
+    return (
+        rng.normal(size=(rows, columns))
+        @ (np.eye(columns) + 0.3 * rng.normal(size=(columns, columns)))
+        * rng.uniform(0.5, 3.0, columns)
+    )
 
 
 def central_difference_gradient(criterion: Criterion, w: np.ndarray, h: float = 1e-6) -> np.ndarray:
@@ -33,7 +37,9 @@ def central_difference_gradient(criterion: Criterion, w: np.ndarray, h: float = 
         plus, minus = w.copy(), w.copy()
         plus[index] += h
         minus[index] -= h
-        numeric[index] = (criterion.value_and_gradient(plus)[0] - criterion.value_and_gradient(minus)[0]) / (2 * h)
+        numeric[index] = (criterion.value_and_gradient(plus)[0] - criterion.value_and_gradient(minus)[0]) / (
+            2 * h
+        )
     return numeric
 
 
@@ -105,12 +111,19 @@ def test_a_criterion_from_outside_the_package(tmp_path: Path, monkeypatch: pytes
         )
     )
     (tmp_path / "conf" / "criterion").mkdir(parents=True)
-    (tmp_path / "conf" / "criterion" / "inverse_trace.yaml").write_text("_target_: my_criteria.InverseTrace\nweight: 2.0\n")
+    (tmp_path / "conf" / "criterion" / "inverse_trace.yaml").write_text(
+        "_target_: my_criteria.InverseTrace\nweight: 2.0\n"
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
         cfg = compose(
             config_name="config",
-            overrides=[f"hydra.searchpath=[file://{tmp_path / 'conf'}]", "criterion=inverse_trace", "trajectory=optimal", "trajectory.duration=2.0"],
+            overrides=[
+                f"hydra.searchpath=[file://{tmp_path / 'conf'}]",
+                "criterion=inverse_trace",
+                "trajectory=optimal",
+                "trajectory.duration=2.0",
+            ],
         )
     criterion = instantiate(cfg.criterion)
     assert criterion.name == "inverse_trace" and criterion.weight == 2.0
@@ -128,7 +141,9 @@ def test_a_criterion_from_outside_the_package(tmp_path: Path, monkeypatch: pytes
 
 
 @pytest.mark.parametrize("sharpness", [None, 4.0, 32.0])
-def test_cond_gradient_equals_central_differences_smooth_or_exact(sharpness: float | None, rng: np.random.Generator) -> None:
+def test_cond_gradient_equals_central_differences_smooth_or_exact(
+    sharpness: float | None, rng: np.random.Generator
+) -> None:
     from plugins.criteria.cond import ConditionNumber
 
     criterion = ConditionNumber(sharpness=sharpness)
@@ -163,7 +178,9 @@ def test_smooth_cond_is_smooth_where_the_smallest_singular_values_coincide() -> 
 
     def one_sided_slopes(criterion: ConditionNumber) -> tuple[float, float]:
         at = criterion.value_and_gradient(w)[0]
-        return (criterion.value_and_gradient(w + h * direction)[0] - at) / h, (at - criterion.value_and_gradient(w - h * direction)[0]) / h
+        return (criterion.value_and_gradient(w + h * direction)[0] - at) / h, (
+            at - criterion.value_and_gradient(w - h * direction)[0]
+        ) / h
 
     right, left = one_sided_slopes(ConditionNumber(sharpness=None))
     kink = right - left

@@ -53,7 +53,9 @@ def khalil_poses(alpha: list[float], d: list[float], r: list[float], q: np.ndarr
     return poses
 
 
-def craig_poses(alpha_prev: list[float], a_prev: list[float], d: list[float], q: np.ndarray) -> list[np.ndarray]:
+def craig_poses(
+    alpha_prev: list[float], a_prev: list[float], d: list[float], q: np.ndarray
+) -> list[np.ndarray]:
     """Base poses of frames 1…n, T_i = Rx(α_{i-1})·Tx(a_{i-1})·Rz(θ_i)·Tz(d_i) (Craig's modified DH)."""
     return khalil_poses(alpha_prev, a_prev, d, q)
 
@@ -75,12 +77,16 @@ PANDA_CRAIG_D = [0.333, 0.0, 0.316, 0.0, 0.384, 0.0, 0.0, 0.107]
 PANDA_CRAIG_A = [0.0, 0.0, 0.0, 0.0825, -0.0825, 0.0, 0.088, 0.0]
 PANDA_CRAIG_ALPHA = [0.0, -np.pi / 2, np.pi / 2, np.pi / 2, -np.pi / 2, np.pi / 2, np.pi / 2, 0.0]
 
-configurations = st.lists(st.floats(-2 * np.pi, 2 * np.pi, allow_nan=False), min_size=7, max_size=7).map(np.array)
+configurations = st.lists(st.floats(-2 * np.pi, 2 * np.pi, allow_nan=False), min_size=7, max_size=7).map(
+    np.array
+)
 
 
 @pytest.fixture(scope="module")
 def lwr4_model() -> pin.Model:
-    table = ModifiedDH(alpha=np.array(LWR4_ALPHA), d=np.zeros(7), r=np.array(LWR4_R), theta_offset=np.zeros(7))
+    table = ModifiedDH(
+        alpha=np.array(LWR4_ALPHA), d=np.zeros(7), r=np.array(LWR4_R), theta_offset=np.zeros(7)
+    )
     unit = pin.Inertia(1.0, np.zeros(3), np.eye(3))
     flange = trans_z(0.078)
     return build_dh_model(table, [unit] * 7, np.array([0.0, 0.0, -9.81]), flange=flange)
@@ -124,14 +130,21 @@ def test_lwrlab_forward_kinematics_matches_elementary_matrices(q: np.ndarray) ->
         r=np.array(PANDA_CRAIG_D[:7]),
         theta_offset=np.linspace(-0.3, 0.3, 7),  # offsets shift θ_j = q_j + offset_j
     )
-    expected = khalil_poses(PANDA_CRAIG_ALPHA[:7], PANDA_CRAIG_A[:7], PANDA_CRAIG_D[:7], q + table.theta_offset)
+    expected = khalil_poses(
+        PANDA_CRAIG_ALPHA[:7], PANDA_CRAIG_A[:7], PANDA_CRAIG_D[:7], q + table.theta_offset
+    )
     for j, (pose, reference) in enumerate(zip(forward_kinematics(table, q), expected, strict=True), start=1):
         np.testing.assert_allclose(pose, reference, rtol=0, atol=TOLERANCE, err_msg=f"frame {j}")
 
 
 def test_theta_offset_enters_pinocchio_model() -> None:
     offsets = np.array([0.1, -0.2, 0.3])
-    table = ModifiedDH(alpha=np.array([0.0, np.pi / 2, -np.pi / 2]), d=np.array([0.0, 0.1, 0.2]), r=np.array([0.3, 0.0, 0.1]), theta_offset=offsets)
+    table = ModifiedDH(
+        alpha=np.array([0.0, np.pi / 2, -np.pi / 2]),
+        d=np.array([0.0, 0.1, 0.2]),
+        r=np.array([0.3, 0.0, 0.1]),
+        theta_offset=offsets,
+    )
     unit = pin.Inertia(1.0, np.zeros(3), np.eye(3))
     model = build_dh_model(table, [unit] * 3, np.array([0.0, 0.0, -9.81]))
     q = np.array([0.4, -0.5, 0.6])

@@ -31,7 +31,9 @@ def run_lwrlab(tmp_path: Path, *overrides: str, tracked: bool = True) -> subproc
         *overrides,
     ]
     environment = {k: v for k, v in os.environ.items() if k != "MLFLOW_TRACKING_URI"}
-    return subprocess.run(command, cwd=REPO_ROOT, env=environment, capture_output=True, text=True, timeout=600)
+    return subprocess.run(
+        command, cwd=REPO_ROOT, env=environment, capture_output=True, text=True, timeout=600
+    )
 
 
 def only_run(tmp_path: Path, experiment: str):
@@ -58,8 +60,16 @@ def test_main_job_runs_the_whole_chain_and_leaves_one_finished_run(tmp_path: Pat
     cad = metrics["rms_large_roller_cad_estimate_estimated_vs_measured"]
     assert identified <= 1.0 and identified < cad  # N: the identified model estimates the force better
     assert metrics["coverage_large_roller_identified_estimate"] > 0.98
-    for name in ("summary.md", "base_parameters.csv", "identified_model.yaml", "torque_overlay.png", "exciting_motion.parquet",
-                 "painting/table4_force.csv", "painting/fig12_large_roller.png", "painting/fig13_large_roller.png"):
+    for name in (
+        "summary.md",
+        "base_parameters.csv",
+        "identified_model.yaml",
+        "torque_overlay.png",
+        "exciting_motion.parquet",
+        "painting/table4_force.csv",
+        "painting/fig12_large_roller.png",
+        "painting/fig13_large_roller.png",
+    ):
         assert (tmp_path / "run" / name).is_file(), name
 
 
@@ -74,14 +84,23 @@ def test_noiseless_data_give_the_true_base_parameters(tmp_path: Path) -> None:
 def test_a_poorly_exciting_motion_is_warned_and_tagged_in_mlflow(tmp_path: Path) -> None:
     """A tiny motion still gives numbers: they come with a printed warning and the run's tags say so."""
     completed = run_lwrlab(
-        tmp_path, "task=identification", "trajectory=multisine", "trajectory.duration=4", "trajectory.harmonics=2",
-        "trajectory.limit_fraction=0.001", "validation.duration=4",
+        tmp_path,
+        "task=identification",
+        "trajectory=multisine",
+        "trajectory.duration=4",
+        "trajectory.harmonics=2",
+        "trajectory.limit_fraction=0.001",
+        "validation.duration=4",
     )
     assert completed.returncode == 0, completed.stderr[-3000:]
     assert "WARNING: identifiability poor" in completed.stdout
     run = only_run(tmp_path, "identification")  # the experiment is named after the task
     assert run.info.status == "FINISHED"
-    assert run.data.tags["identifiability"] == "poor" and int(run.data.tags["warnings"]) >= 1 and run.data.tags["data"] == "simulation"
+    assert (
+        run.data.tags["identifiability"] == "poor"
+        and int(run.data.tags["warnings"]) >= 1
+        and run.data.tags["data"] == "simulation"
+    )
     assert run.data.metrics["cond_W_b_scaled"] > 500
 
 

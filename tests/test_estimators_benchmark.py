@@ -17,12 +17,20 @@ CONF = Path(__file__).resolve().parents[1] / "conf"
 
 def _job(tmp_path: Path, estimator: str, noise: str, seed: int) -> dict[str, float]:
     overrides = [
-        f"estimator={estimator}", "task=estimator_benchmark", f"task.noise={noise}", f"seed={seed}",
-        "trajectory.duration=3", "validation.duration=2", "measurement.rate_hz=200", "plant.show_progress=false",
+        f"estimator={estimator}",
+        "task=estimator_benchmark",
+        f"task.noise={noise}",
+        f"seed={seed}",
+        "trajectory.duration=3",
+        "validation.duration=2",
+        "measurement.rate_hz=200",
+        "plant.show_progress=false",
     ]
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
         cfg = compose("config", overrides=overrides)
-    return run_estimator_benchmark(cfg, tmp_path / f"{estimator}-{noise}-{seed}", cfg.task.noise, cfg.task.noise_presets)
+    return run_estimator_benchmark(
+        cfg, tmp_path / f"{estimator}-{noise}-{seed}", cfg.task.noise, cfg.task.noise_presets
+    )
 
 
 def test_benchmark_jobs_and_summary(tmp_path: Path) -> None:

@@ -6,7 +6,11 @@ import cvxpy as cp
 import numpy as np
 import pytest
 
-from lwrlab.identification.consistency import consistency_constraints, min_pseudo_inertia_eigenvalues, pseudo_inertia_expression
+from lwrlab.identification.consistency import (
+    consistency_constraints,
+    min_pseudo_inertia_eigenvalues,
+    pseudo_inertia_expression,
+)
 from lwrlab.model.inertia import pseudo_inertia, random_consistent_parameters
 
 
@@ -30,6 +34,8 @@ def test_projection_onto_consistent_set_is_consistent(rng: np.random.Generator) 
     bad[4] = -0.5  # XX1 < 0: impossible body
     assert min_pseudo_inertia_eigenvalues(bad, 2).min() < 0
     phi = cp.Variable(20)
-    cp.Problem(cp.Minimize(cp.sum_squares(phi - bad)), consistency_constraints(phi, 2)).solve(solver=cp.CLARABEL)
+    cp.Problem(cp.Minimize(cp.sum_squares(phi - bad)), consistency_constraints(phi, 2)).solve(
+        solver=cp.CLARABEL
+    )
     assert min_pseudo_inertia_eigenvalues(phi.value, 2).min() > -1e-7
     np.testing.assert_allclose(phi.value[10:], good[10:], atol=1e-6)  # the consistent segment does not move

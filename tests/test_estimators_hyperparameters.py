@@ -44,7 +44,10 @@ def test_clone_copies_settings_deeply_and_drops_what_was_learned(rng: np.random.
 
 def test_repr_names_the_settings_that_differ_from_the_defaults() -> None:
     assert repr(WeightedLeastSquares()) == "WeightedLeastSquares()"
-    assert repr(WeightedLeastSquares(n_joints=7, min_relative_std=1e-3)) == "WeightedLeastSquares(min_relative_std=0.001, n_joints=7)"
+    assert (
+        repr(WeightedLeastSquares(n_joints=7, min_relative_std=1e-3))
+        == "WeightedLeastSquares(min_relative_std=0.001, n_joints=7)"
+    )
 
 
 def test_positional_varargs_and_objects_without_the_protocol_are_refused() -> None:

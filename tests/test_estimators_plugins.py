@@ -44,7 +44,14 @@ def problem(lwr4: RobotModel) -> dict:
     w = base.base_regressor(regressor(lwr4, motion.q, motion.dq, motion.ddq))
     tau = truth.inverse_dynamics(motion.q, motion.dq, motion.ddq).ravel()
     context = IdentificationContext.from_robot(lwr4, base, reference_regressor=w)
-    return {"base": base, "truth": truth, "w": w, "tau": tau, "context": context, "beta": base.base_values(truth.parameters)}
+    return {
+        "base": base,
+        "truth": truth,
+        "w": w,
+        "tau": tau,
+        "context": context,
+        "beta": base.base_values(truth.parameters),
+    }
 
 
 def _relative_error(estimate: np.ndarray, truth: np.ndarray) -> float:
@@ -60,7 +67,9 @@ def _learned(estimator: object) -> list[str]:
 
 
 def _same_params(a: dict, b: dict) -> bool:
-    return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray) else a[k] == b[k] for k in a)
+    return a.keys() == b.keys() and all(
+        np.array_equal(a[k], b[k]) if isinstance(a[k], np.ndarray) else a[k] == b[k] for k in a
+    )
 
 
 @pytest.mark.parametrize("name", ESTIMATOR_CONFIGS)
@@ -70,7 +79,9 @@ def test_every_estimator_recovers_true_base_parameters_from_noiseless_data(name:
     assert _relative_error(estimator.phi_, problem["beta"]) < 1e-6
     for attribute in ("std_", "relative_std_", "residual_std_", "cond_"):
         assert hasattr(estimator, attribute), attribute
-    np.testing.assert_allclose(estimator.predict(problem["w"]), problem["tau"], atol=1e-6 * np.abs(problem["tau"]).max())
+    np.testing.assert_allclose(
+        estimator.predict(problem["w"]), problem["tau"], atol=1e-6 * np.abs(problem["tau"]).max()
+    )
 
 
 @pytest.mark.parametrize("name", ESTIMATOR_CONFIGS)
@@ -175,7 +186,10 @@ def test_ols_on_short_noisy_data_is_inconsistent_where_sdp_is_not(lwr4: RobotMod
     context: IdentificationContext = problem["context"]
     motion = MultisineMotion(duration=2.0, harmonics=3, seed=0, limit_fraction=0.8).sample(lwr4, 100.0)
     w = base.base_regressor(regressor(lwr4, motion.q, motion.dq, motion.ddq))
-    tau = (problem["truth"].inverse_dynamics(motion.q, motion.dq, motion.ddq) + 0.5 * np.random.default_rng(0).normal(size=(len(motion.t), 7))).ravel()
+    tau = (
+        problem["truth"].inverse_dynamics(motion.q, motion.dq, motion.ddq)
+        + 0.5 * np.random.default_rng(0).normal(size=(len(motion.t), 7))
+    ).ravel()
     dissipative = np.concatenate([context.friction_indices("coulomb"), context.friction_indices("viscous")])
     ols = OrdinaryLeastSquares().fit(w, tau)
     sdp = PhysicallyConsistentSDP().fit(w, tau, context=context)
@@ -188,7 +202,9 @@ def test_ols_on_short_noisy_data_is_inconsistent_where_sdp_is_not(lwr4: RobotMod
 @pytest.mark.parametrize("regularization", ["none", "euclidean", "entropic"])
 def test_sdp_regularisations_give_consistent_models(regularization: str, problem: dict) -> None:
     noisy = problem["tau"] + 0.2 * np.random.default_rng(1).normal(size=problem["tau"].shape)
-    sdp = PhysicallyConsistentSDP(regularization=regularization, weight=1e-4).fit(problem["w"], noisy, context=problem["context"])
+    sdp = PhysicallyConsistentSDP(regularization=regularization, weight=1e-4).fit(
+        problem["w"], noisy, context=problem["context"]
+    )
     assert sdp.solver_ == "CLARABEL" and not sdp.solver_fallback_
     assert sdp.min_eigenvalues_.min() >= -1e-12
     assert _relative_error(sdp.phi_, problem["beta"]) < 0.05
@@ -202,7 +218,9 @@ def test_sdp_compressed_and_uncompressed_agree(problem: dict) -> None:
 
 
 def test_sdp_mass_bounds_hold(problem: dict) -> None:
-    sdp = PhysicallyConsistentSDP(mass_bounds=[0.95, 1.05]).fit(problem["w"], problem["tau"], context=problem["context"])
+    sdp = PhysicallyConsistentSDP(mass_bounds=[0.95, 1.05]).fit(
+        problem["w"], problem["tau"], context=problem["context"]
+    )
     masses = sdp.standard_phi_[0 : 10 * 7 : 10]
     prior = problem["context"].prior[0 : 10 * 7 : 10]
     assert np.all(masses >= 0.95 * prior - 1e-7) and np.all(masses <= 1.05 * prior + 1e-7)

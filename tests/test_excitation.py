@@ -23,10 +23,14 @@ from plugins.trajectories.fourier import FourierMotion
 from plugins.trajectories.multisine import MultisineMotion
 from plugins.trajectories.optimal import OptimalExcitingMotion
 
-SHIPPED = Path(__file__).resolve().parents[1] / "lwrlab" / "data" / "exciting_motions" / "kuka_lwr4_logdet_10s.yaml"
+SHIPPED = (
+    Path(__file__).resolve().parents[1] / "lwrlab" / "data" / "exciting_motions" / "kuka_lwr4_logdet_10s.yaml"
+)
 
 
-def directional_check(f, jacobian: np.ndarray, x: np.ndarray, n_directions: int = 4, h: float = 1e-6) -> float:
+def directional_check(
+    f, jacobian: np.ndarray, x: np.ndarray, n_directions: int = 4, h: float = 1e-6
+) -> float:
     """Largest relative gap between ``J·d`` and central differences of f along random unit directions d.
 
     Random directions exercise every column of the Jacobian at once, for a few evaluations of f.
@@ -53,9 +57,15 @@ def lwr_problem(lwr4: RobotModel, lwr_base) -> ExcitationProblem:
     return ExcitationProblem(lwr4, BSplineMotion(duration=2.0), LogDet(), base=lwr_base)
 
 
-@pytest.mark.parametrize("parameterisation", [BSplineMotion(duration=2.0), FourierMotion(duration=2.0, harmonics=2)], ids=["bspline", "fourier"])
+@pytest.mark.parametrize(
+    "parameterisation",
+    [BSplineMotion(duration=2.0), FourierMotion(duration=2.0, harmonics=2)],
+    ids=["bspline", "fourier"],
+)
 @pytest.mark.parametrize("criterion", [LogDet(), ConditionNumber()], ids=["logdet", "cond"])
-def test_objective_gradient_equals_central_differences(lwr4: RobotModel, lwr_base, parameterisation, criterion) -> None:
+def test_objective_gradient_equals_central_differences(
+    lwr4: RobotModel, lwr_base, parameterisation, criterion
+) -> None:
     problem = ExcitationProblem(lwr4, parameterisation, criterion, base=lwr_base)
     x = parameterisation.initial_coefficients(lwr4, np.random.default_rng(1), 0.4).ravel()
     gradient = problem.objective_gradient(x)
@@ -68,9 +78,18 @@ def test_objective_gradient_equals_central_differences(lwr4: RobotModel, lwr_bas
 
 
 def test_every_constraint_family_has_an_exact_jacobian(lwr_problem: ExcitationProblem) -> None:
-    x = lwr_problem.parameterisation.initial_coefficients(lwr_problem.robot, np.random.default_rng(2), 0.6).ravel()
+    x = lwr_problem.parameterisation.initial_coefficients(
+        lwr_problem.robot, np.random.default_rng(2), 0.6
+    ).ravel()
     windows = lwr_problem.windowed_slacks(x)
-    assert [w.family for w in windows] == ["position", "velocity", "acceleration", "torque", "ground", "self_collision"]
+    assert [w.family for w in windows] == [
+        "position",
+        "velocity",
+        "acceleration",
+        "torque",
+        "ground",
+        "self_collision",
+    ]
     analytic = lwr_problem.constraint_jacobian(x)
     assert analytic.shape == (len(lwr_problem.constraint_labels()), x.size)
     start = 0
@@ -89,11 +108,15 @@ def test_torque_constraint_uses_the_cad_inverse_dynamics(lwr_problem: Excitation
     exact = lwr_problem.constraint_set.slacks(q, dq, ddq)["torque"]
     keep = 1.0 - lwr_problem.constraint_set.settings.limit_margin
     tau = robot.inverse_dynamics(q, dq, ddq)
-    np.testing.assert_allclose(exact, np.hstack([keep * robot.limits.torque + tau, keep * robot.limits.torque - tau]), atol=1e-9)
+    np.testing.assert_allclose(
+        exact, np.hstack([keep * robot.limits.torque + tau, keep * robot.limits.torque - tau]), atol=1e-9
+    )
 
 
 @pytest.mark.parametrize("robot_name", ["lwr4", "panda"])
-def test_sphere_centres_agree_with_pinocchio(robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator) -> None:
+def test_sphere_centres_agree_with_pinocchio(
+    robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator
+) -> None:
     robot: RobotModel = request.getfixturevalue(robot_name)
     q = rng.uniform(robot.limits.position_lower, robot.limits.position_upper, size=(4, robot.n_joints))
     centres = sphere_centres(robot, q, robot.collision_spheres)
@@ -108,7 +131,10 @@ def test_sphere_centres_agree_with_pinocchio(robot_name: str, request: pytest.Fi
 def test_relevant_pairs_skip_neighbours_and_rigid_pairs(lwr4: RobotModel) -> None:
     pairs = relevant_pairs(lwr4)
     names = {(lwr4.collision_spheres[a].name, lwr4.collision_spheres[b].name) for a, b in pairs}
-    assert ("base", "shoulder") not in names and ("elbow", "wrist") not in names  # rigid: distance never changes
+    assert ("base", "shoulder") not in names and (
+        "elbow",
+        "wrist",
+    ) not in names  # rigid: distance never changes
     assert ("base", "wrist") in names and ("upper_arm", "flange") in names
     assert all(abs(lwr4.collision_spheres[a].link - lwr4.collision_spheres[b].link) >= 2 for a, b in pairs)
     assert 10 <= len(pairs) <= 14  # the paper keeps 12 distances
@@ -116,7 +142,9 @@ def test_relevant_pairs_skip_neighbours_and_rigid_pairs(lwr4: RobotModel) -> Non
 
 def test_unknown_ground_sphere_lists_the_robot_spheres(lwr4: RobotModel) -> None:
     with pytest.raises(ValueError, match=r"ground_spheres \['knee'\].*'elbow'"):
-        ExcitationProblem(lwr4, BSplineMotion(duration=2.0), LogDet(), ConstraintSettings(ground_spheres=("knee",)))
+        ExcitationProblem(
+            lwr4, BSplineMotion(duration=2.0), LogDet(), ConstraintSettings(ground_spheres=("knee",))
+        )
 
 
 def test_short_optimisation_is_feasible_and_improves_the_criterion(lwr4: RobotModel, lwr_base) -> None:
@@ -131,18 +159,31 @@ def test_short_optimisation_is_feasible_and_improves_the_criterion(lwr4: RobotMo
 
 def test_infeasible_problem_names_the_violated_constraint(lwr4: RobotModel, lwr_base) -> None:
     """The wrist cannot stay above a floor at 1.5 m: the error says so, with a time."""
-    problem = ExcitationProblem(lwr4, BSplineMotion(duration=2.0), LogDet(), ConstraintSettings(z_ground=1.5), base=lwr_base)
-    with pytest.raises(InfeasibleExcitationError, match=r"ground constraint (elbow|wrist) violated by .* m at t = "):
+    problem = ExcitationProblem(
+        lwr4, BSplineMotion(duration=2.0), LogDet(), ConstraintSettings(z_ground=1.5), base=lwr_base
+    )
+    with pytest.raises(
+        InfeasibleExcitationError, match=r"ground constraint (elbow|wrist) violated by .* m at t = "
+    ):
         SlsqpOptimizer(max_iterations=8, show_progress=False).solve(problem)
 
 
-def test_shipped_motion_is_feasible_at_1khz_and_better_conditioned_than_the_multisine(lwr4: RobotModel, lwr_base) -> None:
+def test_shipped_motion_is_feasible_at_1khz_and_better_conditioned_than_the_multisine(
+    lwr4: RobotModel, lwr_base
+) -> None:
     """The default exciting motion (10 s, logdet) respects every constraint on the 1 kHz resampling."""
     description = load_motion_description(SHIPPED)
     assert description["provenance"]["robot"] == lwr4.name and description["duration"] == 10.0
     motion = BSplineMotion(from_file=str(SHIPPED))
     reports = verify_motion(lwr4, motion, ConstraintSettings(), rate_hz=1000.0)
-    assert {r.family for r in reports} == {"position", "velocity", "acceleration", "torque", "ground", "self_collision"}
+    assert {r.family for r in reports} == {
+        "position",
+        "velocity",
+        "acceleration",
+        "torque",
+        "ground",
+        "self_collision",
+    }
     assert all(not r.violated for r in reports), [r for r in reports if r.violated]
     optimal = motion.sample(lwr4, 100.0)
     multisine = MultisineMotion(duration=10.0, harmonics=6, seed=0).sample(lwr4, 100.0)
@@ -150,7 +191,9 @@ def test_shipped_motion_is_feasible_at_1khz_and_better_conditioned_than_the_mult
     assert optimal_cond < regressor_condition(lwr4, multisine.q, multisine.dq, multisine.ddq, lwr_base)
 
 
-def test_optimal_plugin_loads_a_matching_file_and_optimises_otherwise(lwr4: RobotModel, caplog: pytest.LogCaptureFixture) -> None:
+def test_optimal_plugin_loads_a_matching_file_and_optimises_otherwise(
+    lwr4: RobotModel, caplog: pytest.LogCaptureFixture
+) -> None:
     def source(**overrides) -> OptimalExcitingMotion:
         settings = dict(
             parameterisation=lambda duration: BSplineMotion(duration=duration),
@@ -180,7 +223,9 @@ def test_optimal_plugin_refuses_a_motion_that_breaks_the_true_limits(lwr4: Robot
         optimizer=SlsqpOptimizer(max_iterations=1, show_progress=False),
         from_file=str(SHIPPED),
     )
-    with pytest.raises(InfeasibleExcitationError, match=r"velocity constraint joint \d (lower|upper) violated"):
+    with pytest.raises(
+        InfeasibleExcitationError, match=r"velocity constraint joint \d (lower|upper) violated"
+    ):
         source.sample(slow, 1000.0)
 
 
@@ -190,7 +235,9 @@ def test_knee_rule_finds_where_the_improvements_stop() -> None:
     knee, relative_cost, relative_step = knee_duration(durations, costs, fraction=0.05)
     assert knee == 5.0  # every step after T = 5 s is below 5 % of the total decrease (8)
     assert np.nanmin(relative_cost) == 0.0 and np.nanmax(relative_cost) == 1.0
-    assert not relative_step[1] < 0.05  # the step from an infeasible duration (inf cost) counts as significant
+    assert (
+        not relative_step[1] < 0.05
+    )  # the step from an infeasible duration (inf cost) counts as significant
 
 
 def test_recommended_duration_is_the_median_knee_in_whole_seconds() -> None:

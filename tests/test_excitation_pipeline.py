@@ -10,9 +10,9 @@ import pandas as pd
 import pytest
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
+from test_end_to_end import only_run, run_lwrlab
 
 from lwrlab.pipeline.excitation import run_criteria_comparison, run_duration_study
-from test_end_to_end import only_run, run_lwrlab
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 SMALL = ["optimizer.max_iterations=40", "optimizer.show_progress=false", "plant.show_progress=false"]
@@ -24,7 +24,13 @@ def composed(*overrides: str):
 
 
 def test_duration_study_writes_fig5_table_and_knee(tmp_path: Path) -> None:
-    cfg = composed("experiment=paper_fig5_duration", "task.durations=[1,2]", "~task.criteria.cond", "~task.criteria.hadamard", "optimizer.max_iterations=25")
+    cfg = composed(
+        "experiment=paper_fig5_duration",
+        "task.durations=[1,2]",
+        "~task.criteria.cond",
+        "~task.criteria.hadamard",
+        "optimizer.max_iterations=25",
+    )
     stage = instantiate(cfg.task)
     assert set(stage.keywords["criteria"]) == {"logdet"}
     metrics = stage(cfg, tmp_path)
@@ -41,10 +47,16 @@ def test_duration_study_writes_fig5_table_and_knee(tmp_path: Path) -> None:
 @pytest.mark.slow
 def test_criteria_comparison_writes_fig6_table(tmp_path: Path) -> None:
     cfg = composed(
-        "experiment=paper_fig6_criteria", "trajectory.duration=2.0", "validation.duration=4.0", "task.seeds=[0,1]",
-        "~task.criteria.cond", "~task.criteria.hadamard",
+        "experiment=paper_fig6_criteria",
+        "trajectory.duration=2.0",
+        "validation.duration=4.0",
+        "task.seeds=[0,1]",
+        "~task.criteria.cond",
+        "~task.criteria.hadamard",
     )
-    metrics = run_criteria_comparison(cfg, tmp_path, criteria={"logdet": instantiate(cfg.criterion)}, seeds=[0, 1])
+    metrics = run_criteria_comparison(
+        cfg, tmp_path, criteria={"logdet": instantiate(cfg.criterion)}, seeds=[0, 1]
+    )
     table = pd.read_csv(tmp_path / "fig6_criteria.csv")
     assert list(table.columns) == ["criterion", "seed", "joint", "rms", "nrms", "model_rms"]
     assert np.all(table["model_rms"] < table["rms"])  # the simulated sensor noise is left out
@@ -67,15 +79,24 @@ def test_excitation_task_writes_a_motion_the_identification_plays(tmp_path: Path
     completed = run_lwrlab(tmp_path / "optimise", "task=excitation", "trajectory.duration=2.0", *SMALL)
     assert completed.returncode == 0, completed.stderr[-3000:]
     folder = tmp_path / "optimise" / "run"
-    for name in ("exciting_motion.yaml", "exciting_motion.csv", "excitation_report.md", "exciting_motion.png"):
+    for name in (
+        "exciting_motion.yaml",
+        "exciting_motion.csv",
+        "excitation_report.md",
+        "exciting_motion.png",
+    ):
         assert (folder / name).is_file(), name
     metrics = json.loads((folder / "metrics.json").read_text())
     assert metrics["violated_families"] == 0.0
     motion_csv = pd.read_csv(folder / "exciting_motion.csv")
     assert len(motion_csv) == 2001  # 1 kHz
     identified = run_lwrlab(
-        tmp_path / "identify", "task=identification", "experiment_name=identification",
-        f"trajectory.from_file={folder / 'exciting_motion.yaml'}", "trajectory.duration=2.0", *SMALL,
+        tmp_path / "identify",
+        "task=identification",
+        "experiment_name=identification",
+        f"trajectory.from_file={folder / 'exciting_motion.yaml'}",
+        "trajectory.duration=2.0",
+        *SMALL,
     )
     assert identified.returncode == 0, identified.stderr[-3000:]
     assert "optimising instead" not in identified.stderr
@@ -87,10 +108,16 @@ def test_excitation_task_writes_a_motion_the_identification_plays(tmp_path: Path
     ("preset", "overrides", "table"),
     [
         ("paper_fig5_duration", ["task.durations=[2,3]", "~task.criteria.cond"], "fig5_duration.csv"),
-        ("paper_fig6_criteria", ["trajectory.duration=2.0", "validation.duration=5.0", "task.seeds=[0,1]", "~task.criteria.cond"], "fig6_criteria.csv"),
+        (
+            "paper_fig6_criteria",
+            ["trajectory.duration=2.0", "validation.duration=5.0", "task.seeds=[0,1]", "~task.criteria.cond"],
+            "fig6_criteria.csv",
+        ),
     ],
 )
-def test_presets_log_their_tables_and_figures_to_mlflow(tmp_path: Path, preset: str, overrides: list[str], table: str) -> None:
+def test_presets_log_their_tables_and_figures_to_mlflow(
+    tmp_path: Path, preset: str, overrides: list[str], table: str
+) -> None:
     completed = run_lwrlab(tmp_path, f"experiment={preset}", *overrides, *SMALL)
     assert completed.returncode == 0, completed.stderr[-3000:]
     run = only_run(tmp_path, preset)

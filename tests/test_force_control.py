@@ -30,7 +30,9 @@ def test_estimator_recovers_a_static_wrench_exactly(lwr4, rng):
 def test_estimator_removes_the_dynamics_of_a_free_motion(lwr4):
     """Free motion, exact torques: the estimate stays near zero (only the causal differences lag)."""
     tcp = np.eye(4)
-    estimator = ExternalForceEstimator(lwr4, tcp, velocity_cutoff_hz=np.inf, acceleration_cutoff_hz=np.inf, coulomb_smoothing=1e-9)
+    estimator = ExternalForceEstimator(
+        lwr4, tcp, velocity_cutoff_hz=np.inf, acceleration_cutoff_hz=np.inf, coulomb_smoothing=1e-9
+    )
     t = np.arange(0, 1, 1e-3)
     q = 0.2 * np.sin(2 * np.pi * 0.5 * t)[:, None] * np.ones(7) + 0.3
     dq = np.gradient(q, 1e-3, axis=0)
@@ -90,4 +92,6 @@ def test_low_pass_over_a_whole_signal_equals_sample_by_sample(rng):
     low = FirstOrderLowPass(20.0, 1e-3)
     low.reset(np.full(3, 0.5))
     expected = np.array([low(x) for x in signal])
-    np.testing.assert_allclose(FirstOrderLowPass(20.0, 1e-3).apply(signal, initial=0.5), expected, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(
+        FirstOrderLowPass(20.0, 1e-3).apply(signal, initial=0.5), expected, rtol=1e-12, atol=1e-14
+    )

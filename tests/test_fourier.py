@@ -31,7 +31,9 @@ def test_motion_is_linear_in_its_coefficients(rng: np.random.Generator) -> None:
     fourier = FourierMotion(duration=4.0, harmonics=3)
     t = fourier.times(100.0)
     a, b = (rng.normal(size=(fourier.n_coefficients, 2)) for _ in range(2))
-    for d, (qa, qb, qab) in enumerate(zip(fourier.evaluate(t, a), fourier.evaluate(t, b), fourier.evaluate(t, a + 2 * b), strict=True)):
+    for d, (qa, qb, qab) in enumerate(
+        zip(fourier.evaluate(t, a), fourier.evaluate(t, b), fourier.evaluate(t, a + 2 * b), strict=True)
+    ):
         np.testing.assert_allclose(qab, qa + 2 * qb, atol=1e-10)
         np.testing.assert_allclose(qa, fourier.basis(t, d) @ a, atol=1e-12)
 

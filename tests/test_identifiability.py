@@ -30,7 +30,9 @@ def lwr4_base(lwr4: RobotModel) -> BaseParameters:
     return compute_base_parameters(lwr4)
 
 
-def _assess(robot: RobotModel, base: BaseParameters, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, **options) -> IdentifiabilityReport:
+def _assess(
+    robot: RobotModel, base: BaseParameters, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, **options
+) -> IdentifiabilityReport:
     w_base = base.base_regressor(regressor(robot, q, dq, ddq))
     return assess_identifiability(w_base, base.names, q, dq, ddq, robot.limits, **options)
 
@@ -44,7 +46,9 @@ def _states(motion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def test_shipped_optimal_motion_is_good(lwr4, lwr4_base):
     description = load_motion_description("lwrlab/data/exciting_motions/kuka_lwr4_logdet_10s.yaml")
-    motion = BSplineMotion(description["duration"], description["via_point_spacing"]).with_coefficients(description["coefficients"])
+    motion = BSplineMotion(description["duration"], description["via_point_spacing"]).with_coefficients(
+        description["coefficients"]
+    )
     report = _assess(lwr4, lwr4_base, *_states(motion.sample(lwr4, RATE_HZ)))
     assert report.status == "good" and report.ok
     assert report.rank == report.n_columns == lwr4_base.count
@@ -66,11 +70,18 @@ def test_joint_that_never_moves_is_named_with_what_it_loses(lwr4, lwr4_base):
     assert report.status == "rank_deficient"
     assert report.rank == report.n_columns - 2
     assert report.cond_scaled > 1e12
-    assert {d.describe() for d in report.weak_directions} == {"FC5", "FV5"}  # zero columns: friction needs motion
+    assert {d.describe() for d in report.weak_directions} == {
+        "FC5",
+        "FV5",
+    }  # zero columns: friction needs motion
     assert report.still_joints == (5,)
     assert bool(report.per_joint.loc[5, "still"]) and not report.per_joint.drop(index=5)["still"].any()
     # the weakest inertial combination the data still see is link 5's XX5R (the estimate the issue saw go wrong)
-    inertial = [d for d in _assess(lwr4, lwr4_base, q, dq, ddq, n_smallest=3).smallest_directions if not d.describe().startswith("F")]
+    inertial = [
+        d
+        for d in _assess(lwr4, lwr4_base, q, dq, ddq, n_smallest=3).smallest_directions
+        if not d.describe().startswith("F")
+    ]
     assert inertial and inertial[0].terms[0][0] == "XX5R"
     text = report.warning_text()
     assert text.startswith("WARNING: identifiability rank_deficient: rank 55 of 57")
@@ -92,7 +103,11 @@ def test_held_joint_with_sensor_noise_is_still_named(lwr4, lwr4_base, rng):
 
 @pytest.mark.parametrize("limit_fraction", [0.01, 0.001])
 def test_tiny_motion_is_poor_and_names_its_weak_combinations(lwr4, lwr4_base, limit_fraction):
-    report = _assess(lwr4, lwr4_base, *_states(MultisineMotion(seed=0, harmonics=2, limit_fraction=limit_fraction).sample(lwr4, RATE_HZ)))
+    report = _assess(
+        lwr4,
+        lwr4_base,
+        *_states(MultisineMotion(seed=0, harmonics=2, limit_fraction=limit_fraction).sample(lwr4, RATE_HZ)),
+    )
     assert report.status == "poor"
     assert report.cond_scaled > 1e4
     assert report.weak_directions
@@ -102,7 +117,11 @@ def test_tiny_motion_is_poor_and_names_its_weak_combinations(lwr4, lwr4_base, li
     assert report.still_joints == ()  # small, not still
     assert (report.per_joint["q_range_fraction"] < 0.02).all()
     text = report.warning_text()
-    assert "identifiability poor" in text and "moves weakly" in text and report.weak_directions[0].describe() in text
+    assert (
+        "identifiability poor" in text
+        and "moves weakly" in text
+        and report.weak_directions[0].describe() in text
+    )
     assert "MSX" in format_prior_note(report)
 
 
@@ -127,7 +146,9 @@ def test_known_singular_structure_is_recovered(rng):
     u = _orthogonal(rng, n_samples * n_joints)[:, :3]
     w = u @ np.diag(sigma) @ v.T
     norms = np.linalg.norm(w, axis=0)
-    report = assess_identifiability(w / norms * [1.0, 1e3, 1e-3], names, *_still_states(n_samples, n_joints))  # column units are irrelevant
+    report = assess_identifiability(
+        w / norms * [1.0, 1e3, 1e-3], names, *_still_states(n_samples, n_joints)
+    )  # column units are irrelevant
     reference = np.linalg.svd(w / norms, compute_uv=False)
     assert report.cond_scaled == pytest.approx(reference[0] / reference[-1], rel=1e-9)
     assert report.status == "poor" and report.rank == 3
@@ -160,13 +181,20 @@ def test_threshold_and_tolerance_decide_the_status(rng):
     cond = assess_identifiability(w, ["A", "B"], *states).cond_scaled
     assert assess_identifiability(w, ["A", "B"], *states, poor_cond=10 * cond).status == "good"
     assert assess_identifiability(w, ["A", "B"], *states, poor_cond=cond / 10).status == "poor"
-    assert assess_identifiability(w, ["A", "B"], *states, poor_cond=cond / 10, rank_rtol=10 / cond).status == "rank_deficient"
+    assert (
+        assess_identifiability(w, ["A", "B"], *states, poor_cond=cond / 10, rank_rtol=10 / cond).status
+        == "rank_deficient"
+    )
 
 
 def test_good_report_has_no_warning_and_metrics_are_numbers(rng):
     w = rng.normal(size=(60, 4))
     report = assess_identifiability(w, ["A", "B", "C", "D"], *_still_states(30, 2))
-    assert report.status == "good" and report.warning_text() == "" and report.summary().startswith("identifiability good")
+    assert (
+        report.status == "good"
+        and report.warning_text() == ""
+        and report.summary().startswith("identifiability good")
+    )
     metrics = report.metrics()
     assert metrics["identifiability_rank"] == 4 and metrics["identifiability_rank_deficiency"] == 0
     assert metrics["cond_W_b_scaled"] == pytest.approx(report.cond_scaled)
@@ -199,7 +227,12 @@ def test_joint_excitation_table():
     q = np.hstack([0.5 * np.sin(2 * np.pi * t), np.full_like(t, 0.2) + 1e-5 * np.sin(40 * t)])
     dq = np.hstack([np.pi * np.cos(2 * np.pi * t), 4e-4 * np.cos(40 * t)])
     ddq = np.hstack([-2 * np.pi**2 * np.sin(2 * np.pi * t), np.zeros_like(t)])
-    limits = _Limits(np.array([-1.0, -np.inf]), np.array([1.0, np.inf]), np.array([2 * np.pi, 1.0]), np.array([100.0, 10.0]))
+    limits = _Limits(
+        np.array([-1.0, -np.inf]),
+        np.array([1.0, np.inf]),
+        np.array([2 * np.pi, 1.0]),
+        np.array([100.0, 10.0]),
+    )
     table = joint_excitation(q, dq, ddq, limits)
     assert list(table.index) == [1, 2]
     assert table.loc[1, "q_range"] == pytest.approx(1.0, rel=1e-3)

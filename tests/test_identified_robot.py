@@ -18,14 +18,19 @@ from plugins.robots.identified import load_identified_robot
 CONF = Path(__file__).resolve().parents[1] / "conf"
 
 
-def _identified_run(lwr4: RobotModel, folder: Path, target: str = "plugins.robots.mdh.build_robot") -> np.ndarray:
+def _identified_run(
+    lwr4: RobotModel, folder: Path, target: str = "plugins.robots.mdh.build_robot"
+) -> np.ndarray:
     """A run folder whose identified_model.yaml moves the LWR4's standard parameters; returns them."""
     description = yaml.safe_load((CONF / "robot" / "kuka_lwr4.yaml").read_text())
     description["_target_"] = target
     standard = lwr4.parameters * (1.0 + 0.05 * np.sin(np.arange(lwr4.parameters.size)))
     model = IdentifiedModel(
-        base_names=("ZZ1R",), base_values=np.ones(1), base_std=np.ones(1),
-        standard_names=tuple(lwr4.parameter_names), standard_values=standard,
+        base_names=("ZZ1R",),
+        base_values=np.ones(1),
+        base_std=np.ones(1),
+        standard_names=tuple(lwr4.parameter_names),
+        standard_values=standard,
     )
     folder.mkdir(parents=True, exist_ok=True)
     save_identified_model(model, description, folder / "identified_model.yaml")
@@ -50,7 +55,9 @@ def test_a_run_id_is_fetched_through_the_given_lookup(lwr4: RobotModel, tmp_path
         calls.append((run_id, artifact, uri))
         return tmp_path / artifact
 
-    robot = load_identified_robot("0123abcd", "sqlite:///x.db", build_robot=instantiate, fetch_run_artifact=fetch)
+    robot = load_identified_robot(
+        "0123abcd", "sqlite:///x.db", build_robot=instantiate, fetch_run_artifact=fetch
+    )
     assert calls == [("0123abcd", "identified_model.yaml", "sqlite:///x.db")]
     np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)
     with pytest.raises(FileNotFoundError, match="fetch_run_artifact"):

@@ -6,7 +6,15 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from lwrlab.kinematics import BRANCHES, Branch, JointLimitViolation, SwivelIK, UnreachablePose, frame_pose, joint_frame_poses
+from lwrlab.kinematics import (
+    BRANCHES,
+    Branch,
+    JointLimitViolation,
+    SwivelIK,
+    UnreachablePose,
+    frame_pose,
+    joint_frame_poses,
+)
 
 
 def _random_configurations(robot, rng, n):
@@ -97,7 +105,10 @@ def test_displaced_path_ik_follows_the_exact_ik_of_the_displaced_poses(lwr4, rng
     ik = SwivelIK(lwr4)
     path_ik = DisplacedPathIK(ik, poses, tcp, -1.6, Branch(1, -1, -1))
     offsets = np.zeros((poses.shape[0], 3))
-    offsets[:, 0] = -0.01 * (1 - np.exp(-np.arange(poses.shape[0]) / 150.0)) + np.cumsum(rng.normal(size=poses.shape[0])) * 2e-6
+    offsets[:, 0] = (
+        -0.01 * (1 - np.exp(-np.arange(poses.shape[0]) / 150.0))
+        + np.cumsum(rng.normal(size=poses.shape[0])) * 2e-6
+    )
     offsets[2000:, 1] = 1e-3 * np.sin(np.arange(1000) / 100.0)  # a second axis starts moving
     q = np.array([path_ik(k, offsets[k]) for k in range(poses.shape[0])])
     displaced = poses.copy()
@@ -124,9 +135,13 @@ def test_ik_derivatives_match_finite_differences(lwr4, rng):
             up, down = poses.copy(), poses.copy()
             up[:, axis, 3] += h
             down[:, axis, 3] -= h
-            columns.append((ik.solve_branch(up, swivel, branch).q - ik.solve_branch(down, swivel, branch).q) / (2 * h))
+            columns.append(
+                (ik.solve_branch(up, swivel, branch).q - ik.solve_branch(down, swivel, branch).q) / (2 * h)
+            )
         numeric = np.stack(columns, axis=2)
-        numeric_swivel = (ik.solve_branch(poses, swivel + h, branch).q - ik.solve_branch(poses, swivel - h, branch).q) / (2 * h)
+        numeric_swivel = (
+            ik.solve_branch(poses, swivel + h, branch).q - ik.solve_branch(poses, swivel - h, branch).q
+        ) / (2 * h)
         # away from the singularities, where finite differences are meaningful
         keep = np.all(solution.singularity_margin > 0.05, axis=1) & (np.abs(numeric).max(axis=(1, 2)) < 1e3)
         assert keep.sum() > 200

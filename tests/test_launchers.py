@@ -12,7 +12,6 @@ from pathlib import Path
 
 import pytest
 from hydra import compose, initialize_config_dir
-
 from tracking_apps import REPO_CONF, TOY_APP, jobs_and_parents, run_app, runs_of
 
 RAY_MISSING = importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is None
@@ -21,7 +20,9 @@ SUBMITIT_MISSING = importlib.util.find_spec("hydra_plugins.hydra_submitit_launch
 
 def _launcher(option: str) -> dict:
     with initialize_config_dir(config_dir=str(REPO_CONF), version_base="1.3"):
-        config = compose(config_name="config", overrides=[f"hydra/launcher={option}"], return_hydra_config=True)
+        config = compose(
+            config_name="config", overrides=[f"hydra/launcher={option}"], return_hydra_config=True
+        )
     return dict(config.hydra.launcher)
 
 
@@ -38,18 +39,32 @@ def test_slurm_launcher_config_composes() -> None:
 
 def test_optuna_preset_composes_with_the_search_space() -> None:
     with initialize_config_dir(config_dir=str(REPO_CONF), version_base="1.3"):
-        config = compose(config_name="config", overrides=["experiment=tune_processing"], return_hydra_config=True)
+        config = compose(
+            config_name="config", overrides=["experiment=tune_processing"], return_hydra_config=True
+        )
     assert config.hydra.sweeper._target_.endswith("OptunaSweeper")
-    assert set(config.hydra.sweeper.params) == {"measurement.processing.cutoff_hz", "measurement.processing.order"}
+    assert set(config.hydra.sweeper.params) == {
+        "measurement.processing.cutoff_hz",
+        "measurement.processing.order",
+    }
     assert config.objective == "rms_mean" and config.experiment_name == "tune_processing"
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(RAY_MISSING, reason="optional extra [ray] (hydra-ray-launcher) not installed: pip install -e '.[ray]'")
+@pytest.mark.skipif(
+    RAY_MISSING, reason="optional extra [ray] (hydra-ray-launcher) not installed: pip install -e '.[ray]'"
+)
 def test_ray_sweep_on_a_local_instance_is_one_parent_with_nested_runs(tmp_path: Path) -> None:
     finished = run_app(
-        TOY_APP, "hydra/launcher=ray_local", "experiment_name=ray_grid", f"hydra.sweep.dir={tmp_path / 'sweep'}",
-        "x=1,2,3", "seed=0,1,2", store=tmp_path, multirun=True, timeout=600,
+        TOY_APP,
+        "hydra/launcher=ray_local",
+        "experiment_name=ray_grid",
+        f"hydra.sweep.dir={tmp_path / 'sweep'}",
+        "x=1,2,3",
+        "seed=0,1,2",
+        store=tmp_path,
+        multirun=True,
+        timeout=600,
         # Ray's socket paths must stay under 107 bytes: a short temporary folder, not tmp_path.
         env={"RAY_USAGE_STATS_ENABLED": "0", "RAY_TMPDIR": tempfile.mkdtemp(prefix="ray", dir="/tmp")},
     )

@@ -154,7 +154,9 @@ def violations(source: str, module: str, path: str, is_package: bool = False) ->
     for line, name in imports(source, module, is_package):
         for prefix in rule.forbidden:
             if _below(name, prefix) and not _below(name, module):
-                found.append(f"{path}:{line}: {layer} module {module} imports {name} (forbidden: {prefix}; {rule.why})")
+                found.append(
+                    f"{path}:{line}: {layer} module {module} imports {name} (forbidden: {prefix}; {rule.why})"
+                )
                 break
     return found
 
@@ -184,7 +186,9 @@ def test_imports_point_down(layer: str) -> None:
         message
         for path, module in MODULES
         if layer_of(module) == layer
-        for message in violations(path.read_text(), module, relative(path), is_package=path.name == "__init__.py")
+        for message in violations(
+            path.read_text(), module, relative(path), is_package=path.name == "__init__.py"
+        )
     ]
     assert not found, f"{len(found)} import(s) against the layer contract:\n" + "\n".join(found)
 
@@ -193,12 +197,23 @@ def test_imports_point_down(layer: str) -> None:
 
 FORBIDDEN_IMPORTS = [  # (module, its source, the forbidden import the checker must name)
     # the arrows the layer contract was written against
-    ("lwrlab.reference.table2", "def main():\n    from plugins.robots.mdh import load_robot_yaml\n", "plugins.robots"),
-    ("plugins.robots.urdf", "from plugins.robots.mdh import build_friction\n", "plugins.robots.mdh.build_friction"),
+    (
+        "lwrlab.reference.table2",
+        "def main():\n    from plugins.robots.mdh import load_robot_yaml\n",
+        "plugins.robots",
+    ),
+    (
+        "plugins.robots.urdf",
+        "from plugins.robots.mdh import build_friction\n",
+        "plugins.robots.mdh.build_friction",
+    ),
     ("plugins.robots.identified", "import hydra.utils\n", "hydra.utils"),
     ("plugins.robots.identified", "def f():\n    import mlflow.artifacts\n", "mlflow.artifacts"),
-    ("lwrlab.tracking.benchmark_summary", "from lwrlab.pipeline.estimator_benchmark import write_summary\n",
-     "lwrlab.pipeline.estimator_benchmark.write_summary"),
+    (
+        "lwrlab.tracking.benchmark_summary",
+        "from lwrlab.pipeline.estimator_benchmark import write_summary\n",
+        "lwrlab.pipeline.estimator_benchmark.write_summary",
+    ),
     ("lwrlab.tracking.benchmark_summary", "from lwrlab import pipeline\n", "lwrlab.pipeline"),
     ("lwrlab.tracking.benchmark_summary", "from ..pipeline import estimator_benchmark\n", "lwrlab.pipeline"),
     ("lwrlab.tracking.compare", "def draw():\n    import matplotlib.pyplot as plt\n", "matplotlib.pyplot"),
@@ -214,12 +229,21 @@ FORBIDDEN_IMPORTS = [  # (module, its source, the forbidden import the checker m
 
 ALLOWED_IMPORTS = [
     ("lwrlab.model.robot", "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import hydra\n"),
-    ("lwrlab.model.robot", "import typing\nif typing.TYPE_CHECKING:\n    from plugins.robots.mdh import build_robot\n"),
+    (
+        "lwrlab.model.robot",
+        "import typing\nif typing.TYPE_CHECKING:\n    from plugins.robots.mdh import build_robot\n",
+    ),
     ("lwrlab.model.robot", "from lwrlab.model.inertia import to_pin_inertia\nimport hydrant\n"),
     ("lwrlab.tracking.compare", "import mlflow\nfrom lwrlab.figures.torques import rms_per_joint_by_group\n"),
-    ("lwrlab.pipeline.tools", "from hydra.utils import instantiate\nfrom plugins.classifiers.nearest import Nearest\n"),
+    (
+        "lwrlab.pipeline.tools",
+        "from hydra.utils import instantiate\nfrom plugins.classifiers.nearest import Nearest\n",
+    ),
     ("lwrlab.cli", "from lwrlab.pipeline.chain import run_chain\n"),
-    ("lwrlab.figures.torques", "import matplotlib.pyplot as plt\nfrom lwrlab.model.robot import RobotModel\n"),
+    (
+        "lwrlab.figures.torques",
+        "import matplotlib.pyplot as plt\nfrom lwrlab.model.robot import RobotModel\n",
+    ),
     ("lwrlab.conf", "import hydra\n"),
 ]
 
@@ -227,7 +251,9 @@ ALLOWED_IMPORTS = [
 @pytest.mark.parametrize(("module", "source", "forbidden"), FORBIDDEN_IMPORTS)
 def test_the_checker_finds_a_forbidden_import(module: str, source: str, forbidden: str) -> None:
     found = violations("import numpy as np\n" + source, module, "x.py", is_package=module == "lwrlab.model")
-    line = 2 + next(i for i, text in enumerate(source.splitlines()) if "import" in text)  # after the numpy line
+    line = 2 + next(
+        i for i, text in enumerate(source.splitlines()) if "import" in text
+    )  # after the numpy line
     assert len(found) == 1, found
     assert found[0].startswith(f"x.py:{line}: ") and f" {module} imports {forbidden}" in found[0], found
 

@@ -50,24 +50,37 @@ def test_identifying_from_a_log_equals_identifying_in_memory(lwr4: RobotModel, t
     rate, processing = 200.0, {"cutoff_hz": 10.0, "trim_s": 0.2}
     simulated = SimulatedPlant(lwr4, torque_noise_std=0.1, seed=4, show_progress=False)
     in_memory = identify(lwr4, motion, validation, simulated, OrdinaryLeastSquares(), rate, processing)
-    paths = [write_log(m, tmp_path / name) for m, name in ((in_memory.measurement, "id.csv"), (in_memory.validation_measurement, "val.csv"))]
+    paths = [
+        write_log(m, tmp_path / name)
+        for m, name in ((in_memory.measurement, "id.csv"), (in_memory.validation_measurement, "val.csv"))
+    ]
     plant = LogPlant(lwr4, str(paths[0]), validation_path=str(paths[1]))
     from_log = identify(lwr4, motion, validation, plant, OrdinaryLeastSquares(), rate, processing)
-    np.testing.assert_allclose(from_log.identified.base_values, in_memory.identified.base_values, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        from_log.identified.base_values, in_memory.identified.base_values, rtol=1e-12, atol=1e-12
+    )
     np.testing.assert_allclose(from_log.validation["rms"], in_memory.validation["rms"], rtol=1e-12)
     assert "truth" not in from_log.parameters.columns  # a log has no ground truth
 
 
 def test_column_map_units_and_currents(tmp_path: Path) -> None:
     measurement = _measurement()
-    frame = pd.DataFrame({
-        "timestamp_ms": measurement.t * 1e3,
-        "pos_a": np.degrees(measurement.q[:, 0]), "pos_b": np.degrees(measurement.q[:, 1]),
-        "current1": measurement.tau[:, 0] / 2.0, "current2": measurement.tau[:, 1] / 4.0,
-    })
+    frame = pd.DataFrame(
+        {
+            "timestamp_ms": measurement.t * 1e3,
+            "pos_a": np.degrees(measurement.q[:, 0]),
+            "pos_b": np.degrees(measurement.q[:, 1]),
+            "current1": measurement.tau[:, 0] / 2.0,
+            "current2": measurement.tau[:, 1] / 4.0,
+        }
+    )
     log = load_log(
-        _write_frame(frame, tmp_path / "robot.csv"), n_joints=2, column_map={"t": "timestamp_ms", "q1": "pos_a", "q2": "pos_b"},
-        time_unit="ms", position_unit="deg", drive_gains=[2.0, 4.0],
+        _write_frame(frame, tmp_path / "robot.csv"),
+        n_joints=2,
+        column_map={"t": "timestamp_ms", "q1": "pos_a", "q2": "pos_b"},
+        time_unit="ms",
+        position_unit="deg",
+        drive_gains=[2.0, 4.0],
     )
     np.testing.assert_allclose(log.t, measurement.t, atol=1e-15)
     np.testing.assert_allclose(log.q, measurement.q, rtol=1e-13)
@@ -85,7 +98,7 @@ def test_irregular_time_is_resampled_onto_a_uniform_grid(tmp_path: Path) -> None
     np.testing.assert_allclose(log.tau[:, 0], -log.t, atol=1e-15)
 
 
-def _broken(tmp_path: Path, edit) -> Path:  # noqa: ANN001
+def _broken(tmp_path: Path, edit) -> Path:
     frame = log_frame(_measurement()).astype(object)
     edit(frame)
     return _write_frame(frame, tmp_path / "broken.csv")
@@ -95,15 +108,30 @@ def _broken(tmp_path: Path, edit) -> Path:  # noqa: ANN001
     ("edit", "message"),
     [
         (lambda f: f.pop("tau2"), r"broken.csv: missing column 'tau2'"),
-        (lambda f: f.__setitem__("q1", f["q1"].where(f.index != 7, np.nan)), r"column 'q1', row 7 \(line 9 of the file\): missing value"),
-        (lambda f: f.__setitem__("tau1", f["tau1"].where(f.index != 12, "12,5 Nm")), r"column 'tau1', row 12 .*non-numeric value '12,5 Nm'"),
-        (lambda f: f.__setitem__("t", f["t"].where(f.index != 30, 0.0)), r"column 't', row 30 .*does not increase"),
-        (lambda f: f.__setitem__("t", f["t"] + np.where(f.index >= 50, 1.0, 0.0)), r"column 't', row 50 .*gap"),
-        (lambda f: f.__setitem__("q2", f["q2"].where(f.index != 3, "inf")), r"column 'q2', row 3 .*non-finite"),
+        (
+            lambda f: f.__setitem__("q1", f["q1"].where(f.index != 7, np.nan)),
+            r"column 'q1', row 7 \(line 9 of the file\): missing value",
+        ),
+        (
+            lambda f: f.__setitem__("tau1", f["tau1"].where(f.index != 12, "12,5 Nm")),
+            r"column 'tau1', row 12 .*non-numeric value '12,5 Nm'",
+        ),
+        (
+            lambda f: f.__setitem__("t", f["t"].where(f.index != 30, 0.0)),
+            r"column 't', row 30 .*does not increase",
+        ),
+        (
+            lambda f: f.__setitem__("t", f["t"] + np.where(f.index >= 50, 1.0, 0.0)),
+            r"column 't', row 50 .*gap",
+        ),
+        (
+            lambda f: f.__setitem__("q2", f["q2"].where(f.index != 3, "inf")),
+            r"column 'q2', row 3 .*non-finite",
+        ),
     ],
     ids=["missing-column", "nan", "non-numeric", "non-monotonic", "gap", "infinite"],
 )
-def test_malformed_logs_name_file_column_and_row(tmp_path: Path, edit, message: str) -> None:  # noqa: ANN001
+def test_malformed_logs_name_file_column_and_row(tmp_path: Path, edit, message: str) -> None:
     with pytest.raises(LogError, match=message):
         load_log(_broken(tmp_path, edit), n_joints=2)
 

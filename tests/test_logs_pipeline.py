@@ -38,21 +38,38 @@ def recorded(lwr4: RobotModel) -> dict[str, Measurement]:
     """Two identification and two validation motions of the simulated LWR4, 500 Hz, with logged velocities."""
     plant = SimulatedPlant(lwr4, torque_noise_std=0.05, seed=3, show_progress=False)
     logs = {}
-    for name, (duration, harmonics, seed) in {"fit_a": (4.0, 3, 0), "fit_b": (4.0, 4, 1), "check_a": (3.0, 3, 7), "check_b": (3.0, 4, 8)}.items():
+    for name, (duration, harmonics, seed) in {
+        "fit_a": (4.0, 3, 0),
+        "fit_b": (4.0, 4, 1),
+        "check_a": (3.0, 3, 7),
+        "check_b": (3.0, 4, 8),
+    }.items():
         motion = MultisineMotion(duration=duration, harmonics=harmonics, seed=seed).sample(lwr4, 500.0)
         measured = plant.measure(motion)
-        logs[name] = Measurement(t=measured.t, q=measured.q, tau=measured.tau, dq=motion.dq, metadata=measured.metadata)
+        logs[name] = Measurement(
+            t=measured.t, q=measured.q, tau=measured.tau, dq=motion.dq, metadata=measured.metadata
+        )
     return logs
 
 
 def _write(measurement: Measurement, folder: Path, name: str, fmt: str, robot: RobotModel) -> Path:
     if fmt in ("sqlite3", "mcap"):
-        return write_joint_states(folder / name, measurement.t, measurement.q, measurement.tau, robot.joint_names, dq=measurement.dq, storage=fmt)
+        return write_joint_states(
+            folder / name,
+            measurement.t,
+            measurement.q,
+            measurement.tau,
+            robot.joint_names,
+            dq=measurement.dq,
+            storage=fmt,
+        )
     return write_log(measurement, folder / f"{name}.{fmt}")
 
 
 @pytest.mark.parametrize("fmt", ["csv", "parquet", "npz", "sqlite3", "mcap"])
-def test_every_format_round_trips_to_the_in_memory_identification(lwr4: RobotModel, recorded: dict, tmp_path: Path, fmt: str) -> None:
+def test_every_format_round_trips_to_the_in_memory_identification(
+    lwr4: RobotModel, recorded: dict, tmp_path: Path, fmt: str
+) -> None:
     """simulate → write log (CSV, Parquet, npz, ROS 2 bag) → load → identify = identify in memory."""
     processing = {"cutoff_hz": "auto", "trim_s": 0.2, "velocity": "auto"}
 
@@ -74,8 +91,15 @@ def test_every_format_round_trips_to_the_in_memory_identification(lwr4: RobotMod
     from_log = identify(lwr4, None, None, plant, OrdinaryLeastSquares(), processing=processing)
     # ROS 2 stamps are integer nanoseconds: the same samples, times within 1 ns
     tolerance = 1e-9 if fmt in ("sqlite3", "mcap") else 1e-12
-    np.testing.assert_allclose(from_log.identified.base_values, in_memory.identified.base_values, rtol=tolerance * 1e3, atol=tolerance)
-    assert from_log.metrics["validation_rel_error"] == pytest.approx(in_memory.metrics["validation_rel_error"], rel=1e-6)
+    np.testing.assert_allclose(
+        from_log.identified.base_values,
+        in_memory.identified.base_values,
+        rtol=tolerance * 1e3,
+        atol=tolerance,
+    )
+    assert from_log.metrics["validation_rel_error"] == pytest.approx(
+        in_memory.metrics["validation_rel_error"], rel=1e-6
+    )
     # the identification log is predicted with the velocity source its fit chose
     fit_prediction = from_log.predictions[0]
     assert fit_prediction.role == "identification"
@@ -87,7 +111,9 @@ def _compose(*overrides: str):
         return compose("config", overrides=["task=identification", "plant=log", *overrides])
 
 
-def test_several_logs_each_scored_with_what_a_user_takes_away(lwr4: RobotModel, recorded: dict, tmp_path: Path) -> None:
+def test_several_logs_each_scored_with_what_a_user_takes_away(
+    lwr4: RobotModel, recorded: dict, tmp_path: Path
+) -> None:
     paths = {name: write_log(m, tmp_path / f"{name}.parquet") for name, m in recorded.items()}
     cfg = _compose(
         f"data.paths=[{paths['fit_a']},{paths['fit_b']}]",
@@ -104,24 +130,44 @@ def test_several_logs_each_scored_with_what_a_user_takes_away(lwr4: RobotModel, 
     assert 0 < metrics["fit_rel_error"] < 0.05 and max(per_log) < 0.05
     predicted = pd.read_parquet(run / "predicted_torque.parquet")
     n = lwr4.n_joints
-    assert list(predicted.columns) == ["log", "role", "t", "scored", *[f"tau{j}" for j in range(1, n + 1)], *[f"tau_hat{j}" for j in range(1, n + 1)]]
+    assert list(predicted.columns) == [
+        "log",
+        "role",
+        "t",
+        "scored",
+        *[f"tau{j}" for j in range(1, n + 1)],
+        *[f"tau_hat{j}" for j in range(1, n + 1)],
+    ]
     for name, measurement in recorded.items():  # every logged sample, measured torques as logged
         rows = predicted[predicted["log"] == name]
         np.testing.assert_array_equal(rows["t"].to_numpy(), measurement.t)
         np.testing.assert_array_equal(rows[[f"tau{j}" for j in range(1, n + 1)]].to_numpy(), measurement.tau)
     scored = predicted[predicted["scored"] & (predicted["log"] == "check_b")]
-    residual = scored[[f"tau{j}" for j in range(1, n + 1)]].to_numpy() - scored[[f"tau_hat{j}" for j in range(1, n + 1)]].to_numpy()
-    assert np.linalg.norm(residual) / np.linalg.norm(scored[[f"tau{j}" for j in range(1, n + 1)]].to_numpy()) == pytest.approx(per_log[1])
+    residual = (
+        scored[[f"tau{j}" for j in range(1, n + 1)]].to_numpy()
+        - scored[[f"tau_hat{j}" for j in range(1, n + 1)]].to_numpy()
+    )
+    assert np.linalg.norm(residual) / np.linalg.norm(
+        scored[[f"tau{j}" for j in range(1, n + 1)]].to_numpy()
+    ) == pytest.approx(per_log[1])
     summary = (run / "summary.md").read_text()
     assert "check_a, check_b: validation logs, not used for identification" in summary
     assert not (run / "exciting_motion.csv").exists() and (run / "residuals_per_log.png").is_file()
 
 
-def test_irregular_log_is_scored_at_its_logged_samples(lwr4: RobotModel, recorded: dict, tmp_path: Path) -> None:
+def test_irregular_log_is_scored_at_its_logged_samples(
+    lwr4: RobotModel, recorded: dict, tmp_path: Path
+) -> None:
     rng = np.random.default_rng(2)
     check = recorded["check_a"]
-    jittered = Measurement(t=check.t + rng.uniform(-0.3, 0.3, check.t.shape) / 500.0, q=check.q, tau=check.tau)
-    plant = LogPlant(lwr4, paths=[str(write_log(recorded["fit_a"], tmp_path / "fit.csv"))], validation_paths=[str(write_log(jittered, tmp_path / "jitter.csv"))])
+    jittered = Measurement(
+        t=check.t + rng.uniform(-0.3, 0.3, check.t.shape) / 500.0, q=check.q, tau=check.tau
+    )
+    plant = LogPlant(
+        lwr4,
+        paths=[str(write_log(recorded["fit_a"], tmp_path / "fit.csv"))],
+        validation_paths=[str(write_log(jittered, tmp_path / "jitter.csv"))],
+    )
     report = identify(lwr4, None, None, plant, OrdinaryLeastSquares(), processing={"cutoff_hz": "auto"})
     validation = report.validation_predictions[0]
     np.testing.assert_allclose(validation.t, jittered.t, rtol=0, atol=1e-15)
@@ -138,8 +184,26 @@ def test_real_lwr4_with_defaults_beats_plain_least_squares() -> None:
     """
     urdf = REAL_LWR4 / "kuka_lwr4.urdf"
     logs = {i: REAL_LWR4 / f"measurements_{i}.npz" for i in (1, 2, 3)}
-    both = identify_configured(_compose("robot=urdf", f"robot.path={urdf}", NPZ_COLUMNS, f"data.paths=[{logs[2]},{logs[3]}]", f"data.validation_paths=[{logs[1]}]"))
+    both = identify_configured(
+        _compose(
+            "robot=urdf",
+            f"robot.path={urdf}",
+            NPZ_COLUMNS,
+            f"data.paths=[{logs[2]},{logs[3]}]",
+            f"data.validation_paths=[{logs[1]}]",
+        )
+    )
     assert both.metrics["validation_rel_error"] < 0.0263
-    new_motion = identify_configured(_compose("robot=urdf", f"robot.path={urdf}", NPZ_COLUMNS, f"data.paths=[{logs[3]}]", f"data.validation_paths=[{logs[1]},{logs[2]}]"))
+    new_motion = identify_configured(
+        _compose(
+            "robot=urdf",
+            f"robot.path={urdf}",
+            NPZ_COLUMNS,
+            f"data.paths=[{logs[3]}]",
+            f"data.validation_paths=[{logs[1]},{logs[2]}]",
+        )
+    )
     assert new_motion.metrics["validation_rel_error"] <= 0.048
-    assert not any(p.processing.endswith("logged q̇") for p in both.predictions)  # their logged velocities disagree with q
+    assert not any(
+        p.processing.endswith("logged q̇") for p in both.predictions
+    )  # their logged velocities disagree with q

@@ -38,7 +38,9 @@ def test_base_parameter_count_is_the_structural_rank(lwr4: RobotModel) -> None:
     assert base.count == 43 + 14  # the LWR4's 43 inertial base parameters (Khalil's rules), 14 friction
     # The regrouping is exact: W·φ = W_b·K·φ for any φ.
     phi = np.random.default_rng(4).normal(size=lwr4.n_parameters)
-    np.testing.assert_allclose(w @ phi, base.base_regressor(w) @ base.base_values(phi), atol=1e-8 * np.abs(w @ phi).max())
+    np.testing.assert_allclose(
+        w @ phi, base.base_regressor(w) @ base.base_values(phi), atol=1e-8 * np.abs(w @ phi).max()
+    )
 
 
 def test_cad_links_are_consistent_and_weigh_what_kuka_says(lwr4: RobotModel) -> None:

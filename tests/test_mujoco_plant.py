@@ -8,7 +8,13 @@ import pytest
 from lwrlab.kinematics import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.pipeline.tool_library import load_tool
-from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall, mujoco_inverse_dynamics, mujoco_xml
+from lwrlab.plants.mujoco_contact import (
+    ContactTool,
+    MujocoContactPlant,
+    Wall,
+    mujoco_inverse_dynamics,
+    mujoco_xml,
+)
 
 
 def _states(robot, rng, n=30):
@@ -18,7 +24,11 @@ def _states(robot, rng, n=30):
 
 def test_mujoco_and_pinocchio_inverse_dynamics_agree(lwr4, rng):
     q, dq, ddq = _states(lwr4, rng)
-    np.testing.assert_allclose(mujoco_inverse_dynamics(lwr4, q, dq, ddq), lwr4.inverse_dynamics(q, dq, ddq, with_friction=False), atol=1e-10)
+    np.testing.assert_allclose(
+        mujoco_inverse_dynamics(lwr4, q, dq, ddq),
+        lwr4.inverse_dynamics(q, dq, ddq, with_friction=False),
+        atol=1e-10,
+    )
     # the drives' rotor inertia is MuJoCo's armature: τ = RNEA + I_a·q̈
     np.testing.assert_allclose(
         mujoco_inverse_dynamics(lwr4, q, dq, ddq, with_armature=True),
@@ -38,12 +48,15 @@ def test_tool_body_matches_the_payload_attached_in_pinocchio(lwr4, rng):
     for q, dq, ddq in zip(*_states(lwr4, rng, 10), strict=True):
         data.qpos[:], data.qvel[:], data.qacc[:] = q, dq, ddq
         mujoco.mj_inverse(model, data)
-        np.testing.assert_allclose(data.qfrc_inverse, loaded.inverse_dynamics(q, dq, ddq, with_friction=False)[0], atol=1e-10)
+        np.testing.assert_allclose(
+            data.qfrc_inverse, loaded.inverse_dynamics(q, dq, ddq, with_friction=False)[0], atol=1e-10
+        )
 
 
 def test_rejects_non_chain_robot(lwr4):
-    import pinocchio as pin
     from dataclasses import replace
+
+    import pinocchio as pin
 
     model = pin.buildSampleModelManipulator()
     with pytest.raises(ValueError, match="revolute-z"):
@@ -99,7 +112,15 @@ def test_plant_step_equals_plain_mujoco_steps_and_per_sample_noise(pressing_plan
     _, loaded, tool = pressing_plant
     lwr4_plant = pressing_plant[0]
     contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
-    plant = MujocoContactPlant(lwr4_plant.robot, contact, Wall(), torque_noise_std=0.1, encoder_noise_std=1e-5, force_noise_std=0.2, seed=3)
+    plant = MujocoContactPlant(
+        lwr4_plant.robot,
+        contact,
+        Wall(),
+        torque_noise_std=0.1,
+        encoder_noise_std=1e-5,
+        force_noise_std=0.2,
+        seed=3,
+    )
     reference = MujocoContactPlant(lwr4_plant.robot, contact, Wall(), seed=3)
     model, data, rng = reference.model, reference.data, np.random.default_rng(3)
     q0 = np.array([0.3, 0.8, 0.2, -1.2, 0.4, 1.0, 0.1])

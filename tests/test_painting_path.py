@@ -13,7 +13,9 @@ from lwrlab.planning.coverage import painted_fraction
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path, way_point_times
 from lwrlab.planning.path_optimisation import InfeasiblePath, PathProblem, WallBounds, optimise_path
 
-PARAMETERS = PaintingPathParameters(duration=30.0, swivel=0.0, z_upper=0.6, z_lower=0.2, y_start=0.1, y_step=0.2, n_steps=2)
+PARAMETERS = PaintingPathParameters(
+    duration=30.0, swivel=0.0, z_upper=0.6, z_lower=0.2, y_start=0.1, y_step=0.2, n_steps=2
+)
 
 
 def test_zig_zag_way_points():
@@ -44,7 +46,9 @@ def test_coverage_of_overlapping_and_gapped_stripes():
     z = np.linspace(0.2, 0.6, 2000)
     for step, expected in ((0.2, 1.0), (0.25, 0.4 / 0.45)):  # a 5 cm gap between two 0.2 m stripes
         ys = np.concatenate([np.full_like(z, 0.1), np.full_like(z, 0.1 + step)])
-        fraction, _ = painted_fraction(ys, np.tile(z, 2), np.ones(ys.size, bool), 0.2, (0.0, 0.2 + step * 1.0, 0.2, 0.6))
+        fraction, _ = painted_fraction(
+            ys, np.tile(z, 2), np.ones(ys.size, bool), 0.2, (0.0, 0.2 + step * 1.0, 0.2, 0.6)
+        )
         assert fraction == pytest.approx(expected, abs=0.02)
 
 
@@ -54,7 +58,15 @@ def roller_problem(lwr4):
     robot = attach_payload(lwr4, tool.parameters)
     tcp = np.eye(4)
     tcp[:3, 3] = tool.contact_point
-    return PathProblem(robot, SwivelIK(robot), tcp, WallBounds(-0.8, 0.0, 0.6, 0.0, 0.8), tool.width, n_steps=1, branch=Branch(1, -1, -1))
+    return PathProblem(
+        robot,
+        SwivelIK(robot),
+        tcp,
+        WallBounds(-0.8, 0.0, 0.6, 0.0, 0.8),
+        tool.width,
+        n_steps=1,
+        branch=Branch(1, -1, -1),
+    )
 
 
 def test_optimised_path_is_feasible_continuous_and_covers_its_area(roller_problem):
@@ -70,8 +82,16 @@ def test_optimised_path_is_feasible_continuous_and_covers_its_area(roller_proble
     assert np.all(np.abs(dq) <= lim.velocity) and np.all(np.abs(ddq[2:-2]) <= lim.acceleration)
     path = roller_problem.path(p.vector(), rate_hz=1000.0)
     fraction, _ = painted_fraction(
-        path.position[:, 1], path.position[:, 2], np.ones(path.t.size, bool), roller_problem.roller_width,
-        (p.y_start - roller_problem.roller_width / 2, p.y_end + roller_problem.roller_width / 2, p.z_lower, p.z_upper),
+        path.position[:, 1],
+        path.position[:, 2],
+        np.ones(path.t.size, bool),
+        roller_problem.roller_width,
+        (
+            p.y_start - roller_problem.roller_width / 2,
+            p.y_end + roller_problem.roller_width / 2,
+            p.z_lower,
+            p.z_upper,
+        ),
     )
     assert fraction > 0.99
 
@@ -102,7 +122,11 @@ def test_path_position_derivatives_match_finite_differences():
 
 
 # points where T_C·rate is far from a half integer: the sample count does not jump within ±h
-GRADIENT_POINTS = [np.array([65.0, -1.2, 0.5, 0.3, 0.15, 0.15]), np.array([20.0, -0.8, 0.6, 0.2, 0.13, 0.12]), np.array([41.23, -1.6, 0.55, 0.25, 0.12, 0.18])]
+GRADIENT_POINTS = [
+    np.array([65.0, -1.2, 0.5, 0.3, 0.15, 0.15]),
+    np.array([20.0, -0.8, 0.6, 0.2, 0.13, 0.12]),
+    np.array([41.23, -1.6, 0.55, 0.25, 0.12, 0.18]),
+]
 
 
 @pytest.mark.parametrize("x", GRADIENT_POINTS)

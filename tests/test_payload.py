@@ -44,7 +44,12 @@ def test_noiseless_data_give_the_tool_exactly(lwr4, lwr4_base, name: str) -> Non
     scale = np.where(truth != 0, np.abs(truth), np.abs(truth[4:7]).max())
     assert np.max(np.abs(estimate.phi - truth) / scale) < 1e-6
     np.testing.assert_allclose(estimate.phi_flange, tool.parameters, atol=1e-9)
-    np.testing.assert_allclose(estimate.robot_base, lwr4_base.base_values(plant.with_tool(None).truth.robot.parameters), rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(
+        estimate.robot_base,
+        lwr4_base.base_values(plant.with_tool(None).truth.robot.parameters),
+        rtol=1e-6,
+        atol=1e-9,
+    )
     # the cheaper variant, given the robot: same answer
     only = identify_payload_only(wl, estimate.robot_base, wt, tl, transform, lwr4.n_joints)
     assert np.max(np.abs(only.phi - truth) / scale) < 1e-6
@@ -58,7 +63,9 @@ def test_noisy_data_give_the_mass_within_two_percent_and_a_consistent_sdp(lwr4, 
     transform = flange_to_joint_matrix(lwr4)
     estimate = identify_payload(wu, tu, wl, wt, tl, transform, lwr4.n_joints)
     assert abs(estimate.phi[0] / tool.mass - 1) < 0.02
-    assert estimate.relative_std[0] < estimate.relative_std[4] < estimate.relative_std[6]  # M, XX, ZZ: as Table III
+    assert (
+        estimate.relative_std[0] < estimate.relative_std[4] < estimate.relative_std[6]
+    )  # M, XX, ZZ: as Table III
     consistent = identify_payload(wu, tu, wl, wt, tl, transform, lwr4.n_joints, consistent=True)
     assert consistent.method == "joint+consistent"
     assert is_physically_consistent(consistent.phi, tol=1e-7)
@@ -67,4 +74,6 @@ def test_noisy_data_give_the_mass_within_two_percent_and_a_consistent_sdp(lwr4, 
 
 def test_payload_needs_matching_columns(lwr4) -> None:
     with pytest.raises(ValueError, match="10 tool columns"):
-        identify_payload(np.ones((14, 3)), np.ones(14), np.ones((14, 3)), np.ones((14, 9)), np.ones(14), np.eye(10), 7)
+        identify_payload(
+            np.ones((14, 3)), np.ones(14), np.ones((14, 3)), np.ones((14, 9)), np.ones(14), np.eye(10), 7
+        )

@@ -7,7 +7,7 @@ by the tasks through ``plant=log``, as a user's logs would be.
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET  # noqa: N817 - the usual alias
+import xml.etree.ElementTree as ET
 from dataclasses import replace
 from pathlib import Path
 
@@ -29,14 +29,18 @@ from plugins.plants.simulated import SimulatedPlant
 from plugins.trajectories.multisine import MultisineMotion
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
-NOISELESS_PROCESSING = ["measurement.processing.cutoff_hz=null", "measurement.processing.difference_accuracy=4", "measurement.processing.rate_hz=100"]
+NOISELESS_PROCESSING = [
+    "measurement.processing.cutoff_hz=null",
+    "measurement.processing.difference_accuracy=4",
+    "measurement.processing.rate_hz=100",
+]
 GAINS = np.array([120.0, 110.0, 70.0, 60.0, 35.0, 20.0, 18.0])
 """N·m/A per joint of the simulated drives."""
 HEAVY_PAYLOAD = standard_parameters(2.0, np.array([0.05, 0.0, 0.1]), np.diag([0.004, 0.004, 0.002]))
 """A 2 kg payload whose centre of mass lies off every joint axis (flange frame)."""
 
 
-def _compose(overrides: list[str]):  # noqa: ANN202 - a DictConfig
+def _compose(overrides: list[str]):
     with initialize_config_dir(str(CONF), version_base="1.3"):
         return compose("config", overrides=overrides)
 
@@ -52,11 +56,15 @@ def log_robot() -> RobotModel:
     return instantiate(_compose(["plant=log"]).robot)
 
 
-def _simulate(robot: RobotModel, payload: object, seconds: float, noisy: bool, n_loaded: int = 1) -> tuple[Measurement, list[Measurement], SimulatedPlant]:
+def _simulate(
+    robot: RobotModel, payload: object, seconds: float, noisy: bool, n_loaded: int = 1
+) -> tuple[Measurement, list[Measurement], SimulatedPlant]:
     """An unloaded and ``n_loaded`` loaded measurements (each its own motion) of one simulated robot."""
     noise = {} if noisy else {"torque_noise_std": 0.0, "encoder_noise_std": 0.0}
     plant = SimulatedPlant(robot, seed=0, show_progress=False, **noise)
-    motion = lambda seed: MultisineMotion(duration=seconds, harmonics=10, seed=seed, limit_fraction=0.9).sample(robot, 1000.0)  # noqa: E731
+    motion = lambda seed: MultisineMotion(
+        duration=seconds, harmonics=10, seed=seed, limit_fraction=0.9
+    ).sample(robot, 1000.0)
     loaded = plant.with_tool(payload)
     return plant.measure(motion(1)), [loaded.measure(motion(100 + k)) for k in range(n_loaded)], plant
 
@@ -80,12 +88,26 @@ def _logs(paths: list[Path]) -> str:
 # --- payload ----------------------------------------------------------------------------------------
 
 
-def test_payload_from_noisy_logs_is_within_1_percent_and_2_mm_and_recognised(tmp_path: Path, log_robot: RobotModel) -> None:
+def test_payload_from_noisy_logs_is_within_1_percent_and_2_mm_and_recognised(
+    tmp_path: Path, log_robot: RobotModel
+) -> None:
     roller = load_tool("large_roller")
     # the LWR4's sensor noise (0.1 N·m); two loaded logs, processed one by one and stacked
     unloaded, loaded, _ = _simulate(log_robot, roller, 10.0, noisy=True, n_loaded=2)
-    paths = [write_log(unloaded, tmp_path / "unloaded.csv"), *(write_log(m, tmp_path / f"loaded{k}.parquet") for k, m in enumerate(loaded))]
-    metrics = _run(["task=payload", "plant=log", f"task.unloaded_paths={_logs(paths[:1])}", f"task.loaded_paths={_logs(paths[1:])}", "task.truth=large_roller"], tmp_path / "run")
+    paths = [
+        write_log(unloaded, tmp_path / "unloaded.csv"),
+        *(write_log(m, tmp_path / f"loaded{k}.parquet") for k, m in enumerate(loaded)),
+    ]
+    metrics = _run(
+        [
+            "task=payload",
+            "plant=log",
+            f"task.unloaded_paths={_logs(paths[:1])}",
+            f"task.loaded_paths={_logs(paths[1:])}",
+            "task.truth=large_roller",
+        ],
+        tmp_path / "run",
+    )
 
     assert abs(metrics["mass"] / roller.mass - 1) < 0.01 and abs(metrics["mass_error_pct"]) < 1.0
     com = np.array([metrics["com_x"], metrics["com_y"], metrics["com_z"]])
@@ -93,9 +115,22 @@ def test_payload_from_noisy_logs_is_within_1_percent_and_2_mm_and_recognised(tmp
     assert metrics["recognised_large_roller"] == 1.0 and metrics["recognised_correct"] == 1.0
     document = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())
     assert document["recognised"]["tool"] == "large_roller" and document["method"] == "joint"
-    assert document["mass"] == pytest.approx(metrics["mass"]) and list(document["parameters"]) == ["M", "MSX", "MSY", "MSZ", "XX", "YY", "ZZ", "XY", "XZ", "YZ"]
+    assert document["mass"] == pytest.approx(metrics["mass"]) and list(document["parameters"]) == [
+        "M",
+        "MSX",
+        "MSY",
+        "MSZ",
+        "XX",
+        "YY",
+        "ZZ",
+        "XY",
+        "XZ",
+        "YZ",
+    ]
     inertial = ET.fromstring((tmp_path / "run" / "payload_inertial.urdf.xml").read_text())
-    assert inertial.tag == "inertial" and float(inertial.find("mass").get("value")) == pytest.approx(metrics["mass"])
+    assert inertial.tag == "inertial" and float(inertial.find("mass").get("value")) == pytest.approx(
+        metrics["mass"]
+    )
     assert [float(x) for x in inertial.find("origin").get("xyz").split()] == pytest.approx(com)
 
 
@@ -104,13 +139,25 @@ def test_noiseless_payload_is_exact(tmp_path: Path, log_robot: RobotModel, metho
     """joint: from unloaded and loaded logs (eq. (7)); payload_only: the unloaded robot from an identified model."""
     roller = load_tool("small_roller")
     unloaded, (loaded,), plant = _simulate(log_robot, roller, 3.0, noisy=False)
-    overrides = ["task=payload", "plant=log", f"task.loaded_paths={_logs([write_log(loaded, tmp_path / 'loaded.csv')])}", "task.truth=small_roller", *NOISELESS_PROCESSING]
+    overrides = [
+        "task=payload",
+        "plant=log",
+        f"task.loaded_paths={_logs([write_log(loaded, tmp_path / 'loaded.csv')])}",
+        "task.truth=small_roller",
+        *NOISELESS_PROCESSING,
+    ]
     if method == "joint":
         overrides.append(f"task.unloaded_paths={_logs([write_log(unloaded, tmp_path / 'unloaded.csv')])}")
     else:  # an earlier run's identified model standing for the unloaded robot: here the truth itself
         base = compute_base_parameters(log_robot)
         truth = plant.with_tool(None).truth.robot
-        model = IdentifiedModel(base.names, base.base_values(truth.parameters), np.zeros(base.count), truth.parameter_names, truth.parameters)
+        model = IdentifiedModel(
+            base.names,
+            base.base_values(truth.parameters),
+            np.zeros(base.count),
+            truth.parameter_names,
+            truth.parameters,
+        )
         save_identified_model(model, {}, tmp_path / "identified_model.yaml")
         overrides.append(f"task.unloaded_model={tmp_path}")  # the run folder is enough
     metrics = _run(overrides, tmp_path / "run")
@@ -126,7 +173,15 @@ def test_an_identified_model_of_other_base_parameters_is_refused(tmp_path: Path)
     model = IdentifiedModel(("ZZ1R", "FC1"), np.ones(2), np.zeros(2), ("M1",), np.ones(1))
     save_identified_model(model, {}, tmp_path / "identified_model.yaml")
     with pytest.raises(ValueError, match="friction terms"):
-        _run(["task=payload", "plant=log", f"task.unloaded_model={tmp_path / 'identified_model.yaml'}", "task.loaded_paths=[loaded.csv]"], tmp_path / "run")
+        _run(
+            [
+                "task=payload",
+                "plant=log",
+                f"task.unloaded_model={tmp_path / 'identified_model.yaml'}",
+                "task.loaded_paths=[loaded.csv]",
+            ],
+            tmp_path / "run",
+        )
 
 
 def test_payload_without_plant_log_says_how_to_read_logs(tmp_path: Path) -> None:
@@ -137,11 +192,23 @@ def test_payload_without_plant_log_says_how_to_read_logs(tmp_path: Path) -> None
 # --- drive gains ------------------------------------------------------------------------------------
 
 
-def test_drive_gains_from_noisy_current_logs_within_1_percent_and_ready_to_paste(tmp_path: Path, log_robot: RobotModel) -> None:
+def test_drive_gains_from_noisy_current_logs_within_1_percent_and_ready_to_paste(
+    tmp_path: Path, log_robot: RobotModel
+) -> None:
     unloaded, (loaded,), _ = _simulate(log_robot, HEAVY_PAYLOAD, 10.0, noisy=True)
-    paths = [_write_currents(unloaded, GAINS, tmp_path / "unloaded.parquet"), _write_currents(loaded, GAINS, tmp_path / "loaded.parquet")]
-    overrides = ["task=drive_gains", "plant=log", f"task.unloaded_paths={_logs(paths[:1])}", f"task.loaded_paths={_logs(paths[1:])}",
-                 "task.payload.mass=2.0", "task.payload.com=[0.05,0,0.1]", f"task.true_gains=[{','.join(map(str, GAINS))}]"]
+    paths = [
+        _write_currents(unloaded, GAINS, tmp_path / "unloaded.parquet"),
+        _write_currents(loaded, GAINS, tmp_path / "loaded.parquet"),
+    ]
+    overrides = [
+        "task=drive_gains",
+        "plant=log",
+        f"task.unloaded_paths={_logs(paths[:1])}",
+        f"task.loaded_paths={_logs(paths[1:])}",
+        "task.payload.mass=2.0",
+        "task.payload.com=[0.05,0,0.1]",
+        f"task.true_gains=[{','.join(map(str, GAINS))}]",
+    ]
     metrics = _run(overrides, tmp_path / "run")
     assert metrics["max_abs_gain_error_pct"] < 1.0 and metrics["n_weak_gains"] == 0
     document = yaml.safe_load((tmp_path / "run" / "drive_gains.yaml").read_text())
@@ -153,20 +220,46 @@ def test_drive_gains_from_noisy_current_logs_within_1_percent_and_ready_to_paste
 
 
 @pytest.mark.parametrize("method", ["least_squares", "total_least_squares"])
-def test_noiseless_drive_gains_are_exact_with_only_the_mass_known(tmp_path: Path, log_robot: RobotModel, method: str) -> None:
+def test_noiseless_drive_gains_are_exact_with_only_the_mass_known(
+    tmp_path: Path, log_robot: RobotModel, method: str
+) -> None:
     unloaded, (loaded,), _ = _simulate(log_robot, HEAVY_PAYLOAD, 3.0, noisy=False)
-    paths = [_write_currents(unloaded, GAINS, tmp_path / "unloaded.csv"), _write_currents(loaded, GAINS, tmp_path / "loaded.csv")]
-    overrides = ["task=drive_gains", "plant=log", f"task.unloaded_paths={_logs(paths[:1])}", f"task.loaded_paths={_logs(paths[1:])}",
-                 "task.payload.mass=2.0", f"task.method={method}", *NOISELESS_PROCESSING]
+    paths = [
+        _write_currents(unloaded, GAINS, tmp_path / "unloaded.csv"),
+        _write_currents(loaded, GAINS, tmp_path / "loaded.csv"),
+    ]
+    overrides = [
+        "task=drive_gains",
+        "plant=log",
+        f"task.unloaded_paths={_logs(paths[:1])}",
+        f"task.loaded_paths={_logs(paths[1:])}",
+        "task.payload.mass=2.0",
+        f"task.method={method}",
+        *NOISELESS_PROCESSING,
+    ]
     _run(overrides, tmp_path / "run")
-    np.testing.assert_allclose(yaml.safe_load((tmp_path / "run" / "drive_gains.yaml").read_text())["drive_gains"], GAINS, rtol=1e-7)
+    np.testing.assert_allclose(
+        yaml.safe_load((tmp_path / "run" / "drive_gains.yaml").read_text())["drive_gains"], GAINS, rtol=1e-7
+    )
 
 
 def test_a_payload_on_a_joint_axis_leaves_that_gain_flagged(tmp_path: Path, log_robot: RobotModel) -> None:
     """CoM on joint 7's axis: the known payload does not load joint 7, its gain is poorly determined and said so."""
     on_axis = standard_parameters(2.0, np.array([0.0, 0.0, 0.1]), np.diag([0.004, 0.004, 0.002]))
     unloaded, (loaded,), _ = _simulate(log_robot, on_axis, 6.0, noisy=True)
-    paths = [_write_currents(unloaded, GAINS, tmp_path / "unloaded.parquet"), _write_currents(loaded, GAINS, tmp_path / "loaded.csv")]
-    metrics = _run(["task=drive_gains", "plant=log", f"task.unloaded_paths={_logs(paths[:1])}", f"task.loaded_paths={_logs(paths[1:])}", "task.payload.mass=2.0"], tmp_path / "run")
+    paths = [
+        _write_currents(unloaded, GAINS, tmp_path / "unloaded.parquet"),
+        _write_currents(loaded, GAINS, tmp_path / "loaded.csv"),
+    ]
+    metrics = _run(
+        [
+            "task=drive_gains",
+            "plant=log",
+            f"task.unloaded_paths={_logs(paths[:1])}",
+            f"task.loaded_paths={_logs(paths[1:])}",
+            "task.payload.mass=2.0",
+        ],
+        tmp_path / "run",
+    )
     assert metrics["gain_relative_std_7"] > 1.0 and metrics["n_weak_gains"] >= 1
     assert "joints [7]" in (tmp_path / "run" / "summary.md").read_text()

@@ -43,7 +43,9 @@ def test_torque_noise_has_the_configured_spread(lwr4: RobotModel) -> None:
 def test_encoder_quantisation(lwr4: RobotModel) -> None:
     motion = MultisineMotion(duration=1.0, seed=1).sample(lwr4, 1000.0)
     step = 1e-4
-    measurement = SimulatedPlant(lwr4, encoder_noise_std=0.0, encoder_resolution=step, show_progress=False).measure(motion)
+    measurement = SimulatedPlant(
+        lwr4, encoder_noise_std=0.0, encoder_resolution=step, show_progress=False
+    ).measure(motion)
     np.testing.assert_allclose(measurement.q / step, np.round(measurement.q / step), atol=1e-9)
     assert np.abs(measurement.q - motion.q).max() <= step / 2 + 1e-12
 
@@ -63,7 +65,9 @@ def test_closed_loop_tracks_and_obeys_the_true_dynamics(lwr4: RobotModel) -> Non
     ddq = np.gradient(dq, dt, axis=0)
     data = truth.model.createData()
     inner = slice(10, -10)
-    rnea = np.stack([pin.rnea(truth.model, data, q, v, a) for q, v, a in zip(measurement.q[inner], dq[inner], ddq[inner])])
+    rnea = np.stack(
+        [pin.rnea(truth.model, data, q, v, a) for q, v, a in zip(measurement.q[inner], dq[inner], ddq[inner])]
+    )
     friction = truth.friction.viscous * dq[inner] + truth.friction.coulomb * np.tanh(dq[inner] / 1e-3)
     residual = measurement.tau[inner] - rnea - friction
     assert np.sqrt(np.mean(residual**2)) < 0.05 * np.sqrt(np.mean(measurement.tau[inner] ** 2))

@@ -31,7 +31,9 @@ def _log(robot: RobotModel, rng: np.random.Generator) -> tuple[np.ndarray, np.nd
     limits = robot.limits
     center = 0.5 * (limits.position_lower + limits.position_upper)
     phase = rng.uniform(0, 2 * np.pi, robot.n_joints)
-    q = center + 0.3 * (limits.position_upper - limits.position_lower) * np.sin(2 * np.pi * 0.5 * t[:, None] + phase)
+    q = center + 0.3 * (limits.position_upper - limits.position_lower) * np.sin(
+        2 * np.pi * 0.5 * t[:, None] + phase
+    )
     tau = 0.4 * limits.torque * np.cos(2 * np.pi * 0.5 * t[:, None] + phase) + 0.05 * rng.normal(size=q.shape)
     return t, q, tau
 
@@ -50,7 +52,10 @@ def test_simulated_robot_log_has_no_finding(lwr4):
     """The simulated plant (CAD ± 10 %, sensor noise) on a motion at 80 % of the limits: no false alarm."""
     motion = MultisineMotion(duration=4.0, seed=0).sample(lwr4, 1000.0)
     measurement = SimulatedPlant(lwr4, seed=0, show_progress=False).measure(motion)
-    assert check_plausibility(measurement.t, measurement.q, measurement.tau, lwr4.limits, CSV, dq=motion.dq) == []
+    assert (
+        check_plausibility(measurement.t, measurement.q, measurement.tau, lwr4.limits, CSV, dq=motion.dq)
+        == []
+    )
 
 
 def test_positions_in_degrees_are_an_error_with_the_hint(lwr4, rng):
@@ -116,14 +121,20 @@ def test_dead_sensors_and_still_joints(lwr4, rng):
     assert findings[0].severity == "error"  # errors first
 
 
-@pytest.mark.parametrize(("period", "declared", "suggested"), [(1.0, "s", "ms"), (1e6, "s", "ns"), (1e-6, "ms", "s"), (1.0, "ms", "us")])
+@pytest.mark.parametrize(
+    ("period", "declared", "suggested"),
+    [(1.0, "s", "ms"), (1e6, "s", "ns"), (1e-6, "ms", "s"), (1.0, "ms", "us")],
+)
 def test_time_unit_is_named_when_the_period_is_implausible(lwr4, rng, period, declared, suggested):
     """``period``: the median step after conversion from the declared unit (1 ms stamps in ms read as s: 1.0 s)."""
     _, q, tau = _log(lwr4, rng)
     t = np.arange(N_SAMPLES) * period
     (finding,) = check_plausibility(t, q, tau, lwr4.limits, CSV, time_unit=declared)
     assert (finding.severity, finding.column, finding.check) == ("error", "t", "sampling_period")
-    assert f"data.time_unit={suggested}" in finding.message and f"data.time_unit={declared} is implausible" in finding.message
+    assert (
+        f"data.time_unit={suggested}" in finding.message
+        and f"data.time_unit={declared} is implausible" in finding.message
+    )
 
 
 def test_absurd_value_names_the_row_and_hides_the_consequences(lwr4, rng):
@@ -133,7 +144,11 @@ def test_absurd_value_names_the_row_and_hides_the_consequences(lwr4, rng):
     findings = check_plausibility(t, q, tau, lwr4.limits, Path("log.parquet"))
     assert _checks(findings) == {("error", "tau3", "absurd_value"), ("error", "q1", "absurd_value")}
     tau_finding = next(f for f in findings if f.column == "tau3")
-    assert "row 1234:" in tau_finding.message and "1e+30" in tau_finding.message and "line" not in tau_finding.message
+    assert (
+        "row 1234:" in tau_finding.message
+        and "1e+30" in tau_finding.message
+        and "line" not in tau_finding.message
+    )
 
 
 def test_velocities_in_degrees_per_second(lwr4, rng):
@@ -142,7 +157,10 @@ def test_velocities_in_degrees_per_second(lwr4, rng):
     assert check_plausibility(t, q, tau, lwr4.limits, CSV, dq=dq) == []
     dq[:, 0] = np.degrees(dq[:, 0]) + 10 * lwr4.limits.velocity[0]
     (finding,) = check_plausibility(t, q, tau, lwr4.limits, CSV, dq=dq)
-    assert (finding.column, finding.check) == ("dq1", "velocity_limit") and "degrees per second" in finding.message
+    assert (finding.column, finding.check) == (
+        "dq1",
+        "velocity_limit",
+    ) and "degrees per second" in finding.message
 
 
 def test_raise_for_errors_lists_every_error_and_returns_warnings(lwr4, rng):
@@ -155,7 +173,12 @@ def test_raise_for_errors_lists_every_error_and_returns_warnings(lwr4, rng):
         raise_for_errors(findings)
     message = str(caught.value)
     assert message.startswith("implausible log robot_log.csv: 2 error(s)")
-    assert "'tau1'" in message and "'tau2'" in message and "[zero_torque]" in message and "never moves" in message
+    assert (
+        "'tau1'" in message
+        and "'tau2'" in message
+        and "[zero_torque]" in message
+        and "never moves" in message
+    )
     warnings = raise_for_errors([f for f in findings if f.severity == "warning"])
     assert [(f.column, f.check) for f in warnings] == [("q5", "still_joint")]
 
@@ -180,15 +203,17 @@ def test_shapes_and_units_are_checked(lwr4, rng):
 
 def test_parquet_dtypes_that_are_not_numbers(tmp_path):
     n = 5
-    frame = pd.DataFrame({
-        "t": pd.date_range("2024-01-01", periods=n, freq="ms"),
-        "q1": np.linspace(0, 1, n),
-        "q2": np.arange(n),  # integers are numbers
-        "tau1": [True, False, True, True, False],
-        "tau2": pd.array([1, 2, None, 4, 5], dtype="Int64"),  # nullable integers too
-        "dq1": ["a", "b", "c", "d", "e"],
-        "dq2": pd.to_timedelta(np.arange(n), unit="s"),
-    })
+    frame = pd.DataFrame(
+        {
+            "t": pd.date_range("2024-01-01", periods=n, freq="ms"),
+            "q1": np.linspace(0, 1, n),
+            "q2": np.arange(n),  # integers are numbers
+            "tau1": [True, False, True, True, False],
+            "tau2": pd.array([1, 2, None, 4, 5], dtype="Int64"),  # nullable integers too
+            "dq1": ["a", "b", "c", "d", "e"],
+            "dq2": pd.to_timedelta(np.arange(n), unit="s"),
+        }
+    )
     path = tmp_path / "log.parquet"
     frame.to_parquet(path, index=False)
     columns = LogColumns(t="t", q=("q1", "q2"), tau=("tau1", "tau2"), dq=("dq1", "dq2"))
@@ -200,4 +225,6 @@ def test_parquet_dtypes_that_are_not_numbers(tmp_path):
     assert "not numbers" in findings["dq1"].message
     assert "total_seconds" in findings["dq2"].message
     assert column_dtype_finding(pd.Series([1.0, 2.0]), "q1", path) is None
-    assert check_column_dtypes(frame.drop(columns=["t", "tau1", "dq1", "dq2"]), columns, path) == []  # absent columns are the loader's business
+    assert (
+        check_column_dtypes(frame.drop(columns=["t", "tau1", "dq1", "dq2"]), columns, path) == []
+    )  # absent columns are the loader's business

@@ -15,8 +15,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import lwrlab.dynamics.regressor as regressor_module
-from lwrlab.dynamics.regressor import chain_inertial_regressor, loop_inertial_regressor, regressor, serial_chain
-from lwrlab.model.inertia import from_pseudo_inertia, is_physically_consistent, random_consistent_parameters, to_pin_inertia
+from lwrlab.dynamics.regressor import (
+    chain_inertial_regressor,
+    loop_inertial_regressor,
+    regressor,
+    serial_chain,
+)
+from lwrlab.model.inertia import (
+    from_pseudo_inertia,
+    is_physically_consistent,
+    random_consistent_parameters,
+    to_pin_inertia,
+)
 from lwrlab.model.robot import Friction, JointLimits, RobotModel
 from plugins.robots.mdh import load_robot_yaml
 
@@ -46,7 +56,9 @@ def revolute_joint(kind: str, rng: np.random.Generator) -> pin.JointModel:
     return {"x": pin.JointModelRX, "y": pin.JointModelRY, "z": pin.JointModelRZ}[kind]()
 
 
-def make_robot(model: pin.Model, rng: np.random.Generator, terms: tuple[str, ...] = ALL_FRICTION) -> RobotModel:
+def make_robot(
+    model: pin.Model, rng: np.random.Generator, terms: tuple[str, ...] = ALL_FRICTION
+) -> RobotModel:
     """Wrap a model with random friction (every term non-zero) and dummy limits."""
     n = model.nv
     ones = np.ones(n)
@@ -82,11 +94,15 @@ def branched_prismatic_model(rng: np.random.Generator) -> pin.Model:
     ]
     for j, (parent, joint) in enumerate(specs, start=1):
         joint_id = model.addJoint(parent, joint, random_placement(rng), f"joint{j}")
-        model.appendBodyToJoint(joint_id, to_pin_inertia(random_consistent_parameters(rng)), pin.SE3.Identity())
+        model.appendBodyToJoint(
+            joint_id, to_pin_inertia(random_consistent_parameters(rng)), pin.SE3.Identity()
+        )
     return model
 
 
-def random_states(rng: np.random.Generator, n_samples: int, n_joints: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def random_states(
+    rng: np.random.Generator, n_samples: int, n_joints: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     q = rng.uniform(-np.pi, np.pi, (n_samples, n_joints))
     dq = rng.uniform(-3.0, 3.0, (n_samples, n_joints))
     ddq = rng.uniform(-10.0, 10.0, (n_samples, n_joints))
@@ -116,8 +132,14 @@ def assert_torques_close(actual: np.ndarray, expected: np.ndarray) -> None:
 
 
 @settings(max_examples=30, deadline=None)
-@given(seed=seeds, n_joints=st.integers(1, 8), terms=st.sampled_from([ALL_FRICTION, ("coulomb", "viscous"), ("offset",), ()]))
-def test_serial_regressor_times_parameters_is_rnea_plus_friction(seed: int, n_joints: int, terms: tuple[str, ...]) -> None:
+@given(
+    seed=seeds,
+    n_joints=st.integers(1, 8),
+    terms=st.sampled_from([ALL_FRICTION, ("coulomb", "viscous"), ("offset",), ()]),
+)
+def test_serial_regressor_times_parameters_is_rnea_plus_friction(
+    seed: int, n_joints: int, terms: tuple[str, ...]
+) -> None:
     rng = np.random.default_rng(seed)
     robot = make_robot(random_serial_model(rng, n_joints), rng, terms)
     assert serial_chain(robot.model) is not None
@@ -197,7 +219,9 @@ def test_tree_with_prismatic_joints_uses_loop_fallback_and_keeps_invariant(seed:
     assert_torques_close(W @ robot.parameters, reference_torque(robot, q, dq, ddq).ravel())
 
 
-def test_serial_revolute_chain_does_not_use_loop(monkeypatch: pytest.MonkeyPatch, rng: np.random.Generator) -> None:
+def test_serial_revolute_chain_does_not_use_loop(
+    monkeypatch: pytest.MonkeyPatch, rng: np.random.Generator
+) -> None:
     def forbidden(*args: object, **kwargs: object) -> np.ndarray:
         raise AssertionError("serial revolute chain went through the per-sample loop")
 
@@ -261,7 +285,9 @@ def test_shapes(panda_all_friction: RobotModel, rng: np.random.Generator) -> Non
     np.testing.assert_array_equal(regressor(robot, q, dq, ddq)[7:14], regressor(robot, q[1], dq[1], ddq[1]))
 
 
-def test_every_column_is_the_derivative_of_torque_wrt_its_named_parameter(panda_all_friction: RobotModel, rng: np.random.Generator) -> None:
+def test_every_column_is_the_derivative_of_torque_wrt_its_named_parameter(
+    panda_all_friction: RobotModel, rng: np.random.Generator
+) -> None:
     # Torque is linear in φ, so a finite difference is exact up to rounding: perturbing the parameter
     # named k must move the torque by exactly its column, whatever the name-to-column order is.
     robot = panda_all_friction
@@ -313,13 +339,17 @@ def test_named_columns(panda_all_friction: RobotModel, rng: np.random.Generator)
         (((3,), (3,), (3,)), r"q must have shape \(N, 7\)"),
     ],
 )
-def test_wrong_shapes_raise_clear_value_error(panda_all_friction: RobotModel, shapes: tuple, message: str) -> None:
+def test_wrong_shapes_raise_clear_value_error(
+    panda_all_friction: RobotModel, shapes: tuple, message: str
+) -> None:
     q, dq, ddq = (np.zeros(shape) for shape in shapes)
     with pytest.raises(ValueError, match=message):
         regressor(panda_all_friction, q, dq, ddq)
 
 
-@pytest.mark.xfail(strict=True, reason="regressor() does not check that q, dq, ddq have the same number of samples")
+@pytest.mark.xfail(
+    strict=True, reason="regressor() does not check that q, dq, ddq have the same number of samples"
+)
 def test_mismatched_sample_counts_raise_clear_value_error(panda_all_friction: RobotModel) -> None:
     with pytest.raises(ValueError, match="samples|same"):
         regressor(panda_all_friction, np.zeros((3, 7)), np.zeros((2, 7)), np.zeros((3, 7)))

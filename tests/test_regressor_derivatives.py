@@ -7,13 +7,19 @@ import pytest
 
 from lwrlab.dynamics.base_parameters import random_states
 from lwrlab.dynamics.regressor import regressor
-from lwrlab.dynamics.regressor_derivatives import regressor_jacobians, regressor_jacobians_pinocchio, regressor_vjp
+from lwrlab.dynamics.regressor_derivatives import (
+    regressor_jacobians,
+    regressor_jacobians_pinocchio,
+    regressor_vjp,
+)
 from lwrlab.model.robot import RobotModel
 
 STEP = 1e-6
 
 
-def finite_difference_jacobians(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> list[np.ndarray]:
+def finite_difference_jacobians(
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray
+) -> list[np.ndarray]:
     """Central differences of the (unstacked) regressor, (N, N_J, P, N_J) for q, q̇, q̈."""
     out = []
     for which in range(3):
@@ -22,13 +28,17 @@ def finite_difference_jacobians(robot: RobotModel, q: np.ndarray, dq: np.ndarray
             plus, minus = [q.copy(), dq.copy(), ddq.copy()], [q.copy(), dq.copy(), ddq.copy()]
             plus[which][:, l] += STEP
             minus[which][:, l] -= STEP
-            jac[..., l] = (regressor(robot, *plus, stacked=False) - regressor(robot, *minus, stacked=False)) / (2 * STEP)
+            jac[..., l] = (
+                regressor(robot, *plus, stacked=False) - regressor(robot, *minus, stacked=False)
+            ) / (2 * STEP)
         out.append(jac)
     return out
 
 
 @pytest.mark.parametrize("robot_name", ["lwr4", "panda"])
-def test_jacobians_equal_central_differences(robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator) -> None:
+def test_jacobians_equal_central_differences(
+    robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator
+) -> None:
     robot: RobotModel = request.getfixturevalue(robot_name)
     states = random_states(robot, 6, rng)
     analytic = regressor_jacobians(robot, *states)
@@ -38,7 +48,9 @@ def test_jacobians_equal_central_differences(robot_name: str, request: pytest.Fi
 
 
 @pytest.mark.parametrize("robot_name", ["lwr4", "panda"])
-def test_jacobians_agree_with_pinocchio_rnea_derivatives(robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator) -> None:
+def test_jacobians_agree_with_pinocchio_rnea_derivatives(
+    robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator
+) -> None:
     """Two independent engines: our forward-mode recursion and Pinocchio's computeRNEADerivatives."""
     robot: RobotModel = request.getfixturevalue(robot_name)
     states = random_states(robot, 3, rng)
@@ -50,7 +62,9 @@ def test_jacobians_agree_with_pinocchio_rnea_derivatives(robot_name: str, reques
 
 
 @pytest.mark.parametrize("robot_name", ["lwr4", "panda"])
-def test_vector_jacobian_product_contracts_the_jacobians(robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator) -> None:
+def test_vector_jacobian_product_contracts_the_jacobians(
+    robot_name: str, request: pytest.FixtureRequest, rng: np.random.Generator
+) -> None:
     """Two engines: the reverse-mode product against the forward-mode tensors contracted with the weights."""
     lwr4: RobotModel = request.getfixturevalue(robot_name)
     states = random_states(lwr4, 5, rng)

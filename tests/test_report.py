@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from mlflow.tracking import MlflowClient
-
 from apps.table_fixtures_app import CRITERIA, JOINTS, fixture_rms
+from mlflow.tracking import MlflowClient
+from tracking_apps import TABLE_FIXTURES_APP, run_app
+
 from lwrlab.reference import paper_results
 from lwrlab.tracking.compare import main as compare_main
 from lwrlab.tracking.report import REPORT_EXPERIMENT, build_report, main, selection_filter
-from tracking_apps import TABLE_FIXTURES_APP, run_app
 
 SEEDS = (0, 1, 2)
 
@@ -41,7 +41,9 @@ def store(tmp_path_factory: pytest.TempPathFactory) -> str:
     return f"sqlite:///{folder / 'mlflow.db'}"
 
 
-def test_report_rebuilds_fig5_fig6_and_refuses_to_pool_tables_across_criteria(store: str, tmp_path: Path) -> None:
+def test_report_rebuilds_fig5_fig6_and_refuses_to_pool_tables_across_criteria(
+    store: str, tmp_path: Path
+) -> None:
     report = build_report(store, tmp_path, ["report_fixture"], selection_filter())
     assert len(report.runs) == len(CRITERIA) * len(SEEDS)  # job runs only, not the sweep's parent
     assert set(report.parts) == {"fig5", "fig6"}  # their CSVs tell the criteria apart
@@ -65,20 +67,32 @@ def test_report_rebuilds_fig5_fig6_and_refuses_to_pool_tables_across_criteria(st
         assert (tmp_path / name).is_file(), name
     assert (tmp_path / "fig6_criteria.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     markdown = (tmp_path / "report.md").read_text()
-    assert "## Fig. 6" in markdown and "table2 skipped" in markdown and "differ in fixture_criterion" in markdown
+    assert (
+        "## Fig. 6" in markdown and "table2 skipped" in markdown and "differ in fixture_criterion" in markdown
+    )
 
 
 def test_report_of_one_criterion_pools_its_seeds_into_table3_and_table4(store: str, tmp_path: Path) -> None:
-    report = build_report(store, tmp_path, ["report_fixture"], selection_filter(params={"fixture_criterion": "cond"}))
+    report = build_report(
+        store, tmp_path, ["report_fixture"], selection_filter(params={"fixture_criterion": "cond"})
+    )
     table4 = report.parts["table4"].tables["table4_force"].set_index("comparison")
-    assert table4.loc["estimated_vs_measured", "rms"] == pytest.approx(np.mean([2.5 + seed for seed in SEEDS]))
+    assert table4.loc["estimated_vs_measured", "rms"] == pytest.approx(
+        np.mean([2.5 + seed for seed in SEEDS])
+    )
     assert table4.loc["estimated_vs_measured", "paper_rms"] == 2.9
     table3 = report.parts["table3"].tables["table3_tools"].set_index("parameter")
     assert table3.loc["M", "paper_phi"] == pytest.approx(0.237)
 
 
 def test_report_filters_runs_by_param(store: str, tmp_path: Path) -> None:
-    report = build_report(store, tmp_path, ["report_fixture"], selection_filter(params={"fixture_criterion": "cond"}), kinds=["fig6"])
+    report = build_report(
+        store,
+        tmp_path,
+        ["report_fixture"],
+        selection_filter(params={"fixture_criterion": "cond"}),
+        kinds=["fig6"],
+    )
     assert list(report.parts["fig6"].tables["fig6_summary"].index) == ["cond"]
     assert len(report.runs) == len(SEEDS)
 
@@ -90,16 +104,36 @@ def test_report_command_logs_the_report_once_in_its_source_experiment(
     client = MlflowClient(tracking_uri=store)
     experiments_before = {experiment.name for experiment in client.search_experiments()}
     for _ in range(2):
-        assert main(["--tracking-uri", store, "--experiment", "report_fixture", "--tag", "seed=1", "--output", str(tmp_path / "r")]) == 0
+        assert (
+            main(
+                [
+                    "--tracking-uri",
+                    store,
+                    "--experiment",
+                    "report_fixture",
+                    "--tag",
+                    "seed=1",
+                    "--output",
+                    str(tmp_path / "r"),
+                ]
+            )
+            == 0
+        )
     printed = capsys.readouterr().out
     assert "## Fig. 6" in printed and "report logged as run" in printed and "already logged as run" in printed
-    assert {experiment.name for experiment in client.search_experiments()} == experiments_before  # no `reports`
+    assert {
+        experiment.name for experiment in client.search_experiments()
+    } == experiments_before  # no `reports`
     assert REPORT_EXPERIMENT not in experiments_before and not (tmp_path / "mlruns").exists()
     experiment = client.get_experiment_by_name("report_fixture")
     (run,) = client.search_runs([experiment.experiment_id], filter_string="tags.run_kind = 'report'")
     assert run.info.status == "FINISHED" and run.data.tags["source_runs"] == str(len(CRITERIA))
-    assert {"report.md", "fig6_criteria.png", "fig5_duration.png"} <= {item.path for item in client.list_artifacts(run.info.run_id)}
-    assert run.info.artifact_uri.startswith(str(Path(store[len("sqlite:///"):]).parent))  # beside the store, under its artifact root
+    assert {"report.md", "fig6_criteria.png", "fig5_duration.png"} <= {
+        item.path for item in client.list_artifacts(run.info.run_id)
+    }
+    assert run.info.artifact_uri.startswith(
+        str(Path(store[len("sqlite:///") :]).parent)
+    )  # beside the store, under its artifact root
 
 
 def test_compare_groups_by_the_swept_parameter_with_seeds_as_replication(
@@ -114,12 +148,27 @@ def test_compare_groups_by_the_swept_parameter_with_seeds_as_replication(
         per_run = [np.mean([fixture_rms(criterion, seed, joint) for joint in JOINTS]) for seed in SEEDS]
         row = table.loc[f"fixture_criterion={criterion}"]
         assert row["runs"] == row["seeds"] == len(SEEDS)
-        assert row["rms_mean"] == pytest.approx(np.mean(per_run)) and row["rms_mean_std"] == pytest.approx(np.std(per_run, ddof=1))
+        assert row["rms_mean"] == pytest.approx(np.mean(per_run)) and row["rms_mean_std"] == pytest.approx(
+            np.std(per_run, ddof=1)
+        )
     assert (folder / "rms_per_joint.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     printed = capsys.readouterr().out
     assert "rms_mean [N·m]" in printed and "comparison logged as run" in printed
 
-    assert compare_main(["--tracking-uri", store, "--experiment", "report_fixture", "--param", "fixture_criterion=cond", "--no-log"]) == 0
+    assert (
+        compare_main(
+            [
+                "--tracking-uri",
+                store,
+                "--experiment",
+                "report_fixture",
+                "--param",
+                "fixture_criterion=cond",
+                "--no-log",
+            ]
+        )
+        == 0
+    )
     assert "| fixture_criterion=cond" not in capsys.readouterr().out  # one criterion left: nothing differs
     client = MlflowClient(tracking_uri=store)
     experiment = client.get_experiment_by_name("report_fixture")

@@ -54,7 +54,11 @@ def panda_urdf() -> Path:
         distribution = importlib.metadata.distribution("example-robot-data")
     except importlib.metadata.PackageNotFoundError as error:
         raise AssertionError("example-robot-data is not installed: pip install -e '.[test]'") from error
-    path = Path(distribution.locate_file("cmeel.prefix/share/example-robot-data/robots/panda_description/urdf/panda.urdf"))
+    path = Path(
+        distribution.locate_file(
+            "cmeel.prefix/share/example-robot-data/robots/panda_description/urdf/panda.urdf"
+        )
+    )
     assert path.is_file(), f"example-robot-data is installed but {path} is missing"
     return path
 
@@ -72,18 +76,20 @@ def panda_urdf_arm(panda_urdf: Path, tmp_path_factory: pytest.TempPathFactory) -
     for element in list(root):
         parent = element.find("parent")
         child = element.find("child")
-        if element.tag == "link" and element.get("name") in HAND_PARTS:
-            root.remove(element)
-        elif element.tag == "joint" and child is not None and child.get("link") in HAND_PARTS:
-            root.remove(element)
-        elif element.tag == "joint" and parent is not None and parent.get("link") in HAND_PARTS:
+        if (
+            (element.tag == "link" and element.get("name") in HAND_PARTS)
+            or (element.tag == "joint" and child is not None and child.get("link") in HAND_PARTS)
+            or (element.tag == "joint" and parent is not None and parent.get("link") in HAND_PARTS)
+        ):
             root.remove(element)
     path = tmp_path_factory.mktemp("urdf") / "panda_arm.urdf"
     tree.write(path)
     return load_urdf_robot(path, acceleration_limits=PANDA_ACCELERATION, flange_frame="panda_link8")
 
 
-def random_states(rng: np.random.Generator, robot: RobotModel, n_samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def random_states(
+    rng: np.random.Generator, robot: RobotModel, n_samples: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     limits = robot.limits
     q = rng.uniform(limits.position_lower, limits.position_upper, (n_samples, robot.n_joints))
     dq = rng.uniform(-limits.velocity, limits.velocity, (n_samples, robot.n_joints))
@@ -163,7 +169,9 @@ def test_full_panda_urdf_loads_fingers_as_prismatic_joints(panda_urdf: Path) -> 
     rng = np.random.default_rng(0)
     q, dq, ddq = random_states(rng, robot, 4)
     W = regressor(robot, q, dq, ddq)
-    np.testing.assert_allclose(W @ robot.parameters, robot.inverse_dynamics(q, dq, ddq).ravel(), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        W @ robot.parameters, robot.inverse_dynamics(q, dq, ddq).ravel(), rtol=0, atol=1e-9
+    )
 
 
 def test_locked_fingers_give_the_arm_with_urdf_limits(panda_urdf: Path, panda: RobotModel) -> None:
@@ -176,12 +184,16 @@ def test_locked_fingers_give_the_arm_with_urdf_limits(panda_urdf: Path, panda: R
 
 @settings(max_examples=25, deadline=None)
 @given(q=st.lists(st.floats(-np.pi, np.pi, allow_nan=False), min_size=7, max_size=7).map(np.array))
-def test_urdf_joint_frames_are_the_mdh_frames(panda_urdf_arm: RobotModel, panda: RobotModel, q: np.ndarray) -> None:
+def test_urdf_joint_frames_are_the_mdh_frames(
+    panda_urdf_arm: RobotModel, panda: RobotModel, q: np.ndarray
+) -> None:
     urdf_data, mdh_data = panda_urdf_arm.model.createData(), panda.model.createData()
     pin.framesForwardKinematics(panda_urdf_arm.model, urdf_data, q)
     pin.framesForwardKinematics(panda.model, mdh_data, q)
     for j in range(1, 8):
-        np.testing.assert_allclose(urdf_data.oMi[j].homogeneous, mdh_data.oMi[j].homogeneous, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            urdf_data.oMi[j].homogeneous, mdh_data.oMi[j].homogeneous, rtol=0, atol=1e-12
+        )
     # The flange (URDF panda_link8) is the same frame in both descriptions.
     flange_urdf = urdf_data.oMf[panda_urdf_arm.model.getFrameId("flange")].homogeneous
     flange_mdh = mdh_data.oMf[panda.model.getFrameId("flange")].homogeneous
@@ -193,11 +205,15 @@ def test_urdf_arm_and_mdh_yaml_have_the_same_segments(panda_urdf_arm: RobotModel
     np.testing.assert_allclose(panda_urdf_arm.link_parameters, panda.link_parameters, rtol=0, atol=1e-12)
 
 
-def test_urdf_arm_and_mdh_yaml_give_the_same_inverse_dynamics(panda_urdf_arm: RobotModel, panda: RobotModel) -> None:
+def test_urdf_arm_and_mdh_yaml_give_the_same_inverse_dynamics(
+    panda_urdf_arm: RobotModel, panda: RobotModel
+) -> None:
     # Arm without hand: the URDF stripped of hand and fingers against the MDH YAML, which has no hand.
     q, dq, ddq = random_states(np.random.default_rng(7), panda, 50)
     expected = rnea(panda.model, q, dq, ddq)
-    np.testing.assert_allclose(rnea(panda_urdf_arm.model, q, dq, ddq), expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    np.testing.assert_allclose(
+        rnea(panda_urdf_arm.model, q, dq, ddq), expected, rtol=0, atol=1e-10 * np.abs(expected).max()
+    )
 
 
 def hand_in_frame7() -> pin.Inertia:
@@ -217,13 +233,17 @@ def hand_in_frame7() -> pin.Inertia:
 def test_urdf_with_locked_hand_equals_mdh_yaml_plus_hand(panda_urdf: Path, panda: RobotModel) -> None:
     # With the hand: the loader merges hand and locked fingers into segment 7; adding the same hand,
     # built here from its published data, to the MDH model gives the same dynamics.
-    robot = load_urdf_robot(panda_urdf, acceleration_limits=PANDA_ACCELERATION, locked_joints=dict.fromkeys(FINGERS, 0.0))
+    robot = load_urdf_robot(
+        panda_urdf, acceleration_limits=PANDA_ACCELERATION, locked_joints=dict.fromkeys(FINGERS, 0.0)
+    )
     with_hand = panda.model.copy()
     with_hand.inertias[7] = with_hand.inertias[7] + hand_in_frame7()
     assert robot.model.inertias[7].mass == pytest.approx(0.735522 + 0.73 + 2 * 0.015, abs=1e-12)
     q, dq, ddq = random_states(np.random.default_rng(3), panda, 50)
     expected = rnea(with_hand, q, dq, ddq)
-    np.testing.assert_allclose(rnea(robot.model, q, dq, ddq), expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+    np.testing.assert_allclose(
+        rnea(robot.model, q, dq, ddq), expected, rtol=0, atol=1e-10 * np.abs(expected).max()
+    )
     # ... and without the hand they differ: the comparison can tell a hand from none.
     assert np.abs(rnea(panda.model, q, dq, ddq) - expected).max() > 0.1
 
@@ -241,7 +261,9 @@ def test_urdf_loader_options(panda_urdf: Path) -> None:
     )
     assert robot.name == "my_panda"
     np.testing.assert_array_equal(robot.gravity, [0.0, 0.0, -9.80665])
-    np.testing.assert_array_equal(robot.friction.values(robot.friction_terms), [1.0] * 7 + [0.5] * 7 + [0.0] * 7)
+    np.testing.assert_array_equal(
+        robot.friction.values(robot.friction_terms), [1.0] * 7 + [0.5] * 7 + [0.0] * 7
+    )
     assert robot.parameter_names[-1] == "FO7"
 
 
@@ -252,7 +274,12 @@ def test_urdf_and_mdh_file_configs_instantiate(panda_urdf: Path, panda: RobotMod
     urdf_config = OmegaConf.load(REPO / "conf" / "robot" / "urdf.yaml")
     with pytest.raises(MissingMandatoryValue):
         instantiate(urdf_config)
-    overrides = {"path": str(panda_urdf), "acceleration_limits": PANDA_ACCELERATION, "locked_joints": list(FINGERS), "flange_frame": "panda_link8"}
+    overrides = {
+        "path": str(panda_urdf),
+        "acceleration_limits": PANDA_ACCELERATION,
+        "locked_joints": list(FINGERS),
+        "flange_frame": "panda_link8",
+    }
     robot = instantiate(OmegaConf.merge(urdf_config, overrides))
     assert robot.n_joints == 7 and robot.model.existFrame("flange")
 
@@ -301,9 +328,18 @@ def test_missing_file_is_named(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("limit", "message"),
     [
-        ('<limit effort="0" lower="0" upper="0" velocity="0"/>', r"missing joint limits.*shoulder: position limits"),
-        ('<limit effort="0" lower="-1" upper="1" velocity="2"/>', r"missing joint limits.*shoulder: effort limit 0"),
-        ('<limit effort="10" lower="-1" upper="1" velocity="0"/>', r"missing joint limits.*shoulder: velocity limit 0"),
+        (
+            '<limit effort="0" lower="0" upper="0" velocity="0"/>',
+            r"missing joint limits.*shoulder: position limits",
+        ),
+        (
+            '<limit effort="0" lower="-1" upper="1" velocity="2"/>',
+            r"missing joint limits.*shoulder: effort limit 0",
+        ),
+        (
+            '<limit effort="10" lower="-1" upper="1" velocity="0"/>',
+            r"missing joint limits.*shoulder: velocity limit 0",
+        ),
         ("", "could not parse"),  # urdfdom refuses a revolute joint without <limit>
     ],
     ids=["all-zero", "no-effort", "no-velocity", "no-limit-tag"],
@@ -317,7 +353,11 @@ def test_missing_limits_are_refused_naming_file_and_joint(tmp_path: Path, limit:
 
 @pytest.mark.parametrize(
     ("kind", "message"),
-    [("floating", "floating base"), ("planar", "floating base"), ("continuous", "only one-degree-of-freedom joints")],
+    [
+        ("floating", "floating base"),
+        ("planar", "floating base"),
+        ("continuous", "only one-degree-of-freedom joints"),
+    ],
 )
 def test_unsupported_joints_are_refused(tmp_path: Path, kind: str, message: str) -> None:
     path = write_urdf(tmp_path, kind=kind, limit="")
@@ -330,7 +370,9 @@ def test_acceleration_limits_are_optional_for_logs_required_for_motions_and_size
     path = write_urdf(tmp_path)
     robot = load_urdf_robot(path)  # enough to identify from logs
     assert np.all(np.isinf(robot.limits.acceleration))
-    motion = MultisineMotion(duration=2.0, harmonics=2, seed=0).sample(load_urdf_robot(path, acceleration_limits=1.0), 100.0)
+    motion = MultisineMotion(duration=2.0, harmonics=2, seed=0).sample(
+        load_urdf_robot(path, acceleration_limits=1.0), 100.0
+    )
     with pytest.raises(ValueError, match="give robot.acceleration_limits"):
         check_limits(motion, robot)
     with pytest.raises(ValueError, match="expected 1 values or a scalar, got 2"):

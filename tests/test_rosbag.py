@@ -45,8 +45,13 @@ def test_joints_matched_by_name_other_order_and_gripper(tmp_path: Path, storage:
     names = ["gripper", "a3", "a1", "a2"]
     order = [2, 0, 1]
     bag = write_joint_states(
-        tmp_path / "bag", t, np.hstack([gripper, q[:, order]]), np.hstack([gripper, tau[:, order]]), names,
-        dq=np.hstack([gripper, dq[:, order]]), storage=storage,
+        tmp_path / "bag",
+        t,
+        np.hstack([gripper, q[:, order]]),
+        np.hstack([gripper, tau[:, order]]),
+        names,
+        dq=np.hstack([gripper, dq[:, order]]),
+        storage=storage,
     )
     log = read_joint_states(bag, ROBOT)
     np.testing.assert_array_equal(log.q, q)
@@ -58,7 +63,9 @@ def test_rows_sorted_by_header_stamp_and_exact_repeats_dropped(tmp_path: Path) -
     t, q, _, tau = _states(2)
     shuffled = np.random.default_rng(0).permutation(N)
     repeat = [*shuffled, shuffled[5]]  # one message recorded twice
-    bag = write_joint_states(tmp_path / "bag", t[repeat], q[repeat], tau[repeat], ROBOT, receive_time=np.arange(N + 1) * 1e-3)
+    bag = write_joint_states(
+        tmp_path / "bag", t[repeat], q[repeat], tau[repeat], ROBOT, receive_time=np.arange(N + 1) * 1e-3
+    )
     log = read_joint_states(bag, ROBOT)
     np.testing.assert_array_equal(log.q, q)
     np.testing.assert_allclose(log.t, t, rtol=0, atol=1e-9)
@@ -77,7 +84,9 @@ def test_receive_time_when_messages_are_unstamped(tmp_path: Path) -> None:
     t, q, _, tau = _states(4)
     receive = 100.0 + 2e-3 * np.arange(N)
     stamped = write_joint_states(tmp_path / "stamped", t, q, tau, ROBOT, receive_time=receive)
-    unstamped = write_joint_states(tmp_path / "unstamped", t, q, tau, ROBOT, receive_time=receive, stamp_header=False)
+    unstamped = write_joint_states(
+        tmp_path / "unstamped", t, q, tau, ROBOT, receive_time=receive, stamp_header=False
+    )
     np.testing.assert_allclose(read_joint_states(stamped, ROBOT).t, t, rtol=0, atol=1e-9)
     np.testing.assert_allclose(read_joint_states(unstamped, ROBOT).t, receive, rtol=0, atol=1e-9)
 
@@ -92,17 +101,26 @@ def test_simulation_clock_from_zero_is_stamped(tmp_path: Path) -> None:
 def test_missing_robot_joint_names_it_and_the_bag_joints(tmp_path: Path) -> None:
     t, q, _, tau = _states(6)
     bag = write_joint_states(tmp_path / "bag", t, q, tau, ROBOT)
-    with pytest.raises(LogError, match=r"message 0: joints \['a4'\] of the robot missing; the message has \['a1', 'a2', 'a3'\]") as error:
+    with pytest.raises(
+        LogError,
+        match=r"message 0: joints \['a4'\] of the robot missing; the message has \['a1', 'a2', 'a3'\]",
+    ) as error:
         read_joint_states(bag, (*ROBOT, "a4"))
     assert str(bag) in str(error.value) and "'/joint_states'" in str(error.value)
-    with pytest.raises(LogError, match=r"no message carries the robot's joints; missing \['b1', 'b2'\]; the bag's joints are \['a1', 'a2', 'a3'\]"):
+    with pytest.raises(
+        LogError,
+        match=r"no message carries the robot's joints; missing \['b1', 'b2'\]; the bag's joints are \['a1', 'a2', 'a3'\]",
+    ):
         read_joint_states(bag, ("b1", "b2"))
 
 
 def test_no_effort_is_an_error(tmp_path: Path) -> None:
     t, q, _, _ = _states(7)
     bag = write_joint_states(tmp_path / "bag", t, q, None, ROBOT)
-    with pytest.raises(LogError, match=r"topic '/joint_states', message 0: 0 effort values for 3 joint names \(the log has no joint torques\)"):
+    with pytest.raises(
+        LogError,
+        match=r"topic '/joint_states', message 0: 0 effort values for 3 joint names \(the log has no joint torques\)",
+    ):
         read_joint_states(bag, ROBOT)
 
 
@@ -130,7 +148,9 @@ def _merged(bags: list[Path], target: Path) -> Path:
             with Reader(source) as reader:
                 for c in reader.connections:
                     if c.topic not in connections:
-                        connections[c.topic] = writer.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data, rihs01=c.digest)
+                        connections[c.topic] = writer.add_connection(
+                            c.topic, c.msgtype, msgdef=c.msgdef.data, rihs01=c.digest
+                        )
                 messages += [(timestamp, c.topic, raw) for c, timestamp, raw in reader.messages()]
         for timestamp, topic, raw in sorted(messages, key=lambda m: m[0]):
             writer.write(connections[topic], timestamp, raw)
@@ -142,7 +162,10 @@ def test_several_joint_state_topics_need_a_choice(tmp_path: Path) -> None:
     arm = write_joint_states(tmp_path / "arm", t, q, tau, ROBOT, topic="/arm/joint_states")
     other = write_joint_states(tmp_path / "other", t, -q, -tau, ROBOT, topic="/joint_states")
     bag = _merged([arm, other], tmp_path / "both")
-    with pytest.raises(LogError, match=r"several sensor_msgs/msg/JointState topics \['/arm/joint_states', '/joint_states'\]; set data.topic"):
+    with pytest.raises(
+        LogError,
+        match=r"several sensor_msgs/msg/JointState topics \['/arm/joint_states', '/joint_states'\]; set data.topic",
+    ):
         read_joint_states(bag, ROBOT)
     np.testing.assert_array_equal(read_joint_states(bag, ROBOT, topic="/arm/joint_states").q, q)
     np.testing.assert_array_equal(read_joint_states(bag, ROBOT, topic="/joint_states").q, -q)

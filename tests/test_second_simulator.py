@@ -66,7 +66,9 @@ def test_sensors_quantise_lag_and_add_offsets(short_run):
     np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)
     # the recorder's low-pass delays the velocity by about its time constant (10 samples at 1 kHz)
     delays = np.arange(30)
-    mismatch = [np.linalg.norm(recorded["velocities"][d:] - run["dq"][: run["dq"].shape[0] - d]) for d in delays]
+    mismatch = [
+        np.linalg.norm(recorded["velocities"][d:] - run["dq"][: run["dq"].shape[0] - d]) for d in delays
+    ]
     assert 7 <= delays[int(np.argmin(mismatch))] <= 13
     residual = recorded["torques"] - run["tau_link"]
     np.testing.assert_allclose(residual.mean(axis=0), friction.sensor_offset, atol=0.02)

@@ -16,9 +16,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from tracking_apps import TOY_APP, all_logged_text, jobs_and_parents, run_app, runs_of
 
 from lwrlab.tracking.report import build_report, selection_filter
-from tracking_apps import TOY_APP, all_logged_text, jobs_and_parents, run_app, runs_of
 
 pytestmark = pytest.mark.slow
 STARTUP_TIMEOUT_S = 120
@@ -36,11 +36,25 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     folder = tmp_path_factory.mktemp("server")
     port = _free_port()
     command = [
-        sys.executable, "-m", "mlflow", "server", "--host", "127.0.0.1", "--port", str(port), "--workers", "1",
-        "--backend-store-uri", f"sqlite:///{folder / 'server.db'}", "--artifacts-destination", str(folder / "artifacts"),
+        sys.executable,
+        "-m",
+        "mlflow",
+        "server",
+        "--host",
+        "127.0.0.1",
+        "--port",
+        str(port),
+        "--workers",
+        "1",
+        "--backend-store-uri",
+        f"sqlite:///{folder / 'server.db'}",
+        "--artifacts-destination",
+        str(folder / "artifacts"),
     ]
     log = (folder / "server.log").open("w")
-    process = subprocess.Popen(command, cwd=folder, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    process = subprocess.Popen(
+        command, cwd=folder, stdout=log, stderr=subprocess.STDOUT, start_new_session=True
+    )
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + STARTUP_TIMEOUT_S
     try:
@@ -50,7 +64,9 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
                     break
             except OSError:
                 if process.poll() is not None or time.monotonic() > deadline:
-                    pytest.fail(f"mlflow server did not start:\n{(folder / 'server.log').read_text()[-3000:]}")
+                    pytest.fail(
+                        f"mlflow server did not start:\n{(folder / 'server.log').read_text()[-3000:]}"
+                    )
                 time.sleep(0.5)
         yield url
     finally:
@@ -62,8 +78,13 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
 def test_sweep_through_a_tracking_server_is_read_back_and_reported(server: str, tmp_path: Path) -> None:
     uri_with_password = server.replace("http://", "http://team:secret@")
     finished = run_app(
-        TOY_APP, "tracking=server", f"tracking.uri={uri_with_password}", "experiment_name=through_server",
-        f"hydra.sweep.dir={tmp_path / 'sweep'}", "x=1,2,3", multirun=True,
+        TOY_APP,
+        "tracking=server",
+        f"tracking.uri={uri_with_password}",
+        "experiment_name=through_server",
+        f"hydra.sweep.dir={tmp_path / 'sweep'}",
+        "x=1,2,3",
+        multirun=True,
     )
     assert finished.returncode == 0, finished.stderr
     assert "MLflow tracking failed" not in finished.stdout + finished.stderr

@@ -95,7 +95,12 @@ def test_logged_velocity_is_used_when_consistent_and_refused_when_delayed() -> N
     rate = 500.0
     t = np.arange(0, 20, 1 / rate)
     q = np.column_stack([np.sin(2 * np.pi * 0.25 * t), 0.5 * np.cos(2 * np.pi * 0.4 * t)])
-    dq = np.column_stack([2 * np.pi * 0.25 * np.cos(2 * np.pi * 0.25 * t), -0.5 * 2 * np.pi * 0.4 * np.sin(2 * np.pi * 0.4 * t)])
+    dq = np.column_stack(
+        [
+            2 * np.pi * 0.25 * np.cos(2 * np.pi * 0.25 * t),
+            -0.5 * 2 * np.pi * 0.4 * np.sin(2 * np.pi * 0.4 * t),
+        ]
+    )
     consistent = process(t, q, q.copy(), dq, cutoff_hz=3.0)
     assert consistent.velocity.logged and abs(consistent.velocity.delay_samples) < 0.05
     scaled = process(t, q, q.copy(), 1.1 * dq, cutoff_hz=3.0)

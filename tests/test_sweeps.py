@@ -10,25 +10,39 @@ from pathlib import Path
 import mlflow
 import pytest
 import yaml
-
-from lwrlab.tracking.mlflow_callback import ERROR_FILE, RESUMED_FILE
 from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, run_app, runs_of
 
+from lwrlab.tracking.mlflow_callback import ERROR_FILE, RESUMED_FILE
+
 # A 2 s multisine motion instead of the (optimised) default one: seconds per job.
-SHORT_JOB = ["task=identification", "trajectory=multisine", "trajectory.duration=2", "validation.duration=2", "plant.show_progress=false"]
+SHORT_JOB = [
+    "task=identification",
+    "trajectory=multisine",
+    "trajectory.duration=2",
+    "validation.duration=2",
+    "plant.show_progress=false",
+]
 
 
 @pytest.mark.slow
 def test_joblib_sweep_of_3_by_3_is_one_parent_with_nine_nested_runs(tmp_path: Path) -> None:
     finished = run_app(
-        TOY_APP, "hydra/launcher=parallel", "experiment_name=grid", f"hydra.sweep.dir={tmp_path / 'sweep'}",
-        "x=1,2,3", "seed=0,1,2", store=tmp_path, multirun=True,
+        TOY_APP,
+        "hydra/launcher=parallel",
+        "experiment_name=grid",
+        f"hydra.sweep.dir={tmp_path / 'sweep'}",
+        "x=1,2,3",
+        "seed=0,1,2",
+        store=tmp_path,
+        multirun=True,
     )
     assert finished.returncode == 0, finished.stderr
     jobs, parents = jobs_and_parents(runs_of(f"sqlite:///{tmp_path / 'mlflow.db'}", "grid"))
     assert len(parents) == 1 and len(jobs) == 9
     assert {run.data.tags["mlflow.parentRunId"] for run in jobs} == {parents[0].info.run_id}
-    assert sorted((run.data.params["x"], run.data.tags["seed"]) for run in jobs) == [(x, s) for x in "123" for s in "012"]
+    assert sorted((run.data.params["x"], run.data.tags["seed"]) for run in jobs) == [
+        (x, s) for x in "123" for s in "012"
+    ]
     assert len({run.data.tags["config_hash"] for run in jobs}) == 9
     assert all(run.info.status == "FINISHED" for run in jobs + parents)
     assert "database is locked" not in finished.stderr
@@ -37,12 +51,21 @@ def test_joblib_sweep_of_3_by_3_is_one_parent_with_nine_nested_runs(tmp_path: Pa
 def test_relaunched_sweep_skips_finished_jobs_and_reruns_the_failed_one(tmp_path: Path) -> None:
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     sweep = ["experiment_name=resume", "x=1,2,3"]
-    first = run_app(TOY_APP, *sweep, f"hydra.sweep.dir={tmp_path / 'a'}", store=tmp_path, multirun=True, env={"TOY_TRANSIENT_FAILURE_X": "2"})
+    first = run_app(
+        TOY_APP,
+        *sweep,
+        f"hydra.sweep.dir={tmp_path / 'a'}",
+        store=tmp_path,
+        multirun=True,
+        env={"TOY_TRANSIENT_FAILURE_X": "2"},
+    )
     assert first.returncode != 0 and "transient failure" in first.stderr
     jobs, parents = jobs_and_parents(runs_of(uri, "resume"))
     assert sorted(run.info.status for run in jobs) == ["FAILED", "FINISHED", "FINISHED"]  # the sweep went on
     (failed,) = [run for run in jobs if run.info.status == "FAILED"]
-    error = mlflow.artifacts.download_artifacts(run_id=failed.info.run_id, artifact_path=ERROR_FILE, tracking_uri=uri)
+    error = mlflow.artifacts.download_artifacts(
+        run_id=failed.info.run_id, artifact_path=ERROR_FILE, tracking_uri=uri
+    )
     assert "Traceback" in Path(error).read_text()
     assert parents[0].info.status == "FAILED"
 
@@ -51,9 +74,15 @@ def test_relaunched_sweep_skips_finished_jobs_and_reruns_the_failed_one(tmp_path
     jobs, parents = jobs_and_parents(runs_of(uri, "resume"))
     assert len(parents) == 1 and parents[0].info.status == "FINISHED"  # the same parent, reopened
     finished = [run for run in jobs if run.info.status == "FINISHED"]
-    assert sorted(run.data.params["x"] for run in finished) == ["1", "2", "3"]  # x=2 ran again, 1 and 3 did not
+    assert sorted(run.data.params["x"] for run in finished) == [
+        "1",
+        "2",
+        "3",
+    ]  # x=2 ran again, 1 and 3 did not
     retry = next(run for run in finished if run.data.params["x"] == "2")
-    assert {run.info.run_id: run.data.tags.get("retried_by") for run in jobs}[failed.info.run_id] == retry.info.run_id
+    assert {run.info.run_id: run.data.tags.get("retried_by") for run in jobs}[
+        failed.info.run_id
+    ] == retry.info.run_id
     assert sorted(path.parent.name for path in (tmp_path / "b").rglob(RESUMED_FILE)) == ["0", "2"]
 
     third = run_app(TOY_APP, *sweep, f"hydra.sweep.dir={tmp_path / 'c'}", store=tmp_path, multirun=True)
@@ -68,27 +97,50 @@ def test_eight_parallel_processes_share_one_new_sqlite_store(tmp_path: Path) -> 
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     processes = [
         subprocess.Popen(
-            [sys.executable, str(TOY_APP), f"hydra.searchpath=[file://{REPO_CONF}]", f"tracking.uri={uri}",
-             f"tracking.artifact_location={tmp_path / 'artifacts'}", "experiment_name=eight", f"x={x}",
-             f"hydra.run.dir={tmp_path / f'run{x}'}"],
-            cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            [
+                sys.executable,
+                str(TOY_APP),
+                f"hydra.searchpath=[file://{REPO_CONF}]",
+                f"tracking.uri={uri}",
+                f"tracking.artifact_location={tmp_path / 'artifacts'}",
+                "experiment_name=eight",
+                f"x={x}",
+                f"hydra.run.dir={tmp_path / f'run{x}'}",
+            ],
+            cwd=REPO_ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
         )
         for x in range(8)
     ]
     outputs = [process.communicate(timeout=300)[0] for process in processes]
     assert all(process.returncode == 0 for process in processes), outputs
-    assert not any("database is locked" in output or "MLflow tracking failed" in output for output in outputs), outputs
+    assert not any(
+        "database is locked" in output or "MLflow tracking failed" in output for output in outputs
+    ), outputs
     runs = runs_of(uri, "eight")
     assert sorted(int(run.data.params["x"]) for run in runs) == list(range(8))
-    assert all(run.info.status == "FINISHED" and run.data.metrics["doubled"] == 2.0 * int(run.data.params["x"]) for run in runs)
+    assert all(
+        run.info.status == "FINISHED" and run.data.metrics["doubled"] == 2.0 * int(run.data.params["x"])
+        for run in runs
+    )
 
 
 @pytest.mark.slow
 def test_identification_sweep_3_by_3_with_joblib_and_its_table2_report(tmp_path: Path) -> None:
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     finished = run_app(
-        None, "hydra/launcher=parallel", "experiment_name=noise_sweep", f"hydra.sweep.dir={tmp_path / 'sweep'}",
-        "seed=0,1,2", "plant.torque_noise_std=0.05,0.1,0.2", *SHORT_JOB, store=tmp_path, multirun=True, timeout=600,
+        None,
+        "hydra/launcher=parallel",
+        "experiment_name=noise_sweep",
+        f"hydra.sweep.dir={tmp_path / 'sweep'}",
+        "seed=0,1,2",
+        "plant.torque_noise_std=0.05,0.1,0.2",
+        *SHORT_JOB,
+        store=tmp_path,
+        multirun=True,
+        timeout=600,
     )
     assert finished.returncode == 0, finished.stderr[-3000:]
     jobs, parents = jobs_and_parents(runs_of(uri, "noise_sweep"))
@@ -96,18 +148,39 @@ def test_identification_sweep_3_by_3_with_joblib_and_its_table2_report(tmp_path:
     # More torque noise, larger cross-validation error, at every seed.
     by_seed: dict[str, dict[float, float]] = {}
     for run in jobs:
-        by_seed.setdefault(run.data.tags["seed"], {})[float(run.data.params["plant.torque_noise_std"])] = run.data.metrics["rms_mean"]
+        by_seed.setdefault(run.data.tags["seed"], {})[float(run.data.params["plant.torque_noise_std"])] = (
+            run.data.metrics["rms_mean"]
+        )
     for errors in by_seed.values():
         assert errors[0.05] < errors[0.1] < errors[0.2]
 
     # Table II pools seeds, not noise levels: refused for the whole sweep, built for one noise level.
-    pooled = run_app(None, "report", "--tracking-uri", uri, "--experiment", "noise_sweep", "--output", str(tmp_path / "all"), cwd=tmp_path)
+    pooled = run_app(
+        None,
+        "report",
+        "--tracking-uri",
+        uri,
+        "--experiment",
+        "noise_sweep",
+        "--output",
+        str(tmp_path / "all"),
+        cwd=tmp_path,
+    )
     assert pooled.returncode == 0, pooled.stderr
     assert "differ in plant.torque_noise_std (0.05, 0.1, 0.2)" in (tmp_path / "all" / "report.md").read_text()
     assert not (tmp_path / "all" / "table2_base_parameters.csv").exists()
     report = run_app(
-        None, "report", "--tracking-uri", uri, "--experiment", "noise_sweep", "--param", "plant.torque_noise_std=0.1",
-        "--output", str(tmp_path / "report"), cwd=tmp_path,
+        None,
+        "report",
+        "--tracking-uri",
+        uri,
+        "--experiment",
+        "noise_sweep",
+        "--param",
+        "plant.torque_noise_std=0.1",
+        "--output",
+        str(tmp_path / "report"),
+        cwd=tmp_path,
     )
     assert report.returncode == 0, report.stderr
     table = (tmp_path / "report" / "table2_base_parameters.csv").read_text()
@@ -117,7 +190,9 @@ def test_identification_sweep_3_by_3_with_joblib_and_its_table2_report(tmp_path:
     assert compared.returncode == 0, compared.stderr
     (folder,) = (tmp_path / "outputs" / "compare").iterdir()
     rows = (folder / "compare.csv").read_text().splitlines()[1:]
-    assert [row.split(",")[0] for row in rows] == [f"plant.torque_noise_std={v}" for v in ("0.05", "0.1", "0.2")]
+    assert [row.split(",")[0] for row in rows] == [
+        f"plant.torque_noise_std={v}" for v in ("0.05", "0.1", "0.2")
+    ]
     assert all(row.split(",")[2:4] == ["3", "3"] for row in rows)  # 3 runs, 3 seeds each
 
 
@@ -125,8 +200,14 @@ def test_identification_sweep_3_by_3_with_joblib_and_its_table2_report(tmp_path:
 def test_optuna_preset_tunes_cutoff_and_harmonics_on_cross_validation_rms(tmp_path: Path) -> None:
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     finished = run_app(
-        None, "experiment=tune_processing", "hydra.sweeper.n_trials=3", f"hydra.sweep.dir={tmp_path / 'sweep'}",
-        *SHORT_JOB, store=tmp_path, multirun=True, timeout=600,
+        None,
+        "experiment=tune_processing",
+        "hydra.sweeper.n_trials=3",
+        f"hydra.sweep.dir={tmp_path / 'sweep'}",
+        *SHORT_JOB,
+        store=tmp_path,
+        multirun=True,
+        timeout=600,
     )
     assert finished.returncode == 0, finished.stderr[-3000:]
     jobs, parents = jobs_and_parents(runs_of(uri, "tune_processing"))
@@ -139,17 +220,39 @@ def test_optuna_preset_tunes_cutoff_and_harmonics_on_cross_validation_rms(tmp_pa
 @pytest.mark.slow
 def test_rerunning_the_logged_config_reproduces_the_metrics_exactly(tmp_path: Path) -> None:
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
-    first = run_app(None, "experiment_name=repro", f"hydra.run.dir={tmp_path / 'first'}", "seed=5", *SHORT_JOB, store=tmp_path)
+    first = run_app(
+        None,
+        "experiment_name=repro",
+        f"hydra.run.dir={tmp_path / 'first'}",
+        "seed=5",
+        *SHORT_JOB,
+        store=tmp_path,
+    )
     assert first.returncode == 0, first.stderr[-3000:]
     (run,) = runs_of(uri, "repro")
-    config_dir = Path(mlflow.artifacts.download_artifacts(run_id=run.info.run_id, artifact_path=".hydra", dst_path=str(tmp_path / "logged"), tracking_uri=uri))
+    config_dir = Path(
+        mlflow.artifacts.download_artifacts(
+            run_id=run.info.run_id,
+            artifact_path=".hydra",
+            dst_path=str(tmp_path / "logged"),
+            tracking_uri=uri,
+        )
+    )
     # --config-path makes the logged, fully composed config the primary one (--config-dir would only
     # add it to the search path, behind the repository's own config.yaml).
     again = run_app(
-        None, "--config-path", str(config_dir), "--config-name", "config", f"hydra.run.dir={tmp_path / 'again'}", cwd=tmp_path
+        None,
+        "--config-path",
+        str(config_dir),
+        "--config-name",
+        "config",
+        f"hydra.run.dir={tmp_path / 'again'}",
+        cwd=tmp_path,
     )
     assert again.returncode == 0, again.stderr[-3000:]
     metrics = json.loads((tmp_path / "again" / "metrics.json").read_text())
-    timings = {key for key in run.data.metrics if key.endswith(("cpu_s", "wall_s", "time_s"))}  # clocks, not results
+    timings = {
+        key for key in run.data.metrics if key.endswith(("cpu_s", "wall_s", "time_s"))
+    }  # clocks, not results
     results = {key: value for key, value in run.data.metrics.items() if key not in timings}
     assert len(results) > 10 and {key: metrics[key] for key in results} == results  # bit for bit

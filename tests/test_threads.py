@@ -13,7 +13,11 @@ from lwrlab.numerics.threads import blas_threads, dense_algebra
 def blas_thread_counts() -> set[int]:
     """Thread counts of numpy's and scipy's BLAS (another loaded BLAS, e.g. SCS's single-threaded one, keeps its own)."""
     libraries = ThreadpoolController().info()
-    return {lib["num_threads"] for lib in libraries if lib["user_api"] == "blas" and ("numpy" in lib["filepath"] or "scipy" in lib["filepath"])}
+    return {
+        lib["num_threads"]
+        for lib in libraries
+        if lib["user_api"] == "blas" and ("numpy" in lib["filepath"] or "scipy" in lib["filepath"])
+    }
 
 
 @pytest.fixture
@@ -55,7 +59,7 @@ def test_lab_algebra_runs_single_threaded(two_threads: None, monkeypatch: pytest
     seen = []
     original_lstsq = np.linalg.lstsq
 
-    def spy(*args, **kwargs):  # noqa: ANN002, ANN003
+    def spy(*args, **kwargs):
         seen.append(blas_thread_counts())
         return original_lstsq(*args, **kwargs)
 

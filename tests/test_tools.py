@@ -8,7 +8,13 @@ import pytest
 
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.model.inertia import inertia_matrix, is_physically_consistent, random_consistent_parameters
-from lwrlab.model.payload import attach_payload, change_frame, flange_placement, frame_change_matrix, payload_in_joint_frame
+from lwrlab.model.payload import (
+    attach_payload,
+    change_frame,
+    flange_placement,
+    frame_change_matrix,
+    payload_in_joint_frame,
+)
 from lwrlab.pipeline.tool_library import build_tool, load_library, load_tool, tool_names
 from lwrlab.tools.library import PAPER_TOOLS
 from lwrlab.tools.model import composite_tool
@@ -22,13 +28,27 @@ def _sampled_inertia(points: np.ndarray, mass: float, center: np.ndarray) -> np.
     its first moment and products of inertia are exact and only the diagonal carries sampling noise.
     """
     offsets = points - center
-    points = np.concatenate(
-        [offsets * np.array([sx, sy, sz]) for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)]
-    ) + center
+    points = (
+        np.concatenate(
+            [offsets * np.array([sx, sy, sz]) for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)]
+        )
+        + center
+    )
     m = mass / len(points)
     r2 = np.sum(points**2, axis=1)
     inertia = m * (np.sum(r2) * np.eye(3) - points.T @ points)
-    return np.array([mass, *(m * points.sum(axis=0)), inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]])
+    return np.array(
+        [
+            mass,
+            *(m * points.sum(axis=0)),
+            inertia[0, 0],
+            inertia[1, 1],
+            inertia[2, 2],
+            inertia[0, 1],
+            inertia[0, 2],
+            inertia[1, 2],
+        ]
+    )
 
 
 def test_shapes_match_a_sampled_solid(rng: np.random.Generator) -> None:
@@ -38,16 +58,28 @@ def test_shapes_match_a_sampled_solid(rng: np.random.Generator) -> None:
     r_in, r_out, h = 0.02, 0.025, 0.2
     radius = np.sqrt(rng.uniform(r_in**2, r_out**2, n))
     angle = rng.uniform(0, 2 * np.pi, n)
-    points = np.column_stack([radius * np.cos(angle), rng.uniform(-h / 2, h / 2, n), radius * np.sin(angle)]) + center
+    points = (
+        np.column_stack([radius * np.cos(angle), rng.uniform(-h / 2, h / 2, n), radius * np.sin(angle)])
+        + center
+    )
     tube = Cylinder(mass=0.08, center=center, radius=r_out, length=h, axis="y", inner_radius=r_in)
-    np.testing.assert_allclose(tube.parameters(), _sampled_inertia(points, 0.08, center), rtol=5e-3, atol=1e-12)
+    np.testing.assert_allclose(
+        tube.parameters(), _sampled_inertia(points, 0.08, center), rtol=5e-3, atol=1e-12
+    )
     size = np.array([0.015, 0.1, 0.06])
     points = rng.uniform(-size / 2, size / 2, (n, 3)) + center
     box = Box(mass=0.06, center=center, size=size)
-    np.testing.assert_allclose(box.parameters(), _sampled_inertia(points, 0.06, center), rtol=5e-3, atol=1e-12)
+    np.testing.assert_allclose(
+        box.parameters(), _sampled_inertia(points, 0.06, center), rtol=5e-3, atol=1e-12
+    )
     ball = rng.normal(size=(n, 3))
     ball *= (0.03 * rng.uniform(0, 1, n) ** (1 / 3) / np.linalg.norm(ball, axis=1))[:, None]
-    np.testing.assert_allclose(Sphere(mass=0.1, center=center, radius=0.03).parameters(), _sampled_inertia(ball + center, 0.1, center), rtol=5e-3, atol=1e-12)
+    np.testing.assert_allclose(
+        Sphere(mass=0.1, center=center, radius=0.03).parameters(),
+        _sampled_inertia(ball + center, 0.1, center),
+        rtol=5e-3,
+        atol=1e-12,
+    )
 
 
 def test_bad_shapes_are_refused() -> None:
@@ -64,7 +96,9 @@ def test_change_frame_agrees_with_pinocchio_and_is_linear(rng: np.random.Generat
     placement = pin.SE3.Random()
     expected = placement.act(pin.Inertia.FromDynamicParameters(phi[[0, 1, 2, 3, 4, 7, 5, 8, 9, 6]]))
     moved = change_frame(phi, placement.rotation, placement.translation)
-    np.testing.assert_allclose(moved[[0, 1, 2, 3, 4, 7, 5, 8, 9, 6]], expected.toDynamicParameters(), atol=1e-12)
+    np.testing.assert_allclose(
+        moved[[0, 1, 2, 3, 4, 7, 5, 8, 9, 6]], expected.toDynamicParameters(), atol=1e-12
+    )
     matrix = frame_change_matrix(placement.rotation, placement.translation)
     np.testing.assert_allclose(matrix @ phi, moved, atol=1e-12)
     back = change_frame(moved, placement.rotation.T, -placement.rotation.T @ placement.translation)
@@ -110,7 +144,9 @@ def test_library_holds_the_paper_rollers_and_eight_more() -> None:
 def test_library_errors_name_the_valid_choices(tmp_path) -> None:
     with pytest.raises(KeyError, match="large_roller"):
         load_tool("no_such_tool")
-    (tmp_path / "bad.yaml").write_text("_target_: lwrlab.tools.painting.paint_roller\nname: bad\nlength: 0.3\n")
+    (tmp_path / "bad.yaml").write_text(
+        "_target_: lwrlab.tools.painting.paint_roller\nname: bad\nlength: 0.3\n"
+    )
     with pytest.raises(ValueError, match="bad.yaml: bad arguments"):
         load_tool("bad", tmp_path)
     with pytest.raises(ValueError, match="_target_"):
@@ -139,8 +175,12 @@ def test_tool_excitation_criterion_gradient_and_choice(lwr4, rng: np.random.Gene
     for i, j in [(0, 0), (5, 3), (39, 9)]:
         shifted = w.copy()
         shifted[i, j] += step
-        assert (ToolLogDet().value_and_gradient(shifted)[0] - value) / step == pytest.approx(gradient[i, j], rel=1e-4)
+        assert (ToolLogDet().value_and_gradient(shifted)[0] - value) / step == pytest.approx(
+            gradient[i, j], rel=1e-4
+        )
     motions = [MultisineMotion(2.0, 4, seed=s).sample(lwr4, 100.0) for s in range(3)]
-    still = MultisineMotion(2.0, 4, seed=0, limit_fraction=0.05).sample(lwr4, 100.0)  # barely moves: excites nothing
+    still = MultisineMotion(2.0, 4, seed=0, limit_fraction=0.05).sample(
+        lwr4, 100.0
+    )  # barely moves: excites nothing
     best, values = select_tool_motion(lwr4, [still, *motions])
     assert best != 0 and values[0] > values.min() + 1.0

@@ -11,7 +11,12 @@ from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
-SHORT = ["trajectory.duration=4", "task.tool_motion.duration=4", "task.tool_motion_candidates=2", "measurement.processing.rate_hz=1000"]
+SHORT = [
+    "trajectory.duration=4",
+    "task.tool_motion.duration=4",
+    "task.tool_motion_candidates=2",
+    "measurement.processing.rate_hz=1000",
+]
 
 
 def _run(overrides: list[str], output_dir: Path) -> dict[str, float]:
@@ -35,7 +40,14 @@ def test_table3_preset_writes_table3_and_recognises_both_rollers(tmp_path: Path)
 
 
 def test_noiseless_table3_recovers_the_tools_exactly(tmp_path: Path) -> None:
-    overrides = ["experiment=paper_table3_tools", "plant.torque_noise_std=0", "plant.encoder_noise_std=0", "measurement.processing.cutoff_hz=null", "measurement.processing.difference_accuracy=4", *SHORT[:3]]
+    overrides = [
+        "experiment=paper_table3_tools",
+        "plant.torque_noise_std=0",
+        "plant.encoder_noise_std=0",
+        "measurement.processing.cutoff_hz=null",
+        "measurement.processing.difference_accuracy=4",
+        *SHORT[:3],
+    ]
     _run(overrides, tmp_path)
     table = pd.read_csv(tmp_path / "table3_tools.csv")
     for _, rows in table.groupby("tool"):
@@ -46,7 +58,16 @@ def test_noiseless_table3_recovers_the_tools_exactly(tmp_path: Path) -> None:
 @pytest.mark.parametrize("method", ["payload_only"])
 def test_recognition_benchmark_reports_every_classifier(tmp_path: Path, method: str) -> None:
     library = "[large_roller,small_roller,cage_roller,brush_50,wall_brush,mini_roller]"
-    metrics = _run(["experiment=tool_recognition_benchmark", "task.n_seeds=1", f"task.library={library}", f"task.method={method}", *SHORT], tmp_path)
+    metrics = _run(
+        [
+            "experiment=tool_recognition_benchmark",
+            "task.n_seeds=1",
+            f"task.library={library}",
+            f"task.method={method}",
+            *SHORT,
+        ],
+        tmp_path,
+    )
     accuracy = pd.read_csv(tmp_path / "tool_recognition_accuracy.csv").set_index("classifier")
     assert set(accuracy.index) == {"pca_lookup", "nearest", "mahalanobis"}
     assert all(f"accuracy_{name}" in metrics for name in accuracy.index)

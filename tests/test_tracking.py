@@ -69,7 +69,9 @@ def run_toy_app(store: Path, tracking_uri: str) -> ToyAppRunner:
             *(store_overrides if tracked else []),
             *overrides,
         ]
-        environment = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO_ROOT), os.environ.get("PYTHONPATH", "")]))
+        environment = dict(
+            os.environ, PYTHONPATH=os.pathsep.join([str(REPO_ROOT), os.environ.get("PYTHONPATH", "")])
+        )
         environment.pop("MLFLOW_TRACKING_URI", None)
         return subprocess.run(command, cwd=cwd, env=environment, capture_output=True, text=True, timeout=120)
 
@@ -89,7 +91,9 @@ def artifact_paths(tracking_uri: str, run_id: str) -> set[str]:
 
 def git_head() -> str | None:
     try:
-        completed = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True, text=True, timeout=10)
+        completed = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True, text=True, timeout=10
+        )
     except OSError:
         return None
     return completed.stdout.strip() if completed.returncode == 0 else None
@@ -131,7 +135,9 @@ def test_completed_job_is_a_finished_run_with_params_tags_metrics_and_artifacts(
         assert tags["git_commit"] == head
 
     assert run.data.metrics == {"doubled": 6.0, "per_joint_rms.0": 0.5, "per_joint_rms.1": 0.25}
-    assert {"table.csv", ".hydra", RUN_ID_FILE, "toy_app.log"} <= artifact_paths(tracking_uri, run.info.run_id)
+    assert {"table.csv", ".hydra", RUN_ID_FILE, "toy_app.log"} <= artifact_paths(
+        tracking_uri, run.info.run_id
+    )
     assert ERROR_FILE not in artifact_paths(tracking_uri, run.info.run_id)
 
     table = runs_table(tracking_uri, "toy_ok")
@@ -161,7 +167,9 @@ def test_failed_job_is_a_failed_run_carrying_the_error_and_partial_outputs(
 def test_multirun_is_a_parent_run_with_one_nested_run_per_job(
     run_toy_app: ToyAppRunner, tracking_uri: str, tmp_path: Path
 ) -> None:
-    finished = run_toy_app("experiment_name=toy_sweep", f"hydra.sweep.dir={tmp_path / 'sweep'}", "x=1,2", multirun=True)
+    finished = run_toy_app(
+        "experiment_name=toy_sweep", f"hydra.sweep.dir={tmp_path / 'sweep'}", "x=1,2", multirun=True
+    )
     assert finished.returncode == 0, finished.stderr
 
     runs = runs_of(tracking_uri, "toy_sweep")
@@ -221,16 +229,23 @@ def test_settings_are_re_read_from_each_job_config(tmp_path: Path) -> None:
     assert settings.artifact_location == str(tmp_path.resolve() / "outputs" / "mlartifacts")
 
 
-def test_unreachable_server_warns_once_and_keeps_the_job_result(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+def test_unreachable_server_warns_once_and_keeps_the_job_result(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     with socket.socket() as probe:  # a port nobody listens on
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     uri = f"http://127.0.0.1:{port}"
     callback = MlflowTracking(tracking_uri=uri, experiment="unreachable")
-    config = _job_config(tmp_path, {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": "x"})
+    config = _job_config(
+        tmp_path, {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": "x"}
+    )
     (tmp_path / "job").mkdir()
     with caplog.at_level(logging.DEBUG, logger="lwrlab.tracking.mlflow_callback"):
-        for status, value in [(JobStatus.COMPLETED, {"metrics": {"a": 1.0}}), (JobStatus.FAILED, ValueError("boom"))]:
+        for status, value in [
+            (JobStatus.COMPLETED, {"metrics": {"a": 1.0}}),
+            (JobStatus.FAILED, ValueError("boom")),
+        ]:
             callback.on_job_start(config)
             callback.on_job_end(config, JobReturn(status=status, _return_value=value))
     warnings = [record for record in caplog.records if record.levelno == logging.WARNING]
@@ -242,7 +257,9 @@ def test_unreachable_server_warns_once_and_keeps_the_job_result(tmp_path: Path, 
 
 
 def test_flatten_config_joins_keys_stringifies_lists_and_truncates() -> None:
-    flat = flatten_config({"a": {"b": {"c": 1}, "empty": {}}, "gains": [1, 2.5], "none": None, "long": "x" * 10_000})
+    flat = flatten_config(
+        {"a": {"b": {"c": 1}, "empty": {}}, "gains": [1, 2.5], "none": None, "long": "x" * 10_000}
+    )
     assert flat["a.b.c"] == "1"
     assert flat["a.empty"] == "{}"
     assert flat["gains"] == "[1, 2.5]"
@@ -253,7 +270,15 @@ def test_flatten_config_joins_keys_stringifies_lists_and_truncates() -> None:
 def test_numeric_metrics_keeps_numbers_only() -> None:
     np = pytest.importorskip("numpy")
     metrics = numeric_metrics(
-        {"metrics": {"rms": np.array([0.1, 0.2]), "mean": np.float32(0.5), "ok": True, "name": "x", "per": {"j1": 1}}}
+        {
+            "metrics": {
+                "rms": np.array([0.1, 0.2]),
+                "mean": np.float32(0.5),
+                "ok": True,
+                "name": "x",
+                "per": {"j1": 1},
+            }
+        }
     )
     assert metrics == pytest.approx({"rms.0": 0.1, "rms.1": 0.2, "mean": 0.5, "per.j1": 1.0})
     assert numeric_metrics({"loss": 2}) == {"loss": 2.0}  # a flat dict of numbers

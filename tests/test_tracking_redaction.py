@@ -12,6 +12,7 @@ from pathlib import Path
 
 from hypothesis import assume, given
 from hypothesis import strategies as st
+from tracking_apps import TOY_APP, all_logged_text, run_app, runs_of
 
 from lwrlab.tracking.redaction import (
     REDACTED,
@@ -21,7 +22,6 @@ from lwrlab.tracking.redaction import (
     redact_secret_params,
     secret_values_in,
 )
-from tracking_apps import TOY_APP, all_logged_text, run_app, runs_of
 
 KEYWORDS = ("password", "passwd", "secret", "token", "api_key", "apikey", "auth", "credential", "private_key")
 SEPARATORS = ("_", ".", "-")
@@ -37,7 +37,7 @@ def secret_keys(draw: st.DrawFn) -> str:
     """``[prefix.]<word><sep><KeyWord><sep><word>``: the keyword in any case, split by any separator."""
     keyword = draw(st.sampled_from(KEYWORDS))
     separator = draw(st.sampled_from(SEPARATORS))
-    if "_" in keyword and separator != "." or "_" in keyword and draw(st.booleans()):
+    if ("_" in keyword and separator != ".") or ("_" in keyword and draw(st.booleans())):
         keyword = keyword.replace("_", separator)  # api-key, private.key, ...
     cased = "".join(c.upper() if draw(st.booleans()) else c for c in keyword)
     head, tail = draw(WORD), draw(WORD)
@@ -46,7 +46,14 @@ def secret_keys(draw: st.DrawFn) -> str:
     return ".".join([*parents, last])
 
 
-NOT_SECRET_KEYS = ("robot.dof", "seed", "plant.torque_noise_std", "trajectory.harmonics", "secret_sauce.count", "tracking.uri")
+NOT_SECRET_KEYS = (
+    "robot.dof",
+    "seed",
+    "plant.torque_noise_std",
+    "trajectory.harmonics",
+    "secret_sauce.count",
+    "tracking.uri",
+)
 
 
 @given(key=secret_keys(), value=VALUE, prefix=st.sampled_from(["", "+", "++", "~"]))
@@ -80,7 +87,9 @@ def test_keys_without_a_secret_word_keep_their_values(value: str) -> None:
 
 def test_sweep_values_and_interpolations() -> None:
     assert secret_values_in("+db.auth_token=aaaa,bbbb seed=0,1") == {"aaaa", "bbbb", "aaaa,bbbb"}
-    assert redact_secret_assignments("password: ${oc.env:DB_PASSWORD}") == "password: ${oc.env:DB_PASSWORD}"  # a name, not a value
+    assert (
+        redact_secret_assignments("password: ${oc.env:DB_PASSWORD}") == "password: ${oc.env:DB_PASSWORD}"
+    )  # a name, not a value
     assert redact_secret_assignments("+db.token=abcd,seed=1") == f"+db.token={REDACTED},seed=1"
 
 
@@ -96,7 +105,9 @@ SECRETS = {
 def test_secret_overrides_reach_no_param_tag_name_or_artifact(tmp_path: Path) -> None:
     job_dir = tmp_path / "run"
     overrides = [f"{key}={value}" for key, value in SECRETS.items()]
-    finished = run_app(TOY_APP, "experiment_name=secret_keys", f"hydra.run.dir={job_dir}", *overrides, store=tmp_path)
+    finished = run_app(
+        TOY_APP, "experiment_name=secret_keys", f"hydra.run.dir={job_dir}", *overrides, store=tmp_path
+    )
     assert finished.returncode == 0, finished.stderr
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     (run,) = runs_of(uri, "secret_keys")

@@ -5,9 +5,26 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from lwrlab.tracking.redaction import SECRET_KEY_WORD, Redactor, _may_name_a_secret_key, passwords_in, redact_secret_assignments
+from lwrlab.tracking.redaction import (
+    SECRET_KEY_WORD,
+    Redactor,
+    _may_name_a_secret_key,
+    passwords_in,
+    redact_secret_assignments,
+)
 
-WORDS = ("password", "passwd", "secret", "token", "api_key", "api.key", "apikey", "auth", "credential", "private-key")
+WORDS = (
+    "password",
+    "passwd",
+    "secret",
+    "token",
+    "api_key",
+    "api.key",
+    "apikey",
+    "auth",
+    "credential",
+    "private-key",
+)
 # Characters that case-insensitive matching equates with ASCII letters of the words, and others.
 SPELLINGS = {"i": ["i", "I", "\u0130", "\u0131"], "s": ["s", "S", "\u017f"], "k": ["k", "K", "\u212a"]}
 
@@ -34,7 +51,9 @@ def test_the_byte_test_is_a_necessary_condition(data: bytes) -> None:
     if SECRET_KEY_WORD.search(text):
         assert _may_name_a_secret_key(data)
     # The same answer as the scan without the byte test (no known secrets here).
-    without_byte_test = (b"://" in data and bool(passwords_in(text))) or redact_secret_assignments(text) != text
+    without_byte_test = (b"://" in data and bool(passwords_in(text))) or redact_secret_assignments(
+        text
+    ) != text
     assert Redactor.from_config({}, environ={}).needs_redaction(data) == without_byte_test
 
 

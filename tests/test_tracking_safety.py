@@ -13,24 +13,30 @@ import sys
 from pathlib import Path
 
 import pytest
+from tracking_apps import TOY_APP, all_logged_text, jobs_and_parents, run_app, runs_of
 
 from lwrlab.tracking.offline import OFFLINE_RECORD, SYNCED_RECORD
 from lwrlab.tracking.redaction import REDACTED, Redactor, redact_uri_passwords
 from lwrlab.tracking.store import is_locked_error, retry_locked
-from tracking_apps import TOY_APP, all_logged_text, jobs_and_parents, run_app, runs_of
 
 SECRET_URI = "postgresql://user:secret@host/db"
 
 
 def test_uri_passwords_are_redacted() -> None:
     assert redact_uri_passwords(SECRET_URI) == f"postgresql://user:{REDACTED}@host/db"
-    assert redact_uri_passwords("http://me:p%40ss@127.0.0.1:5000/x") == f"http://me:{REDACTED}@127.0.0.1:5000/x"
+    assert (
+        redact_uri_passwords("http://me:p%40ss@127.0.0.1:5000/x") == f"http://me:{REDACTED}@127.0.0.1:5000/x"
+    )
     assert redact_uri_passwords("https://h/api?token=abc123&x=1") == f"https://h/api?token={REDACTED}&x=1"
-    assert redact_uri_passwords("sqlite:////tmp/a:b/mlflow.db") == "sqlite:////tmp/a:b/mlflow.db"  # no user info
+    assert (
+        redact_uri_passwords("sqlite:////tmp/a:b/mlflow.db") == "sqlite:////tmp/a:b/mlflow.db"
+    )  # no user info
 
 
 def test_redactor_removes_secrets_found_in_texts_and_environment() -> None:
-    redactor = Redactor.from_texts([SECRET_URI], environ={"MLFLOW_TRACKING_PASSWORD": "hunter22", "HOME": "/root"})
+    redactor = Redactor.from_texts(
+        [SECRET_URI], environ={"MLFLOW_TRACKING_PASSWORD": "hunter22", "HOME": "/root"}
+    )
     text = "connected with secret, password hunter22, home /root"
     assert redactor.redact(text) == f"connected with {REDACTED}, password {REDACTED}, home /root"
     assert redactor.needs_redaction(b"... hunter22 ...") and not redactor.needs_redaction(b"nothing here")
@@ -38,7 +44,13 @@ def test_redactor_removes_secrets_found_in_texts_and_environment() -> None:
 
 def test_secret_in_config_reaches_no_param_tag_or_artifact(tmp_path: Path) -> None:
     job_dir = tmp_path / "run"
-    finished = run_app(TOY_APP, "experiment_name=secret_config", f"hydra.run.dir={job_dir}", f"+database_uri={SECRET_URI}", store=tmp_path)
+    finished = run_app(
+        TOY_APP,
+        "experiment_name=secret_config",
+        f"hydra.run.dir={job_dir}",
+        f"+database_uri={SECRET_URI}",
+        store=tmp_path,
+    )
     assert finished.returncode == 0, finished.stderr
     (run,) = runs_of(f"sqlite:///{tmp_path / 'mlflow.db'}", "secret_config")
     assert run.data.params["database_uri"] == f"postgresql://user:{REDACTED}@host/db"
@@ -139,6 +151,13 @@ def test_retry_locked_retries_only_lock_errors() -> None:
         return "done"
 
     assert retry_locked(flaky) == "done" and len(calls) == 3
-    assert is_locked_error(RuntimeError("wrapped", )) is False
+    assert (
+        is_locked_error(
+            RuntimeError(
+                "wrapped",
+            )
+        )
+        is False
+    )
     with pytest.raises(ValueError):
         retry_locked(lambda: (_ for _ in ()).throw(ValueError("other")))

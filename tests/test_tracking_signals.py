@@ -19,30 +19,50 @@ from pathlib import Path
 
 import pytest
 from mlflow.tracking import MlflowClient
+from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, runs_of
 
 from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
 from lwrlab.tracking.mlflow_callback import RUN_ID_FILE
 from lwrlab.tracking.processes import descendant_pids, process_alive, wait_until
-from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, runs_of
 
 # A real identification job that runs ~10 s on one core (a 30 s motion), so a signal finds it busy.
-LONG_JOB = ["task=identification", "trajectory=multisine", "trajectory.duration=30", "validation.duration=2", "plant.show_progress=false"]
+LONG_JOB = [
+    "task=identification",
+    "trajectory=multisine",
+    "trajectory.duration=30",
+    "validation.duration=2",
+    "plant.show_progress=false",
+]
 
 
-def start(app: Path | None, *overrides: str, store: Path, multirun: bool = False, env: dict[str, str] | None = None) -> subprocess.Popen[str]:
+def start(
+    app: Path | None, *overrides: str, store: Path, multirun: bool = False, env: dict[str, str] | None = None
+) -> subprocess.Popen[str]:
     """Start ``app`` (``None``: ``lwrlab``) in its own session, tracking into ``store``, as a user would."""
     command = [sys.executable, *(["-m", "lwrlab.cli"] if app is None else [str(app)])]
     command += ["-m"] if multirun else []
     command += [] if app is None else [f"hydra.searchpath=[file://{REPO_CONF}]"]
-    command += [f"tracking.uri=sqlite:///{store / 'mlflow.db'}", f"tracking.artifact_location={store / 'artifacts'}", *overrides]
+    command += [
+        f"tracking.uri=sqlite:///{store / 'mlflow.db'}",
+        f"tracking.artifact_location={store / 'artifacts'}",
+        *overrides,
+    ]
     environment = dict(os.environ, PYTHONPATH=str(REPO_ROOT), **(env or {}))
     environment.pop("MLFLOW_TRACKING_URI", None)
     return subprocess.Popen(
-        command, cwd=store, env=environment, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
+        command,
+        cwd=store,
+        env=environment,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
     )
 
 
-def wait_for_runs(folder: Path, count: int, process: subprocess.Popen[str], timeout: float = 120) -> list[Path]:
+def wait_for_runs(
+    folder: Path, count: int, process: subprocess.Popen[str], timeout: float = 120
+) -> list[Path]:
     """Wait until ``count`` jobs under ``folder`` have started their MLflow run (their run id file)."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -88,33 +108,68 @@ def assert_killed_with_outputs(client: MlflowClient, run_id: str, signal_name: s
     "signum", [signal.SIGTERM, pytest.param(signal.SIGINT, marks=pytest.mark.slow)], ids=["SIGTERM", "SIGINT"]
 )
 def test_a_stopped_toy_job_ends_killed_with_its_outputs(tmp_path: Path, signum: int) -> None:
-    process = start(TOY_APP, "experiment_name=stop_toy", f"hydra.run.dir={tmp_path / 'run'}", store=tmp_path, env={"TOY_SLEEP_S": "60"})
+    process = start(
+        TOY_APP,
+        "experiment_name=stop_toy",
+        f"hydra.run.dir={tmp_path / 'run'}",
+        store=tmp_path,
+        env={"TOY_SLEEP_S": "60"},
+    )
     wait_for_runs(tmp_path / "run", 1, process)
     while not (tmp_path / "run" / "table.csv").exists():
         time.sleep(0.1)
     output = stop(process, signum)
     assert process.returncode != 0
     (run,) = runs_of(f"sqlite:///{tmp_path / 'mlflow.db'}", "stop_toy")
-    assert_killed_with_outputs(MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}"), run.info.run_id, signal.Signals(signum).name, "table.csv")
+    assert_killed_with_outputs(
+        MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}"),
+        run.info.run_id,
+        signal.Signals(signum).name,
+        "table.csv",
+    )
     assert "ended KILLED" in output and "uploaded" in output  # said so
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
-def test_a_stopped_lwrlab_job_ends_killed_with_exit_status_128_plus_signal(tmp_path: Path, signum: int) -> None:
-    process = start(None, "experiment_name=stop_job", f"hydra.run.dir={tmp_path / 'run'}", *LONG_JOB, store=tmp_path)
+def test_a_stopped_lwrlab_job_ends_killed_with_exit_status_128_plus_signal(
+    tmp_path: Path, signum: int
+) -> None:
+    process = start(
+        None, "experiment_name=stop_job", f"hydra.run.dir={tmp_path / 'run'}", *LONG_JOB, store=tmp_path
+    )
     wait_for_runs(tmp_path / "run", 1, process)
     time.sleep(1.0)
     output = stop(process, signum)
     assert process.returncode == 128 + signum, output[-3000:]
     (run,) = runs_of(f"sqlite:///{tmp_path / 'mlflow.db'}", "stop_job")
-    assert_killed_with_outputs(MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}"), run.info.run_id, signal.Signals(signum).name, "cli.log")
+    assert_killed_with_outputs(
+        MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}"),
+        run.info.run_id,
+        signal.Signals(signum).name,
+        "cli.log",
+    )
     assert "Traceback" not in output and "runs in flight ended KILLED" in output
 
 
-def _sweep_and_stop(tmp_path: Path, app: Path | None, overrides: list[str], signum: int, whole_group: bool, env: dict[str, str] | None = None):
+def _sweep_and_stop(
+    tmp_path: Path,
+    app: Path | None,
+    overrides: list[str],
+    signum: int,
+    whole_group: bool,
+    env: dict[str, str] | None = None,
+):
     sweep_dir = tmp_path / "sweep"
-    process = start(app, "hydra/launcher=parallel", f"hydra.sweep.dir={sweep_dir}", *overrides, store=tmp_path, multirun=True, env=env)
+    process = start(
+        app,
+        "hydra/launcher=parallel",
+        f"hydra.sweep.dir={sweep_dir}",
+        *overrides,
+        store=tmp_path,
+        multirun=True,
+        env=env,
+    )
     wait_for_runs(sweep_dir, 2, process)  # two workers busy
     time.sleep(0.5)
     workers = descendant_pids(process.pid)
@@ -125,11 +180,20 @@ def _sweep_and_stop(tmp_path: Path, app: Path | None, overrides: list[str], sign
 
 @pytest.mark.slow  # ~15 s each: Python, MLflow and two loky workers start on a small machine
 @pytest.mark.parametrize(
-    ("signum", "whole_group"), [(signal.SIGTERM, False), (signal.SIGINT, True)], ids=["SIGTERM-to-parent", "SIGINT-to-group"]
+    ("signum", "whole_group"),
+    [(signal.SIGTERM, False), (signal.SIGINT, True)],
+    ids=["SIGTERM-to-parent", "SIGINT-to-group"],
 )
-def test_a_stopped_joblib_sweep_leaves_no_run_running_and_no_worker_alive(tmp_path: Path, signum: int, whole_group: bool) -> None:
+def test_a_stopped_joblib_sweep_leaves_no_run_running_and_no_worker_alive(
+    tmp_path: Path, signum: int, whole_group: bool
+) -> None:
     process, output, workers = _sweep_and_stop(
-        tmp_path, TOY_APP, ["experiment_name=stop_sweep", "x=1,2,3,4"], signum, whole_group, env={"TOY_SLEEP_S": "60"}
+        tmp_path,
+        TOY_APP,
+        ["experiment_name=stop_sweep", "x=1,2,3,4"],
+        signum,
+        whole_group,
+        env={"TOY_SLEEP_S": "60"},
     )
     assert process.returncode != 0
     time.sleep(0.5)
@@ -144,18 +208,34 @@ def test_a_stopped_joblib_sweep_leaves_no_run_running_and_no_worker_alive(tmp_pa
 
 @pytest.mark.slow
 def test_a_sigterm_to_an_lwrlab_joblib_sweep_ends_every_run(tmp_path: Path) -> None:
-    process, output, workers = _sweep_and_stop(tmp_path, None, ["experiment_name=stop_lwrlab_sweep", "seed=0,1,2,3", *LONG_JOB], signal.SIGTERM, False)
+    process, output, workers = _sweep_and_stop(
+        tmp_path,
+        None,
+        ["experiment_name=stop_lwrlab_sweep", "seed=0,1,2,3", *LONG_JOB],
+        signal.SIGTERM,
+        False,
+    )
     assert process.returncode == 128 + signal.SIGTERM, output[-3000:]
     time.sleep(0.5)
     assert not [pid for pid in workers if process_alive(pid)]
     jobs, parents = jobs_and_parents(runs_of(f"sqlite:///{tmp_path / 'mlflow.db'}", "stop_lwrlab_sweep"))
-    assert [run.info.status for run in parents] == ["KILLED"] and {run.info.status for run in jobs} == {"KILLED"}
+    assert [run.info.status for run in parents] == ["KILLED"] and {run.info.status for run in jobs} == {
+        "KILLED"
+    }
 
 
 @pytest.mark.slow
 def test_a_resumed_sweep_finalises_runs_whose_processes_were_killed_outright(tmp_path: Path) -> None:
     sweep = ["experiment_name=stale", "x=1,2,3"]
-    process = start(TOY_APP, "hydra/launcher=parallel", f"hydra.sweep.dir={tmp_path / 'a'}", *sweep, store=tmp_path, multirun=True, env={"TOY_SLEEP_S": "60"})
+    process = start(
+        TOY_APP,
+        "hydra/launcher=parallel",
+        f"hydra.sweep.dir={tmp_path / 'a'}",
+        *sweep,
+        store=tmp_path,
+        multirun=True,
+        env={"TOY_SLEEP_S": "60"},
+    )
     wait_for_runs(tmp_path / "a", 2, process)
     workers = descendant_pids(process.pid)
     os.killpg(process.pid, signal.SIGKILL)  # nothing in these processes can run
@@ -167,13 +247,22 @@ def test_a_resumed_sweep_finalises_runs_whose_processes_were_killed_outright(tmp
     jobs, parents = jobs_and_parents(runs_of(uri, "stale"))
     assert {run.info.status for run in jobs + parents} == {"RUNNING"}  # what a kill -9 leaves
 
-    resumed = start(TOY_APP, "hydra/launcher=parallel", f"hydra.sweep.dir={tmp_path / 'b'}", *sweep, store=tmp_path, multirun=True)
+    resumed = start(
+        TOY_APP,
+        "hydra/launcher=parallel",
+        f"hydra.sweep.dir={tmp_path / 'b'}",
+        *sweep,
+        store=tmp_path,
+        multirun=True,
+    )
     output = resumed.communicate(timeout=300)[0]
     assert resumed.returncode == 0, output[-3000:]
     jobs, parents = jobs_and_parents(runs_of(uri, "stale"))
     stale = [run for run in jobs if run.info.status == "KILLED"]
     assert len(stale) == 2 and all("no longer exists" in run.data.tags[KILLED_BY_TAG] for run in stale)
-    assert all("table.csv" in artifact_paths(MlflowClient(uri), run.info.run_id) for run in stale)  # what they wrote
+    assert all(
+        "table.csv" in artifact_paths(MlflowClient(uri), run.info.run_id) for run in stale
+    )  # what they wrote
     finished = [run for run in jobs if run.info.status == "FINISHED"]
     assert sorted(run.data.params["x"] for run in finished) == ["1", "2", "3"]
     assert all(run.data.tags.get("retried_by") for run in stale)
@@ -184,18 +273,36 @@ RAY_MISSING = importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is No
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(RAY_MISSING, reason="optional extra [ray] (hydra-ray-launcher) not installed: pip install -e '.[ray]'")
+@pytest.mark.skipif(
+    RAY_MISSING, reason="optional extra [ray] (hydra-ray-launcher) not installed: pip install -e '.[ray]'"
+)
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
-def test_a_stopped_ray_sweep_leaves_no_run_running_and_no_ray_process_alive(tmp_path: Path, signum: int) -> None:
-    env = {"TOY_SLEEP_S": "60", "RAY_USAGE_STATS_ENABLED": "0", "RAY_TMPDIR": tempfile.mkdtemp(prefix="ray", dir="/tmp")}
+def test_a_stopped_ray_sweep_leaves_no_run_running_and_no_ray_process_alive(
+    tmp_path: Path, signum: int
+) -> None:
+    env = {
+        "TOY_SLEEP_S": "60",
+        "RAY_USAGE_STATS_ENABLED": "0",
+        "RAY_TMPDIR": tempfile.mkdtemp(prefix="ray", dir="/tmp"),
+    }
     sweep_dir = tmp_path / "sweep"
-    process = start(TOY_APP, "hydra/launcher=ray_local", "experiment_name=stop_ray", f"hydra.sweep.dir={sweep_dir}", "x=1,2,3,4",
-                    store=tmp_path, multirun=True, env=env)
+    process = start(
+        TOY_APP,
+        "hydra/launcher=ray_local",
+        "experiment_name=stop_ray",
+        f"hydra.sweep.dir={sweep_dir}",
+        "x=1,2,3,4",
+        store=tmp_path,
+        multirun=True,
+        env=env,
+    )
     wait_for_runs(sweep_dir, 2, process, timeout=180)
     time.sleep(1.0)
     ray_processes = descendant_pids(process.pid)  # raylet, GCS, workers…
     output = stop(process, signum)
-    wait_until(lambda: not any(process_alive(pid) for pid in ray_processes), 20.0)  # Ray's clean-up is asynchronous
+    wait_until(
+        lambda: not any(process_alive(pid) for pid in ray_processes), 20.0
+    )  # Ray's clean-up is asynchronous
     assert not [pid for pid in ray_processes if process_alive(pid)], f"Ray processes left:\n{output[-3000:]}"
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     jobs, parents = jobs_and_parents(runs_of(uri, "stop_ray"))

@@ -14,7 +14,9 @@ from plugins.trajectories.multisine import MultisineMotion
 
 
 @pytest.mark.parametrize("robot_name", ["lwr4", "panda"])
-def test_multisine_starts_and_stops_at_rest_within_limits(robot_name: str, request: pytest.FixtureRequest) -> None:
+def test_multisine_starts_and_stops_at_rest_within_limits(
+    robot_name: str, request: pytest.FixtureRequest
+) -> None:
     robot: RobotModel = request.getfixturevalue(robot_name)
     motion = MultisineMotion(duration=10.0, harmonics=6, seed=3, limit_fraction=0.8).sample(robot, 1000.0)
     assert motion.q.shape == (10001, robot.n_joints)
@@ -27,7 +29,11 @@ def test_multisine_starts_and_stops_at_rest_within_limits(robot_name: str, reque
     center = 0.5 * (lim.position_lower + lim.position_upper)
     room = np.minimum(center - lim.position_lower, lim.position_upper - center)
     usage = np.max(
-        [np.abs(motion.q - center).max(0) / room, np.abs(motion.dq).max(0) / lim.velocity, np.abs(motion.ddq).max(0) / lim.acceleration],
+        [
+            np.abs(motion.q - center).max(0) / room,
+            np.abs(motion.dq).max(0) / lim.velocity,
+            np.abs(motion.ddq).max(0) / lim.acceleration,
+        ],
         axis=0,
     )
     np.testing.assert_allclose(usage, 0.8, rtol=1e-3)

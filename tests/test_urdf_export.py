@@ -40,7 +40,11 @@ def test_pinocchio_reads_back_the_identified_model(identified: RobotModel, tmp_p
     q, dq, ddq = _states(identified)
     expected = identified.inverse_dynamics(q, dq, ddq)  # RNEA + Coulomb + viscous
     for k in range(len(q)):
-        tau = pin.rnea(model, data, q[k], dq[k], ddq[k]) + model.damping * dq[k] + model.friction * np.sign(dq[k])
+        tau = (
+            pin.rnea(model, data, q[k], dq[k], ddq[k])
+            + model.damping * dq[k]
+            + model.friction * np.sign(dq[k])
+        )
         np.testing.assert_allclose(tau, expected[k], rtol=1e-6, atol=1e-6 * np.abs(expected[k]).max())
     np.testing.assert_allclose(model.damping, identified.friction.viscous, rtol=1e-15)
     np.testing.assert_allclose(model.upperPositionLimit, identified.limits.position_upper)
@@ -48,7 +52,9 @@ def test_pinocchio_reads_back_the_identified_model(identified: RobotModel, tmp_p
 
 def test_mujoco_reads_back_the_identified_model(identified: RobotModel, tmp_path: Path) -> None:
     model = mujoco.MjModel.from_xml_path(str(export_urdf(identified, tmp_path / "lwr4.urdf")))
-    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT  # Coulomb friction: added below, not as a constraint
+    model.opt.disableflags |= (
+        mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    )  # Coulomb friction: added below, not as a constraint
     data = mujoco.MjData(model)
     assert model.nv == identified.n_joints
     q, dq, ddq = _states(identified)

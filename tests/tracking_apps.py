@@ -35,9 +35,14 @@ def run_app(
     if app is not None:
         command.append(f"hydra.searchpath=[file://{REPO_CONF}]")
     if store is not None:
-        command += [f"tracking.uri=sqlite:///{store / 'mlflow.db'}", f"tracking.artifact_location={store / 'artifacts'}"]
+        command += [
+            f"tracking.uri=sqlite:///{store / 'mlflow.db'}",
+            f"tracking.artifact_location={store / 'artifacts'}",
+        ]
     command += list(overrides)
-    environment = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO_ROOT), os.environ.get("PYTHONPATH", "")]))
+    environment = dict(
+        os.environ, PYTHONPATH=os.pathsep.join([str(REPO_ROOT), os.environ.get("PYTHONPATH", "")])
+    )
     environment.pop("MLFLOW_TRACKING_URI", None)
     environment.update(env or {})
     return subprocess.run(command, cwd=cwd, env=environment, capture_output=True, text=True, timeout=timeout)
@@ -48,7 +53,9 @@ def runs_of(tracking_uri: str, experiment: str) -> list[Run]:
     client = MlflowClient(tracking_uri=tracking_uri)
     found = client.get_experiment_by_name(experiment)
     assert found is not None, f"experiment {experiment!r} was not created"
-    return list(client.search_runs([found.experiment_id], order_by=["attributes.start_time ASC"], max_results=5000))
+    return list(
+        client.search_runs([found.experiment_id], order_by=["attributes.start_time ASC"], max_results=5000)
+    )
 
 
 def jobs_and_parents(runs: list[Run]) -> tuple[list[Run], list[Run]]:
@@ -63,8 +70,17 @@ def all_logged_text(tracking_uri: str, run: Run, download_dir: Path) -> str:
     """Params, tags, run name and every artifact of ``run``, as one text (to look for leaks)."""
     import mlflow
 
-    parts = [run.info.run_name or "", *run.data.params.keys(), *run.data.params.values(), *run.data.tags.values()]
-    local = Path(mlflow.artifacts.download_artifacts(run_id=run.info.run_id, dst_path=str(download_dir), tracking_uri=tracking_uri))
+    parts = [
+        run.info.run_name or "",
+        *run.data.params.keys(),
+        *run.data.params.values(),
+        *run.data.tags.values(),
+    ]
+    local = Path(
+        mlflow.artifacts.download_artifacts(
+            run_id=run.info.run_id, dst_path=str(download_dir), tracking_uri=tracking_uri
+        )
+    )
     for path in local.rglob("*"):
         if path.is_file():
             parts.append(path.read_bytes().decode("utf-8", errors="replace"))

@@ -106,7 +106,11 @@ def simulate_contact(
     for k in progress if progress is not None else range(n):
         state = update(sensors.q, sensors.tau)
         decision = command(k, state, sensors.wall_force)
-        commanded[k], actual[k], measured_force[k] = decision.commanded_position, plant.tcp_position, sensors.wall_force
+        commanded[k], actual[k], measured_force[k] = (
+            decision.commanded_position,
+            plant.tcp_position,
+            sensors.wall_force,
+        )
         wrench[k], q[k], q_desired[k], tau[k] = state.wrench, sensors.q_true, decision.q_desired, decision.tau
         sensors = step(decision.tau)
     return ContactRun(

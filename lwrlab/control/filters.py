@@ -94,7 +94,9 @@ class FilteredDifferences:
     velocity_cutoff_hz, acceleration_cutoff_hz : the two low-passes (Hz; ``inf``: none).
     """
 
-    def __init__(self, period: float, velocity_cutoff_hz: float = np.inf, acceleration_cutoff_hz: float = np.inf) -> None:
+    def __init__(
+        self, period: float, velocity_cutoff_hz: float = np.inf, acceleration_cutoff_hz: float = np.inf
+    ) -> None:
         av, aa = low_pass_gain(velocity_cutoff_hz, period), low_pass_gain(acceleration_cutoff_hz, period)
         r = 1.0 / period
         # rows: new x, new v, new a; columns: old x, old v, old a, input x

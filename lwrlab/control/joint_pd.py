@@ -78,4 +78,8 @@ class JointPDGravity:
             self.reset(q_desired)
         dq_desired = (q_desired - self.previous_desired) * self.inverse_period
         self.previous_desired = q_desired
-        return self.kp * (q_desired - q) + self.kd * (dq_desired - dq) + pin.computeGeneralizedGravity(self.model, self.data, q)
+        return (
+            self.kp * (q_desired - q)
+            + self.kd * (dq_desired - dq)
+            + pin.computeGeneralizedGravity(self.model, self.data, q)
+        )

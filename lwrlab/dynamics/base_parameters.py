@@ -66,10 +66,14 @@ class BaseParameters:
         try:
             return self.names.index(name)
         except ValueError:
-            raise KeyError(f"{name!r} is not a base parameter; base parameters are {list(self.names)}") from None
+            raise KeyError(
+                f"{name!r} is not a base parameter; base parameters are {list(self.names)}"
+            ) from None
 
 
-def random_states(robot: RobotModel, n_samples: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def random_states(
+    robot: RobotModel, n_samples: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Random joint states: positions uniform in the limits, velocities and accelerations in ± limits."""
     lim = robot.limits
     q = rng.uniform(lim.position_lower, lim.position_upper, size=(n_samples, robot.n_joints))
@@ -139,4 +143,6 @@ def compute_base_parameters(
     base_names = tuple(
         names[c] + ("R" if c < n_inertial and np.any(beta[i] != 0.0) else "") for i, c in enumerate(base)
     )
-    return BaseParameters(columns=base, regrouping=regrouping, names=base_names, rank_tolerance=rank_tolerance)
+    return BaseParameters(
+        columns=base, regrouping=regrouping, names=base_names, rank_tolerance=rank_tolerance
+    )

@@ -133,7 +133,10 @@ class SerialChain:
     frame j′ before its joint turns: ``E_jᵀ·(a + ω̇ × t_j + ω × (ω × t_j))``."""
 
     def __post_init__(self) -> None:
-        key = b"".join(np.ascontiguousarray(x, dtype=float).tobytes() for x in (self.rotations, self.translations, self.axes))
+        key = b"".join(
+            np.ascontiguousarray(x, dtype=float).tobytes()
+            for x in (self.rotations, self.translations, self.axes)
+        )
         if key not in _DERIVED:  # building them costs more than a small regressor: keep the last few
             if len(_DERIVED) >= 16:
                 _DERIVED.pop(next(iter(_DERIVED)))
@@ -148,7 +151,9 @@ class SerialChain:
         turns_t = (parents_t @ self.rotations @ frames).transpose(0, 2, 1)  # E_jᵀ
         levers = (parents_t @ self.translations[..., None])[..., 0]  # t_j
         shift = -turns_t @ _skew(levers)  # −E_jᵀ·S(t_j): v + ω × t = v − S(t)·ω
-        acceleration_maps = np.concatenate([shift, turns_t, turns_t @ _centripetal_coefficients(levers)], axis=2)
+        acceleration_maps = np.concatenate(
+            [shift, turns_t, turns_t @ _centripetal_coefficients(levers)], axis=2
+        )
         derived = {
             "axis_frames": frames,
             "turns_axis": np.any(frames != np.eye(3), axis=(1, 2)),
@@ -325,7 +330,17 @@ def _cos_sin(angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (1.0 - t_squared) * scale, (t + t) * scale
 
 
-def _next_state(chain: SerialChain, j: int, parent: np.ndarray, out: np.ndarray, cos: np.ndarray, sin: np.ndarray, rate: np.ndarray, accel: np.ndarray, scratch: np.ndarray) -> None:
+def _next_state(
+    chain: SerialChain,
+    j: int,
+    parent: np.ndarray,
+    out: np.ndarray,
+    cos: np.ndarray,
+    sin: np.ndarray,
+    rate: np.ndarray,
+    accel: np.ndarray,
+    scratch: np.ndarray,
+) -> None:
     """Forward Newton–Euler step: value table of segment j−1 → of segment j (axis frames), into ``out``.
 
     ``ω_j = Rᵀω + q̇·z``, ``ω̇_j = Rᵀω̇ + q̈·z + (Rᵀω) × q̇·z``, ``a_j = Rᵀ(a + ω̇ × t + ω × (ω × t))``
@@ -346,15 +361,30 @@ def _next_state(chain: SerialChain, j: int, parent: np.ndarray, out: np.ndarray,
     _complete_table(out)
 
 
-def _next_twists(chain: SerialChain, j: int, twists: np.ndarray, out: np.ndarray, cos: np.ndarray, sin: np.ndarray, scratch: np.ndarray) -> None:
+def _next_twists(
+    chain: SerialChain,
+    j: int,
+    twists: np.ndarray,
+    out: np.ndarray,
+    cos: np.ndarray,
+    sin: np.ndarray,
+    scratch: np.ndarray,
+) -> None:
     """Unit twists (ω; v) of joints 0…j−1 seen from axis frame j−1 → from axis frame j, plus joint j's own.
 
     ``twists`` and ``out`` are (2, 3, N_J, c); slots 0…j−1 are read, 0…j written. A twist moves like
     a velocity: ``ω ← Rᵀω``, ``v ← Rᵀ(v + ω × t)``; joint j's own is (e_z; 0) in its axis frame.
     """
     if j > 0:
-        np.einsum("ij,jc->ic", chain.turns_t[j], twists[0, :, :j].reshape(3, -1), out=out[0, :, :j].reshape(3, -1))
-        np.einsum("ij,jc->ic", chain.velocity_maps[j], twists[:, :, :j].reshape(6, -1), out=out[1, :, :j].reshape(3, -1))
+        np.einsum(
+            "ij,jc->ic", chain.turns_t[j], twists[0, :, :j].reshape(3, -1), out=out[0, :, :j].reshape(3, -1)
+        )
+        np.einsum(
+            "ij,jc->ic",
+            chain.velocity_maps[j],
+            twists[:, :, :j].reshape(6, -1),
+            out=out[1, :, :j].reshape(3, -1),
+        )
         _turn_about_z(out[:, :, :j].transpose(1, 0, 2, 3), cos, sin, scratch)
     out[:, :, j] = 0.0
     out[0, 2, j] = 1.0
@@ -394,7 +424,9 @@ class _Workspace:
 
     def __init__(self, n: int, n_columns: int, capacity: int) -> None:
         self.n, self.n_columns, self.capacity = n, n_columns, capacity
-        self._buffers = {name: np.empty(capacity * math.prod(shape)) for name, shape in self._shapes(1).items()}
+        self._buffers = {
+            name: np.empty(capacity * math.prod(shape)) for name, shape in self._shapes(1).items()
+        }
         self._zeroed_for = 0  # the chunk size for which "rows" holds the regressor's constant zeros
 
     def _shapes(self, c: int) -> dict[str, tuple[int, ...]]:
@@ -416,7 +448,10 @@ class _Workspace:
         mass column of a joint's own segment, friction of other joints) and so is row 0 of the value
         tables; everything else is undefined.
         """
-        arrays = {name: self._buffers[name][: math.prod(shape)].reshape(shape) for name, shape in self._shapes(c).items()}
+        arrays = {
+            name: self._buffers[name][: math.prod(shape)].reshape(shape)
+            for name, shape in self._shapes(c).items()
+        }
         arrays["wrench"] = _wrench_views(arrays["entries"])
         if self._zeroed_for != c:
             arrays["rows"].fill(0.0)
@@ -442,7 +477,15 @@ def _workspace(n: int, n_columns: int) -> _Workspace:
     return spaces[key]
 
 
-def _chunk_regressor(chain: SerialChain, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, terms: tuple[str, ...], out: np.ndarray, work: _Workspace) -> None:
+def _chunk_regressor(
+    chain: SerialChain,
+    q: np.ndarray,
+    dq: np.ndarray,
+    ddq: np.ndarray,
+    terms: tuple[str, ...],
+    out: np.ndarray,
+    work: _Workspace,
+) -> None:
     """Write the regressor of c samples (q, dq, ddq (c, N_J)) into ``out`` (m ≤ c, N_J, P), contiguous.
 
     The columns are the inertial ones of every segment, then the friction ``terms``; the first m
@@ -471,7 +514,9 @@ def _chunk_regressor(chain: SerialChain, q: np.ndarray, dq: np.ndarray, ddq: np.
             np.einsum("ij,vjc->vic", frame, parent[1:10].reshape(3, 3, c), out=table[1:10].reshape(3, 3, c))
             _complete_table(table)
             seen_twists = arrays["seen_twists"][:, :, :j]
-            np.einsum("ij,vjc->vic", frame, twists[:, :, :j].reshape(2, 3, -1), out=seen_twists.reshape(2, 3, -1))
+            np.einsum(
+                "ij,vjc->vic", frame, twists[:, :, :j].reshape(2, 3, -1), out=seen_twists.reshape(2, 3, -1)
+            )
         _fill_wrench_regressor(table, entries)
         _project(seen_twists, wrench, rows[10 * j : 10 * j + 10, :j])
         if chain.turns_axis[j]:
@@ -495,7 +540,14 @@ def _chunk_size(n_samples: int) -> int:
     return size + 1 if size % 512 == 0 else size
 
 
-def _fill_chain_regressor(chain: SerialChain, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, terms: tuple[str, ...], out: np.ndarray) -> None:
+def _fill_chain_regressor(
+    chain: SerialChain,
+    q: np.ndarray,
+    dq: np.ndarray,
+    ddq: np.ndarray,
+    terms: tuple[str, ...],
+    out: np.ndarray,
+) -> None:
     """The regressor of a serial revolute chain, inertial then friction ``terms`` columns, into ``out``.
 
     ``out`` is a contiguous (N, N_J, P) array; it is computed chunk by chunk (:func:`_chunk_regressor`),
@@ -514,7 +566,9 @@ def _fill_chain_regressor(chain: SerialChain, q: np.ndarray, dq: np.ndarray, ddq
         _chunk_regressor(chain, *states, terms, out[start:stop], work)
 
 
-def chain_inertial_regressor(chain: SerialChain, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+def chain_inertial_regressor(
+    chain: SerialChain, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray
+) -> np.ndarray:
     """Inertial regressor of a serial revolute chain, shape (N, N_J, 10·N_J).
 
     A forward Newton–Euler recursion over all samples at once gives each segment's angular velocity
@@ -532,7 +586,9 @@ def chain_inertial_regressor(chain: SerialChain, q: np.ndarray, dq: np.ndarray, 
     return out
 
 
-def loop_inertial_regressor(model: pin.Model, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def loop_inertial_regressor(
+    model: pin.Model, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, out: np.ndarray | None = None
+) -> np.ndarray:
     """Inertial regressor by one ``pin.computeJointTorqueRegressor`` call per sample (any model).
 
     ``out``: an (N, N_J, 10·N_L) array (a view will do) to write into; a new one if None.
@@ -547,7 +603,12 @@ def loop_inertial_regressor(model: pin.Model, q: np.ndarray, dq: np.ndarray, ddq
     for k, state in enumerate(zip(q, dq, ddq)):
         pinocchio_order[k] = regress(model, data, *state)
     out = np.empty((n_samples, model.nv, n_columns)) if out is None else out
-    np.take(pinocchio_order.reshape(n_samples, model.nv, -1, 10), PIN_TO_STANDARD, axis=3, out=out.reshape(n_samples, model.nv, -1, 10))
+    np.take(
+        pinocchio_order.reshape(n_samples, model.nv, -1, 10),
+        PIN_TO_STANDARD,
+        axis=3,
+        out=out.reshape(n_samples, model.nv, -1, 10),
+    )
     return out
 
 
@@ -589,7 +650,9 @@ def _as_samples(x: np.ndarray, n: int, name: str) -> np.ndarray:
     return x
 
 
-def regressor(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, *, stacked: bool = True) -> np.ndarray:
+def regressor(
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, *, stacked: bool = True
+) -> np.ndarray:
     """The full regressor ``W`` so that ``W @ robot.parameters`` is the joint torque (N·m).
 
     Parameters
@@ -608,7 +671,9 @@ def regressor(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
     n = robot.n_joints
     q, dq, ddq = (_as_samples(x, n, name) for x, name in ((q, "q"), (dq, "dq"), (ddq, "ddq")))
     n_inertial = 10 * robot.n_links
-    chain = serial_chain(robot.model) if q.shape[0] >= SMALL_BATCH else None  # tens of µs: cheaper than caching on a mutable model
+    chain = (
+        serial_chain(robot.model) if q.shape[0] >= SMALL_BATCH else None
+    )  # tens of µs: cheaper than caching on a mutable model
     if chain is not None:
         full = np.empty((q.shape[0], n, n_inertial + robot.n_friction))
         _fill_chain_regressor(chain, q, dq, ddq, robot.friction_terms, full)

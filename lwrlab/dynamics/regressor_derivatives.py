@@ -39,8 +39,8 @@ finite differences of :func:`lwrlab.dynamics.regressor.regressor`.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Iterator
 
 import numpy as np
 import pinocchio as pin
@@ -107,7 +107,9 @@ def _revolute_chain(model: pin.Model) -> list[_Joint]:
     for j in range(1, model.njoints):
         kind = model.joints[j].shortname().removeprefix("JointModel")
         if model.parents[j] != j - 1:
-            raise ValueError(f"regressor derivatives need a serial chain; joint {j} has parent {model.parents[j]}")
+            raise ValueError(
+                f"regressor derivatives need a serial chain; joint {j} has parent {model.parents[j]}"
+            )
         if kind in _AXES:
             axis = np.array(_AXES[kind])
         elif kind == "RevoluteUnaligned":
@@ -237,7 +239,9 @@ def _forward_pass(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndar
         yield _Segment(i, state, d_state, twists, d_twists)
 
 
-def _as_states(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _as_states(
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     n = robot.n_joints
     arrays = []
     for x, name in ((q, "q"), (dq, "dq"), (ddq, "ddq")):
@@ -257,7 +261,9 @@ def _friction_slice(robot: RobotModel, term: str) -> slice | None:
     return slice(start, start + robot.n_joints)
 
 
-def regressor_jacobians(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def regressor_jacobians(
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Full derivatives of the regressor, each of shape (N, N_J, P, N_J).
 
     ``dW_dq[k, j, p, l] = ∂W[k, j, p]/∂q_l`` at sample k (N·m per rad per unit parameter), likewise
@@ -323,7 +329,9 @@ class _Tape:
     """(i+1, 6, N) unit twists of joints 0…i seen from frame i."""
 
 
-def _forward_tape(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[list[_Joint], list[_Tape], list[np.ndarray]]:
+def _forward_tape(
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray
+) -> tuple[list[_Joint], list[_Tape], list[np.ndarray]]:
     """The forward Newton–Euler recursion without tangents: each segment's tape and state t_i (15, N)."""
     joints = _revolute_chain(robot.model)
     n_samples = q.shape[0]
@@ -395,7 +403,9 @@ def regressor_vjp(
         u_bar = np.einsum("apn,kpn->kan", y, gi)  # ū_ki = Y_i·g_ki
         u_bar += twists_bar
         outer_bar = state_bar[6:].reshape(3, 3, n_samples)  # of ω_i·ω_iᵀ
-        omega_bar = parent_bar[0] + np.einsum("bdn,dn->bn", outer_bar + outer_bar.transpose(1, 0, 2), tape.omega)
+        omega_bar = parent_bar[0] + np.einsum(
+            "bdn,dn->bn", outer_bar + outer_bar.transpose(1, 0, 2), tape.omega
+        )
         omega_dot_bar = parent_bar[1] + state_bar[:3]
         acc_bar = parent_bar[2] + state_bar[3:6]
         omega_p, omega_dot_p, acc_p = tape.parent
@@ -405,7 +415,9 @@ def regressor_vjp(
         new_parent_bar = np.empty((3, 3, n_samples))
         new_parent_bar[2] = b_bar
         new_parent_bar[1] = _times(cross_p, b_bar)
-        new_parent_bar[0] = _dot(omega_p, p) * b_bar + p * _dot(b_bar, omega_p) - 2.0 * omega_p * _dot(p, b_bar)
+        new_parent_bar[0] = (
+            _dot(omega_p, p) * b_bar + p * _dot(b_bar, omega_p) - 2.0 * omega_p * _dot(p, b_bar)
+        )
         # ω̇_i = Rᵀω̇_p + a·q̈_i + (Rᵀω_p) × a·q̇_i  and  ω_i = Rᵀω_p + a·q̇_i
         grad[2, i] += _dot(a, omega_dot_bar)
         w_cross_a = _times(cross_a, tape.w)
@@ -417,7 +429,11 @@ def regressor_vjp(
         # twists of joints k < i: ang ← Rᵀang, lin ← Rᵀ(lin + ang × p)
         if i > 0:
             twists_i = tape.twists[:i]
-            q_bar += np.einsum("kan,kan->n", u_bar[:i], _times(cross_a, twists_i.reshape(2 * i, 3, n_samples)).reshape(i, 6, n_samples))
+            q_bar += np.einsum(
+                "kan,kan->n",
+                u_bar[:i],
+                _times(cross_a, twists_i.reshape(2 * i, 3, n_samples)).reshape(i, 6, n_samples),
+            )
             lin_bar = _pull_back(tape.rt, u_bar[:i, 3:])
             twists_bar = np.empty((i, 6, n_samples))
             twists_bar[:, :3] = _pull_back(tape.rt, u_bar[:i, :3]) + _times(cross_p, lin_bar)
@@ -431,7 +447,9 @@ def regressor_vjp(
     return grad[0].T, grad[1].T, grad[2].T
 
 
-def regressor_jacobians_pinocchio(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def regressor_jacobians_pinocchio(
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The inertial columns of :func:`regressor_jacobians` by Pinocchio, column by column (a reference).
 
     Inverse dynamics is linear in the parameters, so its derivatives are too: column p of ``∂W`` is

@@ -9,7 +9,13 @@
 from lwrlab.excitation.constraints import ConstraintSettings
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.excitation.problem import ExcitationProblem
-from lwrlab.excitation.solver import ExcitationResult, InfeasibleExcitationError, SlsqpOptimizer, check_motion, verify_motion
+from lwrlab.excitation.solver import (
+    ExcitationResult,
+    InfeasibleExcitationError,
+    SlsqpOptimizer,
+    check_motion,
+    verify_motion,
+)
 
 __all__ = [
     "ConstraintSettings",

@@ -71,7 +71,9 @@ class ConstraintSettings:
         object.__setattr__(self, "ground_spheres", tuple(self.ground_spheres))
 
 
-def relevant_pairs(robot: RobotModel, min_link_gap: int = 2, n_samples: int = 200, seed: int = 0) -> list[tuple[int, int]]:
+def relevant_pairs(
+    robot: RobotModel, min_link_gap: int = 2, n_samples: int = 200, seed: int = 0
+) -> list[tuple[int, int]]:
     """Sphere pairs worth checking: segments ≥ ``min_link_gap`` joints apart, distance not constant.
 
     A pair whose distance never changes (both centres on the axis chain between them, e.g. the
@@ -90,7 +92,9 @@ def relevant_pairs(robot: RobotModel, min_link_gap: int = 2, n_samples: int = 20
     return pairs
 
 
-def sphere_centres(robot: RobotModel, q: np.ndarray, spheres: tuple[CollisionSphere, ...], poses: np.ndarray | None = None) -> np.ndarray:
+def sphere_centres(
+    robot: RobotModel, q: np.ndarray, spheres: tuple[CollisionSphere, ...], poses: np.ndarray | None = None
+) -> np.ndarray:
     """(n_spheres, N, 3) centres in the base frame (m) at joint positions q (N, N_J)."""
     poses = joint_frame_poses(robot, q) if poses is None else poses
     out = np.empty((len(spheres), q.shape[0], 3))
@@ -116,7 +120,9 @@ def _point_jacobian(poses: np.ndarray, link: int, point: np.ndarray, n_joints: i
 class ConstraintSet:
     """The constraint families of one robot and settings: slacks on samples, and their derivatives."""
 
-    def __init__(self, robot: RobotModel, settings: ConstraintSettings, coulomb_smoothing: float | None = None) -> None:
+    def __init__(
+        self, robot: RobotModel, settings: ConstraintSettings, coulomb_smoothing: float | None = None
+    ) -> None:
         self.robot = robot
         self.settings = settings
         self.coulomb_smoothing = coulomb_smoothing
@@ -127,7 +133,10 @@ class ConstraintSet:
         self.ground_indices: list[int] = []
         if settings.z_ground is not None and settings.ground_spheres and not names:
             # a robot described without collision geometry (a plain URDF): nothing to keep off the floor
-            log.warning("%s has no collision spheres: the exciting motion is not kept above the floor or free of self-collision", robot.name)
+            log.warning(
+                "%s has no collision spheres: the exciting motion is not kept above the floor or free of self-collision",
+                robot.name,
+            )
         elif settings.z_ground is not None and settings.ground_spheres:
             unknown = [name for name in settings.ground_spheres if name not in names]
             if unknown:
@@ -136,13 +145,17 @@ class ConstraintSet:
                     "(add a collision_spheres block to the robot config, or set z_ground: null)"
                 )
             self.ground_indices = [names.index(name) for name in settings.ground_spheres]
-        self.pairs = relevant_pairs(robot, settings.min_link_gap) if settings.self_collision and spheres else []
+        self.pairs = (
+            relevant_pairs(robot, settings.min_link_gap) if settings.self_collision and spheres else []
+        )
         lim = robot.limits
         keep = 1.0 - settings.limit_margin
         middle = 0.5 * (lim.position_lower + lim.position_upper)
         half = 0.5 * (lim.position_upper - lim.position_lower)
         self.position_bounds = (middle - keep * half, middle + keep * half)
-        self._friction_viscous = robot.friction.viscous if "viscous" in robot.friction_terms else np.zeros(robot.n_joints)
+        self._friction_viscous = (
+            robot.friction.viscous if "viscous" in robot.friction_terms else np.zeros(robot.n_joints)
+        )
         self._data = robot.model.createData()
 
     # --- layout ---------------------------------------------------------------------------------
@@ -181,11 +194,20 @@ class ConstraintSet:
             return np.tile(per_joint[family], 2)
         return np.ones(len(self.column_labels(family)))
 
-    UNITS = {"position": "rad", "velocity": "rad/s", "acceleration": "rad/s²", "torque": "N·m", "ground": "m", "self_collision": "m"}
+    UNITS = {
+        "position": "rad",
+        "velocity": "rad/s",
+        "acceleration": "rad/s²",
+        "torque": "N·m",
+        "ground": "m",
+        "self_collision": "m",
+    }
 
     # --- values ---------------------------------------------------------------------------------
 
-    def slacks(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, torque: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    def slacks(
+        self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, torque: np.ndarray | None = None
+    ) -> dict[str, np.ndarray]:
         """Slack of every family at every sample, (N, columns) each, in physical units (≥ 0: satisfied).
 
         ``torque`` (N, N_J) may be passed when already known (e.g. ``W·φ``); otherwise it is computed.
@@ -205,17 +227,31 @@ class ConstraintSet:
             radii = np.array([s.radius for s in self.robot.collision_spheres])
             if self.ground_indices:
                 g = self.ground_indices
-                out["ground"] = (centres[g, :, 2] - radii[g, None]).T - self.settings.z_ground - self.settings.distance_margin
+                out["ground"] = (
+                    (centres[g, :, 2] - radii[g, None]).T
+                    - self.settings.z_ground
+                    - self.settings.distance_margin
+                )
             if self.pairs:
                 a, b = np.array(self.pairs).T
                 distance = np.linalg.norm(centres[a] - centres[b], axis=2)
-                out["self_collision"] = (distance - radii[a, None] - radii[b, None]).T - self.settings.clearance - self.settings.distance_margin
+                out["self_collision"] = (
+                    (distance - radii[a, None] - radii[b, None]).T
+                    - self.settings.clearance
+                    - self.settings.distance_margin
+                )
         return out
 
     # --- derivatives ----------------------------------------------------------------------------
 
     def slack_derivatives(
-        self, family: str, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, samples: np.ndarray, columns: np.ndarray
+        self,
+        family: str,
+        q: np.ndarray,
+        dq: np.ndarray,
+        ddq: np.ndarray,
+        samples: np.ndarray,
+        columns: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """∂slack/∂(q, q̇, q̈) at (sample, column) pairs: three (m, N_J) arrays (per rad, rad/s, rad/s²)."""
         n = self.robot.n_joints
@@ -225,7 +261,13 @@ class ConstraintSet:
             joint, sign = columns % n, np.where(columns < n, 1.0, -1.0)
             d = zeros.copy()
             d[np.arange(m), joint] = sign
-            return (d, zeros, zeros) if family == "position" else (zeros, d, zeros) if family == "velocity" else (zeros, zeros, d)
+            return (
+                (d, zeros, zeros)
+                if family == "position"
+                else (zeros, d, zeros)
+                if family == "velocity"
+                else (zeros, zeros, d)
+            )
         if family == "torque":
             return self._torque_derivatives(q, dq, ddq, samples, columns)
         unique, inverse = np.unique(samples, return_inverse=True)
@@ -253,7 +295,9 @@ class ConstraintSet:
             dd[chosen] = np.einsum("mi,mij->mj", normal, ja - jb)
         return dd, zeros, zeros
 
-    def _torque_derivatives(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, samples: np.ndarray, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _torque_derivatives(
+        self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, samples: np.ndarray, columns: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``∓∂Γ_j/∂(q, q̇, q̈)`` by Pinocchio's RNEA derivatives, once per distinct sample, plus viscous friction."""
         n = self.robot.n_joints
         model, data = self.robot.model, self._data

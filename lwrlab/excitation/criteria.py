@@ -50,11 +50,15 @@ def singular_system(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r = np.linalg.qr(w, mode="r")
     _, sigma, vt = np.linalg.svd(r)
     if sigma[-1] <= np.sqrt(RANK_TOLERANCE) * sigma[0]:
-        raise np.linalg.LinAlgError("the regressor is rank deficient: the motion does not excite every base parameter")
+        raise np.linalg.LinAlgError(
+            "the regressor is rank deficient: the motion does not excite every base parameter"
+        )
     return sigma, vt
 
 
-def extreme_singular_pairs(w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
+def extreme_singular_pairs(
+    w: np.ndarray,
+) -> tuple[float, np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
     """``σ_max, u_max, v_max, σ_min, u_min, v_min`` of ``w`` (``∂σ/∂W = u·vᵀ`` for a simple σ)."""
     sigma, vt = singular_system(w)
     v_max, v_min = vt[0], vt[-1]
@@ -66,7 +70,9 @@ def information_factor(w: np.ndarray) -> np.ndarray:
     try:
         return np.linalg.cholesky(gram(w))
     except np.linalg.LinAlgError:
-        raise np.linalg.LinAlgError("the regressor is rank deficient: the motion does not excite every base parameter") from None
+        raise np.linalg.LinAlgError(
+            "the regressor is rank deficient: the motion does not excite every base parameter"
+        ) from None
 
 
 def inverse_information(w: np.ndarray, factor: np.ndarray | None = None) -> np.ndarray:

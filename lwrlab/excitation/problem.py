@@ -106,7 +106,9 @@ class ExcitationProblem:
         self.parameterisation = parameterisation
         self.criterion = criterion
         self.coulomb_smoothing = coulomb_smoothing if "coulomb" in robot.friction_terms else None
-        self.constraint_set = ConstraintSet(robot, constraints or ConstraintSettings(), self.coulomb_smoothing)
+        self.constraint_set = ConstraintSet(
+            robot, constraints or ConstraintSettings(), self.coulomb_smoothing
+        )
         if self.coulomb_smoothing is not None:
             start = 10 * robot.n_links + robot.friction_terms.index("coulomb") * robot.n_joints
             self._coulomb_columns = start + np.arange(robot.n_joints)
@@ -140,7 +142,11 @@ class ExcitationProblem:
         if not self.parameterisation.coefficients_are_positions:
             return None
         low, high = self.constraint_set.position_bounds
-        return [(float(low[j]), float(high[j])) for _ in range(self.coefficient_shape[0]) for j in range(self.robot.n_joints)]
+        return [
+            (float(low[j]), float(high[j]))
+            for _ in range(self.coefficient_shape[0])
+            for j in range(self.robot.n_joints)
+        ]
 
     # --- evaluation -----------------------------------------------------------------------------
 
@@ -165,7 +171,9 @@ class ExcitationProblem:
     def _criterion(self, ev: _Evaluation) -> None:
         if ev.cost is None and ev.cost_error is None:
             try:
-                ev.cost, ev.extras["criterion_gradient"] = self.criterion.value_and_gradient(self.scaled_base_regressor(ev.x))
+                ev.cost, ev.extras["criterion_gradient"] = self.criterion.value_and_gradient(
+                    self.scaled_base_regressor(ev.x)
+                )
             except np.linalg.LinAlgError as error:
                 ev.cost_error = str(error)
 
@@ -188,8 +196,13 @@ class ExcitationProblem:
             grad_q, grad_dq, grad_ddq = regressor_vjp(self.robot, ev.q, ev.dq, ev.ddq, weights)
             if self.coulomb_smoothing is not None:  # the VJP differentiates sign(q̇): add tanh's slope
                 joints = np.arange(self.robot.n_joints)
-                weight = weights.reshape(len(self.times), self.robot.n_joints, -1)[:, joints, self._coulomb_columns]
-                grad_dq = grad_dq + weight * (1.0 - np.tanh(ev.dq / self.coulomb_smoothing) ** 2) / self.coulomb_smoothing
+                weight = weights.reshape(len(self.times), self.robot.n_joints, -1)[
+                    :, joints, self._coulomb_columns
+                ]
+                grad_dq = (
+                    grad_dq
+                    + weight * (1.0 - np.tanh(ev.dq / self.coulomb_smoothing) ** 2) / self.coulomb_smoothing
+                )
             ev.cost_gradient = self.parameterisation.pull_back(self.bases, grad_q, grad_dq, grad_ddq).ravel()
         return ev.cost_gradient.copy()
 
@@ -205,7 +218,10 @@ class ExcitationProblem:
         """Each family's smallest scaled slack per (window, column), and where it is reached."""
         ev = self._evaluate(x)
         if ev.windowed is None:
-            ev.windowed = [self._windowed(family, slack / self.constraint_set.scales(family)) for family, slack in self._slacks(ev).items()]
+            ev.windowed = [
+                self._windowed(family, slack / self.constraint_set.scales(family))
+                for family, slack in self._slacks(ev).items()
+            ]
         return ev.windowed
 
     def _windowed(self, family: str, scaled: np.ndarray) -> WindowedSlack:
@@ -214,7 +230,12 @@ class ExcitationProblem:
         starts = self.window_starts
         length = starts[1] - starts[0] if len(starts) > 1 else len(scaled)
         whole = scaled[: starts[-1]].reshape(len(starts) - 1, length, -1)
-        samples = np.vstack([starts[:-1, None] + np.argmin(whole, axis=1), starts[-1] + np.argmin(scaled[starts[-1] :], axis=0)])
+        samples = np.vstack(
+            [
+                starts[:-1, None] + np.argmin(whole, axis=1),
+                starts[-1] + np.argmin(scaled[starts[-1] :], axis=0),
+            ]
+        )
         return WindowedSlack(family, np.take_along_axis(scaled, samples, axis=0), samples)
 
     def constraint_values(self, x: np.ndarray) -> np.ndarray:
@@ -229,10 +250,16 @@ class ExcitationProblem:
         for windowed in self.windowed_slacks(x):
             samples = windowed.samples.ravel()
             columns = np.tile(np.arange(windowed.samples.shape[1]), windowed.samples.shape[0])
-            d_q, d_dq, d_ddq = self.constraint_set.slack_derivatives(windowed.family, ev.q, ev.dq, ev.ddq, samples, columns)
+            d_q, d_dq, d_ddq = self.constraint_set.slack_derivatives(
+                windowed.family, ev.q, ev.dq, ev.ddq, samples, columns
+            )
             scale = self.constraint_set.scales(windowed.family)[columns][:, None, None]
             # ∂g/∂C[i, l] = B[k, i]·∂g/∂q_l + Ḃ[k, i]·∂g/∂q̇_l + B̈[k, i]·∂g/∂q̈_l at the minimising sample k
-            jac = b[samples][:, :, None] * d_q[:, None] + db[samples][:, :, None] * d_dq[:, None] + ddb[samples][:, :, None] * d_ddq[:, None]
+            jac = (
+                b[samples][:, :, None] * d_q[:, None]
+                + db[samples][:, :, None] * d_dq[:, None]
+                + ddb[samples][:, :, None] * d_ddq[:, None]
+            )
             rows.append((jac / scale).reshape(len(samples), -1))
         return np.vstack(rows)
 

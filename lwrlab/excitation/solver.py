@@ -55,7 +55,9 @@ class FamilyReport:
         return self.worst_slack < 0.0
 
 
-def family_reports(constraint_set: ConstraintSet, t: np.ndarray, slacks: dict[str, np.ndarray], scaled_tolerance: float = 0.0) -> list[FamilyReport]:
+def family_reports(
+    constraint_set: ConstraintSet, t: np.ndarray, slacks: dict[str, np.ndarray], scaled_tolerance: float = 0.0
+) -> list[FamilyReport]:
     """Worst slack of each family over samples at times t (s); violations beyond ``scaled_tolerance`` count."""
     reports = []
     for family, slack in slacks.items():
@@ -70,7 +72,9 @@ def family_reports(constraint_set: ConstraintSet, t: np.ndarray, slacks: dict[st
 def describe_violations(reports: list[FamilyReport]) -> str:
     """One line per violated family: which constraint, where, when, by how much."""
     return "\n  ".join(
-        f"{r.family} constraint {r.where} violated by {-r.worst_slack:.4g} {r.unit} at t = {r.time_s:.3f} s" for r in reports if r.violated
+        f"{r.family} constraint {r.where} violated by {-r.worst_slack:.4g} {r.unit} at t = {r.time_s:.3f} s"
+        for r in reports
+        if r.violated
     )
 
 
@@ -101,7 +105,10 @@ class ExcitationResult:
             "| constraint | worst slack | unit | where | t [s] | active windows |",
             "|---|---|---|---|---|---|",
         ]
-        lines += [f"| {r.family} | {r.worst_slack:.4g} | {r.unit} | {r.where} | {r.time_s:.2f} | {r.active_windows} |" for r in self.reports]
+        lines += [
+            f"| {r.family} | {r.worst_slack:.4g} | {r.unit} | {r.where} | {r.time_s:.2f} | {r.active_windows} |"
+            for r in self.reports
+        ]
         return "\n".join(lines)
 
 
@@ -144,7 +151,9 @@ class SlsqpOptimizer:
     def _start(self, problem: ExcitationProblem, rng: np.random.Generator) -> np.ndarray:
         """A random start whose regressor has full rank (the criterion must be defined there)."""
         for _ in range(20):
-            x = problem.parameterisation.initial_coefficients(problem.robot, rng, self.initial_amplitude).ravel()
+            x = problem.parameterisation.initial_coefficients(
+                problem.robot, rng, self.initial_amplitude
+            ).ravel()
             if np.isfinite(problem.objective(x)):
                 return x
         raise InfeasibleExcitationError(
@@ -175,12 +184,16 @@ class SlsqpOptimizer:
 
             label = f"{problem.criterion.name} {problem.parameterisation.duration:g} s, start {start + 1}/{self.n_starts}"
             best_iterate: dict[str, object] = {}
-            with tqdm(total=self.max_iterations, desc=label, unit="it", disable=not self.show_progress, leave=False) as bar:
+            with tqdm(
+                total=self.max_iterations, desc=label, unit="it", disable=not self.show_progress, leave=False
+            ) as bar:
 
                 def callback(x: np.ndarray) -> None:
                     # Keep the best feasible iterate: a start stopped by the iteration limit still counts.
                     cost = problem.objective(x)
-                    if problem.constraint_values(x).min() >= -FEASIBILITY_TOLERANCE and cost < best_iterate.get("cost", np.inf):
+                    if problem.constraint_values(
+                        x
+                    ).min() >= -FEASIBILITY_TOLERANCE and cost < best_iterate.get("cost", np.inf):
                         best_iterate.update(cost=cost, x=x.copy())
                     bar.update(1)
                     bar.set_postfix(J=f"{cost:.5g}", refresh=False)
@@ -201,7 +214,9 @@ class SlsqpOptimizer:
             last_x = result.x
             violation = -min(0.0, float(problem.constraint_values(result.x).min()))
             cost = problem.objective(result.x)
-            candidates = [(cost, result.x)] if violation <= FEASIBILITY_TOLERANCE and np.isfinite(cost) else []
+            candidates = (
+                [(cost, result.x)] if violation <= FEASIBILITY_TOLERANCE and np.isfinite(cost) else []
+            )
             if best_iterate:
                 candidates.append((best_iterate["cost"], best_iterate["x"]))  # type: ignore[arg-type]
             if not candidates:
@@ -240,12 +255,21 @@ class SlsqpOptimizer:
         slacks = problem.constraint_set.slacks(q, dq, ddq)
         reports = family_reports(problem.constraint_set, problem.times, slacks, FEASIBILITY_TOLERANCE)
         return [
-            FamilyReport(r.family, r.worst_slack, r.unit, r.where, r.time_s, int(np.sum(ev_slacks[r.family].values < ACTIVE_TOLERANCE)))
+            FamilyReport(
+                r.family,
+                r.worst_slack,
+                r.unit,
+                r.where,
+                r.time_s,
+                int(np.sum(ev_slacks[r.family].values < ACTIVE_TOLERANCE)),
+            )
             for r in reports
         ]
 
 
-def verify_motion(robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float = 1000.0) -> list[FamilyReport]:
+def verify_motion(
+    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float = 1000.0
+) -> list[FamilyReport]:
     """Worst slack of every constraint family at ``rate_hz`` against the robot's true limits.
 
     The check a robot needs before playing the motion: no margin, the exact Coulomb ``sign(q̇)`` in
@@ -257,9 +281,14 @@ def verify_motion(robot: RobotModel, motion: LinearParameterisation, settings: C
     return family_reports(exact, t, exact.slacks(q, dq, ddq))
 
 
-def check_motion(robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float = 1000.0) -> list[FamilyReport]:
+def check_motion(
+    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float = 1000.0
+) -> list[FamilyReport]:
     """:func:`verify_motion`, raising :class:`InfeasibleExcitationError` naming any violated constraint."""
     reports = verify_motion(robot, motion, settings, rate_hz)
     if any(r.violated for r in reports):
-        raise InfeasibleExcitationError(f"the exciting motion violates constraints of {robot.name} at {rate_hz:g} Hz:\n  " + describe_violations(reports))
+        raise InfeasibleExcitationError(
+            f"the exciting motion violates constraints of {robot.name} at {rate_hz:g} Hz:\n  "
+            + describe_violations(reports)
+        )
     return reports

@@ -23,11 +23,17 @@ def benchmark_figure(rows: pd.DataFrame, path: Path) -> Path:
         positions = np.arange(len(estimators)) + (i - (len(presets) - 1) / 2) * width
         for ax, metric in zip(axes, ("base_parameter_error", "fit_cpu_s"), strict=True):
             data = [subset.loc[subset["estimator"] == e, metric].to_numpy() for e in estimators]
-            box = ax.boxplot(data, positions=positions, widths=width * 0.9, patch_artist=True, manage_ticks=False)
+            box = ax.boxplot(
+                data, positions=positions, widths=width * 0.9, patch_artist=True, manage_ticks=False
+            )
             for patch in box["boxes"]:
                 patch.set_facecolor(f"C{i}")
-            axes[0].plot([], [], color=f"C{i}", lw=6, label=preset) if metric == "base_parameter_error" else None
-    for ax, label in zip(axes, ("relative base-parameter error ‖β̂−β‖/‖β‖", "CPU time of the fit (s)"), strict=True):
+            axes[0].plot(
+                [], [], color=f"C{i}", lw=6, label=preset
+            ) if metric == "base_parameter_error" else None
+    for ax, label in zip(
+        axes, ("relative base-parameter error ‖β̂−β‖/‖β‖", "CPU time of the fit (s)"), strict=True
+    ):
         ax.set_xticks(np.arange(len(estimators)), estimators)
         ax.set_yscale("log")
         ax.set_ylabel(label)

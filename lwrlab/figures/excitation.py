@@ -10,11 +10,15 @@ import pandas as pd
 from lwrlab.figures.backend import pyplot
 
 
-def motion_figure(t: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, torque: np.ndarray, path: Path, title: str) -> Path:
+def motion_figure(
+    t: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, torque: np.ndarray, path: Path, title: str
+) -> Path:
     """Joint positions, velocities, accelerations and CAD torques over time, one panel each (like Fig. 9)."""
     plt = pyplot()
     fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
-    for ax, values, label in zip(axes, (q, dq, ddq, torque), ("q [rad]", "q̇ [rad/s]", "q̈ [rad/s²]", "Γ (CAD) [N·m]"), strict=True):
+    for ax, values, label in zip(
+        axes, (q, dq, ddq, torque), ("q [rad]", "q̇ [rad/s]", "q̈ [rad/s²]", "Γ (CAD) [N·m]"), strict=True
+    ):
         for j in range(values.shape[1]):
             ax.plot(t, values[:, j], lw=0.9, label=f"joint {j + 1}")
         ax.set_ylabel(label)
@@ -29,7 +33,9 @@ def motion_figure(t: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray,
     return path
 
 
-def duration_figure(costs: pd.DataFrame, knees: dict[str, float], recommended: float, fraction: float, path: Path) -> Path:
+def duration_figure(
+    costs: pd.DataFrame, knees: dict[str, float], recommended: float, fraction: float, path: Path
+) -> Path:
     """(a) optimal cost vs T_F, (b) successive differences, per criterion (like Fig. 5).
 
     ``costs``: columns criterion, duration_s, cost, relative_cost, relative_step (see
@@ -49,8 +55,16 @@ def duration_figure(costs: pd.DataFrame, knees: dict[str, float], recommended: f
             ax_diff.axvline(knees[criterion], color=color, ls=":", lw=1)
     ax_diff.axhline(fraction, color="0.4", lw=1, ls="--", label=f"knee threshold {fraction:g}")
     ax_diff.axvline(recommended, color="k", lw=1.2, label=f"recommended {recommended:g} s")
-    ax_cost.set(xlabel="duration T_F [s]", ylabel="(J − J_min)/(J_max − J_min)", title="(a) optimal cost, rescaled per criterion")
-    ax_diff.set(xlabel="duration T_F [s]", ylabel="|J(T_F) − J(T_F − 1)| / (J_max − J_min)", title="(b) successive differences")
+    ax_cost.set(
+        xlabel="duration T_F [s]",
+        ylabel="(J − J_min)/(J_max − J_min)",
+        title="(a) optimal cost, rescaled per criterion",
+    )
+    ax_diff.set(
+        xlabel="duration T_F [s]",
+        ylabel="|J(T_F) − J(T_F − 1)| / (J_max − J_min)",
+        title="(b) successive differences",
+    )
     for ax in (ax_cost, ax_diff):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
@@ -70,13 +84,25 @@ def criteria_figure(summary: pd.DataFrame, path: Path) -> Path:
     criteria = list(dict.fromkeys(summary["criterion"]))
     joints = np.sort(summary["joint"].unique())
     width = 0.8 / len(criteria)
-    panels = [(m, u) for m, u in (("rms", "N·m"), ("nrms", "%"), ("model_rms", "N·m")) if f"{m}_mean" in summary]
+    panels = [
+        (m, u) for m, u in (("rms", "N·m"), ("nrms", "%"), ("model_rms", "N·m")) if f"{m}_mean" in summary
+    ]
     fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 3.8))
     for ax, (metric, unit) in zip(np.atleast_1d(axes), panels, strict=True):
         for i, criterion in enumerate(criteria):
             rows = summary[summary["criterion"] == criterion].set_index("joint").loc[joints]
-            ax.bar(joints + (i - (len(criteria) - 1) / 2) * width, rows[f"{metric}_mean"], width, yerr=rows[f"{metric}_std"], capsize=2, label=criterion, color=f"C{i}")
-        label = {"rms": "RMS measured − estimated", "nrms": "NRMS", "model_rms": "RMS true − estimated"}[metric]
+            ax.bar(
+                joints + (i - (len(criteria) - 1) / 2) * width,
+                rows[f"{metric}_mean"],
+                width,
+                yerr=rows[f"{metric}_std"],
+                capsize=2,
+                label=criterion,
+                color=f"C{i}",
+            )
+        label = {"rms": "RMS measured − estimated", "nrms": "NRMS", "model_rms": "RMS true − estimated"}[
+            metric
+        ]
         ax.set(xlabel="joint", ylabel=f"{label} [{unit}]", xticks=joints)
         ax.grid(axis="y", alpha=0.3)
     np.atleast_1d(axes)[0].legend(fontsize=8)

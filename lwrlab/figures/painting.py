@@ -10,7 +10,9 @@ import numpy as np
 from lwrlab.figures.backend import pyplot
 
 
-def path_on_wall(desired: np.ndarray, actual: np.ndarray, wall: tuple[float, float, float, float], path: Path, title: str) -> Path:
+def path_on_wall(
+    desired: np.ndarray, actual: np.ndarray, wall: tuple[float, float, float, float], path: Path, title: str
+) -> Path:
     """Desired vs actual tool-centre-point path in the wall plane (y, z), like Fig. 12.
 
     ``desired``, ``actual``: (N, 3) positions (m); ``wall``: (y_min, y_max, z_min, z_max) (m).
@@ -18,7 +20,18 @@ def path_on_wall(desired: np.ndarray, actual: np.ndarray, wall: tuple[float, flo
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(4.5, 5.0))
     y_min, y_max, z_min, z_max = wall
-    ax.add_patch(plt.Rectangle((y_min, z_min), y_max - y_min, z_max - z_min, fill=False, color="0.6", lw=1.0, ls="--", label="wall"))
+    ax.add_patch(
+        plt.Rectangle(
+            (y_min, z_min),
+            y_max - y_min,
+            z_max - z_min,
+            fill=False,
+            color="0.6",
+            lw=1.0,
+            ls="--",
+            label="wall",
+        )
+    )
     ax.plot(desired[:, 1], desired[:, 2], color="k", lw=1.5, label="desired")
     ax.plot(actual[:, 1], actual[:, 2], color="tab:red", lw=0.8, label="actual")
     ax.set_xlabel("y (m)")
@@ -32,7 +45,9 @@ def path_on_wall(desired: np.ndarray, actual: np.ndarray, wall: tuple[float, flo
     return path
 
 
-def normal_force(t: np.ndarray, panels: Mapping[str, Mapping[str, np.ndarray]], desired: float, path: Path, title: str) -> Path:
+def normal_force(
+    t: np.ndarray, panels: Mapping[str, Mapping[str, np.ndarray]], desired: float, path: Path, title: str
+) -> Path:
     """Desired, estimated and measured normal force over time, one panel per case, like Fig. 13.
 
     ``panels``: panel title → {"estimated": (N,), "measured": (N,)} (N); ``desired`` (N).

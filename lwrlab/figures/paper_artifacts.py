@@ -78,7 +78,11 @@ def table2_base_parameters(frame: pd.DataFrame, paper: Mapping[str, Any], output
             table.insert(0, column, grouped[column].mean().reindex(order))
     reference = paper.get("table2_base_parameters", {})
     columns = reference.get("columns", [])
-    for source, target in (("CAD", "paper_cad"), ("identified", "paper_identified"), ("identified_pct_sigma", "paper_pct_sigma")):
+    for source, target in (
+        ("CAD", "paper_cad"),
+        ("identified", "paper_identified"),
+        ("identified_pct_sigma", "paper_pct_sigma"),
+    ):
         if source in columns:
             index = columns.index(source)
             table[target] = [reference[name][index] if name in reference else np.nan for name in table.index]
@@ -112,7 +116,9 @@ def fig5_duration(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
     chosen = paper.get("setup", {}).get("duration_study", {}).get("chosen_s")
     for ax, criterion in zip(axes[0], criteria, strict=True):
         rows = stats[stats["criterion"] == criterion]
-        ax.errorbar(rows["duration_s"], rows["mean"], yerr=rows["std"].fillna(0.0), marker="o", capsize=3, color="C0")
+        ax.errorbar(
+            rows["duration_s"], rows["mean"], yerr=rows["std"].fillna(0.0), marker="o", capsize=3, color="C0"
+        )
         if (rows["mean"] > 0).all() and rows["mean"].max() / rows["mean"].min() > 100:
             ax.set_yscale("log")
         if chosen is not None:
@@ -127,7 +133,13 @@ def fig5_duration(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
     fig.savefig(figure, dpi=130)
     plt.close(fig)
     markdown = "\n".join(
-        [f"Criterion value (mean ± std over {_runs_line(frame)}) per duration:", "", pivot.to_markdown(), "", f"![Fig. 5]({figure.name})"]
+        [
+            f"Criterion value (mean ± std over {_runs_line(frame)}) per duration:",
+            "",
+            pivot.to_markdown(),
+            "",
+            f"![Fig. 5]({figure.name})",
+        ]
     )
     return ReportPart("Fig. 5 — criterion vs motion duration", markdown, {"fig5_duration": stats}, [figure])
 
@@ -143,13 +155,22 @@ def fig6_criteria(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
         frame = frame.assign(seed=0)
     stats = (
         frame.groupby(["criterion", "joint"])
-        .agg(rms_mean=("rms", "mean"), rms_std=("rms", "std"), nrms_mean=("nrms", "mean"), nrms_std=("nrms", "std"), seeds=("seed", "nunique"))
+        .agg(
+            rms_mean=("rms", "mean"),
+            rms_std=("rms", "std"),
+            nrms_mean=("nrms", "mean"),
+            nrms_std=("nrms", "std"),
+            seeds=("seed", "nunique"),
+        )
         .reset_index()
     )
     # Mean over joints within each seed first, then the spread of that mean over seeds.
     per_seed = frame.groupby(["criterion", "seed"])[["rms", "nrms"]].mean().reset_index()
     summary = per_seed.groupby("criterion").agg(
-        mean_rms=("rms", "mean"), mean_rms_std=("rms", "std"), mean_nrms=("nrms", "mean"), seeds=("seed", "nunique")
+        mean_rms=("rms", "mean"),
+        mean_rms_std=("rms", "std"),
+        mean_nrms=("nrms", "mean"),
+        seeds=("seed", "nunique"),
     )
     paper_rms = paper.get("fig6_crossvalidation_mean_rms_Nm", {})
     summary["paper_mean_rms"] = [paper_rms.get(str(name), np.nan) for name in summary.index]
@@ -164,7 +185,14 @@ def fig6_criteria(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
         rows = stats[stats["criterion"] == criterion].set_index("joint").reindex(joints)
         offset = (k - (len(criteria) - 1) / 2) * width
         for ax, column in ((ax_rms, "rms"), (ax_nrms, "nrms")):
-            ax.bar(joints + offset, rows[f"{column}_mean"], width, yerr=rows[f"{column}_std"].fillna(0.0), capsize=2, label=str(criterion))
+            ax.bar(
+                joints + offset,
+                rows[f"{column}_mean"],
+                width,
+                yerr=rows[f"{column}_std"].fillna(0.0),
+                capsize=2,
+                label=str(criterion),
+            )
     ax_rms.set(xlabel="joint", ylabel="RMS [N·m]", xticks=joints)
     ax_nrms.set(xlabel="joint", ylabel="NRMS [%]", xticks=joints)
     for ax in (ax_rms, ax_nrms):
@@ -193,7 +221,10 @@ def fig6_criteria(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
         ]
     )
     return ReportPart(
-        "Fig. 6 — cross-validation error per criterion", markdown, {"fig6_criteria": stats, "fig6_summary": summary}, [figure]
+        "Fig. 6 — cross-validation error per criterion",
+        markdown,
+        {"fig6_criteria": stats, "fig6_summary": summary},
+        [figure],
     )
 
 
@@ -203,7 +234,11 @@ def fig6_criteria(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
 def table3_tools(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path) -> ReportPart:
     """Identified tool (payload) parameters with %σ per tool, mean over runs, next to truth and the paper."""
     _require(frame, "table3_tools.csv", ["tool", "parameter", "phi", "relative_std"])
-    aggregations: dict[str, tuple[str, str]] = {"phi": ("phi", "mean"), "phi_spread": ("phi", "std"), "pct_sigma": ("relative_std", "mean")}
+    aggregations: dict[str, tuple[str, str]] = {
+        "phi": ("phi", "mean"),
+        "phi_spread": ("phi", "std"),
+        "pct_sigma": ("relative_std", "mean"),
+    }
     if "truth" in frame.columns:
         aggregations["truth"] = ("truth", "mean")
     table = frame.groupby(["tool", "parameter"], sort=False).agg(**aggregations)
@@ -216,7 +251,9 @@ def table3_tools(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path
         paper_phi.append(row[columns.index(phi_column)] if row and phi_column in columns else np.nan)
         paper_sigma.append(row[columns.index(sigma_column)] if row and sigma_column in columns else np.nan)
     table["paper_phi"], table["paper_pct_sigma"] = paper_phi, paper_sigma
-    markdown = "\n".join([f"Tool parameters identified in {_runs_line(frame)}:", "", table.to_markdown(floatfmt=".4g")])
+    markdown = "\n".join(
+        [f"Tool parameters identified in {_runs_line(frame)}:", "", table.to_markdown(floatfmt=".4g")]
+    )
     return ReportPart("Table III — tool parameters", markdown, {"table3_tools": table.reset_index()})
 
 
@@ -227,7 +264,9 @@ def table4_force(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path
     """Normal-force accuracy (RMS N, NRMS %) per roller, model, feedback and comparison, next to the paper."""
     keys = ["roller", "model", "feedback", "comparison"]
     _require(frame, "table4_force.csv", [*keys, "rms", "nrms"])
-    table = frame.groupby(keys, sort=False).agg(rms=("rms", "mean"), rms_spread=("rms", "std"), nrms=("nrms", "mean"))
+    table = frame.groupby(keys, sort=False).agg(
+        rms=("rms", "mean"), rms_spread=("rms", "std"), nrms=("nrms", "mean")
+    )
     reference = paper.get("table4_normal_force_accuracy", {})
     paper_rms, paper_nrms = [], []
     for roller, _model, _feedback, comparison in table.index:
@@ -235,7 +274,9 @@ def table4_force(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path
         paper_rms.append(values[0] if values else np.nan)
         paper_nrms.append(values[1] if values else np.nan)
     table["paper_rms"], table["paper_nrms"] = paper_rms, paper_nrms
-    markdown = "\n".join([f"Normal force accuracy over {_runs_line(frame)}:", "", table.to_markdown(floatfmt=".3g")])
+    markdown = "\n".join(
+        [f"Normal force accuracy over {_runs_line(frame)}:", "", table.to_markdown(floatfmt=".3g")]
+    )
     return ReportPart("Table IV — normal force accuracy", markdown, {"table4_force": table.reset_index()})
 
 

@@ -11,12 +11,18 @@ from lwrlab.figures.backend import pyplot
 
 
 def residuals_per_log(
-    names: Sequence[str], roles: Sequence[str], times: Sequence[np.ndarray], residuals: Sequence[np.ndarray], path: Path
+    names: Sequence[str],
+    roles: Sequence[str],
+    times: Sequence[np.ndarray],
+    residuals: Sequence[np.ndarray],
+    path: Path,
 ) -> Path:
     """One row of panels per log: the residual τ − τ̂ of every joint over time (N·m), and its RMS per joint."""
     plt = pyplot()
     count = len(names)
-    fig, axes = plt.subplots(count, 2, figsize=(10, 2.4 * count + 0.6), squeeze=False, gridspec_kw={"width_ratios": [3, 1]})
+    fig, axes = plt.subplots(
+        count, 2, figsize=(10, 2.4 * count + 0.6), squeeze=False, gridspec_kw={"width_ratios": [3, 1]}
+    )
     for row, (name, role, t, residual) in enumerate(zip(names, roles, times, residuals, strict=True)):
         over_time, per_joint = axes[row]
         for j in range(residual.shape[1]):

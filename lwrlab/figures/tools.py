@@ -10,7 +10,9 @@ import numpy as np
 from lwrlab.figures.backend import pyplot
 
 
-def relative_std_bars(parameters: Sequence[str], series: Mapping[str, np.ndarray], path: Path, title: str) -> Path:
+def relative_std_bars(
+    parameters: Sequence[str], series: Mapping[str, np.ndarray], path: Path, title: str
+) -> Path:
     """%σ of each tool parameter (log scale), one group of bars per parameter, one colour per series."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 3.5))
@@ -30,7 +32,9 @@ def relative_std_bars(parameters: Sequence[str], series: Mapping[str, np.ndarray
     return path
 
 
-def confusion_matrices(names: Sequence[str], matrices: Mapping[str, np.ndarray], accuracies: Mapping[str, float], path: Path) -> Path:
+def confusion_matrices(
+    names: Sequence[str], matrices: Mapping[str, np.ndarray], accuracies: Mapping[str, float], path: Path
+) -> Path:
     """One confusion matrix per classifier (rows: true tool, columns: recognised tool, share of trials)."""
     plt = pyplot()
     n = len(matrices)
@@ -43,7 +47,15 @@ def confusion_matrices(names: Sequence[str], matrices: Mapping[str, np.ndarray],
         ax.set_xlabel("recognised")
         ax.set_title(f"{label}: {100 * accuracies[label]:.1f} %", fontsize=10)
         for i, j in zip(*np.nonzero(matrix), strict=True):
-            ax.text(j, i, str(int(matrix[i, j])), ha="center", va="center", fontsize=6, color="white" if shares[i, j] > 0.5 else "black")
+            ax.text(
+                j,
+                i,
+                str(int(matrix[i, j])),
+                ha="center",
+                va="center",
+                fontsize=6,
+                color="white" if shares[i, j] > 0.5 else "black",
+            )
     axes[0][0].set_ylabel("true tool")
     fig.colorbar(image, ax=axes[0].tolist(), shrink=0.7, label="share of trials")
     fig.savefig(path, dpi=120, bbox_inches="tight")

@@ -9,7 +9,9 @@ import numpy as np
 from lwrlab.figures.backend import pyplot
 
 
-def torque_overlay(t: np.ndarray, measured: np.ndarray, estimated: np.ndarray, path: Path, title: str) -> Path:
+def torque_overlay(
+    t: np.ndarray, measured: np.ndarray, estimated: np.ndarray, path: Path, title: str
+) -> Path:
     """Measured vs estimated torque of every joint over time, one panel per joint."""
     plt = pyplot()
     n = measured.shape[1]
@@ -28,14 +30,23 @@ def torque_overlay(t: np.ndarray, measured: np.ndarray, estimated: np.ndarray, p
     return path
 
 
-def error_per_joint(rms: np.ndarray, nrms: np.ndarray, path: Path, title: str, noise_std: np.ndarray | None = None) -> Path:
+def error_per_joint(
+    rms: np.ndarray, nrms: np.ndarray, path: Path, title: str, noise_std: np.ndarray | None = None
+) -> Path:
     """Bar charts of RMS (N·m) and NRMS (%) per joint, with the torque-noise floor if known."""
     plt = pyplot()
     joints = np.arange(1, rms.shape[0] + 1)
     fig, (ax_rms, ax_nrms) = plt.subplots(1, 2, figsize=(9, 3.2))
     ax_rms.bar(joints, rms, color="C0")
     if noise_std is not None:
-        ax_rms.step(np.r_[joints - 0.5, joints[-1] + 0.5], np.r_[noise_std, noise_std[-1]], where="post", color="k", lw=1, label="noise σ_τ")
+        ax_rms.step(
+            np.r_[joints - 0.5, joints[-1] + 0.5],
+            np.r_[noise_std, noise_std[-1]],
+            where="post",
+            color="k",
+            lw=1,
+            label="noise σ_τ",
+        )
         ax_rms.legend(fontsize=8)
     ax_rms.set(xlabel="joint", ylabel="RMS [N·m]", xticks=joints)
     ax_nrms.bar(joints, nrms, color="C1")
@@ -49,7 +60,9 @@ def error_per_joint(rms: np.ndarray, nrms: np.ndarray, path: Path, title: str, n
     return path
 
 
-def rms_per_joint_by_group(mean: np.ndarray, spread: np.ndarray, labels: list[str], path: Path, title: str) -> Path:
+def rms_per_joint_by_group(
+    mean: np.ndarray, spread: np.ndarray, labels: list[str], path: Path, title: str
+) -> Path:
     """Grouped bars of the cross-validation RMS per joint (N·m), one colour per group, ± the spread over runs.
 
     Parameters
@@ -66,7 +79,15 @@ def rms_per_joint_by_group(mean: np.ndarray, spread: np.ndarray, labels: list[st
     fig, ax = plt.subplots(figsize=(max(6.0, 1.1 * joints + 0.3 * groups), 3.6))
     for index in range(groups):
         offset = (index - (groups - 1) / 2) * width
-        ax.bar(positions + offset, mean[index], width, yerr=np.nan_to_num(spread[index]), capsize=2, label=labels[index], color=f"C{index % 10}")
+        ax.bar(
+            positions + offset,
+            mean[index],
+            width,
+            yerr=np.nan_to_num(spread[index]),
+            capsize=2,
+            label=labels[index],
+            color=f"C{index % 10}",
+        )
     ax.set(xlabel="joint", ylabel="cross-validation RMS [N·m]", xticks=positions, title=title)
     ax.grid(axis="y", alpha=0.3)
     ax.legend(fontsize=8, ncol=min(groups, 4))

@@ -38,7 +38,7 @@ class BootstrapResult:
 
 def block_bootstrap(
     estimator: Any,
-    W: np.ndarray,  # noqa: N803 - the paper's symbol
+    W: np.ndarray,
     tau: np.ndarray,
     n_joints: int,
     block_samples: int,
@@ -71,7 +71,9 @@ def block_bootstrap(
     rng = np.random.default_rng(seed)
     rows_of_block = (np.arange(block_samples)[:, None] * n_joints + np.arange(n_joints)).ravel()
     estimates = []
-    for _ in tqdm(range(resamples), desc="block bootstrap", unit="fit", disable=not show_progress, leave=False):
+    for _ in tqdm(
+        range(resamples), desc="block bootstrap", unit="fit", disable=not show_progress, leave=False
+    ):
         starts = rng.integers(0, n_samples - block_samples + 1, size=n_blocks)
         rows = (starts[:, None] * n_joints + rows_of_block).ravel()[: n_samples * n_joints]
         resampled_context = None if context is None else context.take_rows(rows)
@@ -79,4 +81,10 @@ def block_bootstrap(
     estimates_array = np.array(estimates)
     alpha = (1.0 - confidence) / 2
     lower, upper = np.quantile(estimates_array, [alpha, 1.0 - alpha], axis=0)
-    return BootstrapResult(lower=lower, upper=upper, std=estimates_array.std(axis=0, ddof=1), estimates=estimates_array, confidence=confidence)
+    return BootstrapResult(
+        lower=lower,
+        upper=upper,
+        std=estimates_array.std(axis=0, ddof=1),
+        estimates=estimates_array,
+        confidence=confidence,
+    )

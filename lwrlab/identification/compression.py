@@ -19,7 +19,7 @@ import numpy as np
 class CompressedLeastSquares:
     """``‖W·φ − τ‖² = ‖R·φ − y‖² + residual_floor²`` for all φ."""
 
-    R: np.ndarray  # noqa: N815 - the QR factor's usual name
+    R: np.ndarray
     """(N_B, N_B) upper-triangular factor (same units as W)."""
     y: np.ndarray
     """(N_B,) ``Qᵀτ`` (N·m)."""
@@ -33,7 +33,7 @@ BLOCK_ROWS = 1024
 """Rows per block of :func:`blocked_qr_factor` (measured: 1024 is ~2× faster than one LAPACK call)."""
 
 
-def blocked_qr_factor(A: np.ndarray, block_rows: int = BLOCK_ROWS) -> np.ndarray:  # noqa: N803
+def blocked_qr_factor(A: np.ndarray, block_rows: int = BLOCK_ROWS) -> np.ndarray:
     """The R factor of a tall matrix by a two-level (TSQR) factorisation.
 
     The rows are cut into blocks (the last one padded with zero rows, which change nothing), every
@@ -50,11 +50,18 @@ def blocked_qr_factor(A: np.ndarray, block_rows: int = BLOCK_ROWS) -> np.ndarray
     return np.linalg.qr(stacked.reshape(-1, columns), mode="r")
 
 
-def compress(W: np.ndarray, tau: np.ndarray) -> CompressedLeastSquares:  # noqa: N803
+def compress(W: np.ndarray, tau: np.ndarray) -> CompressedLeastSquares:
     """QR-compress ``min ‖W·φ − τ‖²`` (needs more rows than columns)."""
     tau = np.asarray(tau, dtype=float).ravel()
     rows, columns = W.shape
     if rows <= columns:
-        raise ValueError(f"cannot compress {rows} rows into {columns} columns: need more rows than parameters")
+        raise ValueError(
+            f"cannot compress {rows} rows into {columns} columns: need more rows than parameters"
+        )
     r_full = blocked_qr_factor(np.column_stack([W, tau]))
-    return CompressedLeastSquares(R=r_full[:columns, :columns], y=r_full[:columns, columns], residual_floor=float(abs(r_full[columns, columns])), rows=rows)
+    return CompressedLeastSquares(
+        R=r_full[:columns, :columns],
+        y=r_full[:columns, columns],
+        residual_floor=float(abs(r_full[columns, columns])),
+        rows=rows,
+    )

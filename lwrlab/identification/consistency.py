@@ -61,7 +61,9 @@ def pseudo_inertia_expression(phi_segment: cp.Expression) -> cp.Expression:
     cvxpy expression of shape (4, 4), symmetric by construction; constrain it with ``J >> 0``.
     """
     if phi_segment.shape != (SEGMENT_SIZE,):
-        raise ValueError(f"a segment has {SEGMENT_SIZE} standard parameters, got an expression of shape {phi_segment.shape}")
+        raise ValueError(
+            f"a segment has {SEGMENT_SIZE} standard parameters, got an expression of shape {phi_segment.shape}"
+        )
     import cvxpy as cp
 
     # One matrix product and a reshape: a tenth of the expression tree of Σ_k φ_k·E_k, so cvxpy

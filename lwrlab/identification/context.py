@@ -91,4 +91,6 @@ def resolve_joint_count(n_joints: int | None, context: IdentificationContext | N
         return int(n_joints)
     if context is not None:
         return context.n_joints
-    raise ValueError(f"{who} needs the joint of each regressor row: set n_joints= or call fit(W, tau, context=...)")
+    raise ValueError(
+        f"{who} needs the joint of each regressor row: set n_joints= or call fit(W, tau, context=...)"
+    )

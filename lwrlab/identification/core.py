@@ -36,11 +36,11 @@ class Estimator(Protocol):
         """Set hyper-parameters by ``__init__`` keyword; returns the estimator."""
         ...
 
-    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
         """Fit base parameters to stacked regressor ``W`` (rows) and torques ``tau`` (same rows)."""
         ...
 
-    def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803
+    def predict(self, W: np.ndarray) -> np.ndarray:
         """Torques predicted for regressor rows ``W``."""
         ...
 
@@ -51,7 +51,7 @@ def relative_std(phi: np.ndarray, std: np.ndarray) -> np.ndarray:
         return np.where(phi != 0.0, 100.0 * std / np.abs(phi), np.inf)
 
 
-def column_scaled_condition_number(W: np.ndarray) -> float:  # noqa: N803
+def column_scaled_condition_number(W: np.ndarray) -> float:
     """Condition number of ``W`` after scaling its columns to unit norm (unit-independent)."""
     norms = np.linalg.norm(W, axis=0)
     return float(np.linalg.cond(W / np.where(norms > 0, norms, 1.0)))

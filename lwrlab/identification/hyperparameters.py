@@ -89,7 +89,9 @@ def clone_estimator(estimator: Any) -> Any:
             "(derive from lwrlab.identification.hyperparameters.HyperParameters)"
         )
     params = {
-        name: clone_estimator(value) if hasattr(value, "get_params") and not isinstance(value, type) else copy.deepcopy(value)
+        name: clone_estimator(value)
+        if hasattr(value, "get_params") and not isinstance(value, type)
+        else copy.deepcopy(value)
         for name, value in estimator.get_params(deep=False).items()
     }
     return type(estimator)(**params)

@@ -168,7 +168,9 @@ def _column_scaled(w_base: np.ndarray) -> np.ndarray:
     return w_base / np.where(norms > 0, norms, 1.0)
 
 
-def _direction(relative: float, vector: np.ndarray, names: Sequence[str], max_terms: int) -> SingularDirection:
+def _direction(
+    relative: float, vector: np.ndarray, names: Sequence[str], max_terms: int
+) -> SingularDirection:
     order = np.argsort(-np.abs(vector), kind="stable")
     vector = vector * (1.0 if vector[order[0]] >= 0 else -1.0)
     covered, terms = 0.0, []
@@ -194,13 +196,19 @@ def joint_excitation(
     """
     q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
     table = pd.DataFrame(
-        {"q_range": np.ptp(q, axis=0), "dq_peak": np.abs(dq).max(axis=0), "ddq_peak": np.abs(ddq).max(axis=0)},
+        {
+            "q_range": np.ptp(q, axis=0),
+            "dq_peak": np.abs(dq).max(axis=0),
+            "ddq_peak": np.abs(ddq).max(axis=0),
+        },
         index=pd.Index(range(1, q.shape[1] + 1), name="joint"),
     )
     table["still"] = (table["q_range"] < still_range) & (table["dq_peak"] < still_velocity)
     if limits is not None:
         with np.errstate(divide="ignore", invalid="ignore"):  # an infinite limit gives fraction 0
-            table["q_range_fraction"] = table["q_range"] / (np.asarray(limits.position_upper) - np.asarray(limits.position_lower))
+            table["q_range_fraction"] = table["q_range"] / (
+                np.asarray(limits.position_upper) - np.asarray(limits.position_lower)
+            )
             table["dq_peak_fraction"] = table["dq_peak"] / np.asarray(limits.velocity)
             table["ddq_peak_fraction"] = table["ddq_peak"] / np.asarray(limits.acceleration)
     return table
@@ -218,8 +226,14 @@ def _joint_messages(per_joint: pd.DataFrame, names: Sequence[str], low_fraction:
     for joint, row in per_joint.iterrows():
         if row["still"]:
             friction = still_joint_friction(names, int(joint))
-            lost = f": its friction ({', '.join(friction)}) cannot be identified from these data" if friction else ""
-            lines.append(f"joint {joint} never moves (range of q {row['q_range']:.2g} rad, peak |dq| {row['dq_peak']:.2g} rad/s){lost}")
+            lost = (
+                f": its friction ({', '.join(friction)}) cannot be identified from these data"
+                if friction
+                else ""
+            )
+            lines.append(
+                f"joint {joint} never moves (range of q {row['q_range']:.2g} rad, peak |dq| {row['dq_peak']:.2g} rad/s){lost}"
+            )
         elif "q_range_fraction" in row and row["q_range_fraction"] < low_fraction:
             lines.append(
                 f"joint {joint} moves weakly: {100 * row['q_range_fraction']:.2g} % of its position range, "
@@ -277,10 +291,14 @@ def assess_identifiability(
     w_base = np.asarray(w_base, dtype=float)
     names = tuple(parameter_names)
     if w_base.ndim != 2 or w_base.shape[1] != len(names):
-        raise ValueError(f"w_base must be (rows, {len(names)}) for {len(names)} parameter names, got shape {w_base.shape}")
+        raise ValueError(
+            f"w_base must be (rows, {len(names)}) for {len(names)} parameter names, got shape {w_base.shape}"
+        )
     n_joints = np.shape(q)[1]
     if w_base.shape[0] != np.shape(q)[0] * n_joints:
-        raise ValueError(f"w_base has {w_base.shape[0]} rows, expected {np.shape(q)[0]} samples × {n_joints} joints")
+        raise ValueError(
+            f"w_base has {w_base.shape[0]} rows, expected {np.shape(q)[0]} samples × {n_joints} joints"
+        )
     n_columns = w_base.shape[1]
     if n_columns == 0:
         raise ValueError("w_base has no columns")
@@ -298,7 +316,9 @@ def assess_identifiability(
 
     weak_limit = max(1.0 / poor_cond, rank_rtol)
     ascending = np.arange(n_columns)[::-1]
-    weak = tuple(_direction(relative[i], vt[i], names, max_terms) for i in ascending if relative[i] <= weak_limit)
+    weak = tuple(
+        _direction(relative[i], vt[i], names, max_terms) for i in ascending if relative[i] <= weak_limit
+    )
     smallest = tuple(_direction(relative[i], vt[i], names, max_terms) for i in ascending[:n_smallest])
 
     messages = [
@@ -306,7 +326,9 @@ def assess_identifiability(
         f"cond of the column-scaled base regressor {cond:.3g} (poor above {poor_cond:.3g})"
     ]
     if weak:
-        messages.append(f"the data cannot determine {len(weak)} combination(s) of base parameters (relative singular value: weights):")
+        messages.append(
+            f"the data cannot determine {len(weak)} combination(s) of base parameters (relative singular value: weights):"
+        )
         messages += [f"  {d.relative_singular_value:.2g}: {d.describe()}" for d in weak[:max_listed]]
         if len(weak) > max_listed:
             messages.append(f"  … and {len(weak) - max_listed} more")
@@ -328,7 +350,9 @@ def assess_identifiability(
     )
 
 
-def prior_determined_parameters(report: IdentifiabilityReport, min_share: float = 0.25) -> tuple[tuple[str, float], ...]:
+def prior_determined_parameters(
+    report: IdentifiabilityReport, min_share: float = 0.25
+) -> tuple[tuple[str, float], ...]:
     """Base parameters that an estimator with a prior (the SDP's regularisation) took from it.
 
     The share of parameter ``i`` is ``Σ_d v_d,i²`` over the weak directions ``d``: the part of its

@@ -39,7 +39,7 @@ class LeastSquaresFit:
         """Standard deviations σ of the estimate."""
         return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
 
-    def weighted_system(self, W: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # noqa: N803
+    def weighted_system(self, W: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(√P·W, √P·τ)``: the rows as the solver saw them (for a constrained or total least-squares re-solve)."""
         if self.weights is None:
             return W, np.asarray(tau, dtype=float).ravel()
@@ -47,7 +47,7 @@ class LeastSquaresFit:
         return W * root[:, None], np.asarray(tau, dtype=float).ravel() * root
 
 
-def _check_shapes(W: np.ndarray, tau: np.ndarray) -> None:  # noqa: N803
+def _check_shapes(W: np.ndarray, tau: np.ndarray) -> None:
     rows, columns = W.shape
     if rows != tau.shape[0]:
         raise ValueError(f"W has {rows} rows but tau has {tau.shape[0]}")
@@ -57,7 +57,7 @@ def _check_shapes(W: np.ndarray, tau: np.ndarray) -> None:  # noqa: N803
 
 @dense_algebra()
 def weighted_least_squares(
-    W: np.ndarray,  # noqa: N803 - the paper's symbol
+    W: np.ndarray,
     tau: np.ndarray,
     weights: np.ndarray | None = None,
     rcond: float | None = None,
@@ -87,7 +87,12 @@ def weighted_least_squares(
     if not known_variance:
         weighted_residual = residual if root is None else root * residual
         covariance = covariance * float(weighted_residual @ weighted_residual) / (W.shape[0] - W.shape[1])
-    return LeastSquaresFit(phi=phi, covariance=covariance, residual=residual, weights=None if weights is None else np.asarray(weights, dtype=float))
+    return LeastSquaresFit(
+        phi=phi,
+        covariance=covariance,
+        residual=residual,
+        weights=None if weights is None else np.asarray(weights, dtype=float),
+    )
 
 
 def group_residual_std(residual: np.ndarray, groups: np.ndarray, n_parameters: int) -> np.ndarray:
@@ -116,7 +121,7 @@ def weighting_std(sigma: np.ndarray, min_relative_std: float = 0.0) -> np.ndarra
 
 @dense_algebra()
 def grouped_least_squares(
-    W: np.ndarray,  # noqa: N803 - the paper's symbol
+    W: np.ndarray,
     tau: np.ndarray,
     groups: np.ndarray | None,
     steps: int = 1,
@@ -154,7 +159,9 @@ def grouped_least_squares(
 
 
 @dense_algebra()
-def fit_with_covariance(W: np.ndarray, tau: np.ndarray, phi: np.ndarray, information: np.ndarray) -> LeastSquaresFit:  # noqa: N803
+def fit_with_covariance(
+    W: np.ndarray, tau: np.ndarray, phi: np.ndarray, information: np.ndarray
+) -> LeastSquaresFit:
     """An estimate ``phi`` with the covariance ``σ²·information⁻¹``, σ² = ‖τ − Wφ‖² / (rows − columns).
 
     ``information`` is ``WᵀW`` for least squares, ``ŴᵀŴ`` for instrumental variables.
@@ -166,7 +173,7 @@ def fit_with_covariance(W: np.ndarray, tau: np.ndarray, phi: np.ndarray, informa
 
 
 @dense_algebra()
-def set_learned_attributes(estimator: object, fit: LeastSquaresFit, W: np.ndarray) -> None:  # noqa: N803
+def set_learned_attributes(estimator: object, fit: LeastSquaresFit, W: np.ndarray) -> None:
     """Store the protocol's learned attributes (phi_, covariance_, std_, …) of a least-squares fit."""
     estimator.phi_ = fit.phi  # type: ignore[attr-defined]
     estimator.covariance_ = fit.covariance  # type: ignore[attr-defined]

@@ -81,7 +81,9 @@ class PayloadEstimate:
         return inverse @ self.covariance @ inverse.T
 
 
-def _consistent_solution(weighted_w: np.ndarray, weighted_tau: np.ndarray, tool_columns: slice, solver: str | None) -> tuple[np.ndarray, str]:
+def _consistent_solution(
+    weighted_w: np.ndarray, weighted_tau: np.ndarray, tool_columns: slice, solver: str | None
+) -> tuple[np.ndarray, str]:
     """argmin ‖τ_w − W_w·θ‖² s.t. J(θ[tool_columns]) ⪰ 0, on the QR-compressed, column-scaled system."""
     scale = np.linalg.norm(weighted_w, axis=0)
     scale[scale == 0] = 1.0
@@ -92,12 +94,14 @@ def _consistent_solution(weighted_w: np.ndarray, weighted_tau: np.ndarray, tool_
     problem = cp.Problem(cp.Minimize(objective), [pseudo_inertia_expression(phi_tool) >> 0])
     problem.solve(solver=solver)
     if theta_scaled.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise RuntimeError(f"payload SDP (tool pseudo-inertia J(Φ_L) ⪰ 0) failed: solver status {problem.status!r}")
+        raise RuntimeError(
+            f"payload SDP (tool pseudo-inertia J(Φ_L) ⪰ 0) failed: solver status {problem.status!r}"
+        )
     return theta_scaled.value / scale, str(problem.status)
 
 
 def _fit(
-    W: np.ndarray,  # noqa: N803
+    W: np.ndarray,
     tau: np.ndarray,
     groups: np.ndarray,
     n_base: int,
@@ -159,10 +163,15 @@ def identify_payload(
             f"eq. (7) needs the same {n_base} base columns in both motions and 10 tool columns, got "
             f"{w_base_loaded.shape[1]} and {w_tool_loaded.shape[1]}"
         )
-    stacked = np.block([[w_base_unloaded, np.zeros((w_base_unloaded.shape[0], 10))], [w_base_loaded, w_tool_loaded]])
+    stacked = np.block(
+        [[w_base_unloaded, np.zeros((w_base_unloaded.shape[0], 10))], [w_base_loaded, w_tool_loaded]]
+    )
     tau = np.concatenate([np.ravel(tau_unloaded), np.ravel(tau_loaded)])
     groups = np.concatenate(
-        [row_joints(w_base_unloaded.shape[0], n_joints), row_joints(w_base_loaded.shape[0], n_joints, offset=n_joints)]
+        [
+            row_joints(w_base_unloaded.shape[0], n_joints),
+            row_joints(w_base_loaded.shape[0], n_joints, offset=n_joints),
+        ]
     )
     return _fit(stacked, tau, groups, n_base, flange_to_joint, weighted, consistent, solver, "joint")
 

@@ -49,19 +49,29 @@ def load_trajectory_csv(path: Path) -> Trajectory:
     frame = pd.read_csv(path)
     n = sum(1 for c in frame.columns if c.startswith("q") and c[1:].isdigit())
     pick = lambda prefix: frame[_joint_columns(prefix, n)].to_numpy()  # noqa: E731
-    return Trajectory(t=frame["t"].to_numpy(), q=pick("q"), dq=pick("dq"), ddq=pick("ddq"), metadata={"source": str(path)})
+    return Trajectory(
+        t=frame["t"].to_numpy(), q=pick("q"), dq=pick("dq"), ddq=pick("ddq"), metadata={"source": str(path)}
+    )
 
 
 def save_measurement(measurement: Measurement, path: Path) -> Path:
     """Write a measurement as npz (t, q, tau, and the metadata as a YAML string)."""
-    np.savez_compressed(path, t=measurement.t, q=measurement.q, tau=measurement.tau, metadata=yaml.safe_dump(measurement.metadata))
+    np.savez_compressed(
+        path,
+        t=measurement.t,
+        q=measurement.q,
+        tau=measurement.tau,
+        metadata=yaml.safe_dump(measurement.metadata),
+    )
     return path
 
 
 def load_measurement(path: Path) -> Measurement:
     """Read a measurement written by :func:`save_measurement` (no pickle)."""
     with np.load(path, allow_pickle=False) as data:
-        return Measurement(t=data["t"], q=data["q"], tau=data["tau"], metadata=yaml.safe_load(str(data["metadata"])))
+        return Measurement(
+            t=data["t"], q=data["q"], tau=data["tau"], metadata=yaml.safe_load(str(data["metadata"]))
+        )
 
 
 IDENTIFIED_MODEL_FILE = "identified_model.yaml"
@@ -89,7 +99,9 @@ def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], 
             name: {"value": float(v), "std": float(s)}
             for name, v, s in zip(model.base_names, model.base_values, model.base_std, strict=True)
         },
-        "standard_parameters": {name: float(v) for name, v in zip(model.standard_names, model.standard_values, strict=True)},
+        "standard_parameters": {
+            name: float(v) for name, v in zip(model.standard_names, model.standard_values, strict=True)
+        },
     }
     path.write_text(yaml.safe_dump(document, sort_keys=False))
     return path

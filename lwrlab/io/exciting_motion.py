@@ -24,16 +24,22 @@ def resolve_motion_path(path: str | Path) -> Path:
     for candidate in (path, REPOSITORY / path):
         if candidate.is_file():
             return candidate
-    raise FileNotFoundError(f"exciting-motion file {path} not found (looked in the working directory and in {REPOSITORY})")
+    raise FileNotFoundError(
+        f"exciting-motion file {path} not found (looked in the working directory and in {REPOSITORY})"
+    )
 
 
-def save_motion_description(description: dict[str, Any], path: Path, provenance: dict[str, Any] | None = None) -> Path:
+def save_motion_description(
+    description: dict[str, Any], path: Path, provenance: dict[str, Any] | None = None
+) -> Path:
     """Write a parameterisation description (``LinearParameterisation.to_dict()``) and its provenance."""
     document = dict(description)
     if provenance:
         document["provenance"] = provenance
     # Flow style for lists of numbers: one line per via point (row), readable and diffable.
-    path.write_text(yaml.safe_dump(document, sort_keys=False, width=200, default_flow_style=None, allow_unicode=True))
+    path.write_text(
+        yaml.safe_dump(document, sort_keys=False, width=200, default_flow_style=None, allow_unicode=True)
+    )
     return path
 
 

@@ -98,9 +98,20 @@ class RecordedLog:
         """The :class:`Measurement` the identification consumes (the same type a simulator yields)."""
         rate = float((len(self.t) - 1) / (self.t[-1] - self.t[0]))
         return Measurement(
-            t=self.t, q=self.q, tau=self.tau, dq=self.dq, logged_t=self.logged_t, logged_tau=self.logged_tau,
-            metadata={"source": "log", "path": str(self.path), "name": self.name, "rate_hz": rate, "resampled": self.resampled,
-                      "warnings": list(self.warnings)},
+            t=self.t,
+            q=self.q,
+            tau=self.tau,
+            dq=self.dq,
+            logged_t=self.logged_t,
+            logged_tau=self.logged_tau,
+            metadata={
+                "source": "log",
+                "path": str(self.path),
+                "name": self.name,
+                "rate_hz": rate,
+                "resampled": self.resampled,
+                "warnings": list(self.warnings),
+            },
         )
 
 
@@ -138,7 +149,9 @@ def _npz_frame(path: Path, mapping: dict[str, str], n_joints: int) -> tuple[pd.D
             columns[key] = array
             continue
         if array.ndim != 2 or array.shape[1] != n_joints:
-            raise LogError(f"{path}: array {key!r} ({schema}) must have shape (samples, {n_joints}), got {array.shape}")
+            raise LogError(
+                f"{path}: array {key!r} ({schema}) must have shape (samples, {n_joints}), got {array.shape}"
+            )
         for j in range(n_joints):
             column = f"{key}[:, {j}]"
             columns[column] = array[:, j]
@@ -150,16 +163,22 @@ def _npz_frame(path: Path, mapping: dict[str, str], n_joints: int) -> tuple[pd.D
     if len(set(lengths.values())) > 1:
         raise LogError(f"{path}: arrays of different lengths {lengths}")
     if not columns:
-        raise LogError(f"{path}: no arrays named by the schema or column_map; the file has {sorted(arrays)} (map them: data.column_map)")
+        raise LogError(
+            f"{path}: no arrays named by the schema or column_map; the file has {sorted(arrays)} (map them: data.column_map)"
+        )
     return pd.DataFrame(columns), names
 
 
-def _bag_frame(path: Path, joint_names: Sequence[str] | None, topic: str | None, n_joints: int) -> tuple[pd.DataFrame, dict[str, str]]:
+def _bag_frame(
+    path: Path, joint_names: Sequence[str] | None, topic: str | None, n_joints: int
+) -> tuple[pd.DataFrame, dict[str, str]]:
     """A ROS 2 bag's JointState messages as a frame in the schema (joints matched by name)."""
     from lwrlab.io.rosbag import read_joint_states
 
     if joint_names is None or len(joint_names) != n_joints:
-        raise LogError(f"{path}: a ROS 2 bag needs the robot's {n_joints} joint names to match its JointState messages")
+        raise LogError(
+            f"{path}: a ROS 2 bag needs the robot's {n_joints} joint names to match its JointState messages"
+        )
     states = read_joint_states(path, list(joint_names), topic)
     data = {"t": states.t}
     for prefix, block in (("q", states.q), ("dq", states.dq), ("tau", states.tau)):
@@ -168,12 +187,16 @@ def _bag_frame(path: Path, joint_names: Sequence[str] | None, topic: str | None,
     return pd.DataFrame(data), {}
 
 
-def _read(path: Path, mapping: dict[str, str], n_joints: int, joint_names: Sequence[str] | None, topic: str | None) -> tuple[pd.DataFrame, dict[str, str]]:
+def _read(
+    path: Path, mapping: dict[str, str], n_joints: int, joint_names: Sequence[str] | None, topic: str | None
+) -> tuple[pd.DataFrame, dict[str, str]]:
     """The log as a frame of columns, and the schema → column mapping to read it with."""
     if _is_bag(path):
         return _bag_frame(path.parent if path.is_file() else path, joint_names, topic, n_joints)
     if path.is_dir():
-        raise LogError(f"{path}: a directory, not a log file (nor a ROS 2 bag folder with metadata.yaml); formats: {', '.join(FORMATS)}")
+        raise LogError(
+            f"{path}: a directory, not a log file (nor a ROS 2 bag folder with metadata.yaml); formats: {', '.join(FORMATS)}"
+        )
     if not path.is_file():
         raise LogError(f"{path}: no such log file")
     suffix = path.suffix.lower()
@@ -200,26 +223,38 @@ def _numeric_column(frame: pd.DataFrame, name: str, schema_name: str, path: Path
         mapped = f" (schema column {schema_name!r}, mapped by column_map)" if name != schema_name else ""
         raise LogError(f"{path}: missing column {name!r}{mapped}; the file has {list(frame.columns)}")
     raw = frame[name]
-    values = pd.to_numeric(raw.str.strip() if raw.dtype == object else raw, errors="coerce").to_numpy(dtype=float)
+    values = pd.to_numeric(raw.str.strip() if raw.dtype == object else raw, errors="coerce").to_numpy(
+        dtype=float
+    )
     bad = ~np.isfinite(values)
     if bad.any():
         row = int(np.argmax(bad))
         cell = raw.iloc[row]
-        what = "missing value (NaN)" if str(cell).strip().lower() in ("", "nan", "none", "null") else f"non-numeric value {cell!r}"
+        what = (
+            "missing value (NaN)"
+            if str(cell).strip().lower() in ("", "nan", "none", "null")
+            else f"non-numeric value {cell!r}"
+        )
         if np.isinf(values[row]) or (isinstance(cell, float) and np.isinf(cell)):
             what = f"non-finite value {cell!r}"
         raise LogError(f"{path}: column {name!r}, {row_location(path, row)}: {what}")
     return values
 
 
-def _uniform(t: np.ndarray, columns: list[np.ndarray], rate_hz: float | None, jitter_tolerance: float) -> tuple[np.ndarray, list[np.ndarray], bool]:
+def _uniform(
+    t: np.ndarray, columns: list[np.ndarray], rate_hz: float | None, jitter_tolerance: float
+) -> tuple[np.ndarray, list[np.ndarray], bool]:
     dt = np.diff(t)
     period = 1.0 / rate_hz if rate_hz else float(np.median(dt))
     regular = np.max(np.abs(dt - period)) <= jitter_tolerance * period
     if regular:
         return t, columns, False
     grid = t[0] + period * np.arange(int(np.floor((t[-1] - t[0]) / period + 1e-9)) + 1)
-    return grid, [np.column_stack([np.interp(grid, t, c[:, j]) for j in range(c.shape[1])]) for c in columns], True
+    return (
+        grid,
+        [np.column_stack([np.interp(grid, t, c[:, j]) for j in range(c.shape[1])]) for c in columns],
+        True,
+    )
 
 
 def load_log(
@@ -268,7 +303,12 @@ def load_log(
         raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
     if drive_gains is not None and len(drive_gains) != n_joints:
         raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
-    from lwrlab.io.plausibility import LogColumns, check_column_dtypes, check_plausibility, raise_for_errors  # it imports this module
+    from lwrlab.io.plausibility import (
+        LogColumns,
+        check_column_dtypes,
+        check_plausibility,
+        raise_for_errors,
+    )  # it imports this module
 
     frame, mapping = _read(path, dict(column_map or {}), n_joints, joint_names, topic)
     name = lambda schema: mapping.get(schema, schema)  # noqa: E731
@@ -276,38 +316,64 @@ def load_log(
         raise LogError(f"{path}: {len(frame)} rows, too short (at least {min_samples} samples needed)")
 
     def block(prefix: str) -> np.ndarray:
-        return np.column_stack([_numeric_column(frame, name(c), c, path) for c in joint_columns(prefix, n_joints)])
+        return np.column_stack(
+            [_numeric_column(frame, name(c), c, path) for c in joint_columns(prefix, n_joints)]
+        )
 
     has_velocity = all(name(c) in frame.columns for c in joint_columns("dq", n_joints))
     columns_used = LogColumns(
-        t=name("t"), q=tuple(name(c) for c in joint_columns("q", n_joints)),
+        t=name("t"),
+        q=tuple(name(c) for c in joint_columns("q", n_joints)),
         tau=tuple(name(c) for c in joint_columns("tau" if drive_gains is None else "current", n_joints)),
         dq=tuple(name(c) for c in joint_columns("dq", n_joints)) if has_velocity else None,
         torque_from_current=drive_gains is not None,
     )
-    if path.suffix.lower() not in (".csv", ".txt"):  # typed files: booleans, datetimes, text are refused, not coerced
+    if path.suffix.lower() not in (
+        ".csv",
+        ".txt",
+    ):  # typed files: booleans, datetimes, text are refused, not coerced
         raise_for_errors(check_column_dtypes(frame, columns_used, path))
 
     t = _numeric_column(frame, name("t"), "t", path) * TIME_UNITS[time_unit]
     steps = np.diff(t)
     if np.any(steps <= 0):
         row = int(np.argmax(steps <= 0)) + 1
-        raise LogError(f"{path}: column {name('t')!r}, {row_location(path, row)}: time {t[row]:.9g} s does not increase (previous {t[row - 1]:.9g} s)")
+        raise LogError(
+            f"{path}: column {name('t')!r}, {row_location(path, row)}: time {t[row]:.9g} s does not increase (previous {t[row - 1]:.9g} s)"
+        )
     median = float(np.median(steps))
     if np.any(steps > max_gap * median):
         row = int(np.argmax(steps > max_gap * median)) + 1
-        raise LogError(f"{path}: column {name('t')!r}, {row_location(path, row)}: gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)")
+        raise LogError(
+            f"{path}: column {name('t')!r}, {row_location(path, row)}: gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)"
+        )
     q = block("q") * POSITION_UNITS[position_unit]
     tau = block("tau") if drive_gains is None else block("current") * np.asarray(drive_gains, dtype=float)
     columns = [q, tau] + ([block("dq") * POSITION_UNITS[position_unit]] if has_velocity else [])
-    warnings = raise_for_errors(check_plausibility(
-        t, q, tau, limits, path, columns_used, dq=columns[2] if has_velocity else None, time_unit=time_unit, position_unit=position_unit,
-    ))
+    warnings = raise_for_errors(
+        check_plausibility(
+            t,
+            q,
+            tau,
+            limits,
+            path,
+            columns_used,
+            dq=columns[2] if has_velocity else None,
+            time_unit=time_unit,
+            position_unit=position_unit,
+        )
+    )
     logged_t, logged_tau = t, tau
     t, columns, resampled = _uniform(t, columns, rate_hz, jitter_tolerance)
     return RecordedLog(
-        t=t, q=columns[0], tau=columns[1], dq=columns[2] if has_velocity else None, path=path, resampled=resampled,
-        logged_t=logged_t if resampled else None, logged_tau=logged_tau if resampled else None,
+        t=t,
+        q=columns[0],
+        tau=columns[1],
+        dq=columns[2] if has_velocity else None,
+        path=path,
+        resampled=resampled,
+        logged_t=logged_t if resampled else None,
+        logged_tau=logged_tau if resampled else None,
         warnings=tuple(str(w) for w in warnings),
     )
 
@@ -331,7 +397,12 @@ def write_log(measurement: Measurement, path: str | Path, dq: np.ndarray | None 
     path.parent.mkdir(parents=True, exist_ok=True)
     dq = measurement.dq if dq is None else dq
     if path.suffix.lower() == ".npz":
-        blocks = {"t": measurement.t, "q": measurement.q, "tau": measurement.tau, **({"dq": np.asarray(dq)} if dq is not None else {})}
+        blocks = {
+            "t": measurement.t,
+            "q": measurement.q,
+            "tau": measurement.tau,
+            **({"dq": np.asarray(dq)} if dq is not None else {}),
+        }
         np.savez(path, **blocks)
         return path
     frame = log_frame(measurement, dq)

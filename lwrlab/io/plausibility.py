@@ -94,7 +94,13 @@ class LogColumns:
     """Whether the torques are ``drive_gains·current`` (changes the hint of ``torque_limit``)."""
 
     @classmethod
-    def schema(cls, n_joints: int, column_map: Mapping[str, str] | None = None, torque_from_current: bool = False, velocities: bool = False) -> LogColumns:
+    def schema(
+        cls,
+        n_joints: int,
+        column_map: Mapping[str, str] | None = None,
+        torque_from_current: bool = False,
+        velocities: bool = False,
+    ) -> LogColumns:
         """The columns of the :mod:`lwrlab.io.logs` schema, renamed by ``column_map`` like the loader does."""
         mapping = dict(column_map or {})
 
@@ -134,7 +140,9 @@ class PlausibilityThresholds:
     """Largest magnitude with any physical meaning: s, rad, rad/s, N·m."""
 
 
-def _sound_columns(values: np.ndarray, names: Sequence[str], skip: set[str]) -> Iterator[tuple[int, str, np.ndarray]]:
+def _sound_columns(
+    values: np.ndarray, names: Sequence[str], skip: set[str]
+) -> Iterator[tuple[int, str, np.ndarray]]:
     """``(joint index, column name, values)`` of the columns not already reported as corrupt."""
     return ((j, name, values[:, j]) for j, name in enumerate(names) if name not in skip)
 
@@ -146,7 +154,10 @@ def _absurd(path: Path, column: str, values: np.ndarray, bound: float, unit: str
     row = int(np.argmax(bad))
     others = f" ({int(bad.sum()) - 1} more rows like it)" if bad.sum() > 1 else ""
     return Finding(
-        "error", str(path), column, "absurd_value",
+        "error",
+        str(path),
+        column,
+        "absurd_value",
         f"{row_location(path, row)}: value {values[row]:.6g} {unit} is beyond any physical meaning (|value| > {bound:.0e}): a corrupt cell?{others}",
     )
 
@@ -154,28 +165,49 @@ def _absurd(path: Path, column: str, values: np.ndarray, bound: float, unit: str
 def _suggested_time_unit(median: float, time_unit: str, thresholds: PlausibilityThresholds) -> str | None:
     """The unit under which the raw time stamps give a period closest to 1 ms, if plausible."""
     raw = median / TIME_UNITS[time_unit]
-    candidates = [(abs(np.log10(raw * scale / 1e-3)), unit) for unit, scale in TIME_UNITS.items()
-                  if thresholds.min_period <= raw * scale <= thresholds.max_period]
+    candidates = [
+        (abs(np.log10(raw * scale / 1e-3)), unit)
+        for unit, scale in TIME_UNITS.items()
+        if thresholds.min_period <= raw * scale <= thresholds.max_period
+    ]
     return min(candidates)[1] if candidates else None
 
 
-def _period_findings(path: Path, t: np.ndarray, column: str, time_unit: str, thresholds: PlausibilityThresholds) -> list[Finding]:
+def _period_findings(
+    path: Path, t: np.ndarray, column: str, time_unit: str, thresholds: PlausibilityThresholds
+) -> list[Finding]:
     if t.size < 2:
         return []
     median = float(np.median(np.diff(t)))
     if thresholds.min_period <= median <= thresholds.max_period:
         return []
     suggestion = _suggested_time_unit(median, time_unit, thresholds) if median > 0 else None
-    hint = (f"the time stamps look like {suggestion}: set data.time_unit={suggestion}" if suggestion
-            else f"check the time column and data.time_unit (one of {list(TIME_UNITS)})")
-    return [Finding(
-        "error", str(path), column, "sampling_period",
-        f"median sampling period {median:.3g} s with data.time_unit={time_unit} is implausible for a robot log "
-        f"(expected {thresholds.min_period:g} to {thresholds.max_period:g} s); {hint}",
-    )]
+    hint = (
+        f"the time stamps look like {suggestion}: set data.time_unit={suggestion}"
+        if suggestion
+        else f"check the time column and data.time_unit (one of {list(TIME_UNITS)})"
+    )
+    return [
+        Finding(
+            "error",
+            str(path),
+            column,
+            "sampling_period",
+            f"median sampling period {median:.3g} s with data.time_unit={time_unit} is implausible for a robot log "
+            f"(expected {thresholds.min_period:g} to {thresholds.max_period:g} s); {hint}",
+        )
+    ]
 
 
-def _position_findings(path: Path, q: np.ndarray, names: Sequence[str], limits: LogLimits | None, position_unit: str, thresholds: PlausibilityThresholds, skip: set[str]) -> list[Finding]:
+def _position_findings(
+    path: Path,
+    q: np.ndarray,
+    names: Sequence[str],
+    limits: LogLimits | None,
+    position_unit: str,
+    thresholds: PlausibilityThresholds,
+    skip: set[str],
+) -> list[Finding]:
     findings: list[Finding] = []
     sound = q[:, [j for j, name in enumerate(names) if name not in skip]]
     if not sound.size:
@@ -183,12 +215,25 @@ def _position_findings(path: Path, q: np.ndarray, names: Sequence[str], limits: 
     degrees_like = position_unit == "rad" and bool(np.max(np.abs(sound)) > thresholds.degrees_above)
     for j, name, column in _sound_columns(q, names, skip):
         if not np.any(column):
-            findings.append(Finding("warning", str(path), name, "zero_position", f"joint {j + 1} position is zero in every row: encoder not recorded?"))
+            findings.append(
+                Finding(
+                    "warning",
+                    str(path),
+                    name,
+                    "zero_position",
+                    f"joint {j + 1} position is zero in every row: encoder not recorded?",
+                )
+            )
         elif np.ptp(column) < thresholds.still_range:
-            findings.append(Finding(
-                "warning", str(path), name, "still_joint",
-                f"joint {j + 1} never moves (range {np.ptp(column):.2g} rad): its friction cannot be identified from this log",
-            ))
+            findings.append(
+                Finding(
+                    "warning",
+                    str(path),
+                    name,
+                    "still_joint",
+                    f"joint {j + 1} never moves (range {np.ptp(column):.2g} rad): its friction cannot be identified from this log",
+                )
+            )
         if limits is None:
             continue
         lower, upper = float(limits.position_lower[j]), float(limits.position_upper[j])
@@ -198,20 +243,34 @@ def _position_findings(path: Path, q: np.ndarray, names: Sequence[str], limits: 
             continue
         row = int(np.argmin(column)) if below >= above else int(np.argmax(column))
         side = f"lower limit {lower:.4g}" if below >= above else f"upper limit {upper:.4g}"
-        hint = f"; values up to {np.max(np.abs(sound)):.4g} look like degrees: set data.position_unit=deg" if degrees_like else ""
+        hint = (
+            f"; values up to {np.max(np.abs(sound)):.4g} look like degrees: set data.position_unit=deg"
+            if degrees_like
+            else ""
+        )
         severity = "error" if excess > thresholds.position_tolerance or degrees_like else "warning"
-        findings.append(Finding(
-            severity, str(path), name, "position_limit",
-            f"joint {j + 1} position {column[row]:.4g} rad ({row_location(path, row)}) is beyond its {side} rad "
-            f"by {excess:.3g} rad ({np.degrees(excess):.3g}°){hint}",
-        ))
+        findings.append(
+            Finding(
+                severity,
+                str(path),
+                name,
+                "position_limit",
+                f"joint {j + 1} position {column[row]:.4g} rad ({row_location(path, row)}) is beyond its {side} rad "
+                f"by {excess:.3g} rad ({np.degrees(excess):.3g}°){hint}",
+            )
+        )
     largest_range = float(np.max(np.ptp(sound, axis=0)))
     if position_unit == "deg" and largest_range < np.radians(2 * np.pi):  # raw values span less than 2π
-        findings.append(Finding(
-            "warning", str(path), None, "position_unit",
-            f"with data.position_unit=deg no joint moves more than {np.degrees(largest_range):.3g}°: "
-            f"are the positions in radians? (then data.position_unit=rad)",
-        ))
+        findings.append(
+            Finding(
+                "warning",
+                str(path),
+                None,
+                "position_unit",
+                f"with data.position_unit=deg no joint moves more than {np.degrees(largest_range):.3g}°: "
+                f"are the positions in radians? (then data.position_unit=rad)",
+            )
+        )
     return findings
 
 
@@ -220,44 +279,85 @@ def _peak_over_limit(values: np.ndarray, limit: float) -> tuple[int, float]:
     return row, float(np.abs(values[row]) / limit) if limit > 0 else float("inf")
 
 
-def _torque_findings(path: Path, tau: np.ndarray, names: Sequence[str], limits: LogLimits | None, from_current: bool, thresholds: PlausibilityThresholds, skip: set[str]) -> list[Finding]:
+def _torque_findings(
+    path: Path,
+    tau: np.ndarray,
+    names: Sequence[str],
+    limits: LogLimits | None,
+    from_current: bool,
+    thresholds: PlausibilityThresholds,
+    skip: set[str],
+) -> list[Finding]:
     findings = []
-    units_hint = ("check data.drive_gains (N·m/A at the joint: torque constant × gear ratio)" if from_current
-                  else "motor currents or another unit? Torques are N·m at the joint; for currents give current1… columns and data.drive_gains")
+    units_hint = (
+        "check data.drive_gains (N·m/A at the joint: torque constant × gear ratio)"
+        if from_current
+        else "motor currents or another unit? Torques are N·m at the joint; for currents give current1… columns and data.drive_gains"
+    )
     for j, name, column in _sound_columns(tau, names, skip):
         if not np.any(column):
-            findings.append(Finding("error", str(path), name, "zero_torque", f"joint {j + 1} torque is zero in every row: the torque sensor was not recorded?"))
+            findings.append(
+                Finding(
+                    "error",
+                    str(path),
+                    name,
+                    "zero_torque",
+                    f"joint {j + 1} torque is zero in every row: the torque sensor was not recorded?",
+                )
+            )
             continue
         if np.ptp(column) == 0:
-            findings.append(Finding(
-                "warning", str(path), name, "constant_torque",
-                f"joint {j + 1} torque is {column[0]:.6g} N·m in every row: a stuck sensor or a filled-in default?",
-            ))
+            findings.append(
+                Finding(
+                    "warning",
+                    str(path),
+                    name,
+                    "constant_torque",
+                    f"joint {j + 1} torque is {column[0]:.6g} N·m in every row: a stuck sensor or a filled-in default?",
+                )
+            )
         if limits is None:
             continue
         limit = float(limits.torque[j])
         row, ratio = _peak_over_limit(column, limit)
         if ratio > thresholds.torque_warning_factor:
             far = ratio > thresholds.torque_error_factor
-            findings.append(Finding(
-                "error" if far else "warning", str(path), name, "torque_limit",
-                f"joint {j + 1} torque {column[row]:.4g} N·m ({row_location(path, row)}) is {ratio:.3g}× its limit {limit:.4g} N·m"
-                + (f": {units_hint}" if far else ""),
-            ))
+            findings.append(
+                Finding(
+                    "error" if far else "warning",
+                    str(path),
+                    name,
+                    "torque_limit",
+                    f"joint {j + 1} torque {column[row]:.4g} N·m ({row_location(path, row)}) is {ratio:.3g}× its limit {limit:.4g} N·m"
+                    + (f": {units_hint}" if far else ""),
+                )
+            )
     return findings
 
 
-def _velocity_findings(path: Path, dq: np.ndarray, names: Sequence[str], limits: LogLimits, thresholds: PlausibilityThresholds, skip: set[str]) -> list[Finding]:
+def _velocity_findings(
+    path: Path,
+    dq: np.ndarray,
+    names: Sequence[str],
+    limits: LogLimits,
+    thresholds: PlausibilityThresholds,
+    skip: set[str],
+) -> list[Finding]:
     findings = []
     for j, name, column in _sound_columns(dq, names, skip):
         limit = float(limits.velocity[j])
         row, ratio = _peak_over_limit(column, limit)
         if ratio > thresholds.velocity_error_factor:
-            findings.append(Finding(
-                "error", str(path), name, "velocity_limit",
-                f"joint {j + 1} velocity {column[row]:.4g} rad/s ({row_location(path, row)}) is {ratio:.3g}× its limit {limit:.4g} rad/s: "
-                f"degrees per second? (data.position_unit applies to velocities too)",
-            ))
+            findings.append(
+                Finding(
+                    "error",
+                    str(path),
+                    name,
+                    "velocity_limit",
+                    f"joint {j + 1} velocity {column[row]:.4g} rad/s ({row_location(path, row)}) is {ratio:.3g}× its limit {limit:.4g} rad/s: "
+                    f"degrees per second? (data.position_unit applies to velocities too)",
+                )
+            )
     return findings
 
 
@@ -297,18 +397,42 @@ def check_plausibility(
     ['zero_torque', 'zero_position']
     """
     path = Path(path)
-    t, q, tau = np.asarray(t, dtype=float), np.atleast_2d(np.asarray(q, dtype=float)), np.atleast_2d(np.asarray(tau, dtype=float))
+    t, q, tau = (
+        np.asarray(t, dtype=float),
+        np.atleast_2d(np.asarray(q, dtype=float)),
+        np.atleast_2d(np.asarray(tau, dtype=float)),
+    )
     n_joints = q.shape[1]
     columns = columns or LogColumns.schema(n_joints, velocities=dq is not None)
     if time_unit not in TIME_UNITS or position_unit not in POSITION_UNITS:
-        raise ValueError(f"time_unit must be one of {list(TIME_UNITS)} and position_unit one of {list(POSITION_UNITS)}, got {time_unit!r}, {position_unit!r}")
-    if len(columns.q) != n_joints or len(columns.tau) != tau.shape[1] or tau.shape != q.shape or len(t) != len(q):
-        raise ValueError(f"shapes disagree: t {t.shape}, q {q.shape}, tau {tau.shape}, columns {len(columns.q)} q, {len(columns.tau)} tau")
+        raise ValueError(
+            f"time_unit must be one of {list(TIME_UNITS)} and position_unit one of {list(POSITION_UNITS)}, got {time_unit!r}, {position_unit!r}"
+        )
+    if (
+        len(columns.q) != n_joints
+        or len(columns.tau) != tau.shape[1]
+        or tau.shape != q.shape
+        or len(t) != len(q)
+    ):
+        raise ValueError(
+            f"shapes disagree: t {t.shape}, q {q.shape}, tau {tau.shape}, columns {len(columns.q)} q, {len(columns.tau)} tau"
+        )
 
     bounds = dict(thresholds.absurd)
-    quantities: list[tuple[str, np.ndarray, Sequence[str], str]] = [("t", t[:, None], (columns.t,), "s"), ("q", q, columns.q, "rad"), ("tau", tau, columns.tau, "N·m")]
+    quantities: list[tuple[str, np.ndarray, Sequence[str], str]] = [
+        ("t", t[:, None], (columns.t,), "s"),
+        ("q", q, columns.q, "rad"),
+        ("tau", tau, columns.tau, "N·m"),
+    ]
     if dq is not None:
-        quantities.append(("dq", np.atleast_2d(np.asarray(dq, dtype=float)), columns.dq or joint_columns("dq", n_joints), "rad/s"))
+        quantities.append(
+            (
+                "dq",
+                np.atleast_2d(np.asarray(dq, dtype=float)),
+                columns.dq or joint_columns("dq", n_joints),
+                "rad/s",
+            )
+        )
     findings, corrupt = [], set()
     for quantity, values, names, unit in quantities:
         for j, name in enumerate(names):
@@ -321,9 +445,18 @@ def check_plausibility(
     if columns.t not in corrupt:
         findings += _period_findings(path, t, columns.t, time_unit, thresholds)
     findings += _position_findings(path, clean(q), columns.q, limits, position_unit, thresholds, corrupt)
-    findings += _torque_findings(path, clean(tau), columns.tau, limits, columns.torque_from_current, thresholds, corrupt)
+    findings += _torque_findings(
+        path, clean(tau), columns.tau, limits, columns.torque_from_current, thresholds, corrupt
+    )
     if dq is not None and limits is not None:
-        findings += _velocity_findings(path, clean(np.asarray(dq, dtype=float)), columns.dq or joint_columns("dq", n_joints), limits, thresholds, corrupt)
+        findings += _velocity_findings(
+            path,
+            clean(np.asarray(dq, dtype=float)),
+            columns.dq or joint_columns("dq", n_joints),
+            limits,
+            thresholds,
+            corrupt,
+        )
     return sorted(findings, key=lambda f: SEVERITIES.index(f.severity))
 
 
@@ -349,7 +482,9 @@ _DTYPE_ADVICE = {
 """What to write instead, by the role of the column; other roles get the generic advice."""
 
 
-def column_dtype_finding(series: pd.Series, column: str, path: str | Path, role: str | None = None) -> Finding | None:
+def column_dtype_finding(
+    series: pd.Series, column: str, path: str | Path, role: str | None = None
+) -> Finding | None:
     """An error if a column's type is not a real number (Parquet keeps types; CSV is read as text).
 
     ``role``: ``time``, ``position``, ``velocity``, ``torque`` or None, to tailor the advice.
@@ -360,8 +495,10 @@ def column_dtype_finding(series: pd.Series, column: str, path: str | Path, role:
     if pd.api.types.is_bool_dtype(dtype):
         what = f"holds booleans (True/False), not measurements (read as 0/1 they would be fitted): {advice}"
     elif pd.api.types.is_datetime64_any_dtype(dtype):
-        what = ("holds date-times: convert it to seconds, e.g. (t - t.iloc[0]).dt.total_seconds(), or give numbers"
-                + (" with data.time_unit" if role == "time" else ""))
+        what = (
+            "holds date-times: convert it to seconds, e.g. (t - t.iloc[0]).dt.total_seconds(), or give numbers"
+            + (" with data.time_unit" if role == "time" else "")
+        )
     elif pd.api.types.is_timedelta64_dtype(dtype):
         what = "holds durations (timedelta): convert it to seconds with .dt.total_seconds(), or give numbers"
     elif pd.api.types.is_complex_dtype(dtype):
@@ -378,7 +515,13 @@ def check_column_dtypes(frame: pd.DataFrame, columns: LogColumns, path: str | Pa
 
     For typed files (Parquet); a CSV read as text has every column of dtype object: convert there.
     """
-    roles = [(columns.t, "time"), *((c, "position") for c in columns.q), *((c, "torque") for c in columns.tau),
-             *((c, "velocity") for c in columns.dq or ())]
-    findings = [column_dtype_finding(frame[name], name, path, role) for name, role in roles if name in frame.columns]
+    roles = [
+        (columns.t, "time"),
+        *((c, "position") for c in columns.q),
+        *((c, "torque") for c in columns.tau),
+        *((c, "velocity") for c in columns.dq or ()),
+    ]
+    findings = [
+        column_dtype_finding(frame[name], name, path, role) for name, role in roles if name in frame.columns
+    ]
     return [f for f in findings if f is not None]

@@ -114,31 +114,43 @@ def _joint_state_topic(bag: Path, topics: dict[str, Any], topic: str | None) -> 
     joint_state_topics = sorted(name for name, info in topics.items() if info.msgtype == JOINT_STATE_TYPE)
     if topic is not None:
         if topic not in topics:
-            raise LogError(f"{bag}: no topic {topic!r}; its {JOINT_STATE_TYPE} topics are {joint_state_topics}, all topics {sorted(topics)}")
+            raise LogError(
+                f"{bag}: no topic {topic!r}; its {JOINT_STATE_TYPE} topics are {joint_state_topics}, all topics {sorted(topics)}"
+            )
         if topic not in joint_state_topics:
-            raise LogError(f"{bag}: topic {topic!r} carries {topics[topic].msgtype}, not {JOINT_STATE_TYPE}; its JointState topics are {joint_state_topics}")
+            raise LogError(
+                f"{bag}: topic {topic!r} carries {topics[topic].msgtype}, not {JOINT_STATE_TYPE}; its JointState topics are {joint_state_topics}"
+            )
         return topic
     if not joint_state_topics:
         raise LogError(f"{bag}: no {JOINT_STATE_TYPE} topic; the bag has {sorted(topics)}")
     if len(joint_state_topics) > 1:
-        raise LogError(f"{bag}: several {JOINT_STATE_TYPE} topics {joint_state_topics}; set data.topic to one of them")
+        raise LogError(
+            f"{bag}: several {JOINT_STATE_TYPE} topics {joint_state_topics}; set data.topic to one of them"
+        )
     return joint_state_topics[0]
 
 
-def _sample(msg: Any, index: int, receive_ns: int, columns: np.ndarray, where: str, joint_names: Sequence[str]) -> _Sample:
+def _sample(
+    msg: Any, index: int, receive_ns: int, columns: np.ndarray, where: str, joint_names: Sequence[str]
+) -> _Sample:
     n_names = len(msg.name)
     for field in ("position", "effort"):
         values = getattr(msg, field)
         if len(values) != n_names:
             what = "the log has no joint torques" if field == "effort" else "positions missing"
-            raise LogError(f"{where}, message {index}: {len(values)} {field} values for {n_names} joint names ({what})")
+            raise LogError(
+                f"{where}, message {index}: {len(values)} {field} values for {n_names} joint names ({what})"
+            )
     q = np.asarray(msg.position, dtype=float)[columns]
     tau = np.asarray(msg.effort, dtype=float)[columns]
     for field, values in (("position", q), ("effort", tau)):
         bad = ~np.isfinite(values)
         if bad.any():
             column = int(np.argmax(bad))
-            raise LogError(f"{where}, message {index}: non-finite {field} {float(values[column])} of joint {joint_names[column]!r}")
+            raise LogError(
+                f"{where}, message {index}: non-finite {field} {float(values[column])} of joint {joint_names[column]!r}"
+            )
     dq = np.asarray(msg.velocity, dtype=float)[columns] if len(msg.velocity) == n_names else None
     if dq is not None and not np.isfinite(dq).all():
         dq = None
@@ -146,7 +158,9 @@ def _sample(msg: Any, index: int, receive_ns: int, columns: np.ndarray, where: s
     return _Sample(index, stamp_ns, receive_ns, q, dq, tau)
 
 
-def _samples(reader: Reader, topic: str, where: str, joint_names: Sequence[str]) -> tuple[list[_Sample], int, set[str]]:
+def _samples(
+    reader: Reader, topic: str, where: str, joint_names: Sequence[str]
+) -> tuple[list[_Sample], int, set[str]]:
     """Every message of ``topic`` that carries the robot's joints, mapped to the robot's order."""
     connections = [c for c in reader.connections if c.topic == topic]
     for connection in connections:
@@ -171,7 +185,9 @@ def _samples(reader: Reader, topic: str, where: str, joint_names: Sequence[str])
                 raise LogError(f"{where}, message {index}: repeated joint names {list(names)}")
             if present and len(present) < len(joint_names):
                 missing = [name for name in joint_names if name not in position]
-                raise LogError(f"{where}, message {index}: joints {missing} of the robot missing; the message has {list(names)}")
+                raise LogError(
+                    f"{where}, message {index}: joints {missing} of the robot missing; the message has {list(names)}"
+                )
             columns_by_names[names] = np.array([position[name] for name in joint_names]) if present else None
         columns = columns_by_names[names]
         if columns is None:
@@ -187,10 +203,12 @@ def _times_ns(samples: list[_Sample], where: str) -> np.ndarray:
     stamped = np.flatnonzero(stamps != 0)
     if stamped.size == 0:
         return np.array([s.receive_ns for s in samples], dtype=np.int64)
-    late_zero = np.flatnonzero(stamps[stamped[0]:] == 0)
+    late_zero = np.flatnonzero(stamps[stamped[0] :] == 0)
     if late_zero.size:
         sample = samples[stamped[0] + late_zero[0]]
-        raise LogError(f"{where}, message {sample.index}: zero header stamp after stamped messages (an unstamped publisher mixed with a stamped one?)")
+        raise LogError(
+            f"{where}, message {sample.index}: zero header stamp after stamped messages (an unstamped publisher mixed with a stamped one?)"
+        )
     return stamps
 
 
@@ -199,7 +217,9 @@ def _same_values(a: _Sample, b: _Sample) -> bool:
     return np.array_equal(a.q, b.q) and np.array_equal(a.tau, b.tau) and same_dq
 
 
-def read_joint_states(path: str | Path, joint_names: Sequence[str], topic: str | None = None) -> JointStateLog:
+def read_joint_states(
+    path: str | Path, joint_names: Sequence[str], topic: str | None = None
+) -> JointStateLog:
     """Read the joint states of a ROS 2 bag in the robot's joint order (rules: module docstring).
 
     Parameters
@@ -236,7 +256,9 @@ def read_joint_states(path: str | Path, joint_names: Sequence[str], topic: str |
         missing = [name for name in joint_names if name not in bag_joints]
         if not bag_joints:
             raise LogError(f"{where}: no messages" if not skipped else f"{where}: no message names any joint")
-        raise LogError(f"{where}: no message carries the robot's joints; missing {missing}; the bag's joints are {sorted(bag_joints)}")
+        raise LogError(
+            f"{where}: no message carries the robot's joints; missing {missing}; the bag's joints are {sorted(bag_joints)}"
+        )
 
     times_ns = _times_ns(samples, where)
     order = np.argsort(times_ns, kind="stable")
@@ -245,15 +267,22 @@ def read_joint_states(path: str | Path, joint_names: Sequence[str], topic: str |
         if times_ns[current] != times_ns[previous]:
             kept.append(current)
         elif not _same_values(samples[previous], samples[current]):
-            raise LogError(f"{where}, messages {samples[previous].index} and {samples[current].index}: same time stamp {times_ns[current] / _NS:.9f} s, different values")
+            raise LogError(
+                f"{where}, messages {samples[previous].index} and {samples[current].index}: same time stamp {times_ns[current] / _NS:.9f} s, different values"
+            )
     rows = [samples[i] for i in kept]
     seconds = times_ns[kept] // _NS
     t = seconds.astype(float) + (times_ns[kept] - seconds * _NS).astype(float) * 1e-9
     velocities = [s.dq for s in rows]
     dq = None if any(v is None for v in velocities) else np.array(velocities)
     return JointStateLog(
-        t=t, q=np.array([s.q for s in rows]), dq=dq, tau=np.array([s.tau for s in rows]),
-        topic=topic, joint_names=joint_names, skipped_messages=skipped,
+        t=t,
+        q=np.array([s.q for s in rows]),
+        dq=dq,
+        tau=np.array([s.tau for s in rows]),
+        topic=topic,
+        joint_names=joint_names,
+        skipped_messages=skipped,
         dropped_duplicates=len(samples) - len(kept),
     )
 
@@ -264,7 +293,9 @@ def _nanoseconds(seconds: np.ndarray, what: str) -> np.ndarray:
     return np.round(seconds * _NS).astype(np.int64)
 
 
-def _messages(stamps_ns: np.ndarray, names: list[str], q: np.ndarray, dq: np.ndarray | None, tau: np.ndarray | None) -> Iterator[Any]:
+def _messages(
+    stamps_ns: np.ndarray, names: list[str], q: np.ndarray, dq: np.ndarray | None, tau: np.ndarray | None
+) -> Iterator[Any]:
     joint_state = _TYPESTORE.types[JOINT_STATE_TYPE]
     header = _TYPESTORE.types["std_msgs/msg/Header"]
     time = _TYPESTORE.types["builtin_interfaces/msg/Time"]
@@ -272,7 +303,8 @@ def _messages(stamps_ns: np.ndarray, names: list[str], q: np.ndarray, dq: np.nda
     for k, stamp in enumerate(stamps_ns):
         yield joint_state(
             header=header(stamp=time(sec=int(stamp // _NS), nanosec=int(stamp % _NS)), frame_id=""),
-            name=names, position=q[k],
+            name=names,
+            position=q[k],
             velocity=empty if dq is None else dq[k],
             effort=empty if tau is None else tau[k],
         )
@@ -328,7 +360,9 @@ def write_joint_states(
     receive_ns = _nanoseconds(t if receive_time is None else np.asarray(receive_time, dtype=float), str(bag))
     if receive_ns.shape != (n,):
         raise LogError(f"{bag}: receive_time has shape {receive_ns.shape}, expected ({n},)")
-    float_or_none = {key: None if a is None else np.ascontiguousarray(a, dtype=float) for key, a in arrays.items()}
+    float_or_none = {
+        key: None if a is None else np.ascontiguousarray(a, dtype=float) for key, a in arrays.items()
+    }
     with Writer(bag, version=Writer.VERSION_LATEST, storage_plugin=STORAGES[storage]) as writer:
         connection = writer.add_connection(topic, JOINT_STATE_TYPE, typestore=_TYPESTORE)
         messages = _messages(stamps_ns, names, float_or_none["q"], float_or_none["dq"], float_or_none["tau"])

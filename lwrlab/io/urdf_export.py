@@ -13,7 +13,7 @@ back the same model to round-off. Gravity is not part of URDF: both engines defa
 from __future__ import annotations
 
 import logging
-import xml.etree.ElementTree as ET  # noqa: N817 - the usual alias
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -59,18 +59,37 @@ def robot_urdf(robot: RobotModel, name: str | None = None) -> str:
         inertial = ET.SubElement(link, "inertial")
         ET.SubElement(inertial, "origin", xyz=_text(com), rpy="0 0 0")
         ET.SubElement(inertial, "mass", value=_number(mass))
-        ET.SubElement(inertial, "inertia", ixx=_number(inertia[0, 0]), ixy=_number(inertia[0, 1]), ixz=_number(inertia[0, 2]),
-                      iyy=_number(inertia[1, 1]), iyz=_number(inertia[1, 2]), izz=_number(inertia[2, 2]))
+        ET.SubElement(
+            inertial,
+            "inertia",
+            ixx=_number(inertia[0, 0]),
+            ixy=_number(inertia[0, 1]),
+            ixz=_number(inertia[0, 2]),
+            iyy=_number(inertia[1, 1]),
+            iyz=_number(inertia[1, 2]),
+            izz=_number(inertia[2, 2]),
+        )
         k = j - 1
         joint = ET.SubElement(root, "joint", name=model.names[j], type="revolute")
         placement = model.jointPlacements[j]
-        ET.SubElement(joint, "origin", xyz=_text(placement.translation), rpy=_text(pin.rpy.matrixToRpy(placement.rotation)))
+        ET.SubElement(
+            joint,
+            "origin",
+            xyz=_text(placement.translation),
+            rpy=_text(pin.rpy.matrixToRpy(placement.rotation)),
+        )
         ET.SubElement(joint, "parent", link=links[model.parents[j]])
         ET.SubElement(joint, "child", link=links[j])
         ET.SubElement(joint, "axis", xyz=_text(_joint_axis(model.joints[j])))
         lim = robot.limits
-        ET.SubElement(joint, "limit", lower=_number(lim.position_lower[k]), upper=_number(lim.position_upper[k]),
-                      effort=_number(lim.torque[k]), velocity=_number(lim.velocity[k]))
+        ET.SubElement(
+            joint,
+            "limit",
+            lower=_number(lim.position_lower[k]),
+            upper=_number(lim.position_upper[k]),
+            effort=_number(lim.torque[k]),
+            velocity=_number(lim.velocity[k]),
+        )
         damping = robot.friction.viscous[k] if "viscous" in robot.friction_terms else 0.0
         coulomb = robot.friction.coulomb[k] if "coulomb" in robot.friction_terms else 0.0
         ET.SubElement(joint, "dynamics", damping=_number(damping), friction=_number(coulomb))

@@ -2,7 +2,14 @@
 
 from lwrlab.kinematics.displaced_path import DisplacedPathIK
 from lwrlab.kinematics.forward import frame_pose, joint_frame_poses
-from lwrlab.kinematics.swivel_ik import BRANCHES, Branch, IKSolution, JointLimitViolation, SwivelIK, UnreachablePose
+from lwrlab.kinematics.swivel_ik import (
+    BRANCHES,
+    Branch,
+    IKSolution,
+    JointLimitViolation,
+    SwivelIK,
+    UnreachablePose,
+)
 
 __all__ = [
     "BRANCHES",

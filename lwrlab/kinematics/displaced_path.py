@@ -58,7 +58,9 @@ class DisplacedPathIK:
         step: float = 1e-6,
     ) -> None:
         if chunk < 1 or tolerance <= 0 or step <= 0:
-            raise ValueError(f"chunk ({chunk}), tolerance ({tolerance} m) and step ({step} m) must be positive")
+            raise ValueError(
+                f"chunk ({chunk}), tolerance ({tolerance} m) and step ({step} m) must be positive"
+            )
         self.ik, self.swivel, self.branch = ik, float(swivel), branch
         self.flange = np.asarray(reference, dtype=float) @ np.linalg.inv(tcp_in_flange)
         self.max_chunk, self.step = int(chunk), float(step)
@@ -84,13 +86,19 @@ class DisplacedPathIK:
         self._weights = np.where(self._moving, 1.0, FROZEN_AXIS_WEIGHT)
         axes = np.flatnonzero(self._moving)
         end = min(k + self._length, len(self))
-        poses = np.repeat(self.flange[None, k:end], 1 + axes.size, axis=0)  # at Δ₀, then +h along each moving axis
+        poses = np.repeat(
+            self.flange[None, k:end], 1 + axes.size, axis=0
+        )  # at Δ₀, then +h along each moving axis
         poses[:, :, :3, 3] += offset
         for row, axis in enumerate(axes, start=1):
             poses[row, :, axis, 3] += self.step
-        q = self.ik.solve_branch(poses.reshape(-1, 4, 4), self.swivel, self.branch).q.reshape(1 + axes.size, end - k, -1)
+        q = self.ik.solve_branch(poses.reshape(-1, 4, 4), self.swivel, self.branch).q.reshape(
+            1 + axes.size, end - k, -1
+        )
         gradient = np.zeros((end - k, q.shape[2], 3))
-        gradient[:, :, axes] = (np.angle(np.exp(1j * (q[1:] - q[0]))) / self.step).transpose(1, 2, 0)  # wrapped at ±π
+        gradient[:, :, axes] = (np.angle(np.exp(1j * (q[1:] - q[0]))) / self.step).transpose(
+            1, 2, 0
+        )  # wrapped at ±π
         self._q, self._gradient = q[0], gradient
         self._anchor = np.array(offset, dtype=float)
         self._start, self._end = k, end
@@ -104,6 +112,8 @@ class DisplacedPathIK:
         if 0 <= j < span and (shift * self._weights) @ shift <= self._tolerance_squared:
             return self._q[j] + self._gradient[j] @ shift
         # a new chunk: longer once a chunk is used up, shorter when the offset moved away early
-        self._length = max(8, min(2 * j, self.max_chunk)) if 0 < j < span else min(2 * self._length, self.max_chunk)
+        self._length = (
+            max(8, min(2 * j, self.max_chunk)) if 0 < j < span else min(2 * self._length, self.max_chunk)
+        )
         self._solve(k, offset)
         return self._q[0].copy()

@@ -55,7 +55,9 @@ def joint_frame_poses(robot: RobotModel, q: np.ndarray) -> np.ndarray:
     return poses
 
 
-def frame_pose(robot: RobotModel, q: np.ndarray, frame: str = "flange", offset: np.ndarray | None = None) -> np.ndarray:
+def frame_pose(
+    robot: RobotModel, q: np.ndarray, frame: str = "flange", offset: np.ndarray | None = None
+) -> np.ndarray:
     """(N, 4, 4) pose (m) of an operational frame of ``robot`` (default the flange), then ``offset``.
 
     ``offset`` (4×4) is a further constant transform expressed in that frame, e.g. a tool's
@@ -63,7 +65,9 @@ def frame_pose(robot: RobotModel, q: np.ndarray, frame: str = "flange", offset: 
     """
     model = robot.model
     if not model.existFrame(frame):
-        raise ValueError(f"robot {robot.name!r} has no frame {frame!r}; frames: {[f.name for f in model.frames]}")
+        raise ValueError(
+            f"robot {robot.name!r} has no frame {frame!r}; frames: {[f.name for f in model.frames]}"
+        )
     definition = model.frames[model.getFrameId(frame)]
     last = joint_frame_poses(robot, q)[definition.parentJoint - 1]
     pose = last @ definition.placement.homogeneous

@@ -100,23 +100,37 @@ class SwivelIK:
     def __init__(self, robot: RobotModel, reference: tuple[float, float, float] = (0.0, 0.0, 1.0)) -> None:
         model = robot.model
         if robot.n_joints != 7:
-            raise ValueError(f"the swivel-angle IK is for 7-joint LWR4-like arms; {robot.name} has {robot.n_joints} joints")
+            raise ValueError(
+                f"the swivel-angle IK is for 7-joint LWR4-like arms; {robot.name} has {robot.n_joints} joints"
+            )
         offsets = []
         for j, alpha in enumerate(_ALPHAS, start=1):
             placement = model.jointPlacements[j]
-            if model.joints[j].shortname() != "JointModelRZ" or not np.allclose(placement.rotation, _rx(alpha), atol=1e-12):
-                raise ValueError(f"{robot.name}: joint {j} is not a revolute-z joint with twist {alpha:.4f} rad as in the LWR4's Table I")
+            if model.joints[j].shortname() != "JointModelRZ" or not np.allclose(
+                placement.rotation, _rx(alpha), atol=1e-12
+            ):
+                raise ValueError(
+                    f"{robot.name}: joint {j} is not a revolute-z joint with twist {alpha:.4f} rad as in the LWR4's Table I"
+                )
             # the placement is Rx(α)·Tz(r): its translation is r·(Rx(α) e_z)
             offsets.append(float(placement.translation @ placement.rotation[:, 2]))
             if not np.allclose(placement.translation, offsets[-1] * placement.rotation[:, 2], atol=1e-12):
-                raise ValueError(f"{robot.name}: joint {j} has a non-zero DH distance d; the LWR4 structure has none")
+                raise ValueError(
+                    f"{robot.name}: joint {j} has a non-zero DH distance d; the LWR4 structure has none"
+                )
         if any(abs(offsets[j]) > 1e-12 for j in (1, 3, 5, 6)):
-            raise ValueError(f"{robot.name}: offsets r2, r4, r6, r7 must be zero for concurrent shoulder and wrist axes, got {offsets}")
+            raise ValueError(
+                f"{robot.name}: offsets r2, r4, r6, r7 must be zero for concurrent shoulder and wrist axes, got {offsets}"
+            )
         self.robot = robot
         self.shoulder_height, self.upper_arm, self.forearm = offsets[0], offsets[2], offsets[4]
         self.position_lower = robot.limits.position_lower
         self.position_upper = robot.limits.position_upper
-        flange = model.frames[model.getFrameId("flange")].placement.homogeneous if model.existFrame("flange") else np.eye(4)
+        flange = (
+            model.frames[model.getFrameId("flange")].placement.homogeneous
+            if model.existFrame("flange")
+            else np.eye(4)
+        )
         self.flange_in_frame7 = flange
         self.frame7_in_flange = np.linalg.inv(flange)  # constant: inverted once, not per pose
         self.reference = np.asarray(reference, dtype=float) / np.linalg.norm(reference)
@@ -131,7 +145,9 @@ class SwivelIK:
         """(N, 4, 4) pose of frame 7 (origin at the wrist centre) from the flange pose (N, 4, 4)."""
         return np.atleast_3d(flange_pose).reshape(-1, 4, 4) @ self.frame7_in_flange
 
-    def elbow_circle(self, wrist: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def elbow_circle(
+        self, wrist: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Centre ``P_s + c`` (N, 3), radius R (N,) and frame û, v̂, n̂ (N, 3 each) of the elbow circle."""
         shoulder = np.array([0.0, 0.0, self.shoulder_height])
         d = wrist - shoulder
@@ -149,9 +165,18 @@ class SwivelIK:
         norm_u = np.linalg.norm(u, axis=1)
         bad = np.flatnonzero(norm_u < 1e-9)
         if bad.size:
-            raise UnreachablePose(f"pose #{bad[0]}: shoulder–wrist axis parallel to the swivel reference {self.reference}; φ is undefined")
+            raise UnreachablePose(
+                f"pose #{bad[0]}: shoulder–wrist axis parallel to the swivel reference {self.reference}; φ is undefined"
+            )
         u /= norm_u[:, None]
-        v = np.stack([n[:, 1] * u[:, 2] - n[:, 2] * u[:, 1], n[:, 2] * u[:, 0] - n[:, 0] * u[:, 2], n[:, 0] * u[:, 1] - n[:, 1] * u[:, 0]], axis=1)  # n̂ × û
+        v = np.stack(
+            [
+                n[:, 1] * u[:, 2] - n[:, 2] * u[:, 1],
+                n[:, 2] * u[:, 0] - n[:, 0] * u[:, 2],
+                n[:, 0] * u[:, 1] - n[:, 1] * u[:, 0],
+            ],
+            axis=1,
+        )  # n̂ × û
         cos_alpha = (self.upper_arm**2 + distance**2 - self.forearm**2) / (2 * self.upper_arm * distance)
         centre = shoulder + (cos_alpha * self.upper_arm)[:, None] * n
         radius = np.sqrt(1.0 - cos_alpha**2) * self.upper_arm
@@ -174,7 +199,9 @@ class SwivelIK:
         return np.arctan2(np.einsum("ij,ij->i", r, v), np.einsum("ij,ij->i", r, u))
 
     # --- joint angles ------------------------------------------------------------------------
-    def solve_branch(self, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = Branch()) -> IKSolution:
+    def solve_branch(
+        self, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = Branch()
+    ) -> IKSolution:
         """Joint positions of one branch for N flange poses (N, 4, 4) and swivel angles (rad).
 
         Raises
@@ -232,7 +259,9 @@ class SwivelIK:
         low = solution.singularity_margin < min_singularity_margin
         if low.any():
             k, which = np.argwhere(low)[0]
-            raise UnreachablePose(f"pose #{k}: {names[which]} singularity, |sin| = {solution.singularity_margin[k, which]:.2e} (branch {branch})")
+            raise UnreachablePose(
+                f"pose #{k}: {names[which]} singularity, |sin| = {solution.singularity_margin[k, which]:.2e} (branch {branch})"
+            )
         if not solution.within_limits.all():
             k = int(np.flatnonzero(~solution.within_limits)[0])
             q = solution.q[k]

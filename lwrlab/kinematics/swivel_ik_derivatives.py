@@ -26,7 +26,12 @@ DIRECTIONS = 4
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b over axis 1 of (N, 3, ...) arrays that broadcast."""
     return np.stack(
-        [a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2], a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1
+        [
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ],
+        axis=1,
     )
 
 
@@ -40,7 +45,9 @@ def _scaled(matrix: np.ndarray, rate: np.ndarray) -> np.ndarray:
     return matrix[:, None] * rate[:, :, None, None]
 
 
-def solve_branch_derivatives(ik: SwivelIK, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = Branch()) -> tuple[IKSolution, np.ndarray, np.ndarray]:
+def solve_branch_derivatives(
+    ik: SwivelIK, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = Branch()
+) -> tuple[IKSolution, np.ndarray, np.ndarray]:
     """The IK solution of N flange poses (N, 4, 4) and its derivatives at fixed flange orientation.
 
     Returns
@@ -75,7 +82,9 @@ def solve_branch_derivatives(ik: SwivelIK, flange_pose: np.ndarray, swivel: np.n
     projected = b - along[:, None] * axis
     d_projected = -(d_along[:, None, :] * axis[:, :, None] + along[:, None, None] * d_axis)
     norm = np.linalg.norm(projected, axis=1)
-    d_u = (d_projected - u[:, :, None] * np.einsum("ni,nid->nd", u, d_projected)[:, None, :]) / norm[:, None, None]
+    d_u = (d_projected - u[:, :, None] * np.einsum("ni,nid->nd", u, d_projected)[:, None, :]) / norm[
+        :, None, None
+    ]
     d_v = _cross(d_axis, u[:, :, None]) + _cross(axis[:, :, None], d_u)
     cos_alpha = (upper**2 + distance**2 - fore**2) / (2 * upper * distance)
     d_cos = ((fore**2 - upper**2) / (2 * upper * distance**2) + 1.0 / (2 * upper))[:, None] * d_distance
@@ -101,7 +110,9 @@ def solve_branch_derivatives(ik: SwivelIK, flange_pose: np.ndarray, swivel: np.n
     forearm = wrist - elbow
     d_forearm = d_wrist - d_elbow
     a = (np.matmul(r2.transpose(0, 2, 1), forearm[:, :, None])[:, :, 0]) @ _rx(HALF_PI).T
-    d_frame3 = np.matmul(r2.transpose(0, 2, 1), d_forearm) + (d_r2.transpose(0, 1, 3, 2) @ forearm[:, None, :, None])[..., 0].transpose(0, 2, 1)
+    d_frame3 = np.matmul(r2.transpose(0, 2, 1), d_forearm) + (
+        d_r2.transpose(0, 1, 3, 2) @ forearm[:, None, :, None]
+    )[..., 0].transpose(0, 2, 1)
     d_a = _rx(HALF_PI) @ d_frame3
     rho = np.hypot(a[:, 0], a[:, 1])
     d_rho = (a[:, 0, None] * d_a[:, 0] + a[:, 1, None] * d_a[:, 1]) / rho[:, None]
@@ -111,14 +122,22 @@ def solve_branch_derivatives(ik: SwivelIK, flange_pose: np.ndarray, swivel: np.n
     tail = _rx(-HALF_PI) @ rz3 @ _rx(-HALF_PI) @ rz4
     r4 = r2 @ tail
     d_r4 = d_r2 @ tail[:, None]
-    d_r4 += _scaled(r2 @ _rx(-HALF_PI) @ rz3 @ _GENERATOR_Z @ _rx(-HALF_PI) @ rz4, d_q3) + _scaled(r4 @ _GENERATOR_Z, d_q4)
+    d_r4 += _scaled(r2 @ _rx(-HALF_PI) @ rz3 @ _GENERATOR_Z @ _rx(-HALF_PI) @ rz4, d_q3) + _scaled(
+        r4 @ _GENERATOR_Z, d_q4
+    )
 
     # q5, q6, q7 from the remaining wrist rotation m = Rx(π/2)ᵀ·R4ᵀ·R7 (R7 fixed)
     m = _rx(HALF_PI).T @ r4.transpose(0, 2, 1) @ rotation7
-    d_m = (_rx(HALF_PI).T @ d_r4.transpose(0, 1, 3, 2) @ rotation7[:, None]).transpose(0, 2, 3, 1)  # (N, 3, 3, D)
+    d_m = (_rx(HALF_PI).T @ d_r4.transpose(0, 1, 3, 2) @ rotation7[:, None]).transpose(
+        0, 2, 3, 1
+    )  # (N, 3, 3, D)
     s = branch.wrist
     sin6 = s * np.hypot(m[:, 0, 2], m[:, 1, 2])
-    d_sin6 = s * (m[:, 0, 2, None] * d_m[:, 0, 2] + m[:, 1, 2, None] * d_m[:, 1, 2]) / np.hypot(m[:, 0, 2], m[:, 1, 2])[:, None]
+    d_sin6 = (
+        s
+        * (m[:, 0, 2, None] * d_m[:, 0, 2] + m[:, 1, 2, None] * d_m[:, 1, 2])
+        / np.hypot(m[:, 0, 2], m[:, 1, 2])[:, None]
+    )
     d_q5 = _atan2_derivative(m[:, 1, 2], m[:, 0, 2], d_m[:, 1, 2], d_m[:, 0, 2])
     d_q6 = _atan2_derivative(sin6, m[:, 2, 2], d_sin6, d_m[:, 2, 2])
     d_q7 = _atan2_derivative(-m[:, 2, 1], m[:, 2, 0], -d_m[:, 2, 1], d_m[:, 2, 0])

@@ -29,7 +29,9 @@ class CollisionSphere:
     """Radius (m)."""
 
 
-def build_collision_spheres(entries: Sequence[Mapping[str, Any]] | None, n_links: int, robot: str) -> tuple[CollisionSphere, ...]:
+def build_collision_spheres(
+    entries: Sequence[Mapping[str, Any]] | None, n_links: int, robot: str
+) -> tuple[CollisionSphere, ...]:
     """Spheres from config entries ``{name, link, center: [x, y, z], radius}`` (clear errors on bad entries)."""
     spheres = []
     for i, entry in enumerate(entries or ()):
@@ -38,12 +40,18 @@ def build_collision_spheres(entries: Sequence[Mapping[str, Any]] | None, n_links
             raise ValueError(f"robot {robot!r} collision_spheres[{i}] lacks {sorted(missing)}")
         center = np.asarray(entry["center"], dtype=float).ravel()
         if center.shape != (3,):
-            raise ValueError(f"robot {robot!r} collision sphere {entry['name']!r}: center needs 3 values, got {center.size}")
+            raise ValueError(
+                f"robot {robot!r} collision sphere {entry['name']!r}: center needs 3 values, got {center.size}"
+            )
         link, radius = int(entry["link"]), float(entry["radius"])
         if not 0 <= link <= n_links:
-            raise ValueError(f"robot {robot!r} collision sphere {entry['name']!r}: link {link} outside 0…{n_links}")
+            raise ValueError(
+                f"robot {robot!r} collision sphere {entry['name']!r}: link {link} outside 0…{n_links}"
+            )
         if radius <= 0:
-            raise ValueError(f"robot {robot!r} collision sphere {entry['name']!r}: radius must be positive, got {radius}")
+            raise ValueError(
+                f"robot {robot!r} collision sphere {entry['name']!r}: radius must be positive, got {radius}"
+            )
         spheres.append(CollisionSphere(str(entry["name"]), link, center, radius))
     names = [s.name for s in spheres]
     duplicates = sorted({n for n in names if names.count(n) > 1})

@@ -81,7 +81,10 @@ def build_friction(friction: Mapping[str, Sequence[float]] | None, n: int, robot
     """Friction values; a missing term is zero."""
     friction = friction or {}
     return Friction(
-        **{k: _array(friction.get(k, np.zeros(n)), n, f"robot {robot!r} friction.{k}") for k in ("coulomb", "viscous", "offset")}
+        **{
+            k: _array(friction.get(k, np.zeros(n)), n, f"robot {robot!r} friction.{k}")
+            for k in ("coulomb", "viscous", "offset")
+        }
     )
 
 
@@ -133,7 +136,9 @@ def build_robot(
         limits=build_limits(limits, n, name),
         friction=build_friction(friction, n, name),
         friction_terms=tuple(friction_terms),
-        rotor_inertia=None if rotor_inertia is None else _array(rotor_inertia, n, f"robot {name!r} rotor_inertia"),
+        rotor_inertia=None
+        if rotor_inertia is None
+        else _array(rotor_inertia, n, f"robot {name!r} rotor_inertia"),
         collision_spheres=build_collision_spheres(collision_spheres, n, name),
     )
 

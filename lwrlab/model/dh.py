@@ -29,7 +29,9 @@ class ModifiedDH:
     def __post_init__(self) -> None:
         lengths = {len(np.atleast_1d(v)) for v in (self.alpha, self.d, self.r, self.theta_offset)}
         if len(lengths) != 1:
-            raise ValueError(f"modified DH columns alpha, d, r, theta_offset must have one length, got {lengths}")
+            raise ValueError(
+                f"modified DH columns alpha, d, r, theta_offset must have one length, got {lengths}"
+            )
 
     @property
     def n_joints(self) -> int:
@@ -75,7 +77,9 @@ def build_dh_model(
         model.appendBodyToJoint(parent, link_inertias[j], pin.SE3.Identity())
         model.addFrame(pin.Frame(f"link{j + 1}", parent, pin.SE3.Identity(), pin.FrameType.BODY))
     if flange is not None:
-        model.addFrame(pin.Frame("flange", parent, pin.SE3(np.asarray(flange, dtype=float)), pin.FrameType.OP_FRAME))
+        model.addFrame(
+            pin.Frame("flange", parent, pin.SE3(np.asarray(flange, dtype=float)), pin.FrameType.OP_FRAME)
+        )
     return model
 
 

@@ -97,7 +97,16 @@ def from_pseudo_inertia(j: np.ndarray) -> np.ndarray:
     sigma = j[:3, :3]
     inertia = np.trace(sigma) * np.eye(3) - sigma
     return np.array(
-        [j[3, 3], *j[:3, 3], inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+        [
+            j[3, 3],
+            *j[:3, 3],
+            inertia[0, 0],
+            inertia[1, 1],
+            inertia[2, 2],
+            inertia[0, 1],
+            inertia[0, 2],
+            inertia[1, 2],
+        ]
     )
 
 
@@ -111,7 +120,9 @@ def is_physically_consistent(phi: np.ndarray, tol: float = 1e-12) -> bool:
     return min_pseudo_inertia_eigenvalue(phi) >= -tol * max(1.0, abs(float(phi[0])))
 
 
-def random_consistent_parameters(rng: np.random.Generator, scale_m: float = 0.2, mass_kg: float = 2.0) -> np.ndarray:
+def random_consistent_parameters(
+    rng: np.random.Generator, scale_m: float = 0.2, mass_kg: float = 2.0
+) -> np.ndarray:
     """Random strictly physically consistent parameters via a log-Cholesky factor of J.
 
     ``J = U Uᵀ`` with ``U`` upper triangular and a positive (exponentiated) diagonal is positive

@@ -37,7 +37,9 @@ def change_frame(phi: np.ndarray, rotation: np.ndarray, translation: np.ndarray)
     """
     phi = np.asarray(phi, dtype=float)
     if phi.ndim > 1:
-        return np.stack([change_frame(row, rotation, translation) for row in phi.reshape(-1, 10)]).reshape(phi.shape)
+        return np.stack([change_frame(row, rotation, translation) for row in phi.reshape(-1, 10)]).reshape(
+            phi.shape
+        )
     r, p = np.asarray(rotation, dtype=float), np.asarray(translation, dtype=float)
     mass, first_moment = phi[0], r @ phi[1:4]
     inertia = (
@@ -48,7 +50,16 @@ def change_frame(phi: np.ndarray, rotation: np.ndarray, translation: np.ndarray)
         - np.outer(first_moment, p)
     )
     return np.array(
-        [mass, *(first_moment + mass * p), inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+        [
+            mass,
+            *(first_moment + mass * p),
+            inertia[0, 0],
+            inertia[1, 1],
+            inertia[2, 2],
+            inertia[0, 1],
+            inertia[0, 2],
+            inertia[1, 2],
+        ]
     )
 
 

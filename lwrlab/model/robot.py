@@ -95,9 +95,13 @@ class RobotModel:
         if not self.link_labels:
             object.__setattr__(self, "link_labels", tuple(str(j) for j in range(1, self.n_joints + 1)))
         if self.rotor_inertia is not None and np.shape(self.rotor_inertia) != (self.n_joints,):
-            raise ValueError(f"{self.name}: rotor_inertia needs {self.n_joints} values, got shape {np.shape(self.rotor_inertia)}")
+            raise ValueError(
+                f"{self.name}: rotor_inertia needs {self.n_joints} values, got shape {np.shape(self.rotor_inertia)}"
+            )
         if self.model.nq != self.model.nv:
-            raise ValueError(f"{self.name}: only joints with nq == nv are supported (got nq={self.model.nq}, nv={self.model.nv})")
+            raise ValueError(
+                f"{self.name}: only joints with nq == nv are supported (got nq={self.model.nq}, nv={self.model.nv})"
+            )
 
     @property
     def n_joints(self) -> int:
@@ -133,7 +137,9 @@ class RobotModel:
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the standard parameters, e.g. ``("M1", "MSX1", …, "FC1", …, "FV7")``."""
         inertial = [f"{p}{label}" for label in self.link_labels for p in LINK_PARAMETER_NAMES]
-        friction = [f"{FRICTION_TERMS[t]}{j}" for t in self.friction_terms for j in range(1, self.n_joints + 1)]
+        friction = [
+            f"{FRICTION_TERMS[t]}{j}" for t in self.friction_terms for j in range(1, self.n_joints + 1)
+        ]
         return tuple(inertial + friction)
 
     @property
@@ -151,7 +157,9 @@ class RobotModel:
         parameters = np.asarray(parameters, dtype=float)
         n_inertial = 10 * self.n_links
         if parameters.shape not in ((n_inertial,), (self.n_parameters,)):
-            raise ValueError(f"expected {n_inertial} or {self.n_parameters} parameters, got shape {parameters.shape}")
+            raise ValueError(
+                f"expected {n_inertial} or {self.n_parameters} parameters, got shape {parameters.shape}"
+            )
         model = self.model.copy()
         for j, phi in enumerate(parameters[:n_inertial].reshape(self.n_links, 10), start=1):
             model.inertias[j] = to_pin_inertia(phi)
@@ -161,7 +169,9 @@ class RobotModel:
             friction = replace(friction, **dict(zip(self.friction_terms, values, strict=True)))
         return replace(self, model=model, friction=friction)
 
-    def inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, with_friction: bool = True) -> np.ndarray:
+    def inverse_dynamics(
+        self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, with_friction: bool = True
+    ) -> np.ndarray:
         """Joint torques (N·m) for N samples (arrays (N, N_J)) by Pinocchio's RNEA, plus friction."""
         q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
         data = self.model.createData()

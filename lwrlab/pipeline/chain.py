@@ -43,5 +43,7 @@ def run_paper_chain(cfg: Any, output_dir: Path, painting: PaintingStage) -> dict
     metrics.update(painting(cfg, output_dir / "painting", identification=report))
     metrics["stage_identification_s"] = identified_s
     metrics["stage_painting_s"] = time.perf_counter() - started - identified_s
-    log.info("stages: identification %.1f s, tool + painting %.1f s", identified_s, metrics["stage_painting_s"])
+    log.info(
+        "stages: identification %.1f s, tool + painting %.1f s", identified_s, metrics["stage_painting_s"]
+    )
     return metrics

@@ -46,12 +46,20 @@ def _numbers(value: Any) -> list[Any]:
 
 def non_negative(key: str, per_joint: bool = False) -> Rule:
     """A number ≥ 0 (or a list of them, per joint)."""
-    return Rule(key, lambda v: all(_number(x) and x >= 0 for x in (_numbers(v) if per_joint else [v])), "a number ≥ 0" + (" (or one per joint)" if per_joint else ""))
+    return Rule(
+        key,
+        lambda v: all(_number(x) and x >= 0 for x in (_numbers(v) if per_joint else [v])),
+        "a number ≥ 0" + (" (or one per joint)" if per_joint else ""),
+    )
 
 
 def positive(key: str, nullable: bool = False) -> Rule:
     """A number > 0 (or null)."""
-    return Rule(key, lambda v: (nullable and v is None) or (_number(v) and v > 0), "a number > 0" + (" or null" if nullable else ""))
+    return Rule(
+        key,
+        lambda v: (nullable and v is None) or (_number(v) and v > 0),
+        "a number > 0" + (" or null" if nullable else ""),
+    )
 
 
 def one_of(key: str, *choices: Any) -> Rule:
@@ -70,10 +78,18 @@ RULES: tuple[Rule, ...] = (
     positive("trajectory.duration"),
     positive("validation.duration"),
     positive("measurement.rate_hz"),
-    Rule("measurement.processing.cutoff_hz", lambda v: v is None or v == "auto" or (_number(v) and v > 0), "a number > 0 (Hz), auto or null"),
+    Rule(
+        "measurement.processing.cutoff_hz",
+        lambda v: v is None or v == "auto" or (_number(v) and v > 0),
+        "a number > 0 (Hz), auto or null",
+    ),
     Rule("measurement.processing.order", lambda v: _integer(v) and 1 <= v <= 12, "an integer in [1, 12]"),
     one_of("measurement.processing.difference_accuracy", 2, 4),
-    Rule("measurement.processing.trim_s", lambda v: v is None or (_number(v) and v >= 0), "a number ≥ 0 (s) or null"),
+    Rule(
+        "measurement.processing.trim_s",
+        lambda v: v is None or (_number(v) and v >= 0),
+        "a number ≥ 0 (s) or null",
+    ),
     positive("measurement.processing.rate_hz", nullable=True),
     one_of("measurement.processing.velocity", "auto", "logged", "differentiated"),
     Rule("data.validation_fraction", lambda v: _number(v) and 0 < v < 1, "a number in (0, 1)"),
@@ -81,7 +97,11 @@ RULES: tuple[Rule, ...] = (
     one_of("data.position_unit", "rad", "deg"),
     positive("data.rate_hz", nullable=True),
     Rule("data.min_samples", lambda v: _integer(v) and v >= 2, "an integer ≥ 2"),
-    Rule("data.drive_gains", lambda v: v is None or (isinstance(v, list | tuple) and all(_number(x) and x != 0 for x in v)), "null or a list of non-zero numbers (N·m/A per joint)"),
+    Rule(
+        "data.drive_gains",
+        lambda v: v is None or (isinstance(v, list | tuple) and all(_number(x) and x != 0 for x in v)),
+        "null or a list of non-zero numbers (N·m/A per joint)",
+    ),
     Rule("statistics.resamples", lambda v: _integer(v) and v >= 0, "an integer ≥ 0"),
     positive("statistics.block_s"),
     Rule("statistics.confidence", lambda v: _number(v) and 0 < v < 1, "a number in (0, 1)"),
@@ -92,7 +112,9 @@ RULES: tuple[Rule, ...] = (
 def _plain(value: Any) -> Any:
     from omegaconf import DictConfig, ListConfig, OmegaConf
 
-    return OmegaConf.to_container(value, resolve=True) if isinstance(value, DictConfig | ListConfig) else value
+    return (
+        OmegaConf.to_container(value, resolve=True) if isinstance(value, DictConfig | ListConfig) else value
+    )
 
 
 def violations(cfg: Any, rules: Iterable[Rule] = RULES) -> list[str]:

@@ -57,7 +57,9 @@ def _estimator_name(cfg: Any) -> str:
         return str(cfg.estimator._target_).rsplit(".", 1)[-1]
 
 
-def run_estimator_benchmark(cfg: Any, output_dir: Path, noise: str, noise_presets: Mapping[str, Mapping[str, float]]) -> dict[str, float]:
+def run_estimator_benchmark(
+    cfg: Any, output_dir: Path, noise: str, noise_presets: Mapping[str, Mapping[str, float]]
+) -> dict[str, float]:
     """Task ``estimator_benchmark``: one (estimator, noise preset, seed) cell; see the module doc."""
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
@@ -66,7 +68,11 @@ def run_estimator_benchmark(cfg: Any, output_dir: Path, noise: str, noise_preset
         raise ValueError(f"unknown noise preset {noise!r}; valid: {sorted(noise_presets)}")
     preset = noise_presets[noise]
     robot = instantiate(cfg.robot)
-    plant = instantiate(cfg.plant, encoder_noise_std=float(np.radians(preset["encoder_noise_deg"])), torque_noise_std=float(preset["torque_noise_std"]))(robot=robot)
+    plant = instantiate(
+        cfg.plant,
+        encoder_noise_std=float(np.radians(preset["encoder_noise_deg"])),
+        torque_noise_std=float(preset["torque_noise_std"]),
+    )(robot=robot)
     report = identify(
         robot=robot,
         motion_source=instantiate(cfg.trajectory),
@@ -79,8 +85,15 @@ def run_estimator_benchmark(cfg: Any, output_dir: Path, noise: str, noise_preset
     context = IdentificationContext.from_robot(robot, report.base)
     dissipative = np.concatenate([context.friction_indices("coulomb"), context.friction_indices("viscous")])
     metrics = dict(report.metrics)
-    metrics["consistency_margin"] = consistency_margin(report.base.regrouping, report.identified.base_values, robot.n_links, dissipative)
-    row = {"estimator": _estimator_name(cfg), "preset": noise, "seed": int(cfg.seed), **{m: metrics[m] for m in METRICS}}
+    metrics["consistency_margin"] = consistency_margin(
+        report.base.regrouping, report.identified.base_values, robot.n_links, dissipative
+    )
+    row = {
+        "estimator": _estimator_name(cfg),
+        "preset": noise,
+        "seed": int(cfg.seed),
+        **{m: metrics[m] for m in METRICS},
+    }
     output_dir.mkdir(parents=True, exist_ok=True)
     pd.DataFrame([row]).to_csv(output_dir / JOB_TABLE, index=False)
     parameters = report.parameters[["truth", "estimate"]].copy()
@@ -91,7 +104,9 @@ def run_estimator_benchmark(cfg: Any, output_dir: Path, noise: str, noise_preset
     return {m: float(metrics[m]) for m in METRICS}
 
 
-if __name__ == "__main__":  # re-aggregate an earlier sweep (also python -m lwrlab.tracking.benchmark_tables <sweep_dir>)
+if (
+    __name__ == "__main__"
+):  # re-aggregate an earlier sweep (also python -m lwrlab.tracking.benchmark_tables <sweep_dir>)
     import sys
 
     write_summary(Path(sys.argv[1]))

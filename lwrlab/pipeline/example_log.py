@@ -16,7 +16,9 @@ from typing import Any
 from lwrlab.io.logs import write_log
 
 
-def write_example_logs(cfg: Any, output_dir: Path, directory: str = "outputs/example_logs", file_format: str = "csv") -> dict[str, float]:
+def write_example_logs(
+    cfg: Any, output_dir: Path, directory: str = "outputs/example_logs", file_format: str = "csv"
+) -> dict[str, float]:
     """Simulate the configured plant on the configured motions; write ``identification`` and
     ``validation`` logs into ``directory`` (and the run folder). Returns sample counts."""
     from hydra.utils import instantiate
@@ -30,5 +32,7 @@ def write_example_logs(cfg: Any, output_dir: Path, directory: str = "outputs/exa
         for folder in (Path(directory), output_dir):
             write_log(measurement, folder / f"{role}.{file_format}")
         metrics[f"{role}_samples"] = float(len(measurement.t))
-        print(f"{role} log: {Path(directory) / f'{role}.{file_format}'} ({len(measurement.t)} samples, {robot.n_joints} joints)")
+        print(
+            f"{role} log: {Path(directory) / f'{role}.{file_format}'} ({len(measurement.t)} samples, {robot.n_joints} joints)"
+        )
     return metrics

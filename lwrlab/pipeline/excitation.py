@@ -41,9 +41,13 @@ def _require_optimal(cfg: Any, criteria: Mapping[str, Criterion] | None = None) 
     """Fail fast, before any long work, on a configuration these tasks cannot run."""
     target = str(cfg.trajectory.get("_target_", ""))
     if not target.endswith("OptimalExcitingMotion"):
-        raise ValueError(f"this task optimises exciting motions: it needs trajectory=optimal, got trajectory._target_={target!r}")
+        raise ValueError(
+            f"this task optimises exciting motions: it needs trajectory=optimal, got trajectory._target_={target!r}"
+        )
     if criteria is not None and not criteria:
-        raise ValueError("no criteria to compare: task.criteria is empty (add some with +criterion@task.criteria.<name>=<option>)")
+        raise ValueError(
+            "no criteria to compare: task.criteria is empty (add some with +criterion@task.criteria.<name>=<option>)"
+        )
 
 
 def _optimal_source(cfg: Any, **overrides: Any) -> Any:
@@ -55,7 +59,9 @@ def _optimal_source(cfg: Any, **overrides: Any) -> Any:
 
 
 @dense_algebra()
-def regressor_condition(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, base: BaseParameters | None = None) -> float:
+def regressor_condition(
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, base: BaseParameters | None = None
+) -> float:
     """cond(W_b) of a motion after scaling the columns to unit norm (as the estimators report it)."""
     from lwrlab.dynamics.regressor import regressor
     from lwrlab.identification.core import column_scaled_condition_number
@@ -95,7 +101,9 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
         "robot": robot.name,
         "criterion": source.criterion.name,
         "cost": result.cost,
-        "cond_W_b": regressor_condition(robot, *(b @ result.coefficients for b in problem.bases), problem.base),
+        "cond_W_b": regressor_condition(
+            robot, *(b @ result.coefficients for b in problem.bases), problem.base
+        ),
         "worst_slack_at_verify_rate": {r.family: f"{r.worst_slack:.4g} {r.unit}" for r in checks},
         "verify_rate_hz": verify_rate_hz,
         "optimisation_seconds": round(result.seconds, 2),
@@ -115,13 +123,24 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
             "",
             "| constraint | worst slack | unit | where | t [s] |",
             "|---|---|---|---|---|",
-            *[f"| {r.family} | {r.worst_slack:.4g} | {r.unit} | {r.where} | {r.time_s:.3f} |" for r in checks],
+            *[
+                f"| {r.family} | {r.worst_slack:.4g} | {r.unit} | {r.where} | {r.time_s:.3f} |"
+                for r in checks
+            ],
             "",
             f"cond(W_b) (unit-norm columns, {problem.rate_hz:g} Hz grid): {provenance['cond_W_b']:.4g}",
         ]
     )
     (output_dir / "excitation_report.md").write_text(report + "\n")
-    motion_figure(trajectory.t, trajectory.q, trajectory.dq, trajectory.ddq, torque, output_dir / "exciting_motion.png", f"Optimal exciting motion ({source.criterion.name}, {robot.name})")
+    motion_figure(
+        trajectory.t,
+        trajectory.q,
+        trajectory.dq,
+        trajectory.ddq,
+        torque,
+        output_dir / "exciting_motion.png",
+        f"Optimal exciting motion ({source.criterion.name}, {robot.name})",
+    )
     print(report)
     metrics = {
         "cost": result.cost,
@@ -138,7 +157,9 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
 # --- Fig. 5: duration study -----------------------------------------------------------------------
 
 
-def knee_duration(durations: np.ndarray, costs: np.ndarray, fraction: float) -> tuple[float, np.ndarray, np.ndarray]:
+def knee_duration(
+    durations: np.ndarray, costs: np.ndarray, fraction: float
+) -> tuple[float, np.ndarray, np.ndarray]:
     """The knee of a cost-vs-duration curve, with the rescaled costs and steps it is read from.
 
     Rule: rescale the finite costs by their total range ``J_max − J_min``; the knee is the shortest
@@ -211,7 +232,9 @@ def run_duration_study(
     knees = {}
     for name in criteria:
         chosen = table["criterion"] == name
-        knee, relative_cost, relative_step = knee_duration(table.loc[chosen, "duration_s"].to_numpy(), table.loc[chosen, "cost"].to_numpy(), knee_fraction)
+        knee, relative_cost, relative_step = knee_duration(
+            table.loc[chosen, "duration_s"].to_numpy(), table.loc[chosen, "cost"].to_numpy(), knee_fraction
+        )
         table.loc[chosen, "relative_cost"], table.loc[chosen, "relative_step"] = relative_cost, relative_step
         knees[name] = knee
     recommended = recommended_duration(knees)
@@ -236,7 +259,10 @@ def run_duration_study(
     (output_dir / "fig5_duration.md").write_text(text + "\n")
     duration_figure(table, knees, recommended, knee_fraction, output_dir / "fig5_duration.png")
     print(text)
-    metrics = {"recommended_duration_s": recommended, **{f"knee_s_{name}": knee for name, knee in knees.items()}}
+    metrics = {
+        "recommended_duration_s": recommended,
+        **{f"knee_s_{name}": knee for name, knee in knees.items()},
+    }
     (output_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
     return metrics
 
@@ -277,7 +303,11 @@ def run_criteria_comparison(
         source = _optimal_source(cfg, criterion=criterion, from_file=None)
         motion, result, _ = source.optimise(robot, base)
         motions[name] = motion
-        optimisation.append(_optimisation_row(name, result, regressor_condition(robot, *motion.evaluate(motion.times(100.0)), base)))
+        optimisation.append(
+            _optimisation_row(
+                name, result, regressor_condition(robot, *motion.evaluate(motion.times(100.0)), base)
+            )
+        )
     rows, parameter_errors = [], []
     jobs = [(name, seed) for name in criteria for seed in seeds]
     for name, seed in tqdm(jobs, desc="identify and cross-validate", unit="run"):
@@ -294,10 +324,22 @@ def run_criteria_comparison(
         )
         model_rms = _model_error(plant, report)
         for (joint, values), model in zip(report.validation.iterrows(), model_rms, strict=True):
-            row = {"criterion": name, "seed": seed, "joint": int(joint), "rms": float(values["rms"]), "nrms": float(values["nrms"])}
+            row = {
+                "criterion": name,
+                "seed": seed,
+                "joint": int(joint),
+                "rms": float(values["rms"]),
+                "nrms": float(values["nrms"]),
+            }
             rows.append(row | ({"model_rms": float(model)} if model_rms is not None else {}))
         if "base_parameter_error" in report.metrics:
-            parameter_errors.append({"criterion": name, "seed": seed, "base_parameter_error": report.metrics["base_parameter_error"]})
+            parameter_errors.append(
+                {
+                    "criterion": name,
+                    "seed": seed,
+                    "base_parameter_error": report.metrics["base_parameter_error"],
+                }
+            )
     table = pd.DataFrame(rows)
     output_dir.mkdir(parents=True, exist_ok=True)
     table.to_csv(output_dir / "fig6_criteria.csv", index=False)
@@ -309,7 +351,9 @@ def run_criteria_comparison(
         per_run = per_run.merge(pd.DataFrame(parameter_errors), on=["criterion", "seed"])
         pd.DataFrame(parameter_errors).to_csv(output_dir / "fig6_parameter_error.csv", index=False)
     run_columns = [c for c in per_run.columns if c not in ("criterion", "seed")]
-    overall = per_run.groupby("criterion", sort=False).agg(**{f"{c}_{f}": (c, f) for c in run_columns for f in ("mean", "std")})
+    overall = per_run.groupby("criterion", sort=False).agg(
+        **{f"{c}_{f}": (c, f) for c in run_columns for f in ("mean", "std")}
+    )
     overall = overall.join(pd.DataFrame(optimisation).set_index("criterion"))
     ranking_by = "model_rms_mean" if "model_rms_mean" in overall else "rms_mean"
     ranking = overall.sort_values(ranking_by).index.tolist()
@@ -365,7 +409,10 @@ def _format_mean_std(frame: pd.DataFrame) -> pd.DataFrame:
     for column in frame.columns:
         if column.endswith("_mean"):
             metric = column.removesuffix("_mean")
-            out[metric] = [f"{m:.4g} ± {s:.2g}" for m, s in zip(frame[column], frame[f"{metric}_std"].fillna(0.0), strict=True)]
+            out[metric] = [
+                f"{m:.4g} ± {s:.2g}"
+                for m, s in zip(frame[column], frame[f"{metric}_std"].fillna(0.0), strict=True)
+            ]
         elif not column.endswith("_std"):
             out[column] = frame[column].map(lambda v: f"{v:.4g}")
     return out

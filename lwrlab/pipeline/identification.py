@@ -26,7 +26,11 @@ from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.core import Estimator, torque_errors
-from lwrlab.identification.identifiability import IdentifiabilityReport, assess_identifiability, format_prior_note
+from lwrlab.identification.identifiability import (
+    IdentifiabilityReport,
+    assess_identifiability,
+    format_prior_note,
+)
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
 from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory
 from lwrlab.io.urdf_export import export_urdf
@@ -129,7 +133,9 @@ class IdentificationReport:
         return first.predicted[first.scored]
 
 
-def _sample_checked(source: MotionSource, robot: RobotModel, rate_hz: float, what: str, role: str) -> Trajectory:
+def _sample_checked(
+    source: MotionSource, robot: RobotModel, rate_hz: float, what: str, role: str
+) -> Trajectory:
     motion = source.sample(robot, rate_hz)
     check_limits(motion, robot, torque=robot.inverse_dynamics(motion.q, motion.dq, motion.ddq), what=what)
     # the role tells a plant replaying recorded logs which log stands for this motion
@@ -140,16 +146,26 @@ def _named(measurement: Measurement, name: str, role: str) -> Measurement:
     return replace(measurement, metadata={**measurement.metadata, "name": name, "role": role})
 
 
-def _process(measurement: Measurement, processing: dict[str, Any], every_sample: bool = False) -> ProcessedData:
-    return process(measurement.t, measurement.q, measurement.tau, measurement.dq, every_sample=every_sample, **processing)
+def _process(
+    measurement: Measurement, processing: dict[str, Any], every_sample: bool = False
+) -> ProcessedData:
+    return process(
+        measurement.t, measurement.q, measurement.tau, measurement.dq, every_sample=every_sample, **processing
+    )
 
 
 def _as_chosen(processing: dict[str, Any], data: ProcessedData) -> dict[str, Any]:
     """``processing`` with the cut-off and velocity source that ``data``'s processing chose."""
-    return {**processing, "cutoff_hz": data.cutoff_hz, "velocity": "logged" if data.velocity.logged else "differentiated"}
+    return {
+        **processing,
+        "cutoff_hz": data.cutoff_hz,
+        "velocity": "logged" if data.velocity.logged else "differentiated",
+    }
 
 
-def _context(robot: RobotModel, base: BaseParameters, motion: Trajectory | None, data: ProcessedData) -> IdentificationContext:
+def _context(
+    robot: RobotModel, base: BaseParameters, motion: Trajectory | None, data: ProcessedData
+) -> IdentificationContext:
     """The estimator's context; the commanded motion's regressor only when the plant executed it."""
     reference = None
     if motion is not None:
@@ -159,11 +175,17 @@ def _context(robot: RobotModel, base: BaseParameters, motion: Trajectory | None,
 
 
 def predict_measurement(
-    robot: RobotModel, base: BaseParameters, phi: np.ndarray, measurement: Measurement, processing: dict[str, Any]
+    robot: RobotModel,
+    base: BaseParameters,
+    phi: np.ndarray,
+    measurement: Measurement,
+    processing: dict[str, Any],
 ) -> LogPrediction:
     """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit)."""
     data = _process(measurement, processing, every_sample=True)
-    predicted = (base.base_regressor(regressor(robot, data.q, data.dq, data.ddq)) @ phi).reshape(-1, robot.n_joints)
+    predicted = (base.base_regressor(regressor(robot, data.q, data.dq, data.ddq)) @ phi).reshape(
+        -1, robot.n_joints
+    )
     t, measured = measurement.as_logged()
     if t is not measurement.t:  # resampled log: back to the logged samples
         predicted = np.column_stack([np.interp(t, data.t, predicted[:, j]) for j in range(robot.n_joints)])
@@ -171,7 +193,15 @@ def predict_measurement(
     scored = (t >= span[0] - 1e-9) & (t <= span[-1] + 1e-9)
     cutoff = "no filter" if data.cutoff_hz is None else f"{data.cutoff_hz:.3g} Hz"
     velocity = "logged q̇" if data.velocity.logged else "q̇ = d/dt q"
-    return LogPrediction(measurement.name, str(measurement.metadata.get("role", "")), t, measured, predicted, scored, f"{cutoff}, {velocity}")
+    return LogPrediction(
+        measurement.name,
+        str(measurement.metadata.get("role", "")),
+        t,
+        measured,
+        predicted,
+        scored,
+        f"{cutoff}, {velocity}",
+    )
 
 
 def identify(
@@ -212,16 +242,25 @@ def identify(
         if motion_source is None or validation_source is None:
             raise ValueError("a simulated identification needs an exciting motion and a validation motion")
         motion = _sample_checked(motion_source, robot, rate_hz, "exciting motion", "excitation")
-        validation_motion = _sample_checked(validation_source, robot, rate_hz, "cross-validation motion", "validation")
+        validation_motion = _sample_checked(
+            validation_source, robot, rate_hz, "cross-validation motion", "validation"
+        )
         measurements = [_named(plant.measure(motion), "exciting_motion", "identification")]
-        validation_measurements = [_named(plant.measure(validation_motion), "validation_motion", "validation")]
+        validation_measurements = [
+            _named(plant.measure(validation_motion), "validation_motion", "validation")
+        ]
 
     processed = [_process(m, processing) for m in measurements]
-    rows = [data.rows(lambda q, dq, ddq: base.base_regressor(regressor(robot, q, dq, ddq))) for data in processed]
+    rows = [
+        data.rows(lambda q, dq, ddq: base.base_regressor(regressor(robot, q, dq, ddq))) for data in processed
+    ]
     w_base = np.vstack([w for w, _ in rows])
     tau = np.concatenate([t for _, t in rows])
     identifiability = assess_identifiability(
-        w_base, base.names, *(np.vstack([getattr(d, name)[d.index] for d in processed]) for name in ("q", "dq", "ddq")), robot.limits
+        w_base,
+        base.names,
+        *(np.vstack([getattr(d, name)[d.index] for d in processed]) for name in ("q", "dq", "ddq")),
+        robot.limits,
     )
     has_prior = bool(getattr(estimator, "uses_prior", False))
     if identifiability.status == "rank_deficient" and not has_prior:
@@ -236,16 +275,22 @@ def identify(
     standard = getattr(estimator, "standard_phi_", None)  # physically consistent estimators give it
     if standard is None:
         standard = standard_from_base(base, estimator.phi_, robot.parameters)
-    identified = IdentifiedModel(base.names, estimator.phi_.copy(), estimator.std_.copy(), robot.parameter_names, standard)
+    identified = IdentifiedModel(
+        base.names, estimator.phi_.copy(), estimator.std_.copy(), robot.parameter_names, standard
+    )
 
     # An identification log is predicted with the cut-off and velocity source its fit used; a
     # validation log gets its own, as a new log would.
     fit_predictions = [
-        replace(predict_measurement(robot, base, estimator.phi_, m, _as_chosen(processing, data)), role="identification")
+        replace(
+            predict_measurement(robot, base, estimator.phi_, m, _as_chosen(processing, data)),
+            role="identification",
+        )
         for m, data in zip(measurements, processed, strict=True)
     ]
     validation_predictions = [
-        replace(predict_measurement(robot, base, estimator.phi_, m, processing), role="validation") for m in validation_measurements
+        replace(predict_measurement(robot, base, estimator.phi_, m, processing), role="validation")
+        for m in validation_measurements
     ]
     predictions = fit_predictions + validation_predictions
     measured = np.vstack([p.measured[p.scored] for p in validation_predictions])
@@ -254,7 +299,8 @@ def identify(
 
     noise = validation_measurements[0].metadata.get("torque_noise_std")
     validation = pd.DataFrame(
-        {"rms": errors["rms"], "nrms": errors["nrms"]}, index=pd.Index(range(1, robot.n_joints + 1), name="joint")
+        {"rms": errors["rms"], "nrms": errors["nrms"]},
+        index=pd.Index(range(1, robot.n_joints + 1), name="joint"),
     )
     if noise is not None:
         validation["noise_std"] = noise
@@ -271,12 +317,21 @@ def identify(
     statistics = dict(statistics or {})
     if statistics.get("resamples", 0) > 0:
         interval = block_bootstrap(
-            estimator, w_base, tau, robot.n_joints,
+            estimator,
+            w_base,
+            tau,
+            robot.n_joints,
             block_samples=max(1, int(round(statistics.get("block_s", 1.0) * processed[0].rate_hz))),
-            resamples=int(statistics["resamples"]), confidence=float(statistics.get("confidence", 0.95)), seed=int(statistics.get("seed", 0)),
+            resamples=int(statistics["resamples"]),
+            confidence=float(statistics.get("confidence", 0.95)),
+            seed=int(statistics.get("seed", 0)),
             context=context,
         )
-        parameters["ci_lower"], parameters["ci_upper"], parameters["bootstrap_std"] = interval.lower, interval.upper, interval.std
+        parameters["ci_lower"], parameters["ci_upper"], parameters["bootstrap_std"] = (
+            interval.lower,
+            interval.upper,
+            interval.std,
+        )
     fit_measured = np.vstack([p.measured[p.scored] for p in fit_predictions])
     fit_estimated = np.vstack([p.predicted[p.scored] for p in fit_predictions])
     metrics = {
@@ -302,12 +357,20 @@ def identify(
         parameters.insert(1, "truth", true_base)
         with np.errstate(divide="ignore", invalid="ignore"):
             parameters["relative_error"] = np.abs(estimator.phi_ - true_base) / np.abs(true_base)
-        metrics["base_parameter_error"] = float(np.linalg.norm(estimator.phi_ - true_base) / np.linalg.norm(true_base))
-    notes = [f"processing of {m.name}: {data.describe()}" for m, data in zip(measurements, processed, strict=True)]
+        metrics["base_parameter_error"] = float(
+            np.linalg.norm(estimator.phi_ - true_base) / np.linalg.norm(true_base)
+        )
+    notes = [
+        f"processing of {m.name}: {data.describe()}" for m, data in zip(measurements, processed, strict=True)
+    ]
     notes += [] if identifiability.ok else [identifiability.warning_text()]
     if not identifiability.ok and has_prior:
         notes.append(format_prior_note(identifiability))
-    notes += [f"WARNING: {w}" for m in [*measurements, *validation_measurements] for w in m.metadata.get("warnings", [])]
+    notes += [
+        f"WARNING: {w}"
+        for m in [*measurements, *validation_measurements]
+        for w in m.metadata.get("warnings", [])
+    ]
     return IdentificationReport(
         robot=robot,
         base=base,
@@ -370,15 +433,23 @@ def format_report(report: IdentificationReport) -> str:
         f"cond(W_b) {report.metrics['cond_W_b']:.4g}, smallest pseudo-inertia eigenvalue "
         f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} of the reported standard set (< 0: not a rigid body)",
     ]
-    resampled = [m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")]
+    resampled = [
+        m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")
+    ]
     if resampled:
-        lines.append(f"NOTE: irregular time stamps in {', '.join(resampled)}: processed on a uniform grid, scored at the logged samples")
+        lines.append(
+            f"NOTE: irregular time stamps in {', '.join(resampled)}: processed on a uniform grid, scored at the logged samples"
+        )
     lines.append(report.identifiability.summary())
     lines += report.notes
     if report.metrics.get("solver_fallback"):
-        lines.append("WARNING: the estimator's primary solver failed; the result comes from its fallback solver")
+        lines.append(
+            "WARNING: the estimator's primary solver failed; the result comes from its fallback solver"
+        )
     if "base_parameter_error" in report.metrics:
-        lines.append(f"relative base-parameter error ‖β̂ − β‖/‖β‖ = {report.metrics['base_parameter_error']:.3g}")
+        lines.append(
+            f"relative base-parameter error ‖β̂ − β‖/‖β‖ = {report.metrics['base_parameter_error']:.3g}"
+        )
     return "\n".join(lines)
 
 
@@ -400,7 +471,9 @@ RUN_TAGS_FILE = "tags.json"
 
 def run_tags(report: IdentificationReport) -> dict[str, str]:
     """``identifiability`` (good, poor, rank_deficient), ``warnings`` (count) and ``data`` (logs or simulation)."""
-    warnings = sum(len(m.metadata.get("warnings", [])) for m in [*report.measurements, *report.validation_measurements])
+    warnings = sum(
+        len(m.metadata.get("warnings", [])) for m in [*report.measurements, *report.validation_measurements]
+    )
     return {
         "identifiability": report.identifiability.status,
         "warnings": str(warnings + (0 if report.identifiability.ok else 1)),
@@ -408,7 +481,12 @@ def run_tags(report: IdentificationReport) -> dict[str, str]:
     }
 
 
-def write_report(report: IdentificationReport, output_dir: Path, robot_config: dict[str, Any], motion_format: str = "parquet") -> dict[str, Path]:
+def write_report(
+    report: IdentificationReport,
+    output_dir: Path,
+    robot_config: dict[str, Any],
+    motion_format: str = "parquet",
+) -> dict[str, Path]:
     """Write tables (CSV, Markdown), predicted torques (Parquet), the identified model (YAML) and figures.
 
     ``motion_format``: ``parquet`` (default) or ``csv`` for the 1 kHz motions played (CSV: what a
@@ -418,15 +496,27 @@ def write_report(report: IdentificationReport, output_dir: Path, robot_config: d
         raise ValueError(f"motion_format must be parquet or csv, got {motion_format!r}")
     output_dir.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
-    if not report.recorded:  # simulated: the motions played and what the sensors gave (a log holds them already)
+    if (
+        not report.recorded
+    ):  # simulated: the motions played and what the sensors gave (a log holds them already)
         files["trajectory"] = save_trajectory(report.motion, output_dir / f"exciting_motion.{motion_format}")
-        files["validation_trajectory"] = save_trajectory(report.validation_motion, output_dir / f"validation_motion.{motion_format}")
+        files["validation_trajectory"] = save_trajectory(
+            report.validation_motion, output_dir / f"validation_motion.{motion_format}"
+        )
         files["measurement"] = save_measurement(report.measurement, output_dir / "measurement.npz")
-        files["validation_measurement"] = save_measurement(report.validation_measurement, output_dir / "validation_measurement.npz")
-    files["identified_model"] = save_identified_model(report.identified, robot_config, output_dir / "identified_model.yaml")
-    if report.metrics["min_pseudo_inertia_eigenvalue"] >= 0.0:  # URDF only for real rigid bodies (e.g. estimator=sdp)
+        files["validation_measurement"] = save_measurement(
+            report.validation_measurement, output_dir / "validation_measurement.npz"
+        )
+    files["identified_model"] = save_identified_model(
+        report.identified, robot_config, output_dir / "identified_model.yaml"
+    )
+    if (
+        report.metrics["min_pseudo_inertia_eigenvalue"] >= 0.0
+    ):  # URDF only for real rigid bodies (e.g. estimator=sdp)
         identified_robot = report.robot.with_parameters(report.identified.standard_values)
-        files["urdf"] = export_urdf(identified_robot, output_dir / "identified_model.urdf", f"{report.robot.name}_identified")
+        files["urdf"] = export_urdf(
+            identified_robot, output_dir / "identified_model.urdf", f"{report.robot.name}_identified"
+        )
     files["parameters"] = output_dir / "base_parameters.csv"
     report.parameters.to_csv(files["parameters"])
     files["validation"] = output_dir / "cross_validation.csv"
@@ -458,8 +548,11 @@ def write_report(report: IdentificationReport, output_dir: Path, robot_config: d
         noise,
     )
     files["residuals"] = residuals_per_log(
-        [p.name for p in report.predictions], [p.role for p in report.predictions], [p.t for p in report.predictions],
-        [p.measured - p.predicted for p in report.predictions], output_dir / "residuals_per_log.png",
+        [p.name for p in report.predictions],
+        [p.role for p in report.predictions],
+        [p.t for p in report.predictions],
+        [p.measured - p.predicted for p in report.predictions],
+        output_dir / "residuals_per_log.png",
     )
     return files
 

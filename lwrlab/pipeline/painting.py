@@ -85,7 +85,9 @@ def normal_force_table(run: ContactRun, desired_force: float, cutoff_hz: float) 
     so both are compared at the bandwidth the controller uses; the stiff contact's kHz ringing,
     which neither the estimate nor a force loop can follow, is left out of both.
     """
-    measured = FirstOrderLowPass(cutoff_hz, float(run.t[1] - run.t[0])).apply(run.measured_force[:, 0], initial=0.0)
+    measured = FirstOrderLowPass(cutoff_hz, float(run.t[1] - run.t[0])).apply(
+        run.measured_force[:, 0], initial=0.0
+    )
     mask = run.painting
     return {
         "t": run.t[mask],
@@ -95,7 +97,14 @@ def normal_force_table(run: ContactRun, desired_force: float, cutoff_hz: float) 
     }
 
 
-def reference_poses(plan: RollerPlan, wall: Wall, rate_hz: float, approach_s: float, duration_scale: float, max_duration: float | None) -> tuple[np.ndarray, np.ndarray]:
+def reference_poses(
+    plan: RollerPlan,
+    wall: Wall,
+    rate_hz: float,
+    approach_s: float,
+    duration_scale: float,
+    max_duration: float | None,
+) -> tuple[np.ndarray, np.ndarray]:
     """(N, 4, 4) tool poses at the control rate: ``approach_s`` at the start point, then the path.
 
     ``duration_scale`` shortens the path in time (same geometry), ``max_duration`` cuts the run
@@ -103,7 +112,9 @@ def reference_poses(plan: RollerPlan, wall: Wall, rate_hz: float, approach_s: fl
     """
     parameters = plan.path.parameters
     if duration_scale != 1.0:
-        parameters = PaintingPathParameters(**{**parameters.__dict__, "duration": parameters.duration * duration_scale})
+        parameters = PaintingPathParameters(
+            **{**parameters.__dict__, "duration": parameters.duration * duration_scale}
+        )
     from lwrlab.planning.painting_path import sample_path
 
     path = sample_path(parameters, wall.x, rate_hz)
@@ -132,7 +143,13 @@ def paint(
     period = 1.0 / rate_hz
     plant = MujocoContactPlant(
         truth,
-        ContactTool(plan.tool.parameters, plan.tool.contact_point, plan.tool.contact_axis, plan.tool.width, float(contact.get("contact_radius", 0.025))),
+        ContactTool(
+            plan.tool.parameters,
+            plan.tool.contact_point,
+            plan.tool.contact_axis,
+            plan.tool.width,
+            float(contact.get("contact_radius", 0.025)),
+        ),
         wall,
         control_period=period,
         substeps=int(contact.get("substeps", 2)),
@@ -144,15 +161,31 @@ def paint(
         seed=seed,
     )
     tcp = tcp_transform(plan.recognised)
-    setup = ControlSetup(controller_model, SwivelIK(controller_model), tcp, plan.path.parameters.swivel, plan.path.branch, period)
+    setup = ControlSetup(
+        controller_model,
+        SwivelIK(controller_model),
+        tcp,
+        plan.path.parameters.swivel,
+        plan.path.branch,
+        period,
+    )
     estimator = ExternalForceEstimator(controller_model, tcp, period, **estimator_settings)
     reference, painting = reference_poses(
-        plan, wall, rate_hz, float(contact["approach_s"]), float(contact.get("duration_scale", 1.0)), contact.get("max_duration")
+        plan,
+        wall,
+        rate_hz,
+        float(contact["approach_s"]),
+        float(contact.get("duration_scale", 1.0)),
+        contact.get("max_duration"),
     )
     start = reference[0].copy()
     start[0, 3] += float(contact["standoff"])  # start off the wall; the force loop brings the roller on it
-    steps = tqdm(range(reference.shape[0]), desc="contact simulation", unit="step", leave=False, mininterval=2.0)
-    return simulate_contact(plant, controller, estimator, setup, reference, painting, start=start, progress=steps)
+    steps = tqdm(
+        range(reference.shape[0]), desc="contact simulation", unit="step", leave=False, mininterval=2.0
+    )
+    return simulate_contact(
+        plant, controller, estimator, setup, reference, painting, start=start, progress=steps
+    )
 
 
 def _wall(wall: Mapping[str, float]) -> Wall:
@@ -196,10 +229,10 @@ def run_painting(
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
-    from lwrlab.pipeline.identification import identify_configured
-    from lwrlab.pipeline.tools import ToolBench, identify_tool
-    from lwrlab.pipeline.tool_library import load_library
     from lwrlab.figures.painting import normal_force, path_on_wall
+    from lwrlab.pipeline.identification import identify_configured
+    from lwrlab.pipeline.tool_library import load_library
+    from lwrlab.pipeline.tools import ToolBench, identify_tool
 
     output_dir.mkdir(parents=True, exist_ok=True)
     path = dict(path or {})
@@ -253,13 +286,25 @@ def run_painting(
             stripe_overlap=float(path.get("stripe_overlap", 0.0)),
         )
         started = time.perf_counter()
-        solution = optimise_path(problem, starting_swivels=tuple(path.get("starting_swivels", (-1.6, -0.8))), progress=True)
-        plans[name] = RollerPlan(tool, recognised, estimate.phi_flange, solution, time.perf_counter() - started)
+        solution = optimise_path(
+            problem, starting_swivels=tuple(path.get("starting_swivels", (-1.6, -0.8))), progress=True
+        )
+        plans[name] = RollerPlan(
+            tool, recognised, estimate.phi_flange, solution, time.perf_counter() - started
+        )
 
     # 2. painting runs
     # a controller without force feedback (controller=position) runs once per model
-    cases = [(model, feedback) for model in models for feedback in (feedbacks if "feedback" in cfg.controller else ["none"])]
-    desired = float(np.asarray(OmegaConf.to_container(cfg.controller, resolve=True).get("desired_force", [-30.0, 0, 0]))[0])
+    cases = [
+        (model, feedback)
+        for model in models
+        for feedback in (feedbacks if "feedback" in cfg.controller else ["none"])
+    ]
+    desired = float(
+        np.asarray(OmegaConf.to_container(cfg.controller, resolve=True).get("desired_force", [-30.0, 0, 0]))[
+            0
+        ]
+    )
     cutoff = float(estimator_settings.get("wrench_cutoff_hz", 20.0))
     rows, run_rows, metrics = [], [], {**timing, "identification_rms_mean": report.metrics["rms_mean"]}
     for name, plan in plans.items():
@@ -268,25 +313,55 @@ def run_painting(
             "cad": attach_payload(robot, plan.recognised.parameters),
         }
         runs: dict[tuple[str, str], ContactRun] = {}
-        jobs = [(m, f, instantiate(cfg.controller, **({"feedback": f} if f != "none" else {}))) for m, f in cases]
+        jobs = [
+            (m, f, instantiate(cfg.controller, **({"feedback": f} if f != "none" else {}))) for m, f in cases
+        ]
         if comparison_controller is not None:
             jobs.append(("position", "none", comparison_controller))
         for model, feedback, controller in jobs:
             started = time.perf_counter()
-            run = paint(plan, truth, models_for["identified" if model == "position" else model], controller, the_wall, contact, estimator_settings, seed)
+            run = paint(
+                plan,
+                truth,
+                models_for["identified" if model == "position" else model],
+                controller,
+                the_wall,
+                contact,
+                estimator_settings,
+                seed,
+            )
             seconds = time.perf_counter() - started
             runs[(model, feedback)] = run
             forces = normal_force_table(run, desired, cutoff)
             for first, second in COMPARISONS:
                 rms, nrms = force_errors(forces[first], forces[second])
-                rows.append({"roller": name, "model": model, "feedback": feedback, "comparison": f"{first}/{second}", "rms": rms, "nrms": nrms})
+                rows.append(
+                    {
+                        "roller": name,
+                        "model": model,
+                        "feedback": feedback,
+                        "comparison": f"{first}/{second}",
+                        "rms": rms,
+                        "nrms": nrms,
+                    }
+                )
             in_contact = run.painting & (run.measured_force[:, 0] < -1.0)
             p = plan.path.parameters
             width = plan.recognised.width
             coverage, painted = painted_fraction(
-                run.actual[:, 1], run.actual[:, 2], in_contact, plan.tool.width, (p.y_start - width / 2, p.y_end + width / 2, p.z_lower, p.z_upper)
+                run.actual[:, 1],
+                run.actual[:, 2],
+                in_contact,
+                plan.tool.width,
+                (p.y_start - width / 2, p.y_end + width / 2, p.z_lower, p.z_upper),
             )
-            tracking = float(np.sqrt(np.mean(np.sum((run.actual[run.painting, 1:] - run.reference[run.painting, 1:]) ** 2, axis=1))))
+            tracking = float(
+                np.sqrt(
+                    np.mean(
+                        np.sum((run.actual[run.painting, 1:] - run.reference[run.painting, 1:]) ** 2, axis=1)
+                    )
+                )
+            )
             run_rows.append(
                 {
                     "roller": name,
@@ -308,20 +383,43 @@ def run_painting(
             decimated = slice(None, None, 10)  # 100 Hz: the figures' resolution, a few MB per run
             np.savez_compressed(
                 output_dir / f"contact_{name}_{model}_{feedback}.npz",
-                t=run.t[decimated], reference=run.reference[decimated], commanded=run.commanded[decimated], actual=run.actual[decimated],
-                estimated_wrench=run.estimated_wrench[decimated], measured_force=run.measured_force[decimated], q=run.q[decimated],
-                q_desired=run.q_desired[decimated], tau=run.tau[decimated], painting=run.painting[decimated],
+                t=run.t[decimated],
+                reference=run.reference[decimated],
+                commanded=run.commanded[decimated],
+                actual=run.actual[decimated],
+                estimated_wrench=run.estimated_wrench[decimated],
+                measured_force=run.measured_force[decimated],
+                q=run.q[decimated],
+                q_desired=run.q_desired[decimated],
+                tau=run.tau[decimated],
+                painting=run.painting[decimated],
             )
         # figures like the paper's (large roller in Fig. 13; here every roller)
         main = runs.get(("identified", "estimate")) or next(iter(runs.values()))
-        path_on_wall(main.reference[main.painting], main.actual[main.painting], (*the_wall.y_bounds, *the_wall.z_bounds), output_dir / f"fig12_{name}.png", f"{name}: desired vs actual path")
+        path_on_wall(
+            main.reference[main.painting],
+            main.actual[main.painting],
+            (*the_wall.y_bounds, *the_wall.z_bounds),
+            output_dir / f"fig12_{name}.png",
+            f"{name}: desired vs actual path",
+        )
         panels = {
-            f"{model} model, {feedback} feedback": {k: v for k, v in normal_force_table(run, desired, cutoff).items() if k in ("estimated", "measured")}
+            f"{model} model, {feedback} feedback": {
+                k: v
+                for k, v in normal_force_table(run, desired, cutoff).items()
+                if k in ("estimated", "measured")
+            }
             for (model, feedback), run in runs.items()
             if model != "position"
         }
         t_painting = main.t[main.painting]
-        normal_force(t_painting - t_painting[0], panels, desired, output_dir / f"fig13_{name}.png", f"{name}: normal force on the wall")
+        normal_force(
+            t_painting - t_painting[0],
+            panels,
+            desired,
+            output_dir / f"fig13_{name}.png",
+            f"{name}: normal force on the wall",
+        )
 
     table = pd.DataFrame(rows)
     run_table = pd.DataFrame(run_rows)
@@ -331,7 +429,13 @@ def run_painting(
                 "roller": name,
                 "recognised": plan.recognised.name,
                 "roller_width_m": plan.recognised.width,
-                **dict(zip(("T_C", "phi", "Z_u", "Z_l", "Y_0", "dY"), plan.path.parameters.vector().tolist(), strict=True)),
+                **dict(
+                    zip(
+                        ("T_C", "phi", "Z_u", "Z_l", "Y_0", "dY"),
+                        plan.path.parameters.vector().tolist(),
+                        strict=True,
+                    )
+                ),
                 "N_r": plan.path.parameters.n_steps,
                 "branch": tuple(plan.path.branch),
                 **{f"cost_{k}": v for k, v in plan.path.cost_terms.items()},
@@ -360,7 +464,9 @@ def run_painting(
 
 def format_painting(table: pd.DataFrame, plans: pd.DataFrame, runs: pd.DataFrame) -> str:
     """Table IV (RMS and NRMS per roller, model and feedback), the optimised paths and the runs, as Markdown."""
-    wide = table.pivot_table(index=["model", "feedback", "comparison"], columns="roller", values=["rms", "nrms"], sort=False)
+    wide = table.pivot_table(
+        index=["model", "feedback", "comparison"], columns="roller", values=["rms", "nrms"], sort=False
+    )
     wide.columns = [f"{roller} {stat}" for stat, roller in wide.columns]
     wide = wide[sorted(wide.columns, key=lambda c: (c.split()[0], c.split()[1] != "rms"))]
     return "\n".join(

@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import logging
 import time
-import xml.etree.ElementTree as ET  # noqa: N817 - the usual alias
+import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,9 +43,8 @@ import yaml
 
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import ConfigError
-from lwrlab.identification.core import relative_std
 from lwrlab.identification.context import row_joints
-from lwrlab.identification.core import column_scaled_condition_number
+from lwrlab.identification.core import column_scaled_condition_number, relative_std
 from lwrlab.identification.least_squares import grouped_least_squares
 from lwrlab.identification.payload import (
     PayloadEstimate,
@@ -84,9 +83,15 @@ def log_rows(bench: ToolBench, measurements: Sequence[Measurement]) -> ToolData:
         processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **bench.processing)
         print(f"{measurement.name}: {processed.describe()}")
         w, tau = processed.rows(lambda q, dq, ddq: regressor(bench.robot, q, dq, ddq))
-        parts.append(ToolData(bench.base.base_regressor(w), w[:, tool_columns(bench.robot.n_links, bench.tool_joint)], tau))
+        parts.append(
+            ToolData(
+                bench.base.base_regressor(w), w[:, tool_columns(bench.robot.n_links, bench.tool_joint)], tau
+            )
+        )
     return ToolData(
-        np.vstack([p.w_base for p in parts]), np.vstack([p.w_tool for p in parts]), np.concatenate([p.tau for p in parts])
+        np.vstack([p.w_base for p in parts]),
+        np.vstack([p.w_tool for p in parts]),
+        np.concatenate([p.tau for p in parts]),
     )
 
 
@@ -104,13 +109,20 @@ def _log_reader(cfg: Any, robot: Any, paths: Sequence[str], unit_gains: bool = F
             "this task reads recorded logs: run it with plant=log (and the data.* options the logs need: "
             "data.column_map, data.time_unit, data.drive_gains, …)"
         )
-    overrides: dict[str, Any] = {"path": None, "paths": [str(p) for p in paths], "validation_path": None, "validation_paths": None}
+    overrides: dict[str, Any] = {
+        "path": None,
+        "paths": [str(p) for p in paths],
+        "validation_path": None,
+        "validation_paths": None,
+    }
     if unit_gains:
         overrides["drive_gains"] = [1.0] * robot.n_joints
     return instantiate(cfg.plant, **overrides)(robot=robot)
 
 
-def _read_logs(cfg: Any, robot: Any, paths: Sequence[str] | None, role: str, unit_gains: bool = False) -> list[Measurement]:
+def _read_logs(
+    cfg: Any, robot: Any, paths: Sequence[str] | None, role: str, unit_gains: bool = False
+) -> list[Measurement]:
     paths = [str(p) for p in (paths or [])]
     if not paths:
         return []
@@ -159,16 +171,22 @@ def identify_payload_from_rows(
     ``unloaded`` or ``robot_base``), or None: ``joint`` with unloaded rows, else ``payload_only``.
     """
     if (unloaded is None) == (robot_base is None):
-        raise ConfigError("give the unloaded robot either as unloaded logs (task.unloaded_paths) or as an identified model (task.unloaded_model), not both")
+        raise ConfigError(
+            "give the unloaded robot either as unloaded logs (task.unloaded_paths) or as an identified model (task.unloaded_model), not both"
+        )
     method = method or ("joint" if unloaded is not None else "payload_only")
     if method not in METHODS:
         raise ConfigError(f"unknown payload method {method!r}; valid: {list(METHODS)}")
     if unloaded is not None:
         return identify_tool(bench, unloaded, loaded, method, weighted, consistent)
     if method == "joint":
-        raise ConfigError("method=joint (eq. (7)) needs unloaded logs; with an identified model use method=payload_only")
+        raise ConfigError(
+            "method=joint (eq. (7)) needs unloaded logs; with an identified model use method=payload_only"
+        )
     n = bench.robot.n_joints
-    return identify_payload_only(loaded.w_base, robot_base, loaded.w_tool, loaded.tau, bench.flange_to_joint, n, weighted, consistent)
+    return identify_payload_only(
+        loaded.w_base, robot_base, loaded.w_tool, loaded.tau, bench.flange_to_joint, n, weighted, consistent
+    )
 
 
 def inertial_snippet(phi_flange: np.ndarray) -> str:
@@ -181,8 +199,16 @@ def inertial_snippet(phi_flange: np.ndarray) -> str:
     inertial = ET.Element("inertial")
     ET.SubElement(inertial, "origin", xyz=" ".join(number(c) for c in com), rpy="0 0 0")
     ET.SubElement(inertial, "mass", value=number(mass))
-    ET.SubElement(inertial, "inertia", ixx=number(inertia[0, 0]), ixy=number(inertia[0, 1]), ixz=number(inertia[0, 2]),
-                  iyy=number(inertia[1, 1]), iyz=number(inertia[1, 2]), izz=number(inertia[2, 2]))
+    ET.SubElement(
+        inertial,
+        "inertia",
+        ixx=number(inertia[0, 0]),
+        ixy=number(inertia[0, 1]),
+        ixz=number(inertia[0, 2]),
+        iyy=number(inertia[1, 1]),
+        iyz=number(inertia[1, 2]),
+        izz=number(inertia[2, 2]),
+    )
     ET.indent(inertial)
     text = ET.tostring(inertial, encoding="unicode")
     if not is_physically_consistent(phi_flange):
@@ -200,30 +226,60 @@ def payload_document(estimate: PayloadEstimate, recognition: Recognition | None)
         "method": estimate.method,
         "mass": float(mass),
         "center_of_mass": [float(c) for c in com],
-        "inertia_about_com": {k: float(inertia[i, j]) for k, (i, j) in zip(("xx", "yy", "zz", "xy", "xz", "yz"), ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)), strict=True)},
+        "inertia_about_com": {
+            k: float(inertia[i, j])
+            for k, (i, j) in zip(
+                ("xx", "yy", "zz", "xy", "xz", "yz"),
+                ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)),
+                strict=True,
+            )
+        },
         "parameters": {name: float(v) for name, v in zip(LINK_PARAMETER_NAMES, phi, strict=True)},
         "std": {name: float(s) for name, s in zip(LINK_PARAMETER_NAMES, std, strict=True)},
-        "relative_std_pct": {name: float(s) for name, s in zip(LINK_PARAMETER_NAMES, relative_std(phi, std), strict=True)},
+        "relative_std_pct": {
+            name: float(s) for name, s in zip(LINK_PARAMETER_NAMES, relative_std(phi, std), strict=True)
+        },
         "physically_consistent": bool(is_physically_consistent(phi)),
         "cond": float(estimate.cond),
     }
     if recognition is not None:
-        document["recognised"] = {"tool": recognition.tool, "kind": recognition.kind, "confidence": float(recognition.confidence), "geometry": dict(recognition.geometry)}
+        document["recognised"] = {
+            "tool": recognition.tool,
+            "kind": recognition.kind,
+            "confidence": float(recognition.confidence),
+            "geometry": dict(recognition.geometry),
+        }
     return document
 
 
-def _payload_metrics(estimate: PayloadEstimate, recognition: Recognition | None, truth: Any) -> dict[str, float]:
+def _payload_metrics(
+    estimate: PayloadEstimate, recognition: Recognition | None, truth: Any
+) -> dict[str, float]:
     mass, com, _ = mass_com_inertia(estimate.phi_flange)
-    metrics = {"mass": float(mass), **{f"com_{axis}": float(c) for axis, c in zip("xyz", com, strict=True)}, "cond": float(estimate.cond)}
+    metrics = {
+        "mass": float(mass),
+        **{f"com_{axis}": float(c) for axis, c in zip("xyz", com, strict=True)},
+        "cond": float(estimate.cond),
+    }
     if recognition is not None:
-        metrics |= {"recognition_confidence": float(recognition.confidence), f"recognised_{recognition.tool}": 1.0}
+        metrics |= {
+            "recognition_confidence": float(recognition.confidence),
+            f"recognised_{recognition.tool}": 1.0,
+        }
     if truth is not None:
         true_phi = truth.parameters
-        scale = np.where(true_phi != 0, np.abs(true_phi), np.abs(true_phi[4:7]).max())  # zero products: relative to the inertia
+        scale = np.where(
+            true_phi != 0, np.abs(true_phi), np.abs(true_phi[4:7]).max()
+        )  # zero products: relative to the inertia
         metrics |= {
             "mass_error_pct": float(100 * (mass / truth.mass - 1)),
             "com_error_mm": float(1000 * np.linalg.norm(com - truth.center_of_mass)),
-            **{f"relative_error_{name}": float(e) for name, e in zip(LINK_PARAMETER_NAMES, np.abs(estimate.phi_flange - true_phi) / scale, strict=True)},
+            **{
+                f"relative_error_{name}": float(e)
+                for name, e in zip(
+                    LINK_PARAMETER_NAMES, np.abs(estimate.phi_flange - true_phi) / scale, strict=True
+                )
+            },
         }
         if recognition is not None:
             metrics["recognised_correct"] = float(recognition.tool == truth.name)
@@ -233,11 +289,16 @@ def _payload_metrics(estimate: PayloadEstimate, recognition: Recognition | None,
 def format_payload(document: dict[str, Any], truth: Any = None) -> str:
     """The payload as Markdown: mass, CoM, recognition and the 10 parameters (with the truth if known)."""
     com = ", ".join(f"{1000 * c:.2f}" for c in document["center_of_mass"])
-    lines = [f"## Payload identified from logs ({document['method']}), flange frame", "",
-             f"mass {document['mass']:.5g} kg, centre of mass ({com}) mm, physically consistent: {document['physically_consistent']}"]
+    lines = [
+        f"## Payload identified from logs ({document['method']}), flange frame",
+        "",
+        f"mass {document['mass']:.5g} kg, centre of mass ({com}) mm, physically consistent: {document['physically_consistent']}",
+    ]
     if "recognised" in document:
         r = document["recognised"]
-        lines.append(f"recognised: {r['tool']} ({r['kind']}, confidence {r['confidence']:.3f}, length {r['geometry']['length']} m, width {r['geometry']['width']} m)")
+        lines.append(
+            f"recognised: {r['tool']} ({r['kind']}, confidence {r['confidence']:.3f}, length {r['geometry']['length']} m, width {r['geometry']['width']} m)"
+        )
     header = "| parameter | value | std | %σ |" + (" truth |" if truth is not None else "")
     lines += ["", header, "|---|---|---|---|" + ("---|" if truth is not None else "")]
     for i, name in enumerate(LINK_PARAMETER_NAMES):
@@ -281,12 +342,16 @@ def run_payload(
     if not loaded_paths:
         raise ConfigError("task=payload needs the loaded log(s): 'task.loaded_paths=[loaded.csv]'")
     if not unloaded_paths and not unloaded_model:
-        raise ConfigError("task=payload needs the unloaded robot: 'task.unloaded_paths=[unloaded.csv]' or task.unloaded_model=<run>/identified_model.yaml")
+        raise ConfigError(
+            "task=payload needs the unloaded robot: 'task.unloaded_paths=[unloaded.csv]' or task.unloaded_model=<run>/identified_model.yaml"
+        )
     robot = instantiate(cfg.robot)
     bench = ToolBench.for_robot(robot, _processing(cfg))
     if unloaded_paths and unloaded_model:
         log.warning("both unloaded logs and an unloaded model given: the logs are used")
-    robot_base = earlier_robot_base(bench, unloaded_model) if not unloaded_paths else None  # before reading logs: fail fast
+    robot_base = (
+        earlier_robot_base(bench, unloaded_model) if not unloaded_paths else None
+    )  # before reading logs: fail fast
     start = time.perf_counter()
     loaded = log_rows(bench, _read_logs(cfg, robot, loaded_paths, "loaded"))
     unloaded = log_rows(bench, _read_logs(cfg, robot, unloaded_paths, "unloaded")) if unloaded_paths else None
@@ -338,7 +403,9 @@ class DriveGainEstimate:
         return "data.drive_gains=[" + ",".join(f"{g:.{digits}g}" for g in self.gains) + "]"
 
 
-def known_payload(mass: float | None = None, com: Sequence[float] | None = None, tool: Any = None) -> tuple[np.ndarray, np.ndarray]:
+def known_payload(
+    mass: float | None = None, com: Sequence[float] | None = None, tool: Any = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The payload's flange-frame parameters and which are known: a whole tool, or the mass (and CoM).
 
     Returns ``(phi, known)``: (10,) values (0 where unknown) and (10,) booleans.
@@ -346,7 +413,9 @@ def known_payload(mass: float | None = None, com: Sequence[float] | None = None,
     if tool is not None:
         return np.asarray(tool.parameters, dtype=float), np.ones(10, dtype=bool)
     if mass is None or mass <= 0:
-        raise ConfigError("the drive gains need a known payload: task.payload.mass (kg, > 0), optionally task.payload.com, or task.payload.tool")
+        raise ConfigError(
+            "the drive gains need a known payload: task.payload.mass (kg, > 0), optionally task.payload.com, or task.payload.tool"
+        )
     phi, known = np.zeros(10), np.zeros(10, dtype=bool)
     phi[0], known[0] = float(mass), True
     if com is not None:
@@ -389,18 +458,26 @@ def estimate_drive_gains(
     n = bench.robot.n_joints
     w_payload = loaded.w_tool @ bench.flange_to_joint  # flange-frame columns
     n_base, n_unknown = unloaded.w_base.shape[1], int((~known).sum())
-    matrix = np.block([
-        [unloaded.w_base, np.zeros((unloaded.tau.size, n_unknown)), -_current_columns(unloaded.tau, n)],
-        [loaded.w_base, w_payload[:, ~known], -_current_columns(loaded.tau, n)],
-    ])
+    matrix = np.block(
+        [
+            [unloaded.w_base, np.zeros((unloaded.tau.size, n_unknown)), -_current_columns(unloaded.tau, n)],
+            [loaded.w_base, w_payload[:, ~known], -_current_columns(loaded.tau, n)],
+        ]
+    )
     rhs = np.concatenate([np.zeros(unloaded.tau.size), -w_payload[:, known] @ payload[known]])
     groups = np.concatenate([row_joints(unloaded.tau.size, n), row_joints(loaded.tau.size, n, offset=n)])
     fit = grouped_least_squares(matrix, rhs, groups if weighted else None, known_variance=True)
     weighted_matrix, weighted_rhs = fit.weighted_system(matrix, rhs)
-    theta = _total_least_squares(weighted_matrix, weighted_rhs) if method == "total_least_squares" else fit.phi
+    theta = (
+        _total_least_squares(weighted_matrix, weighted_rhs) if method == "total_least_squares" else fit.phi
+    )
     return DriveGainEstimate(
-        gains=theta[n_base + n_unknown :], std=fit.std[n_base + n_unknown :], robot_base=theta[:n_base],
-        payload_unknown=theta[n_base : n_base + n_unknown], method=method, cond=column_scaled_condition_number(weighted_matrix),
+        gains=theta[n_base + n_unknown :],
+        std=fit.std[n_base + n_unknown :],
+        robot_base=theta[:n_base],
+        payload_unknown=theta[n_base : n_base + n_unknown],
+        method=method,
+        cond=column_scaled_condition_number(weighted_matrix),
     )
 
 
@@ -419,7 +496,9 @@ def _total_least_squares(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return null[:-1] / null[-1]
 
 
-def drive_gains_document(estimate: DriveGainEstimate, payload: np.ndarray, known: np.ndarray) -> dict[str, Any]:
+def drive_gains_document(
+    estimate: DriveGainEstimate, payload: np.ndarray, known: np.ndarray
+) -> dict[str, Any]:
     """``drive_gains.yaml``: the gains (N·m/A), their σ, the known payload and the override line."""
     return {
         "drive_gains": [float(g) for g in estimate.gains],
@@ -427,7 +506,9 @@ def drive_gains_document(estimate: DriveGainEstimate, payload: np.ndarray, known
         "relative_std_pct": [float(s) for s in estimate.relative_std],
         "units": "N·m/A at the joint (τ_j = k_j·i_j)",
         "method": estimate.method,
-        "known_payload": {name: float(v) for name, v, k in zip(LINK_PARAMETER_NAMES, payload, known, strict=True) if k},
+        "known_payload": {
+            name: float(v) for name, v, k in zip(LINK_PARAMETER_NAMES, payload, known, strict=True) if k
+        },
         "cond": estimate.cond,
         "override": estimate.override(),
     }
@@ -461,7 +542,9 @@ def run_drive_gains(
 
     output_dir.mkdir(parents=True, exist_ok=True)
     if not unloaded_paths or not loaded_paths:
-        raise ConfigError("task=drive_gains needs current logs without and with the payload: 'task.unloaded_paths=[u.csv]' 'task.loaded_paths=[l.csv]'")
+        raise ConfigError(
+            "task=drive_gains needs current logs without and with the payload: 'task.unloaded_paths=[u.csv]' 'task.loaded_paths=[l.csv]'"
+        )
     payload = dict(payload or {})
     tool = load_tool(payload["tool"]) if payload.get("tool") else None
     phi, known = known_payload(payload.get("mass"), payload.get("com"), tool)
@@ -474,13 +557,18 @@ def run_drive_gains(
     seconds = time.perf_counter() - start
 
     document = drive_gains_document(estimate, phi, known)
-    (output_dir / "drive_gains.yaml").write_text(yaml.safe_dump(document, sort_keys=False, allow_unicode=True))
+    (output_dir / "drive_gains.yaml").write_text(
+        yaml.safe_dump(document, sort_keys=False, allow_unicode=True)
+    )
     metrics = {f"gain_{j}": float(g) for j, g in enumerate(estimate.gains, start=1)}
     metrics |= {f"gain_relative_std_{j}": float(s) for j, s in enumerate(estimate.relative_std, start=1)}
     metrics |= {"cond": estimate.cond, "identification_s": seconds}
-    lines = [f"## Drive gains (N·m/A), {estimate.method}, known payload {document['known_payload']}", "",
-             "| joint | gain | std | %σ |" + (" truth | error % |" if true_gains is not None else ""),
-             "|---|---|---|---|" + ("---|---|" if true_gains is not None else "")]
+    lines = [
+        f"## Drive gains (N·m/A), {estimate.method}, known payload {document['known_payload']}",
+        "",
+        "| joint | gain | std | %σ |" + (" truth | error % |" if true_gains is not None else ""),
+        "|---|---|---|---|" + ("---|---|" if true_gains is not None else ""),
+    ]
     for j, (g, s, r) in enumerate(zip(estimate.gains, estimate.std, estimate.relative_std, strict=True)):
         row = f"| {j + 1} | {g:.6g} | {s:.3g} | {r:.3g} |"
         if true_gains is not None:
@@ -489,15 +577,25 @@ def run_drive_gains(
             row += f" {float(true_gains[j]):.6g} | {error:.3g} |"
         lines.append(row)
     if true_gains is not None:
-        metrics["max_abs_gain_error_pct"] = max(abs(metrics[f"gain_error_pct_{j}"]) for j in range(1, robot.n_joints + 1))
+        metrics["max_abs_gain_error_pct"] = max(
+            abs(metrics[f"gain_error_pct_{j}"]) for j in range(1, robot.n_joints + 1)
+        )
     weak = [j + 1 for j, r in enumerate(estimate.relative_std) if not r <= WEAK_GAIN_RELATIVE_STD]
     if weak:
-        lines += ["", f"WARNING: gains of joints {weak} are poorly determined (%σ > {WEAK_GAIN_RELATIVE_STD:g}): the known payload "
-                  "barely loads them (a centre of mass on their axis). Give a payload whose centre of mass lies off those axes "
-                  "(task.payload.com), a heavier one, or the whole tool (task.payload.tool)."]
+        lines += [
+            "",
+            f"WARNING: gains of joints {weak} are poorly determined (%σ > {WEAK_GAIN_RELATIVE_STD:g}): the known payload "
+            "barely loads them (a centre of mass on their axis). Give a payload whose centre of mass lies off those axes "
+            "(task.payload.com), a heavier one, or the whole tool (task.payload.tool).",
+        ]
         log.warning("drive gains of joints %s are poorly determined (%%σ > %g)", weak, WEAK_GAIN_RELATIVE_STD)
     metrics["n_weak_gains"] = float(len(weak))
-    lines += ["", "Read later current logs with these gains (paste into the command line):", "", f"    '{estimate.override()}'"]
+    lines += [
+        "",
+        "Read later current logs with these gains (paste into the command line):",
+        "",
+        f"    '{estimate.override()}'",
+    ]
     text = "\n".join(lines)
     (output_dir / "summary.md").write_text(text + "\n")
     (output_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))

@@ -49,7 +49,9 @@ def build_tool(description: Mapping[str, Any], source: str = "tool description")
     """Build a tool from a mapping with a ``_target_`` builder and its keyword arguments (``instantiate``)."""
     target = description.get("_target_")
     if not isinstance(target, str) or "." not in target:
-        raise ValueError(f"{source}: needs `_target_: module.builder` (e.g. lwrlab.tools.painting.paint_roller), got {target!r}")
+        raise ValueError(
+            f"{source}: needs `_target_: module.builder` (e.g. lwrlab.tools.painting.paint_roller), got {target!r}"
+        )
     try:
         tool = instantiate(description, _convert_="all")
     except InstantiationException as error:

@@ -81,28 +81,64 @@ class ToolBench:
     @classmethod
     def for_robot(cls, robot: RobotModel, processing: dict[str, Any] | None = None) -> ToolBench:
         joint, placement = flange_placement(robot)
-        return cls(robot, compute_base_parameters(robot), frame_change_matrix(placement.rotation, placement.translation), joint, dict(processing or {}))
+        return cls(
+            robot,
+            compute_base_parameters(robot),
+            frame_change_matrix(placement.rotation, placement.translation),
+            joint,
+            dict(processing or {}),
+        )
 
     def data(self, plant: Plant, motion: Trajectory) -> ToolData:
         """Execute ``motion`` on ``plant`` and build the regressors from the processed measurement."""
         measurement = plant.measure(motion)
         processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **self.processing)
         w, tau = processed.rows(lambda q, dq, ddq: regressor(self.robot, q, dq, ddq))
-        return ToolData(self.base.base_regressor(w), w[:, tool_columns(self.robot.n_links, self.tool_joint)], tau)
+        return ToolData(
+            self.base.base_regressor(w), w[:, tool_columns(self.robot.n_links, self.tool_joint)], tau
+        )
 
     def truth_in_joint_frame(self, tool: Tool) -> np.ndarray:
         """The tool's true parameters in the flange-carrying joint's frame (Table III's frame)."""
         return self.flange_to_joint @ tool.parameters
 
 
-def identify_tool(bench: ToolBench, unloaded: ToolData, loaded: ToolData, method: str = "joint", weighted: bool = True, consistent: bool = False) -> PayloadEstimate:
+def identify_tool(
+    bench: ToolBench,
+    unloaded: ToolData,
+    loaded: ToolData,
+    method: str = "joint",
+    weighted: bool = True,
+    consistent: bool = False,
+) -> PayloadEstimate:
     """The tool's parameters from an unloaded and a loaded measurement, by ``method`` (see :data:`METHODS`)."""
     n = bench.robot.n_joints
     if method == "joint":
-        return identify_payload(unloaded.w_base, unloaded.tau, loaded.w_base, loaded.w_tool, loaded.tau, bench.flange_to_joint, n, weighted, consistent)
+        return identify_payload(
+            unloaded.w_base,
+            unloaded.tau,
+            loaded.w_base,
+            loaded.w_tool,
+            loaded.tau,
+            bench.flange_to_joint,
+            n,
+            weighted,
+            consistent,
+        )
     if method == "payload_only":
-        robot_base = grouped_least_squares(unloaded.w_base, unloaded.tau, row_joints(unloaded.tau.size, n) if weighted else None).phi
-        return identify_payload_only(loaded.w_base, robot_base, loaded.w_tool, loaded.tau, bench.flange_to_joint, n, weighted, consistent)
+        robot_base = grouped_least_squares(
+            unloaded.w_base, unloaded.tau, row_joints(unloaded.tau.size, n) if weighted else None
+        ).phi
+        return identify_payload_only(
+            loaded.w_base,
+            robot_base,
+            loaded.w_tool,
+            loaded.tau,
+            bench.flange_to_joint,
+            n,
+            weighted,
+            consistent,
+        )
     raise ValueError(f"unknown tool identification method {method!r}; valid: {list(METHODS)}")
 
 
@@ -112,7 +148,9 @@ def _motion(source: Any, robot: RobotModel, rate_hz: float, what: str) -> Trajec
     return motion
 
 
-def tool_motion(source: Callable[..., Any], count: int, robot: RobotModel, rate_hz: float) -> tuple[Trajectory, pd.DataFrame]:
+def tool_motion(
+    source: Callable[..., Any], count: int, robot: RobotModel, rate_hz: float
+) -> tuple[Trajectory, pd.DataFrame]:
     """The loaded motion: the best of ``count`` seeded motions by the tool criterion.
 
     ``source`` builds a motion source from a ``seed`` keyword (a partial motion plugin whose own
@@ -120,16 +158,27 @@ def tool_motion(source: Callable[..., Any], count: int, robot: RobotModel, rate_
     criterion value.
     """
     first_seed = int(getattr(source, "keywords", {}).get("seed", 0))
-    candidates = [_motion(source(seed=first_seed + k), robot, rate_hz, "tool motion") for k in range(int(count))]
+    candidates = [
+        _motion(source(seed=first_seed + k), robot, rate_hz, "tool motion") for k in range(int(count))
+    ]
     best, values = select_tool_motion(robot, candidates)
-    table = pd.DataFrame({"seed": first_seed + np.arange(count), "tool_logdet": values, "chosen": np.arange(count) == best})
-    log.info("tool motion: seed %d of %d candidates (tool log-det criterion %.3f)", first_seed + best, count, values[best])
+    table = pd.DataFrame(
+        {"seed": first_seed + np.arange(count), "tool_logdet": values, "chosen": np.arange(count) == best}
+    )
+    log.info(
+        "tool motion: seed %d of %d candidates (tool log-det criterion %.3f)",
+        first_seed + best,
+        count,
+        values[best],
+    )
     return candidates[best], table
 
 
 def _required_motion(source: Callable[..., Any] | None) -> Callable[..., Any]:
     if source is None:
-        raise ValueError("the tool stages need `task.tool_motion`: a partial motion plugin (`_partial_: true`) with a seed")
+        raise ValueError(
+            "the tool stages need `task.tool_motion`: a partial motion plugin (`_partial_: true`) with a seed"
+        )
     return source
 
 
@@ -174,8 +223,12 @@ def table3_rows(tool: Tool, estimate: PayloadEstimate, truth: np.ndarray) -> pd.
             "truth": truth,
             "phi_flange": estimate.phi_flange,
             "truth_flange": tool.parameters,
-            "paper_phi": [paper[p][paper_key] if paper_key is not None else np.nan for p in LINK_PARAMETER_NAMES],
-            "paper_relative_std": [paper[p][paper_key + 1] if paper_key is not None else np.nan for p in LINK_PARAMETER_NAMES],
+            "paper_phi": [
+                paper[p][paper_key] if paper_key is not None else np.nan for p in LINK_PARAMETER_NAMES
+            ],
+            "paper_relative_std": [
+                paper[p][paper_key + 1] if paper_key is not None else np.nan for p in LINK_PARAMETER_NAMES
+            ],
         }
     )
     return rows
@@ -209,7 +262,9 @@ def run_table3_tools(
     from hydra.utils import instantiate
 
     output_dir.mkdir(parents=True, exist_ok=True)
-    robot, bench, plant_for, unloaded_motion, loaded_motion, candidates, library = _setup(cfg, library, _required_motion(tool_motion), tool_motion_candidates)
+    robot, bench, plant_for, unloaded_motion, loaded_motion, candidates, library = _setup(
+        cfg, library, _required_motion(tool_motion), tool_motion_candidates
+    )
     classifier: ToolClassifier = instantiate(cfg.classifier).fit(library)
     plant = plant_for(int(cfg.seed))
     unloaded = bench.data(plant, unloaded_motion)
@@ -217,7 +272,9 @@ def run_table3_tools(
     for name in tqdm(list(tools), desc="tools", leave=False):
         tool = library[name] if name in library.names else load_library([name]).tools[0]
         start = time.perf_counter()
-        estimate = identify_tool(bench, unloaded, bench.data(plant.with_tool(tool), loaded_motion), method, weighted, consistent)
+        estimate = identify_tool(
+            bench, unloaded, bench.data(plant.with_tool(tool), loaded_motion), method, weighted, consistent
+        )
         seconds = time.perf_counter() - start
         recognition: Recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
         mass_error = 100.0 * (estimate.phi[0] / tool.mass - 1.0)
@@ -254,7 +311,12 @@ def run_table3_tools(
         for name in tools
         if table.loc[table.tool == name, "paper_relative_std"].notna().all()
     }
-    relative_std_bars(LINK_PARAMETER_NAMES, series, output_dir / "table3_relative_std.png", "Tool parameters: %σ (Table III)")
+    relative_std_bars(
+        LINK_PARAMETER_NAMES,
+        series,
+        output_dir / "table3_relative_std.png",
+        "Tool parameters: %σ (Table III)",
+    )
     metrics["max_abs_mass_error_pct"] = float(summary["mass_error_pct"].abs().max())
     metrics["recognition_accuracy"] = float(summary["correct"].mean())
     text = format_table3(table, summary)
@@ -268,7 +330,12 @@ def format_table3(table: pd.DataFrame, summary: pd.DataFrame) -> str:
     """Table III (Φ and %σ per tool, beside the truth and the paper) and the recognition, as Markdown."""
     lines = ["## Table III: identified tool parameters (frame of joint 7)", ""]
     for name, rows in table.groupby("tool", sort=False):
-        lines += [f"### {name}", "", rows.drop(columns=["tool"]).set_index("parameter").to_markdown(floatfmt=".4g"), ""]
+        lines += [
+            f"### {name}",
+            "",
+            rows.drop(columns=["tool"]).set_index("parameter").to_markdown(floatfmt=".4g"),
+            "",
+        ]
     lines += ["## Mass and recognition", "", summary.set_index("tool").to_markdown(floatfmt=".4g")]
     return "\n".join(lines)
 
@@ -301,7 +368,9 @@ def run_tool_recognition_benchmark(
     error %), ``confusion_matrix.png`` and ``summary.md``.
     """
     output_dir.mkdir(parents=True, exist_ok=True)
-    _, bench, plant_for, unloaded_motion, loaded_motion, _, tools = _setup(cfg, library, _required_motion(tool_motion), tool_motion_candidates)
+    _, bench, plant_for, unloaded_motion, loaded_motion, _, tools = _setup(
+        cfg, library, _required_motion(tool_motion), tool_motion_candidates
+    )
     held_out = {
         (name, tool.name): copy.deepcopy(classifier).fit(tools.without(tool.name))
         for name, classifier in classifiers.items()
@@ -317,13 +386,29 @@ def run_tool_recognition_benchmark(
         plant = plant_for(seed)
         unloaded = bench.data(plant, unloaded_motion)
         for tool in library:
-            estimate = identify_tool(bench, unloaded, bench.data(plant.with_tool(tool), loaded_motion), method, weighted, consistent)
+            estimate = identify_tool(
+                bench,
+                unloaded,
+                bench.data(plant.with_tool(tool), loaded_motion),
+                method,
+                weighted,
+                consistent,
+            )
             phi, covariance = estimate.phi_flange, estimate.covariance_flange
-            identification.append({"seed": seed, "tool": tool.name, "mass_error_pct": 100.0 * (phi[0] / tool.mass - 1.0)})
+            identification.append(
+                {"seed": seed, "tool": tool.name, "mass_error_pct": 100.0 * (phi[0] / tool.mass - 1.0)}
+            )
             for name, classifier in classifiers.items():
                 recognition = classifier.predict(phi, covariance)
                 trials.append(
-                    {"classifier": name, "seed": seed, "tool": tool.name, "recognised": recognition.tool, "correct": recognition.tool == tool.name, "confidence": recognition.confidence}
+                    {
+                        "classifier": name,
+                        "seed": seed,
+                        "tool": tool.name,
+                        "recognised": recognition.tool,
+                        "correct": recognition.tool == tool.name,
+                        "confidence": recognition.confidence,
+                    }
                 )
             for (name, held_name), classifier in held_out.items():
                 if held_name == tool.name:
@@ -333,16 +418,29 @@ def run_tool_recognition_benchmark(
                         {"classifier": name, "seed": seed, "tool": tool.name}
                         | {f"{g}_true_m": t for g, t in zip(GEOMETRY_NAMES, true, strict=True)}
                         | {f"{g}_estimated_m": e for g, e in zip(GEOMETRY_NAMES, estimated, strict=True)}
-                        | {f"{g}_error_mm": 1000 * (e - t) for g, e, t in zip(GEOMETRY_NAMES, estimated, true, strict=True)}
+                        | {
+                            f"{g}_error_mm": 1000 * (e - t)
+                            for g, e, t in zip(GEOMETRY_NAMES, estimated, true, strict=True)
+                        }
                     )
             progress.update()
     progress.close()
-    trials_table, geometry_table, identification_table = pd.DataFrame(trials), pd.DataFrame(geometry), pd.DataFrame(identification)
-    accuracy = trials_table.groupby("classifier", sort=False).agg(accuracy=("correct", "mean"), trials=("correct", "size"))
+    trials_table, geometry_table, identification_table = (
+        pd.DataFrame(trials),
+        pd.DataFrame(geometry),
+        pd.DataFrame(identification),
+    )
+    accuracy = trials_table.groupby("classifier", sort=False).agg(
+        accuracy=("correct", "mean"), trials=("correct", "size")
+    )
     correct = trials_table[trials_table.correct].groupby("classifier", sort=False)["confidence"]
     accuracy["mean_confidence"], accuracy["min_confidence_correct"] = correct.mean(), correct.min()
-    matrices = {name: _confusion(trials_table[trials_table.classifier == name], library.names) for name in classifiers}
-    confusion_matrices(library.names, matrices, accuracy["accuracy"].to_dict(), output_dir / "confusion_matrix.png")
+    matrices = {
+        name: _confusion(trials_table[trials_table.classifier == name], library.names) for name in classifiers
+    }
+    confusion_matrices(
+        library.names, matrices, accuracy["accuracy"].to_dict(), output_dir / "confusion_matrix.png"
+    )
     trials_table.to_csv(output_dir / "tool_recognition_trials.csv", index=False)
     accuracy.to_csv(output_dir / "tool_recognition_accuracy.csv")
     geometry_table.to_csv(output_dir / "geometry_interpolation.csv", index=False)
@@ -363,11 +461,15 @@ def run_tool_recognition_benchmark(
             "",
             "## Tool mass error (%) over all trials",
             "",
-            identification_table.groupby("tool")["mass_error_pct"].describe()[["mean", "std", "min", "max"]].to_markdown(floatfmt=".3g"),
+            identification_table.groupby("tool")["mass_error_pct"]
+            .describe()[["mean", "std", "min", "max"]]
+            .to_markdown(floatfmt=".3g"),
             "",
             "## Held-out tools: geometry interpolated in feature space (RMS error, mm)",
             "",
-            geometry_summary.to_markdown(floatfmt=".3g") if not geometry_summary.empty else "(no classifier interpolates geometry)",
+            geometry_summary.to_markdown(floatfmt=".3g")
+            if not geometry_summary.empty
+            else "(no classifier interpolates geometry)",
         ]
     )
     (output_dir / "summary.md").write_text(text + "\n")

@@ -67,7 +67,11 @@ class PaintingPathParameters:
         for stroke in range(self.n_steps + 1):
             y = self.y_start + stroke * self.y_step
             low_first = stroke % 2 == 0
-            points += [(y, self.z_lower), (y, self.z_upper)] if low_first else [(y, self.z_upper), (y, self.z_lower)]
+            points += (
+                [(y, self.z_lower), (y, self.z_upper)]
+                if low_first
+                else [(y, self.z_upper), (y, self.z_lower)]
+            )
         return np.array(points)
 
     def painted_area(self, roller_width: float) -> float:
@@ -117,7 +121,9 @@ def minimum_jerk(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
-def _segments(parameters: PaintingPathParameters, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _segments(
+    parameters: PaintingPathParameters, rate_hz: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Sample times t (s), way points, their times (s), each sample's segment and its normalised time τ."""
     if parameters.duration <= 0:
         raise ValueError(f"painting path duration must be positive, got {parameters.duration} s")
@@ -130,7 +136,9 @@ def _segments(parameters: PaintingPathParameters, rate_hz: float) -> tuple[np.nd
     return t, points, times, segment, tau
 
 
-def sample_path(parameters: PaintingPathParameters, wall_x: float, rate_hz: float, rotation: np.ndarray = TOOL_ORIENTATION) -> SampledPath:
+def sample_path(
+    parameters: PaintingPathParameters, wall_x: float, rate_hz: float, rotation: np.ndarray = TOOL_ORIENTATION
+) -> SampledPath:
     """The path of ``parameters`` on the wall plane ``x = wall_x`` sampled at ``rate_hz`` (Hz).
 
     Each segment is the quintic with the way points' positions and zero velocity and acceleration
@@ -149,7 +157,13 @@ def sample_path(parameters: PaintingPathParameters, wall_x: float, rate_hz: floa
     position[:, 1:] = points[segment] + step * s[:, None]
     velocity[:, 1:] = step * (ds / length)[:, None]
     acceleration[:, 1:] = step * (dds / length**2)[:, None]
-    return SampledPath(t=t, position=position, velocity=velocity, acceleration=acceleration, rotation=np.asarray(rotation, dtype=float))
+    return SampledPath(
+        t=t,
+        position=position,
+        velocity=velocity,
+        acceleration=acceleration,
+        rotation=np.asarray(rotation, dtype=float),
+    )
 
 
 def way_point_derivatives(parameters: PaintingPathParameters) -> np.ndarray:
@@ -187,8 +201,15 @@ def sample_path_derivatives(parameters: PaintingPathParameters, rate_hz: float) 
     d_fraction = (d_cumulative * total - cumulative[:, None] * d_total) / total**2
     # τ = (t/T_C − w_s)/(w_{s+1} − w_s)
     span = fraction[segment + 1] - fraction[segment]
-    d_tau = -(d_fraction[segment] + tau[:, None] * (d_fraction[segment + 1] - d_fraction[segment])) / span[:, None]
+    d_tau = (
+        -(d_fraction[segment] + tau[:, None] * (d_fraction[segment + 1] - d_fraction[segment]))
+        / span[:, None]
+    )
     s, ds, _ = minimum_jerk(tau)
     derivative = np.zeros((t.size, 3, 6))
-    derivative[:, 1:] = d_points[segment] + d_step[segment] * s[:, None, None] + step[segment][:, :, None] * (ds[:, None] * d_tau)[:, None, :]
+    derivative[:, 1:] = (
+        d_points[segment]
+        + d_step[segment] * s[:, None, None]
+        + step[segment][:, :, None] * (ds[:, None] * d_tau)[:, None, :]
+    )
     return derivative

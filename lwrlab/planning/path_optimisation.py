@@ -34,7 +34,13 @@ from scipy.optimize import minimize
 from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
 from lwrlab.kinematics.swivel_ik_derivatives import solve_branch_derivatives
 from lwrlab.model.robot import RobotModel
-from lwrlab.planning.painting_path import TOOL_ORIENTATION, PaintingPathParameters, SampledPath, sample_path, sample_path_derivatives
+from lwrlab.planning.painting_path import (
+    TOOL_ORIENTATION,
+    PaintingPathParameters,
+    SampledPath,
+    sample_path,
+    sample_path_derivatives,
+)
 
 GRADIENTS = ("analytic", "finite_differences")
 """How :func:`optimise_path` gets its gradients: analytic, or SLSQP's own finite differences."""
@@ -132,8 +138,9 @@ class PathProblem:
     def flange_poses(self, path: SampledPath) -> np.ndarray:
         return path.poses() @ self.flange_in_tcp
 
-
-    def joint_trajectory(self, x: np.ndarray, rate_hz: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def joint_trajectory(
+        self, x: np.ndarray, rate_hz: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """t, q, q̇, q̈ of the IK trajectory (s, rad, rad/s, rad/s²); q̇, q̈ by second-order differences.
 
         Sampled at ``rate_hz`` (default ``search_rate_hz``); memoised for the last ``x``.
@@ -162,7 +169,9 @@ class PathProblem:
         path = self.path(x, self.search_rate_hz)
         flange = self.flange_poses(path)
         solution, q_position, q_swivel = solve_branch_derivatives(self.ik, flange, float(x[1]), self.branch)
-        position_x = sample_path_derivatives(parameters, self.search_rate_hz)  # (N, 3, 6); the flange moves with the tool
+        position_x = sample_path_derivatives(
+            parameters, self.search_rate_hz
+        )  # (N, 3, 6); the flange moves with the tool
         q_x = np.einsum("nja,nax->njx", q_position, position_x)
         q_x[:, :, 1] += q_swivel
         dt, duration = path.t[1] - path.t[0], float(x[0])
@@ -208,7 +217,10 @@ class PathProblem:
         wrist = self.ik.wrist_pose(self.flange_poses(path))[:, :3, 3]
         distance = np.linalg.norm(wrist - [0.0, 0.0, self.ik.shoulder_height], axis=1)
         low, high = self.ik.reach
-        return {"reach (outer)": 0.98 * high - distance.max(), "reach (inner)": distance.min() - 1.02 * low - 0.01}
+        return {
+            "reach (outer)": 0.98 * high - distance.max(),
+            "reach (inner)": distance.min() - 1.02 * low - 0.01,
+        }
 
     def joint_constraints(self, x: np.ndarray) -> dict[str, float]:
         """Normalised margins of every joint limit along the trajectory (≥ 0 when satisfied)."""
@@ -243,7 +255,12 @@ class PathProblem:
         values = self.geometric_constraints(x)
         if self._is_degenerate(values, self.min_stroke):
             # degenerate path (coinciding way points): nothing else can be evaluated
-            return {**values, "reach (outer)": -1.0, "reach (inner)": -1.0, **dict.fromkeys(self.joint_constraint_names, -1.0)}, "geometric"
+            return {
+                **values,
+                "reach (outer)": -1.0,
+                "reach (inner)": -1.0,
+                **dict.fromkeys(self.joint_constraint_names, -1.0),
+            }, "geometric"
         values.update(self.reach_constraints(x))
         if min(values.values()) < -0.05 or values["reach (outer)"] < 0 or values["reach (inner)"] < 0:
             # out of reach: the joint trajectory does not exist; report it as violated
@@ -283,7 +300,10 @@ class PathProblem:
         offset = wrist - [0.0, 0.0, self.ik.shoulder_height]
         distance = np.linalg.norm(offset, axis=1)
         distance_x = np.einsum("ni,nix->nx", offset, wrist_x) / distance[:, None]
-        return {"reach (outer)": -distance_x[distance.argmax()], "reach (inner)": distance_x[distance.argmin()]}
+        return {
+            "reach (outer)": -distance_x[distance.argmax()],
+            "reach (inner)": distance_x[distance.argmin()],
+        }
 
     def _joint_gradients(self, x: np.ndarray) -> dict[str, np.ndarray]:
         d = self.trajectory_derivatives(x)
@@ -295,14 +315,21 @@ class PathProblem:
         for j in range(self.robot.n_joints):
             gradients[f"q{j + 1} ≥ lower"] = d.q_x[d.q[:, j].argmin(), j] / span[j]
             gradients[f"q{j + 1} ≤ upper"] = -d.q_x[d.q[:, j].argmax(), j] / span[j]
-            for name, values, derivative, limit in (("q̇", d.dq, d.dq_x, lim.velocity), ("q̈", d.ddq, d.ddq_x, lim.acceleration)):
+            for name, values, derivative, limit in (
+                ("q̇", d.dq, d.dq_x, lim.velocity),
+                ("q̈", d.ddq, d.ddq_x, lim.acceleration),
+            ):
                 k = np.abs(values[:, j]).argmax()
                 gradients[f"|{name}{j + 1}| ≤ limit"] = -np.sign(values[k, j]) * derivative[k, j] / limit[j]
             k = np.abs(tau[:, j]).argmax()
-            gradients[f"|Γ{j + 1}| ≤ limit"] = -np.sign(tau[k, j]) * self._torque_gradient(d, stride * k)[j] / lim.torque[j]
+            gradients[f"|Γ{j + 1}| ≤ limit"] = (
+                -np.sign(tau[k, j]) * self._torque_gradient(d, stride * k)[j] / lim.torque[j]
+            )
         for name, j in zip(("shoulder", "elbow", "wrist"), (1, 3, 5), strict=True):
             k = np.abs(np.sin(d.q[:, j])).argmin()
-            gradients[f"{name} singularity margin"] = np.sign(np.sin(d.q[k, j])) * np.cos(d.q[k, j]) * d.q_x[k, j]
+            gradients[f"{name} singularity margin"] = (
+                np.sign(np.sin(d.q[k, j])) * np.cos(d.q[k, j]) * d.q_x[k, j]
+            )
         return gradients
 
     def _torque_gradient(self, d: TrajectoryDerivatives, k: int) -> np.ndarray:
@@ -311,14 +338,22 @@ class PathProblem:
         data = model.createData()  # kept alive while its derivative arrays (views into it) are used
         tau_q, tau_v, tau_a = pin.computeRNEADerivatives(model, data, d.q[k], d.dq[k], d.ddq[k])
         if "viscous" in self.robot.friction_terms:
-            tau_v = tau_v + np.diag(self.robot.friction.viscous)  # Coulomb's sign(q̇) has no derivative off q̇ = 0
+            tau_v = tau_v + np.diag(
+                self.robot.friction.viscous
+            )  # Coulomb's sign(q̇) has no derivative off q̇ = 0
         return tau_q @ d.q_x[k] + tau_v @ d.dq_x[k] + tau_a @ d.ddq_x[k]
 
     @property
     def joint_constraint_names(self) -> list[str]:
         names = []
         for j in range(1, self.robot.n_joints + 1):
-            names += [f"q{j} ≥ lower", f"q{j} ≤ upper", f"|q̇{j}| ≤ limit", f"|q̈{j}| ≤ limit", f"|Γ{j}| ≤ limit"]
+            names += [
+                f"q{j} ≥ lower",
+                f"q{j} ≤ upper",
+                f"|q̇{j}| ≤ limit",
+                f"|q̈{j}| ≤ limit",
+                f"|Γ{j}| ≤ limit",
+            ]
         return names + [f"{n} singularity margin" for n in ("shoulder", "elbow", "wrist")]
 
     def cost_terms(self, x: np.ndarray) -> dict[str, float]:
@@ -326,7 +361,9 @@ class PathProblem:
         p = self.parameters(x)
         try:
             t, _, _, ddq = self.joint_trajectory(x)
-            smoothness = float(self.rate_hz * np.trapezoid(np.sum(ddq**2, axis=1), t))  # ≈ Σ_k Σ_j q̈² at rate_hz
+            smoothness = float(
+                self.rate_hz * np.trapezoid(np.sum(ddq**2, axis=1), t)
+            )  # ≈ Σ_k Σ_j q̈² at rate_hz
         except ValueError:  # degenerate or unreachable path: the constraints say so
             smoothness = 1e6
         return {
@@ -353,7 +390,11 @@ class PathProblem:
         # S = w·rate·trapz(Σ q̈², t); the grid spacing scales with T_C
         squares = np.sum(d.ddq**2, axis=1)
         smoothness = self.rate_hz * np.trapezoid(squares, d.t)
-        gradient += self.smoothness_weight * self.rate_hz * np.trapezoid(2 * np.einsum("nj,njx->nx", d.ddq, d.ddq_x), d.t, axis=0)
+        gradient += (
+            self.smoothness_weight
+            * self.rate_hz
+            * np.trapezoid(2 * np.einsum("nj,njx->nx", d.ddq, d.ddq_x), d.t, axis=0)
+        )
         gradient[0] += self.smoothness_weight * smoothness / float(x[0])
         return gradient
 
@@ -408,14 +449,31 @@ def optimise_path(
     analytic = gradients == "analytic"
     wall = problem.wall
     lower = np.array([problem.duration_bounds[0], -np.pi, wall.z_min, wall.z_min, wall.y_min, 1e-3])
-    upper = np.array([problem.duration_bounds[1], np.pi, wall.z_max, wall.z_max, wall.y_max, problem.roller_width - problem.stripe_overlap])
+    upper = np.array(
+        [
+            problem.duration_bounds[1],
+            np.pi,
+            wall.z_max,
+            wall.z_max,
+            wall.y_max,
+            problem.roller_width - problem.stripe_overlap,
+        ]
+    )
     z_mid = (wall.z_min + wall.z_max) / 2
-    y_step = min(problem.roller_width - problem.stripe_overlap, (wall.y_max - wall.y_min - problem.roller_width) / max(problem.n_steps, 1)) * 0.5
+    y_step = (
+        min(
+            problem.roller_width - problem.stripe_overlap,
+            (wall.y_max - wall.y_min - problem.roller_width) / max(problem.n_steps, 1),
+        )
+        * 0.5
+    )
     y_start = (wall.y_min + wall.y_max) / 2 - problem.n_steps * y_step / 2
     tries = [(branch, swivel) for branch in (branches or [problem.branch]) for swivel in starting_swivels]
     best: tuple[float, float, PathProblem, np.ndarray] | None = None  # (violation, cost, problem, x)
     iterations = 0
-    for branch, swivel in tqdm(tries, desc="painting path (eq. 12)", unit="start", disable=not progress, leave=False):
+    for branch, swivel in tqdm(
+        tries, desc="painting path (eq. 12)", unit="start", disable=not progress, leave=False
+    ):
         candidate = replace(problem, branch=branch)
         x0 = np.array([np.mean(problem.duration_bounds), swivel, z_mid + 0.1, z_mid - 0.1, y_start, y_step])
         constraint = {"type": "ineq", "fun": lambda x, c=candidate: np.array(list(c.constraints(x).values()))}
@@ -440,7 +498,9 @@ def optimise_path(
     values = solved.constraints(x)
     if violation > 1e-6:
         violated = [f"{name} ({value:.3g})" for name, value in values.items() if value < -1e-6]
-        raise InfeasiblePath(f"no feasible painting path from {len(tries)} starts; violated: {', '.join(violated)}")
+        raise InfeasiblePath(
+            f"no feasible painting path from {len(tries)} starts; violated: {', '.join(violated)}"
+        )
     parameters = solved.parameters(x)
     return PathSolution(
         parameters=parameters,

@@ -33,7 +33,9 @@ class Measurement:
     def __post_init__(self) -> None:
         n = self.t.shape[0]
         if self.q.shape != self.tau.shape or self.q.shape[0] != n:
-            raise ValueError(f"Measurement shapes disagree: t {self.t.shape}, q {self.q.shape}, tau {self.tau.shape}")
+            raise ValueError(
+                f"Measurement shapes disagree: t {self.t.shape}, q {self.q.shape}, tau {self.tau.shape}"
+            )
         if self.dq is not None and self.dq.shape != self.q.shape:
             raise ValueError(f"Measurement shapes disagree: q {self.q.shape}, dq {self.dq.shape}")
 

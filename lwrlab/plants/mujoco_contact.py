@@ -154,11 +154,17 @@ def mujoco_xml(
     """
     model = robot.model
     gravity = robot.gravity
-    armature = robot.rotor_inertia if (with_armature and robot.rotor_inertia is not None) else np.zeros(robot.n_joints)
+    armature = (
+        robot.rotor_inertia
+        if (with_armature and robot.rotor_inertia is not None)
+        else np.zeros(robot.n_joints)
+    )
     bodies, closing = [], []
     for j in range(1, model.njoints):
         if model.joints[j].shortname() != "JointModelRZ" or model.parents[j] != j - 1:
-            raise ValueError(f"the MuJoCo plant needs a serial chain of revolute-z joints; joint {j} is {model.joints[j].shortname()}")
+            raise ValueError(
+                f"the MuJoCo plant needs a serial chain of revolute-z joints; joint {j} is {model.joints[j].shortname()}"
+            )
         placement = model.jointPlacements[j]
         bodies.append(
             f'<body name="link{j}" pos="{_vector(placement.translation)}" quat="{_quaternion(placement.rotation)}">'
@@ -191,7 +197,9 @@ def mujoco_xml(
     )
 
 
-def mujoco_inverse_dynamics(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, with_armature: bool = False) -> np.ndarray:
+def mujoco_inverse_dynamics(
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, with_armature: bool = False
+) -> np.ndarray:
     """Joint torques (N·m, (N, N_J)) by MuJoCo's ``mj_inverse`` on the model of :func:`mujoco_xml`
     (no friction); with the rotor inertia when ``with_armature``."""
     mj_model = mujoco.MjModel.from_xml_string(mujoco_xml(robot, with_armature=with_armature))
@@ -241,14 +249,25 @@ class MujocoContactPlant:
         self.robot, self.tool, self.wall = robot, tool, wall
         self.control_period, self.substeps = control_period, substeps
         self.model = mujoco.MjModel.from_xml_string(
-            mujoco_xml(robot, tool, wall, timestep=control_period / substeps, friction=friction, solref=(contact_time_constant, 1.0))
+            mujoco_xml(
+                robot,
+                tool,
+                wall,
+                timestep=control_period / substeps,
+                friction=friction,
+                solref=(contact_time_constant, 1.0),
+            )
         )
         self.data = mujoco.MjData(self.model)
         self.torque_noise_std = np.broadcast_to(np.asarray(torque_noise_std, dtype=float), (robot.n_joints,))
         self.encoder_noise_std = encoder_noise_std
         self.force_noise_std = force_noise_std
         self.coulomb_smoothing = coulomb_smoothing
-        self.armature = np.zeros(robot.n_joints) if robot.rotor_inertia is None else np.asarray(robot.rotor_inertia, dtype=float)
+        self.armature = (
+            np.zeros(robot.n_joints)
+            if robot.rotor_inertia is None
+            else np.asarray(robot.rotor_inertia, dtype=float)
+        )
         self._rng = np.random.default_rng(seed)
         self._sensor = self.model.sensor("wall_force").adr[0]
         self._site = self.model.site("wall_sensor").id
@@ -262,8 +281,12 @@ class MujocoContactPlant:
         self._to_tool_force = -np.eye(3)
         # friction coefficients once
         f = robot.friction
-        self._viscous, self._coulomb, self._offset = (np.asarray(v, dtype=float) for v in (f.viscous, f.coulomb, f.offset))
-        self._noise_scale = np.concatenate([np.full(robot.n_joints, encoder_noise_std), self.torque_noise_std, np.full(3, force_noise_std)])
+        self._viscous, self._coulomb, self._offset = (
+            np.asarray(v, dtype=float) for v in (f.viscous, f.coulomb, f.offset)
+        )
+        self._noise_scale = np.concatenate(
+            [np.full(robot.n_joints, encoder_noise_std), self.torque_noise_std, np.full(3, force_noise_std)]
+        )
         self._noise: tuple[np.ndarray, np.ndarray, np.ndarray] = ()  # type: ignore[assignment]
         self._noise_row = self.NOISE_BLOCK
         self._friction_now = np.zeros(robot.n_joints)
@@ -296,7 +319,9 @@ class MujocoContactPlant:
         force = self._wall_force()
         if self.force_noise_std:
             force += force_noise[row]
-        return ContactSensors(q=q + q_noise[row], tau=link_torque + tau_noise[row], wall_force=force, q_true=q, dq_true=dq)
+        return ContactSensors(
+            q=q + q_noise[row], tau=link_torque + tau_noise[row], wall_force=force, q_true=q, dq_true=dq
+        )
 
     def _forward_with(self, tau: np.ndarray) -> None:
         """The commanded torque less friction at the current velocity, then a full ``mj_forward``."""

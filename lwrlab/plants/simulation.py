@@ -13,14 +13,18 @@ from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.core import Trajectory
 
 
-def perturbed_robot(robot: RobotModel, relative_spread: float, friction_spread: float, rng: np.random.Generator) -> RobotModel:
+def perturbed_robot(
+    robot: RobotModel, relative_spread: float, friction_spread: float, rng: np.random.Generator
+) -> RobotModel:
     """A physically consistent variant of ``robot``: segments perturbed by ``relative_spread``
     (see :func:`lwrlab.model.inertia.perturb_consistent`), friction values scaled by
     ``1 + friction_spread·ε`` and kept non-negative."""
     links = np.stack([perturb_consistent(phi, relative_spread, rng) for phi in robot.link_parameters])
     friction = robot.friction
     scaled = {
-        term: np.maximum(0.0, getattr(friction, term) * (1.0 + friction_spread * rng.normal(size=robot.n_joints)))
+        term: np.maximum(
+            0.0, getattr(friction, term) * (1.0 + friction_spread * rng.normal(size=robot.n_joints))
+        )
         for term in ("coulomb", "viscous")
     }
     return replace(robot.with_parameters(links.ravel()), friction=replace(friction, **scaled))
@@ -55,7 +59,9 @@ def track_closed_loop(
     trajectory's sample times.
     """
     model = plant_robot.model.copy()
-    rotor_inertia = np.zeros(plant_robot.n_joints) if plant_robot.rotor_inertia is None else plant_robot.rotor_inertia
+    rotor_inertia = (
+        np.zeros(plant_robot.n_joints) if plant_robot.rotor_inertia is None else plant_robot.rotor_inertia
+    )
     model.armature = rotor_inertia
     data = model.createData()
     ctrl_model, ctrl_data = controller_robot.model, controller_robot.model.createData()
@@ -74,7 +80,9 @@ def track_closed_loop(
         )
         q_out[k], dq_out[k] = q, dq
         for step in range(substeps):
-            tau_friction = friction.viscous * dq + friction.coulomb * np.tanh(dq / coulomb_smoothing) + friction.offset
+            tau_friction = (
+                friction.viscous * dq + friction.coulomb * np.tanh(dq / coulomb_smoothing) + friction.offset
+            )
             ddq = pin.aba(model, data, q, dq, tau - tau_friction)
             if step == 0:
                 tau_out[k] = tau - rotor_inertia * ddq
@@ -83,7 +91,9 @@ def track_closed_loop(
     return q_out, dq_out, tau_out
 
 
-def encoder_reading(q: np.ndarray, noise_std: float, resolution: float, rng: np.random.Generator) -> np.ndarray:
+def encoder_reading(
+    q: np.ndarray, noise_std: float, resolution: float, rng: np.random.Generator
+) -> np.ndarray:
     """Encoder output: true position plus white noise (rad), quantised to ``resolution`` (rad; 0 = none)."""
     reading = q + noise_std * rng.normal(size=q.shape)
     return np.round(reading / resolution) * resolution if resolution > 0 else reading

@@ -47,7 +47,9 @@ def table2_cad_comparison(robot: RobotModel) -> pd.DataFrame:
 
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
-    path = Path(argv[0]) if argv else config_group("robot")["kuka_lwr4"]  # the shipped config, also from a wheel
+    path = (
+        Path(argv[0]) if argv else config_group("robot")["kuka_lwr4"]
+    )  # the shipped config, also from a wheel
     table = table2_cad_comparison(load_robot_yaml(path))
     print(f"Base parameters of {path} vs the CAD column of Table II (Katsumata et al. 2019)\n")
     print(table.to_markdown(floatfmt=".4g"))

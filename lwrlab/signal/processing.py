@@ -93,7 +93,9 @@ class ProcessedData:
         """(M,) index of each identification row in the raw measurement."""
         return self.source_index[self.index]
 
-    def rows(self, regressor: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    def rows(
+        self, regressor: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The identification rows ``(W, τ)``: ``regressor`` at every working sample, filtered like τ.
 
         Parameters
@@ -115,7 +117,11 @@ class ProcessedData:
 
     def describe(self) -> str:
         """One line saying what was chosen (cut-off, rates, velocity source)."""
-        cutoff = "no filter" if self.cutoff_hz is None else f"low-pass {self.cutoff_hz:.3g} Hz (order {self.order}) on q, τ and W"
+        cutoff = (
+            "no filter"
+            if self.cutoff_hz is None
+            else f"low-pass {self.cutoff_hz:.3g} Hz (order {self.order}) on q, τ and W"
+        )
         return (
             f"{cutoff}; {len(self.index)} rows at {self.rate_hz:.4g} Hz (working rate {self.working_rate_hz:.4g} Hz); "
             f"velocity: {self.velocity.describe()}"
@@ -169,7 +175,9 @@ def motion_frequency(q: np.ndarray, rate_hz: float) -> float:
 
 def auto_cutoff(q: np.ndarray, rate_hz: float) -> float:
     """The automatic cut-off (Hz): 15 × the motion's frequency, within [0.5 Hz, rate/5]."""
-    return float(np.clip(CUTOFF_PER_MOTION_FREQUENCY * motion_frequency(q, rate_hz), MIN_AUTO_CUTOFF_HZ, rate_hz / 5.0))
+    return float(
+        np.clip(CUTOFF_PER_MOTION_FREQUENCY * motion_frequency(q, rate_hz), MIN_AUTO_CUTOFF_HZ, rate_hz / 5.0)
+    )
 
 
 def _resolve_cutoff(cutoff_hz: float | str | None, q: np.ndarray, rate: float) -> float | None:
@@ -177,7 +185,9 @@ def _resolve_cutoff(cutoff_hz: float | str | None, q: np.ndarray, rate: float) -
         return None
     if isinstance(cutoff_hz, str):
         if cutoff_hz != "auto":
-            raise ConfigError(f"measurement.processing.cutoff_hz must be a number (Hz), auto or null, got {cutoff_hz!r}")
+            raise ConfigError(
+                f"measurement.processing.cutoff_hz must be a number (Hz), auto or null, got {cutoff_hz!r}"
+            )
         return auto_cutoff(q, rate)
     cutoff = float(cutoff_hz)
     if not 0.0 < cutoff < rate / 2:
@@ -220,9 +230,13 @@ def process(
         predicts the logged torques.
     """
     if velocity not in VELOCITY_SOURCES:
-        raise ConfigError(f"measurement.processing.velocity must be one of {list(VELOCITY_SOURCES)}, got {velocity!r}")
+        raise ConfigError(
+            f"measurement.processing.velocity must be one of {list(VELOCITY_SOURCES)}, got {velocity!r}"
+        )
     if velocity == "logged" and dq is None:
-        raise ConfigError("data.velocity=logged, but the log has no velocities (columns dq1…dqN, or a mapped dq array)")
+        raise ConfigError(
+            "data.velocity=logged, but the log has no velocities (columns dq1…dqN, or a mapped dq array)"
+        )
     rate = float((len(t) - 1) / (t[-1] - t[0]))
     cutoff = _resolve_cutoff(cutoff_hz, q, rate)
     if cutoff is not None:
@@ -231,31 +245,57 @@ def process(
         if dq is not None and velocity != "differentiated":
             dq = lowpass(dq, rate, cutoff, order)
     # Thin the filtered signals to a working rate (no aliasing: the filter removed what lies above).
-    step = max(1, int(np.floor(rate / (WORKING_RATE_PER_CUTOFF * cutoff)))) if cutoff is not None and not every_sample else 1
+    step = (
+        max(1, int(np.floor(rate / (WORKING_RATE_PER_CUTOFF * cutoff))))
+        if cutoff is not None and not every_sample
+        else 1
+    )
     source_index = np.arange(0, len(t), step)
     t, q, tau = t[source_index], q[source_index], tau[source_index]
     working_rate = rate / step
     dt = 1.0 / working_rate
     differentiated = central_difference(q, dt, difference_accuracy)
     if dq is None or velocity == "differentiated":
-        choice = VelocityChoice.differentiated("requested" if velocity == "differentiated" else "no logged velocities")
+        choice = VelocityChoice.differentiated(
+            "requested" if velocity == "differentiated" else "no logged velocities"
+        )
     else:
         choice = choose_velocity(dq[source_index], differentiated, forced=velocity == "logged")
     velocities = choice.apply(dq[source_index]) if choice.logged else differentiated
     accelerations = central_difference(velocities, dt, difference_accuracy)
 
-    trim = (TRIM_PER_CUTOFF_PERIOD / cutoff if cutoff is not None else 0.0) if trim_s is None else float(trim_s)
+    trim = (
+        (TRIM_PER_CUTOFF_PERIOD / cutoff if cutoff is not None else 0.0) if trim_s is None else float(trim_s)
+    )
     first = int(round(trim * working_rate))
     if 2 * first >= len(t) - 1:
-        raise ConfigError(f"measurement.processing.trim_s: trimming {trim:.3g} s at each end leaves nothing of a {t[-1] - t[0]:.3f} s measurement")
-    target = rate_hz if rate_hz is not None else (DECIMATED_RATE_PER_CUTOFF * cutoff if cutoff is not None else working_rate)
+        raise ConfigError(
+            f"measurement.processing.trim_s: trimming {trim:.3g} s at each end leaves nothing of a {t[-1] - t[0]:.3f} s measurement"
+        )
+    target = (
+        rate_hz
+        if rate_hz is not None
+        else (DECIMATED_RATE_PER_CUTOFF * cutoff if cutoff is not None else working_rate)
+    )
     if target <= 0:
         raise ConfigError(f"measurement.processing.rate_hz must be positive, got {target}")
     if cutoff is not None and target < 2.0 * cutoff:
-        raise ConfigError(f"measurement.processing.rate_hz = {target:g} Hz aliases the {cutoff:g} Hz band: give at least {2 * cutoff:g} Hz")
+        raise ConfigError(
+            f"measurement.processing.rate_hz = {target:g} Hz aliases the {cutoff:g} Hz band: give at least {2 * cutoff:g} Hz"
+        )
     decimation = 1 if every_sample else max(1, int(np.floor(working_rate / target + 1e-9)))
     index = np.arange(first, len(t) - first, decimation)
     return ProcessedData(
-        t=t, q=q, dq=velocities, ddq=accelerations, tau=tau, index=index, source_index=source_index,
-        cutoff_hz=cutoff, order=order, working_rate_hz=working_rate, rate_hz=working_rate / decimation, velocity=choice,
+        t=t,
+        q=q,
+        dq=velocities,
+        ddq=accelerations,
+        tau=tau,
+        index=index,
+        source_index=source_index,
+        cutoff_hz=cutoff,
+        order=order,
+        working_rate_hz=working_rate,
+        rate_hz=working_rate / decimation,
+        velocity=choice,
     )

@@ -108,7 +108,15 @@ def choose_velocity(logged: np.ndarray, differentiated: np.ndarray, forced: bool
     if not np.isfinite(mismatch):
         return VelocityChoice(logged=False, reason="the positions do not move", **figures)
     if np.any(np.abs(gain[moving] - 1.0) > MAX_GAIN_ERROR):
-        return VelocityChoice(logged=False, reason=f"logged velocities are off in scale by more than {100 * MAX_GAIN_ERROR:g} %", **figures)
+        return VelocityChoice(
+            logged=False,
+            reason=f"logged velocities are off in scale by more than {100 * MAX_GAIN_ERROR:g} %",
+            **figures,
+        )
     if mismatch > MAX_MISMATCH:
-        return VelocityChoice(logged=False, reason=f"logged velocities disagree with the positions (> {100 * MAX_MISMATCH:g} %)", **figures)
+        return VelocityChoice(
+            logged=False,
+            reason=f"logged velocities disagree with the positions (> {100 * MAX_MISMATCH:g} %)",
+            **figures,
+        )
     return VelocityChoice(logged=True, reason="consistent with the positions", **figures)

@@ -32,7 +32,9 @@ class ToolLogDet:
         information = w.T @ w / rows
         sign, logdet = np.linalg.slogdet(information)
         if sign <= 0:
-            raise np.linalg.LinAlgError("the motion does not excite every tool parameter (W_LᵀW_L is singular)")
+            raise np.linalg.LinAlgError(
+                "the motion does not excite every tool parameter (W_LᵀW_L is singular)"
+            )
         return -float(logdet), -2.0 * w @ np.linalg.inv(information) / rows
 
 

@@ -65,5 +65,5 @@ class ToolLibrary:
 
     def without(self, name: str) -> ToolLibrary:
         """The library less one tool (to treat it as unknown)."""
-        self[name]  # noqa: B018 - raises a KeyError naming the valid tools
+        self[name]
         return ToolLibrary(tuple(tool for tool in self.tools if tool.name != name))

@@ -47,7 +47,9 @@ class Tool:
         if not self.parts:
             raise ValueError(f"tool {self.name!r} has no parts")
         if self.length <= 0 or self.width <= 0:
-            raise ValueError(f"tool {self.name!r}: length and width must be positive, got {self.length}, {self.width} m")
+            raise ValueError(
+                f"tool {self.name!r}: length and width must be positive, got {self.length}, {self.width} m"
+            )
         object.__setattr__(self, "contact_point", np.asarray(self.contact_point, dtype=float).reshape(3))
         axis = np.asarray(self.contact_axis, dtype=float).reshape(3)
         object.__setattr__(self, "contact_axis", axis / np.linalg.norm(axis))
@@ -118,7 +120,9 @@ def composite_tool(
         length=float(length),
         width=float(width),
         parts=shapes,
-        contact_point=np.array([0.0, 0.0, length]) if contact_point is None else np.asarray(contact_point, dtype=float),
+        contact_point=np.array([0.0, 0.0, length])
+        if contact_point is None
+        else np.asarray(contact_point, dtype=float),
         contact_axis=np.asarray(contact_axis, dtype=float),
         description=description,
     )

@@ -26,7 +26,9 @@ from lwrlab.tools.shapes import Box, Cylinder
 
 
 def _plate(mass: float, diameter: float, thickness: float) -> Cylinder:
-    return Cylinder(mass=mass, center=[0.0, 0.0, thickness / 2], radius=diameter / 2, length=thickness, axis="z")
+    return Cylinder(
+        mass=mass, center=[0.0, 0.0, thickness / 2], radius=diameter / 2, length=thickness, axis="z"
+    )
 
 
 def paint_roller(
@@ -60,17 +62,36 @@ def paint_roller(
         frame holding the roller from one end.
     """
     if roller_diameter >= length:
-        raise ValueError(f"roller {name!r}: roller diameter {roller_diameter} m must be below its length {length} m")
+        raise ValueError(
+            f"roller {name!r}: roller diameter {roller_diameter} m must be below its length {length} m"
+        )
     axle_z = length - roller_diameter / 2
     handle_length = axle_z - plate_thickness
     frame_start, frame_end = min(0.0, lateral_offset - width / 2), max(0.0, lateral_offset + width / 2)
     rod = handle_diameter / 2
     parts = {
         "plate": _plate(plate_mass, plate_diameter, plate_thickness),
-        "handle": Cylinder(mass=handle_mass, center=[0.0, 0.0, plate_thickness + handle_length / 2], radius=rod, length=handle_length, axis="z"),
-        "frame": Cylinder(mass=frame_mass, center=[0.0, (frame_start + frame_end) / 2, axle_z], radius=rod, length=frame_end - frame_start, axis="y"),
+        "handle": Cylinder(
+            mass=handle_mass,
+            center=[0.0, 0.0, plate_thickness + handle_length / 2],
+            radius=rod,
+            length=handle_length,
+            axis="z",
+        ),
+        "frame": Cylinder(
+            mass=frame_mass,
+            center=[0.0, (frame_start + frame_end) / 2, axle_z],
+            radius=rod,
+            length=frame_end - frame_start,
+            axis="y",
+        ),
         "cover": Cylinder(
-            mass=cover_mass, center=[0.0, lateral_offset, axle_z], radius=roller_diameter / 2, length=width, axis="y", inner_radius=core_diameter / 2
+            mass=cover_mass,
+            center=[0.0, lateral_offset, axle_z],
+            radius=roller_diameter / 2,
+            length=width,
+            axis="y",
+            inner_radius=core_diameter / 2,
         ),
     }
     return Tool(
@@ -123,12 +144,22 @@ def paint_brush(
     parts = {
         "plate": _plate(plate_mass, plate_diameter, plate_thickness),
         "handle": Cylinder(
-            mass=handle_mass, center=[0.0, 0.0, plate_thickness + handle_length / 2], radius=handle_diameter / 2, length=handle_length, axis="z"
+            mass=handle_mass,
+            center=[0.0, 0.0, plate_thickness + handle_length / 2],
+            radius=handle_diameter / 2,
+            length=handle_length,
+            axis="z",
         ),
         "ferrule": Box(
-            mass=ferrule_mass, center=[0.0, 0.0, ferrule_start + ferrule_length / 2], size=[bristle_thickness + 0.004, width + 0.004, ferrule_length]
+            mass=ferrule_mass,
+            center=[0.0, 0.0, ferrule_start + ferrule_length / 2],
+            size=[bristle_thickness + 0.004, width + 0.004, ferrule_length],
         ),
-        "bristles": Box(mass=bristle_mass, center=[0.0, 0.0, bristles_start + bristle_length / 2], size=[bristle_thickness, width, bristle_length]),
+        "bristles": Box(
+            mass=bristle_mass,
+            center=[0.0, 0.0, bristles_start + bristle_length / 2],
+            size=[bristle_thickness, width, bristle_length],
+        ),
     }
     return Tool(
         name=name,

@@ -65,7 +65,9 @@ def recognise(library: ToolLibrary, distances: np.ndarray) -> Recognition:
     """The :class:`Recognition` for distances to every tool of ``library``."""
     distances = np.asarray(distances, dtype=float)
     if distances.shape != (len(library),):
-        raise ValueError(f"expected {len(library)} distances (one per library tool), got shape {distances.shape}")
+        raise ValueError(
+            f"expected {len(library)} distances (one per library tool), got shape {distances.shape}"
+        )
     order = np.argsort(distances)
     best = library.tools[order[0]]
     second = distances[order[1]] if len(order) > 1 else np.inf
@@ -103,7 +105,12 @@ INTERPOLATIONS = ("linear", "idw")
 
 
 def interpolate_geometry(
-    features: np.ndarray, geometry: np.ndarray, query: np.ndarray, method: str = "linear", neighbours: int = 3, ridge: float = 1e-6
+    features: np.ndarray,
+    geometry: np.ndarray,
+    query: np.ndarray,
+    method: str = "linear",
+    neighbours: int = 3,
+    ridge: float = 1e-6,
 ) -> np.ndarray:
     """Geometry of an unknown tool from the library tools around it in a feature space.
 
@@ -132,4 +139,12 @@ def interpolate_geometry(
     return weights @ geometry[nearest] / weights.sum()
 
 
-__all__ = ["GEOMETRY_NAMES", "DistanceClassifier", "INTERPOLATIONS", "Recognition", "ToolClassifier", "interpolate_geometry", "recognise"]
+__all__ = [
+    "GEOMETRY_NAMES",
+    "INTERPOLATIONS",
+    "DistanceClassifier",
+    "Recognition",
+    "ToolClassifier",
+    "interpolate_geometry",
+    "recognise",
+]

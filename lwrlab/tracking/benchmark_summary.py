@@ -44,11 +44,20 @@ class EstimatorBenchmarkSummary(Callback):
 
             client = mlflow.MlflowClient(absolute_tracking_uri(self.tracking_uri, Path.cwd()))
             experiment = client.get_experiment_by_name(self.experiment)
-            experiment_id = experiment.experiment_id if experiment else client.create_experiment(self.experiment)
-            run = client.create_run(experiment_id, run_name="summary", tags={"run_kind": "summary", "sweep_dir": str(sweep_dir)})
+            experiment_id = (
+                experiment.experiment_id if experiment else client.create_experiment(self.experiment)
+            )
+            run = client.create_run(
+                experiment_id, run_name="summary", tags={"run_kind": "summary", "sweep_dir": str(sweep_dir)}
+            )
             table = summarize(collect(sweep_dir)[0])
             for (preset, estimator), row in table.iterrows():
-                for metric in ("base_parameter_error_mean", "rms_mean_mean", "fit_cpu_s_mean", "consistent_share"):
+                for metric in (
+                    "base_parameter_error_mean",
+                    "rms_mean_mean",
+                    "fit_cpu_s_mean",
+                    "consistent_share",
+                ):
                     client.log_metric(run.info.run_id, f"{estimator}.{preset}.{metric}", float(row[metric]))
             for path in files.values():
                 client.log_artifact(run.info.run_id, str(path))

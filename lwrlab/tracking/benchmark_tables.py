@@ -20,7 +20,13 @@ JOB_TABLE = "estimator_benchmark.csv"
 PARAMETER_TABLE = "parameter_errors.csv"
 """A job's per-base-parameter errors (in its output folder)."""
 METRICS = (
-    "base_parameter_error", "rms_mean", "nrms_mean", "min_pseudo_inertia_eigenvalue", "consistency_margin", "fit_cpu_s", "residual_std"
+    "base_parameter_error",
+    "rms_mean",
+    "nrms_mean",
+    "min_pseudo_inertia_eigenvalue",
+    "consistency_margin",
+    "fit_cpu_s",
+    "residual_std",
 )
 """The metrics of a job's row, summarised over seeds."""
 
@@ -51,19 +57,23 @@ def summarize(rows: pd.DataFrame) -> pd.DataFrame:
 
 def summary_markdown(table: pd.DataFrame) -> str:
     """The summary as a compact Markdown table (mean ± std)."""
+
     def pm(metric: str, fmt: str) -> pd.Series:
         return table.apply(lambda r: f"{r[f'{metric}_mean']:{fmt}} ± {r[f'{metric}_std']:{fmt}}", axis=1)
 
-    view = pd.DataFrame({
-        "preset": table.index.get_level_values("preset"),
-        "estimator": table.index.get_level_values("estimator"),
-        "‖β̂−β‖/‖β‖": pm("base_parameter_error", ".3g"),
-        "CV RMS (N·m)": pm("rms_mean", ".4g"),
-        "min eig J (kg·m²)": table["min_pseudo_inertia_eigenvalue_mean"].map(lambda v: f"{v:.2g}"),
-        "consistent": table["consistent_share"].map(lambda v: f"{100 * v:.0f} %"),
-        "CPU fit (s)": pm("fit_cpu_s", ".3g"),
-        "seeds": table["seeds"],
-    }, index=table.index)
+    view = pd.DataFrame(
+        {
+            "preset": table.index.get_level_values("preset"),
+            "estimator": table.index.get_level_values("estimator"),
+            "‖β̂−β‖/‖β‖": pm("base_parameter_error", ".3g"),
+            "CV RMS (N·m)": pm("rms_mean", ".4g"),
+            "min eig J (kg·m²)": table["min_pseudo_inertia_eigenvalue_mean"].map(lambda v: f"{v:.2g}"),
+            "consistent": table["consistent_share"].map(lambda v: f"{100 * v:.0f} %"),
+            "CPU fit (s)": pm("fit_cpu_s", ".3g"),
+            "seeds": table["seeds"],
+        },
+        index=table.index,
+    )
     return view.to_markdown(index=False)
 
 
@@ -93,7 +103,9 @@ def write_summary(sweep_dir: Path) -> dict[str, Path]:
     return files
 
 
-if __name__ == "__main__":  # re-aggregate an earlier sweep: python -m lwrlab.tracking.benchmark_tables <sweep_dir>
+if (
+    __name__ == "__main__"
+):  # re-aggregate an earlier sweep: python -m lwrlab.tracking.benchmark_tables <sweep_dir>
     import sys
 
     write_summary(Path(sys.argv[1]))

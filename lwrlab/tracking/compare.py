@@ -29,7 +29,7 @@ import datetime as _dt
 import logging
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -105,7 +105,9 @@ def compare_runs(runs: pd.DataFrame, groups: Sequence[str] | None = None) -> Com
     groups = list(swept_parameters(runs) if groups is None else groups)
     missing = [group for group in groups if PARAM_PREFIX + group not in runs]
     if missing:
-        known = sorted(column[len(PARAM_PREFIX) :] for column in runs.columns if column.startswith(PARAM_PREFIX))
+        known = sorted(
+            column[len(PARAM_PREFIX) :] for column in runs.columns if column.startswith(PARAM_PREFIX)
+        )
         raise ValueError(f"no run has the parameter(s) {missing}; parameters: {known[:40]}")
     metrics = headline_metrics(runs)
     labels = _group_labels(runs, groups)
@@ -140,7 +142,8 @@ def to_markdown(comparison: Comparison) -> str:
     for metric in comparison.metrics:
         mean, std = table[metric], table[f"{metric}_std"]
         shown[f"{metric} [{_unit(metric)}]"] = [
-            "–" if np.isnan(m) else (f"{m:.4g}" if np.isnan(s) else f"{m:.4g} ± {s:.2g}") for m, s in zip(mean, std, strict=True)
+            "–" if np.isnan(m) else (f"{m:.4g}" if np.isnan(s) else f"{m:.4g} ± {s:.2g}")
+            for m, s in zip(mean, std, strict=True)
         ]
     return shown.to_markdown()
 
@@ -158,7 +161,9 @@ def per_joint_rms(runs: pd.DataFrame, labels: pd.Series) -> tuple[np.ndarray, np
     groups = sorted(labels.unique())
     values = [runs.loc[labels == group, names].apply(pd.to_numeric, errors="coerce") for group in groups]
     mean = np.array([frame.mean().to_numpy() for frame in values])
-    spread = np.array([frame.std(ddof=1).to_numpy() if len(frame) > 1 else np.full(len(names), np.nan) for frame in values])
+    spread = np.array(
+        [frame.std(ddof=1).to_numpy() if len(frame) > 1 else np.full(len(names), np.nan) for frame in values]
+    )
     return mean, spread, groups
 
 
@@ -182,7 +187,17 @@ def write_comparison(comparison: Comparison, output_dir: Path, title: str) -> li
     written = [output_dir / "compare.md", output_dir / "compare.csv", output_dir / "runs.csv"]
     written[0].write_text(markdown, encoding="utf-8")
     comparison.table.to_csv(written[1])
-    columns = [c for c in ("run_id", "experiment", "tags.mlflow.runName", "params.seed", *(PARAM_PREFIX + g for g in comparison.groups)) if c in comparison.runs]
+    columns = [
+        c
+        for c in (
+            "run_id",
+            "experiment",
+            "tags.mlflow.runName",
+            "params.seed",
+            *(PARAM_PREFIX + g for g in comparison.groups),
+        )
+        if c in comparison.runs
+    ]
     comparison.runs[columns + [METRIC_PREFIX + m for m in comparison.metrics]].to_csv(written[2], index=False)
     joints = per_joint_rms(comparison.runs, _group_labels(comparison.runs, comparison.groups))
     if joints is not None:
@@ -200,17 +215,35 @@ def _experiment_of_parent(client: MlflowClient, parent_run_id: str) -> tuple[str
 def main(argv: Sequence[str] | None = None) -> int:
     """``lwrlab compare ...``; returns the process exit status."""
     parser = argparse.ArgumentParser(prog="lwrlab compare", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--tracking-uri", default=os.environ.get("MLFLOW_TRACKING_URI", DEFAULT_TRACKING_URI),
-                        help=f"MLflow store (default: $MLFLOW_TRACKING_URI, else {DEFAULT_TRACKING_URI})")
+    parser.add_argument(
+        "--tracking-uri",
+        default=os.environ.get("MLFLOW_TRACKING_URI", DEFAULT_TRACKING_URI),
+        help=f"MLflow store (default: $MLFLOW_TRACKING_URI, else {DEFAULT_TRACKING_URI})",
+    )
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--experiment", help="experiment name")
     source.add_argument("--parent", metavar="RUN_ID", help="a sweep's parent run: compare its nested runs")
-    parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
-                        help="keep runs with this param; plugin choices by short name (estimator=sdp)")
-    parser.add_argument("--tag", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this tag")
-    parser.add_argument("--filter", default="", help="extra MLflow filter, e.g. \"metrics.rms_mean < 0.5\"")
-    parser.add_argument("--by", action="append", default=None, metavar="KEY", help="group by this param (default: the params the runs differ in)")
-    parser.add_argument("--output", type=Path, default=None, help="output folder (default: outputs/compare/<name>_<time>)")
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="keep runs with this param; plugin choices by short name (estimator=sdp)",
+    )
+    parser.add_argument(
+        "--tag", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this tag"
+    )
+    parser.add_argument("--filter", default="", help='extra MLflow filter, e.g. "metrics.rms_mean < 0.5"')
+    parser.add_argument(
+        "--by",
+        action="append",
+        default=None,
+        metavar="KEY",
+        help="group by this param (default: the params the runs differ in)",
+    )
+    parser.add_argument(
+        "--output", type=Path, default=None, help="output folder (default: outputs/compare/<name>_<time>)"
+    )
     parser.add_argument("--no-log", action="store_true", help="do not log the comparison as an MLflow run")
     arguments = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -225,7 +258,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             extra = f"{nested} and {extra}" if extra.strip() else nested
         else:
             experiment = arguments.experiment
-        filter_string = selection_filter(parse_pairs(arguments.tag, "tag"), parse_pairs(arguments.param, "param"), extra)
+        filter_string = selection_filter(
+            parse_pairs(arguments.tag, "tag"), parse_pairs(arguments.param, "param"), extra
+        )
         runs = select_runs(uri, [experiment], filter_string)
         if runs.empty:
             parser.error(f"no FINISHED job run of experiment {experiment!r} matches `{filter_string}`")
@@ -253,9 +288,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         }
         run_name = "compare · " + (", ".join(comparison.groups) or ALL_RUNS)
         run_id, logged = log_derived_run(client, experiment_id, key, output, run_name, tags, arguments.parent)
-        print(f"comparison {'logged as' if logged else 'already logged as'} run {run_id} of experiment {experiment!r}")
+        print(
+            f"comparison {'logged as' if logged else 'already logged as'} run {run_id} of experiment {experiment!r}"
+        )
     print(f"comparison written to {output}")
     return 0
 
 
-__all__ = ["Comparison", "compare_runs", "headline_metrics", "main", "per_joint_rms", "to_markdown", "write_comparison"]
+__all__ = [
+    "Comparison",
+    "compare_runs",
+    "headline_metrics",
+    "main",
+    "per_joint_rms",
+    "to_markdown",
+    "write_comparison",
+]

@@ -29,7 +29,11 @@ DERIVED_KEY_TAG = "derived_key"
 
 def derived_key(kind: str, source_run_ids: Iterable[str], options: Mapping[str, Any]) -> str:
     """The identity of a derived run: its kind, the runs it was made from (order-free), its options."""
-    text = json.dumps({"kind": kind, "runs": sorted(map(str, source_run_ids)), "options": options}, sort_keys=True, default=str)
+    text = json.dumps(
+        {"kind": kind, "runs": sorted(map(str, source_run_ids)), "options": options},
+        sort_keys=True,
+        default=str,
+    )
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
@@ -49,7 +53,9 @@ def log_derived_run(
     tuple[str, bool]
         The run id, and whether it was logged now (``False``: an identical one was logged before).
     """
-    found = retry_locked(client.search_runs, [experiment_id], filter_string=f"tags.{DERIVED_KEY_TAG} = '{key}'", max_results=1)
+    found = retry_locked(
+        client.search_runs, [experiment_id], filter_string=f"tags.{DERIVED_KEY_TAG} = '{key}'", max_results=1
+    )
     if found:
         return found[0].info.run_id, False
     all_tags = {**tags, DERIVED_KEY_TAG: key}

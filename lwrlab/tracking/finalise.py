@@ -79,7 +79,9 @@ def end_killed(
             log_output_folder(client, run_id, output_dir, redactor or Redactor.for_output_folder(output_dir))
             where = f"outputs written so far uploaded as artifacts (and kept in {output_dir})"
         except Exception as error:  # the store may be going away too: say where the files are
-            where = f"outputs written so far left on disk in {output_dir} (upload failed: {type(error).__name__})"
+            where = (
+                f"outputs written so far left on disk in {output_dir} (upload failed: {type(error).__name__})"
+            )
     if KILLED_BY_TAG not in retry_locked(client.get_run, run_id).data.tags:
         retry_locked(client.set_tag, run_id, KILLED_BY_TAG, reason)
     retry_locked(client.set_tag, run_id, OUTPUTS_TAG, where)
@@ -95,7 +97,9 @@ def _output_dir_of(run: Run) -> Path | None:
 def running_runs(client: MlflowClient, experiment_ids: Sequence[str], extra_filter: str = "") -> list[Run]:
     """RUNNING runs of the experiments (at most 1000), with an optional extra MLflow filter clause."""
     filter_string = "attributes.status = 'RUNNING'" + (f" and {extra_filter}" if extra_filter else "")
-    return list(retry_locked(client.search_runs, list(experiment_ids), filter_string=filter_string, max_results=1000))
+    return list(
+        retry_locked(client.search_runs, list(experiment_ids), filter_string=filter_string, max_results=1000)
+    )
 
 
 def is_stale(run: Run, hostname: str) -> bool:
@@ -118,16 +122,24 @@ def _end_each(client: MlflowClient, runs: Sequence[Run], reasons: Sequence[str],
     return finalised
 
 
-def finalise_stale_runs(client: MlflowClient, experiment_ids: Sequence[str], hostname: str, upload: bool) -> list[str]:
+def finalise_stale_runs(
+    client: MlflowClient, experiment_ids: Sequence[str], hostname: str, upload: bool
+) -> list[str]:
     """End KILLED every RUNNING run of this host whose process died; returns their run ids.
 
     Runs started on other hosts are left alone (their processes cannot be checked from here).
     """
-    stale = [run for run in running_runs(client, experiment_ids, f"tags.{HOSTNAME_TAG} = '{hostname}'") if is_stale(run, hostname)]
+    stale = [
+        run
+        for run in running_runs(client, experiment_ids, f"tags.{HOSTNAME_TAG} = '{hostname}'")
+        if is_stale(run, hostname)
+    ]
     return _end_each(client, stale, [stale_reason(run.data.tags[PID_TAG], hostname) for run in stale], upload)
 
 
-def finalise_children(client: MlflowClient, experiment_ids: Sequence[str], parent_run_id: str, reason: str, upload: bool) -> list[str]:
+def finalise_children(
+    client: MlflowClient, experiment_ids: Sequence[str], parent_run_id: str, reason: str, upload: bool
+) -> list[str]:
     """End KILLED the RUNNING nested runs of a sweep (their workers are gone); returns their run ids."""
     children = running_runs(client, experiment_ids, f"tags.`mlflow.parentRunId` = '{parent_run_id}'")
     return _end_each(client, children, [reason] * len(children), upload)

@@ -72,12 +72,18 @@ from omegaconf import DictConfig, OmegaConf
 
 import lwrlab
 from lwrlab.tracking import job_state, offline
-from lwrlab.tracking.finalise import KILLED_BY_TAG, end_killed, finalise_children, finalise_stale_runs, running_runs
+from lwrlab.tracking.finalise import (
+    KILLED_BY_TAG,
+    end_killed,
+    finalise_children,
+    finalise_stale_runs,
+    running_runs,
+)
 from lwrlab.tracking.naming import (
     DESCRIPTION_TAG,
-    NAME_SEPARATOR,
     EXPERIMENT_KIND,
     EXPERIMENT_KIND_TAG,
+    NAME_SEPARATOR,
     experiment_description,
     log_file_stem,
     plugin_choices,
@@ -100,7 +106,7 @@ from lwrlab.tracking.processes import (
     worker_pids,
 )
 from lwrlab.tracking.redaction import Redactor, redacted_folder
-from lwrlab.tracking.store import prepare_sqlite_store, retry_locked, sqlite_database_path, store_lock
+from lwrlab.tracking.store import prepare_sqlite_store, retry_locked, store_lock
 
 log = logging.getLogger(__name__)
 
@@ -197,7 +203,9 @@ def resolved_job_config(config: DictConfig) -> dict[str, Any]:
             continue
         try:
             value = config[key]
-            resolved[str(key)] = OmegaConf.to_container(value, resolve=True) if OmegaConf.is_config(value) else value
+            resolved[str(key)] = (
+                OmegaConf.to_container(value, resolve=True) if OmegaConf.is_config(value) else value
+            )
         except Exception:  # an unresolvable interpolation: log it as written
             raw = OmegaConf.to_container(config, resolve=False)
             assert isinstance(raw, dict)
@@ -367,13 +375,19 @@ class TrackingUnavailable(RuntimeError):
     """The tracking store cannot be reached."""
 
 
-def sweep_identity(primary_config: Mapping[str, Any], sweep_overrides: Sequence[str], sweeper_params: Any) -> str:
+def sweep_identity(
+    primary_config: Mapping[str, Any], sweep_overrides: Sequence[str], sweeper_params: Any
+) -> str:
     """SHA-256 naming a sweep: the primary config, its overrides (order-free) and the sweeper's search space.
 
     A re-launched sweep has the same identity, so its jobs are nested under the same parent run.
     """
     text = json.dumps(
-        {"config": config_hash(primary_config), "overrides": sorted(sweep_overrides), "params": sweeper_params},
+        {
+            "config": config_hash(primary_config),
+            "overrides": sorted(sweep_overrides),
+            "params": sweeper_params,
+        },
         sort_keys=True,
         default=str,
     )
@@ -401,7 +415,12 @@ def ensure_experiment(client: MlflowClient, settings: TrackingSettings) -> str:
             experiment = retry_locked(client.get_experiment_by_name, name)
             if experiment is None:
                 try:
-                    return retry_locked(client.create_experiment, name, artifact_location=artifact_location, tags=experiment_tags(name))
+                    return retry_locked(
+                        client.create_experiment,
+                        name,
+                        artifact_location=artifact_location,
+                        tags=experiment_tags(name),
+                    )
                 except MlflowException:
                     # Another process (another machine, for a server) created it first.
                     experiment = client.get_experiment_by_name(name)
@@ -521,7 +540,14 @@ class MlflowTracking(Callback):
         # a client holds a database engine, so each process makes its own. Signal handlers belong
         # to the launching process (and may not pickle).
         state = dict(self.__dict__)
-        state.update(_client=None, _sweep_config=None, _previous_handlers=None, _hook_depth=0, _pending_signal=None, _stopping=False)
+        state.update(
+            _client=None,
+            _sweep_config=None,
+            _previous_handlers=None,
+            _hook_depth=0,
+            _pending_signal=None,
+            _stopping=False,
+        )
         return state
 
     # -- Hydra hooks ------------------------------------------------------------------------
@@ -595,7 +621,9 @@ class MlflowTracking(Callback):
         self._stopping = True
         name = signal_name(signum)
         # A process-pool worker (loky, multiprocessing) of this sweep; Ray workers are not (raylet starts them).
-        is_pool_worker = self._sweep_pid not in (None, os.getpid()) and multiprocessing.parent_process() is not None
+        is_pool_worker = (
+            self._sweep_pid not in (None, os.getpid()) and multiprocessing.parent_process() is not None
+        )
         try:
             self._end_job_killed(name)
             if self._parent_run_id is not None and self._sweep_pid == os.getpid():
@@ -614,7 +642,9 @@ class MlflowTracking(Callback):
             os._exit(JobInterrupted(signum).exit_status)
         raise JobInterrupted(signum)
 
-    def _end_earlier_attempts(self, client: MlflowClient, experiment_id: str, tags: Mapping[str, str], upload: bool) -> None:
+    def _end_earlier_attempts(
+        self, client: MlflowClient, experiment_id: str, tags: Mapping[str, str], upload: bool
+    ) -> None:
         """End KILLED the RUNNING runs of this very job (same sweep, job number and config): attempts
         whose node or worker died, which the launcher (Ray) now retries here; the retry links them."""
         same_job = (
@@ -657,15 +687,30 @@ class MlflowTracking(Callback):
         def local_pid(run: Run) -> int | None:
             pid = run.data.tags.get(PID_TAG, "")
             same_host = run.data.tags.get(HOSTNAME_TAG) == hostname
-            return int(pid) if same_host and pid.isdigit() and int(pid) != own_pid and process_alive(int(pid)) else None
+            return (
+                int(pid)
+                if same_host and pid.isdigit() and int(pid) != own_pid and process_alive(int(pid))
+                else None
+            )
 
         def in_flight() -> list[int]:
-            return [pid for run in running_runs(client, experiment_ids, nested) if (pid := local_pid(run)) is not None]
+            return [
+                pid
+                for run in running_runs(client, experiment_ids, nested)
+                if (pid := local_pid(run)) is not None
+            ]
 
         # Jobs that a launcher hands out from now on see this tag and do not start.
         retry_locked(client.set_tag, parent_run_id, KILLED_BY_TAG, reason)
         for run in running_runs(client, experiment_ids, nested):  # the cause, whatever signal the worker gets
-            self._guarded("tagging a stopped job", retry_locked, client.set_tag, run.info.run_id, KILLED_BY_TAG, f"{reason} to the sweep")
+            self._guarded(
+                "tagging a stopped job",
+                retry_locked,
+                client.set_tag,
+                run.info.run_id,
+                KILLED_BY_TAG,
+                f"{reason} to the sweep",
+            )
         workers = in_flight()
         if workers:
             log.warning("%s: asking %d worker process(es) to end their runs", reason, len(workers))
@@ -675,9 +720,13 @@ class MlflowTracking(Callback):
         # would stall it, and calling it from a signal handler may deadlock inside ray.get).
         killed = [] if _ray_is_initialized() else terminate_processes(worker_pids(own_pid), KILL_GRACE_S)
         if killed:
-            log.warning("%s: %d worker process(es) did not stop on SIGTERM and were killed", reason, len(killed))
+            log.warning(
+                "%s: %d worker process(es) did not stop on SIGTERM and were killed", reason, len(killed)
+            )
         upload = self._parent_settings.log_artifacts
-        finalise_children(client, experiment_ids, parent_run_id, f"{reason} to the sweep; its worker was terminated", upload)
+        finalise_children(
+            client, experiment_ids, parent_run_id, f"{reason} to the sweep; its worker was terminated", upload
+        )
         if self._sweep_config is not None:
             self._guarded("logging the sweep config", self._log_sweep_config, client, self._sweep_config)
         retry_locked(client.set_tag, parent_run_id, KILLED_BY_TAG, reason)
@@ -697,13 +746,22 @@ class MlflowTracking(Callback):
         parent_run_id, self._parent_run_id = self._parent_run_id, None
         try:
             client = self._connect(self._parent_settings)
-            experiment_ids = [experiment.experiment_id for experiment in retry_locked(client.search_experiments)]
+            experiment_ids = [
+                experiment.experiment_id for experiment in retry_locked(client.search_experiments)
+            ]
             reason = "the sweep's launching process exited before this job ended"
-            in_flight = finalise_children(client, experiment_ids, parent_run_id, reason, self._parent_settings.log_artifacts)
+            in_flight = finalise_children(
+                client, experiment_ids, parent_run_id, reason, self._parent_settings.log_artifacts
+            )
             if retry_locked(client.get_run, parent_run_id).info.status == "RUNNING":
                 status = "KILLED" if in_flight else "FAILED"
                 if in_flight:
-                    retry_locked(client.set_tag, parent_run_id, KILLED_BY_TAG, f"{reason}, with {len(in_flight)} job(s) in flight")
+                    retry_locked(
+                        client.set_tag,
+                        parent_run_id,
+                        KILLED_BY_TAG,
+                        f"{reason}, with {len(in_flight)} job(s) in flight",
+                    )
                 retry_locked(client.set_terminated, parent_run_id, status=status)
                 log.warning("the sweep's launcher stopped: sweep run %s ended %s", parent_run_id, status)
         except Exception as error:
@@ -720,19 +778,29 @@ class MlflowTracking(Callback):
             experiment_id = ensure_experiment(client, settings)
             if self.resume:  # runs an earlier launch left RUNNING when its process died
                 finalise_stale_runs(client, [experiment_id], socket.gethostname(), settings.log_artifacts)
-            task_overrides = [str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []]
+            task_overrides = [
+                str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []
+            ]
             sweep_overrides = self._redactor.redact(" ".join(task_overrides))
             sweeper_params = OmegaConf.select(config, "hydra.sweeper.params", default=None)
-            search_space = OmegaConf.to_container(sweeper_params) if OmegaConf.is_config(sweeper_params) else sweeper_params
+            search_space = (
+                OmegaConf.to_container(sweeper_params)
+                if OmegaConf.is_config(sweeper_params)
+                else sweeper_params
+            )
             identity = sweep_identity(resolved_job_config(config), task_overrides, search_space)
-            self._swept = swept_keys(task_overrides, search_space if isinstance(search_space, Mapping) else None)
+            self._swept = swept_keys(
+                task_overrides, search_space if isinstance(search_space, Mapping) else None
+            )
             parent = self._previous_parent(client, experiment_id, identity) if self.resume else None
             if parent is not None:
                 retry_locked(client.update_run, parent.info.run_id, status="RUNNING")
                 if KILLED_BY_TAG in parent.data.tags:  # stopped before: its jobs may start again
                     retry_locked(client.delete_tag, parent.info.run_id, KILLED_BY_TAG)
                 self._parent_run_id = parent.info.run_id
-                log.info("re-launched sweep: jobs are nested under the existing parent run %s", parent.info.run_id)
+                log.info(
+                    "re-launched sweep: jobs are nested under the existing parent run %s", parent.info.run_id
+                )
             else:
                 tags = {
                     RUN_KIND_TAG: "sweep",
@@ -742,8 +810,16 @@ class MlflowTracking(Callback):
                     "hydra_sweep_dir": str(OmegaConf.select(config, "hydra.sweep.dir", default="")),
                     **provenance_tags(self._original_cwd(config)),
                 }
-                sweep_name = truncate(f"sweep{NAME_SEPARATOR}{self._redactor.redact(self._run_name(config))}", RUN_NAME_MAX_LENGTH)
-                run = retry_locked(client.create_run, experiment_id, run_name=sweep_name, tags=self._redactor.redact_mapping(tags))
+                sweep_name = truncate(
+                    f"sweep{NAME_SEPARATOR}{self._redactor.redact(self._run_name(config))}",
+                    RUN_NAME_MAX_LENGTH,
+                )
+                run = retry_locked(
+                    client.create_run,
+                    experiment_id,
+                    run_name=sweep_name,
+                    tags=self._redactor.redact_mapping(tags),
+                )
                 self._parent_run_id = run.info.run_id
             self._parent_settings = settings
             self._client = client
@@ -779,7 +855,11 @@ class MlflowTracking(Callback):
             job_config = resolved_job_config(config)
             self._redactor = self._redactor_for(config, job_config, settings)
             tags = self._redactor.redact_mapping(self._job_tags(config, job_config))
-            flat = {**flatten_config(job_config), **plugin_choices(runtime_choices(config)), "experiment_name": settings.experiment}
+            flat = {
+                **flatten_config(job_config),
+                **plugin_choices(runtime_choices(config)),
+                "experiment_name": settings.experiment,
+            }
             params = self._redactor.redact_mapping(self._unique_keys(flat))
             run_name = self._redactor.redact(self._run_name(config))
         except Exception as error:
@@ -793,11 +873,17 @@ class MlflowTracking(Callback):
                 finalise_stale_runs(client, [experiment_id], socket.gethostname(), settings.log_artifacts)
             if self._parent_run_id is not None and self._sweep_is_stopping(client):
                 raise JobInterrupted(signal.SIGTERM)  # dispatched while the sweep stops: do not start
-            if self.resume and self._is_sweep_job(config) and self._skip_if_finished(client, experiment_id, tags, output_dir):
+            if (
+                self.resume
+                and self._is_sweep_job(config)
+                and self._skip_if_finished(client, experiment_id, tags, output_dir)
+            ):
                 return
             if self._parent_run_id is not None:
                 self._end_earlier_attempts(client, experiment_id, tags, settings.log_artifacts)
-            run = retry_locked(client.create_run, experiment_id, run_name=run_name, tags=tags, start_time=start_ms)
+            run = retry_locked(
+                client.create_run, experiment_id, run_name=run_name, tags=tags, start_time=start_ms
+            )
         except Exception as error:
             self._warn("starting the MLflow run", error)
             self._keep_offline(config, settings, output_dir, run_name, tags, params, start_ms)
@@ -831,7 +917,9 @@ class MlflowTracking(Callback):
         if job_return.status == JobStatus.COMPLETED:
             metrics = numeric_metrics(recorded if recorded is not None else job_return.return_value)
         status = _STATUS_OF_JOB.get(job_return.status, "KILLED")
-        error_summary = self._redactor.redact(truncate(f"{type(error).__name__}: {error}", ERROR_TAG_MAX_LENGTH))
+        error_summary = self._redactor.redact(
+            truncate(f"{type(error).__name__}: {error}", ERROR_TAG_MAX_LENGTH)
+        )
         if self._skipped:
             job_state.reset()
             return
@@ -845,13 +933,22 @@ class MlflowTracking(Callback):
             self._guarded("logging metrics", log_metrics, client, run_id, metrics)
             self._guarded("tagging what the job reported", self._log_job_tags, client, run_id, output_dir)
             if failed:
-                self._guarded("tagging the error", retry_locked, client.set_tag, run_id, "error", error_summary)
+                self._guarded(
+                    "tagging the error", retry_locked, client.set_tag, run_id, "error", error_summary
+                )
             if settings.log_artifacts:
                 self._guarded("logging artifacts", self._log_output_dir, client, run_id, output_dir)
             self._guarded("ending the run", retry_locked, client.set_terminated, run_id, status=status)
             if status == "FINISHED":
                 for attempt in self._failed_attempts:
-                    self._guarded("linking the failed attempt", retry_locked, client.set_tag, attempt, "retried_by", run_id)
+                    self._guarded(
+                        "linking the failed attempt",
+                        retry_locked,
+                        client.set_tag,
+                        attempt,
+                        "retried_by",
+                        run_id,
+                    )
             if failed and self._parent_run_id is not None:
                 # The basic sweeper raises after a failed batch and skips on_multirun_end: mark now.
                 self._guarded("marking the sweep FAILED", self._fail_parent_run, client, config)
@@ -906,7 +1003,11 @@ class MlflowTracking(Callback):
         base_dir = self._original_cwd(config)
         experiment = values["experiment"]
         if experiment in (None, "", "None", "null"):  # one experiment per task: named after it
-            experiment = runtime_choices(config).get("task") or OmegaConf.select(config, "hydra.job.name", default=None) or "lwrlab"
+            experiment = (
+                runtime_choices(config).get("task")
+                or OmegaConf.select(config, "hydra.job.name", default=None)
+                or "lwrlab"
+            )
         return TrackingSettings(
             tracking_uri=absolute_tracking_uri(str(values["tracking_uri"]), base_dir),
             experiment=str(experiment),
@@ -939,7 +1040,9 @@ class MlflowTracking(Callback):
         return str(OmegaConf.select(config, "hydra.mode", default="")).endswith("MULTIRUN")
 
     @staticmethod
-    def _redactor_for(config: DictConfig, job_config: Mapping[str, Any], settings: TrackingSettings) -> Redactor:
+    def _redactor_for(
+        config: DictConfig, job_config: Mapping[str, Any], settings: TrackingSettings
+    ) -> Redactor:
         """Secrets of this job: URI passwords anywhere in its config, overrides or store, and the environment."""
         overrides = OmegaConf.select(config, "hydra.overrides", default=None)
         texts = [settings.tracking_uri, str(settings.artifact_location)]
@@ -959,7 +1062,9 @@ class MlflowTracking(Callback):
                     with urllib.request.urlopen(_without_userinfo(uri).rstrip("/") + "/health", timeout=5):
                         pass
                 except Exception as error:
-                    raise TrackingUnavailable(f"no MLflow server answers at {_without_userinfo(uri)}: {error}") from error
+                    raise TrackingUnavailable(
+                        f"no MLflow server answers at {_without_userinfo(uri)}: {error}"
+                    ) from error
             client = self._client if self._client is not None and self._client.tracking_uri == uri else None
             if uri not in self._prepared_uris:
                 prepare_sqlite_store(uri)  # schema and WAL once per store, under a file lock
@@ -973,7 +1078,9 @@ class MlflowTracking(Callback):
         return client or MlflowClient(tracking_uri=uri)
 
     @staticmethod
-    def _runs_tagged(client: MlflowClient, experiment_id: str, tag: str, value: str, kind: str, limit: int) -> list[Run]:
+    def _runs_tagged(
+        client: MlflowClient, experiment_id: str, tag: str, value: str, kind: str, limit: int
+    ) -> list[Run]:
         """Runs of one kind (``job``/``sweep``) with ``tags.<tag> = value``, newest first."""
         return list(
             retry_locked(
@@ -989,7 +1096,9 @@ class MlflowTracking(Callback):
         runs = self._runs_tagged(client, experiment_id, "sweep_hash", identity, "sweep", 1)
         return runs[0] if runs else None
 
-    def _skip_if_finished(self, client: MlflowClient, experiment_id: str, tags: Mapping[str, str], output_dir: Path) -> bool:
+    def _skip_if_finished(
+        self, client: MlflowClient, experiment_id: str, tags: Mapping[str, str], output_dir: Path
+    ) -> bool:
         """Resume: skip the job if its config already FINISHED; remember failed attempts to link them."""
         runs = self._runs_tagged(client, experiment_id, "config_hash", tags["config_hash"], "job", 200)
         finished = [run for run in runs if run.info.status == "FINISHED"]
@@ -1001,7 +1110,9 @@ class MlflowTracking(Callback):
             self._skipped = True
             return True
         self._failed_attempts = [
-            run.info.run_id for run in runs if run.info.status in ("FAILED", "KILLED") and "retried_by" not in run.data.tags
+            run.info.run_id
+            for run in runs
+            if run.info.status in ("FAILED", "KILLED") and "retried_by" not in run.data.tags
         ]
         return False
 
@@ -1016,11 +1127,15 @@ class MlflowTracking(Callback):
         start_ms: int,
     ) -> None:
         """Keep the run in the output folder for ``lwrlab sync`` (the store could not be reached)."""
-        sweep_dir = OmegaConf.select(config, "hydra.sweep.dir", default=None) if self._is_sweep_job(config) else None
+        sweep_dir = (
+            OmegaConf.select(config, "hydra.sweep.dir", default=None) if self._is_sweep_job(config) else None
+        )
         sweep_overrides = ""
         if sweep_dir is not None:
             sweep_overrides = self._redactor.redact(
-                " ".join(str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or [])
+                " ".join(
+                    str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []
+                )
             )
         tags = {key: value for key, value in tags.items() if key != "mlflow.parentRunId"}
         self._offline_record = offline.new_record(
@@ -1037,7 +1152,9 @@ class MlflowTracking(Callback):
         except Exception as error:
             self._warn("keeping the run in the output folder", error)
 
-    def _finish_offline(self, output_dir: Path, metrics: Mapping[str, float], status: str, error: str | None) -> None:
+    def _finish_offline(
+        self, output_dir: Path, metrics: Mapping[str, float], status: str, error: str | None
+    ) -> None:
         record = self._offline_record
         assert record is not None
         record.update(metrics=dict(metrics), status=status, end_time_ms=int(time.time() * 1000))
@@ -1053,7 +1170,9 @@ class MlflowTracking(Callback):
     def _run_name(self, config: DictConfig) -> str:
         """What differs: swept overrides first (plugin choices by name), the log file, then the rest."""
         choices = runtime_choices(config)
-        task_overrides = [str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []]
+        task_overrides = [
+            str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []
+        ]
         fallback = str(choices.get("task") or OmegaConf.select(config, "hydra.job.name", default="job"))
         log_stem = log_file_stem(config) if choices.get("plant") == "log" else None
         name = run_name(task_overrides, self._swept, set(choices), fallback, log_stem)
@@ -1158,7 +1277,9 @@ def log_params(client: MlflowClient, run_id: str, params: Mapping[str, str]) -> 
         retry_locked(client.log_batch, run_id, params=list(chunk))
 
 
-def log_metrics(client: MlflowClient, run_id: str, metrics: Mapping[str, float], timestamp_ms: int | None = None) -> None:
+def log_metrics(
+    client: MlflowClient, run_id: str, metrics: Mapping[str, float], timestamp_ms: int | None = None
+) -> None:
     """Log metrics in batches (one store transaction per batch rather than one per metric)."""
     timestamp_ms = int(time.time() * 1000) if timestamp_ms is None else timestamp_ms
     entries = [Metric(key, float(value), timestamp_ms, 0) for key, value in metrics.items()]
@@ -1217,7 +1338,9 @@ def runs_table(tracking_uri: str, experiment: str, filter_string: str = "") -> p
     return search_runs_table(uri, [found.experiment_id], filter_string)
 
 
-def search_runs_table(tracking_uri: str, experiment_ids: Sequence[str], filter_string: str = "") -> pd.DataFrame:
+def search_runs_table(
+    tracking_uri: str, experiment_ids: Sequence[str], filter_string: str = ""
+) -> pd.DataFrame:
     """``mlflow.search_runs`` on a given store (not the global one), oldest run first, as pandas."""
     previous_uri = mlflow.get_tracking_uri()
     mlflow.set_tracking_uri(tracking_uri)  # mlflow.search_runs reads the global URI

@@ -36,13 +36,24 @@ DESCRIPTION_TAG = "mlflow.note.content"
 NAME_SEPARATOR = " · "
 
 HEADLINE_METRICS: dict[str, tuple[str, str]] = {
-    "rms_mean": ("N·m", "cross-validation RMS torque error, mean over joints (per joint: rms_joint1, rms_joint2, …)"),
-    "nrms_mean": ("%", "the same error as a percentage of each joint's measured torque range, mean over joints"),
+    "rms_mean": (
+        "N·m",
+        "cross-validation RMS torque error, mean over joints (per joint: rms_joint1, rms_joint2, …)",
+    ),
+    "nrms_mean": (
+        "%",
+        "the same error as a percentage of each joint's measured torque range, mean over joints",
+    ),
     "validation_rel_error": ("1", "‖τ − τ̂‖/‖τ‖ on the validation logs (0.05 = 5 %)"),
-    "base_parameter_error": ("1", "‖β̂ − β‖/‖β‖ against the simulated robot's true base parameters (simulated plants only)"),
+    "base_parameter_error": (
+        "1",
+        "‖β̂ − β‖/‖β‖ against the simulated robot's true base parameters (simulated plants only)",
+    ),
 }
 """Metric name → (unit, meaning): what ``lwrlab compare`` tabulates and the experiment description lists."""
-_TIMING_METRIC = re.compile(r"(_cpu_s|_wall_s|_time_s)$|^stage_\w+_s$|^(optimisation|identification|simulation)_s$")
+_TIMING_METRIC = re.compile(
+    r"(_cpu_s|_wall_s|_time_s)$|^stage_\w+_s$|^(optimisation|identification|simulation)_s$"
+)
 PER_JOINT_RMS = re.compile(r"^rms_joint(\d+)$")
 
 # Overrides that say where or how a run is logged or launched, not what it computes: left out of names.

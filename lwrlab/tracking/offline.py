@@ -95,4 +95,12 @@ def mark_synced(path: Path, run_id: str) -> Path:
     return synced
 
 
-__all__ = ["OFFLINE_RECORD", "SYNCED_RECORD", "find_records", "mark_synced", "new_record", "read_record", "write_record"]
+__all__ = [
+    "OFFLINE_RECORD",
+    "SYNCED_RECORD",
+    "find_records",
+    "mark_synced",
+    "new_record",
+    "read_record",
+    "write_record",
+]

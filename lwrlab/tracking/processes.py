@@ -100,7 +100,9 @@ def _parents_from_ps() -> dict[int, int]:
     import subprocess
 
     try:
-        listing = subprocess.run(["ps", "-A", "-o", "pid=,ppid="], capture_output=True, text=True, timeout=10, check=False).stdout
+        listing = subprocess.run(
+            ["ps", "-A", "-o", "pid=,ppid="], capture_output=True, text=True, timeout=10, check=False
+        ).stdout
     except (OSError, subprocess.SubprocessError):
         return {}
     parents = {}
@@ -209,16 +211,16 @@ def restore_handlers(previous: dict[int, Handler] | None) -> None:
 
 __all__ = [
     "HOSTNAME_TAG",
-    "JobInterrupted",
     "PID_TAG",
+    "JobInterrupted",
     "descendant_pids",
     "install_stop_handler",
     "process_alive",
     "process_tags",
     "restore_handlers",
     "send_signal",
-    "worker_pids",
     "signal_name",
     "terminate_processes",
     "wait_until",
+    "worker_pids",
 ]

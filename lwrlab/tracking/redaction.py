@@ -38,20 +38,32 @@ REDACTED = "***"
 
 # scheme://user:PASSWORD@host — the password is everything between the first ':' after the user
 # name and the '@' that starts the host.
-_URI_PASSWORD = re.compile(r"(?P<head>\b[a-zA-Z][a-zA-Z0-9+.\-]*://[^/\s:@'\"]*:)(?P<password>[^@\s/'\"]+)(?=@)")
+_URI_PASSWORD = re.compile(
+    r"(?P<head>\b[a-zA-Z][a-zA-Z0-9+.\-]*://[^/\s:@'\"]*:)(?P<password>[^@\s/'\"]+)(?=@)"
+)
 # ?password=...&token=... in query strings and key=value command lines.
-_QUERY_SECRET = re.compile(r"(?i)(?P<head>\b(?:password|passwd|pwd|token|secret|api_key|access_key)=)(?P<password>[^&\s'\"]+)")
+_QUERY_SECRET = re.compile(
+    r"(?i)(?P<head>\b(?:password|passwd|pwd|token|secret|api_key|access_key)=)(?P<password>[^&\s'\"]+)"
+)
 # Environment variables whose values are secrets (MLFLOW_TRACKING_PASSWORD, AWS_SECRET_ACCESS_KEY, PGPASSWORD…).
-SECRET_ENVIRONMENT_NAME = re.compile(r"(?i)(PASSWORD|PASSWD|SECRET|TOKEN|API_?KEY|ACCESS_KEY|PRIVATE_KEY|CREDENTIAL)")
+SECRET_ENVIRONMENT_NAME = re.compile(
+    r"(?i)(PASSWORD|PASSWD|SECRET|TOKEN|API_?KEY|ACCESS_KEY|PRIVATE_KEY|CREDENTIAL)"
+)
 # A config key names a secret when its last component contains one of these words (any case).
-SECRET_KEY_WORD = re.compile(r"(?i)(password|passwd|secret|token|api[_.\-]?key|apikey|auth|credential|private[_.\-]?key)")
+SECRET_KEY_WORD = re.compile(
+    r"(?i)(password|passwd|secret|token|api[_.\-]?key|apikey|auth|credential|private[_.\-]?key)"
+)
 # The literal spellings of SECRET_KEY_WORD's words (lower case), for a quick test on raw bytes.
 _SECRET_KEY_WORD_LITERALS = tuple(
-    word.encode() for word in ("password", "passwd", "secret", "token", "apikey", "auth", "credential")
+    word.encode()
+    for word in ("password", "passwd", "secret", "token", "apikey", "auth", "credential")
     + tuple(f"{head}{separator}key" for head in ("api", "private") for separator in ("", "_", ".", "-"))
 )
 # Non-ASCII letters that match ASCII ones under re.IGNORECASE (İ, ı, ſ, K), as UTF-8, with that letter.
-_ASCII_CASE_FOLDINGS = tuple((letter.encode(), ascii_letter.encode()) for letter, ascii_letter in zip("\u0130\u0131\u017f\u212a", "iisk"))
+_ASCII_CASE_FOLDINGS = tuple(
+    (letter.encode(), ascii_letter.encode())
+    for letter, ascii_letter in zip("\u0130\u0131\u017f\u212a", "iisk")
+)
 # ``api.key`` and ``private.key`` span the last dot: the whole key's tail is checked for them.
 _SECRET_KEY_TAIL = re.compile(r"(?i)(api|private)\.key[\w\-]*$")
 # ``key=value`` as in Hydra overrides, command lines and query strings (prefixes + ++ ~ allowed).
@@ -101,7 +113,11 @@ def redact_secret_assignments(text: str) -> str:
         if not is_secret_key(match.group("key")) or _NOT_A_SECRET.match(_unquoted(value)):
             return match.group(0)
         stripped = value.rstrip()
-        quote = stripped[0] if stripped[:1] in ("'", '"') and len(stripped) >= 2 and stripped[-1] == stripped[0] else ""
+        quote = (
+            stripped[0]
+            if stripped[:1] in ("'", '"') and len(stripped) >= 2 and stripped[-1] == stripped[0]
+            else ""
+        )
         return match.group("head") + quote + REDACTED + quote + value[len(stripped) :]
 
     text = _ASSIGNMENT.sub(replace, text)
@@ -163,12 +179,16 @@ class Redactor:
     secrets: frozenset[str] = frozenset()
 
     @classmethod
-    def from_config(cls, params: Mapping[str, str], texts: Iterable[str] = (), environ: Mapping[str, str] | None = None) -> Redactor:
+    def from_config(
+        cls, params: Mapping[str, str], texts: Iterable[str] = (), environ: Mapping[str, str] | None = None
+    ) -> Redactor:
         """Secrets of a job: values of its secret keys (flattened config), plus :meth:`from_texts`."""
         values = [str(value) for key, value in params.items() if is_secret_key(key)]
         found = cls.from_texts([*texts, *params.values()], environ)
         pieces = {piece.strip() for value in values for piece in [value, *value.split(",")]}
-        extra = {piece for piece in pieces if len(piece) >= MIN_SECRET_LENGTH and not _NOT_A_SECRET.match(piece)}
+        extra = {
+            piece for piece in pieces if len(piece) >= MIN_SECRET_LENGTH and not _NOT_A_SECRET.match(piece)
+        }
         return cls(found.secrets | frozenset(extra))
 
     @classmethod
@@ -248,7 +268,11 @@ def redacted_folder(folder: Path, redactor: Redactor, exclude: Iterable[str] = (
         File names (relative to ``folder``) never uploaded, e.g. the offline record of a run.
     """
     excluded = set(exclude)
-    dirty = [path for path in _files_needing_redaction(folder, redactor) if str(path.relative_to(folder)) not in excluded]
+    dirty = [
+        path
+        for path in _files_needing_redaction(folder, redactor)
+        if str(path.relative_to(folder)) not in excluded
+    ]
     if not dirty and not any((folder / name).exists() for name in excluded):
         yield folder
         return
@@ -270,11 +294,11 @@ __all__ = [
     "REDACTED",
     "Redactor",
     "is_secret_key",
+    "passwords_in",
     "redact_secret_assignments",
     "redact_secret_params",
-    "secret_values_in",
-    "passwords_in",
     "redact_uri_passwords",
     "redacted_folder",
     "secret_environment_values",
+    "secret_values_in",
 ]

@@ -35,8 +35,13 @@ from mlflow.tracking import MlflowClient
 
 from lwrlab.figures.paper_artifacts import ARTIFACT_KINDS, ArtifactColumnsError, ReportPart
 from lwrlab.reference import paper_results
-from lwrlab.tracking.mlflow_callback import RUN_KIND_TAG, absolute_tracking_uri, provenance_tags, search_runs_table
 from lwrlab.tracking.derived_runs import derived_key, log_derived_run
+from lwrlab.tracking.mlflow_callback import (
+    RUN_KIND_TAG,
+    absolute_tracking_uri,
+    provenance_tags,
+    search_runs_table,
+)
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.run_groups import short_name, swept_parameters, value_summary
 from lwrlab.tracking.store import retry_locked
@@ -66,7 +71,9 @@ def _quoted(value: str) -> str:
     return "'" + value.replace("'", "\\'") + "'"
 
 
-def selection_filter(tags: Mapping[str, str] | None = None, params: Mapping[str, str] | None = None, extra: str = "") -> str:
+def selection_filter(
+    tags: Mapping[str, str] | None = None, params: Mapping[str, str] | None = None, extra: str = ""
+) -> str:
     """An MLflow filter string for FINISHED job runs with the given tags and params.
 
     Examples
@@ -88,11 +95,15 @@ def select_runs(tracking_uri: str, experiments: Sequence[str] | None, filter_str
     Returns the ``mlflow.search_runs`` table plus an ``experiment`` column (the experiment name).
     """
     client = MlflowClient(tracking_uri=tracking_uri)
-    known = {experiment.name: experiment.experiment_id for experiment in retry_locked(client.search_experiments)}
+    known = {
+        experiment.name: experiment.experiment_id for experiment in retry_locked(client.search_experiments)
+    }
     names = [name for name in known if name != REPORT_EXPERIMENT] if not experiments else list(experiments)
     missing = [name for name in names if name not in known]
     if missing:
-        raise ValueError(f"no experiment named {missing} in {Redactor().redact(tracking_uri)}; experiments: {sorted(known)}")
+        raise ValueError(
+            f"no experiment named {missing} in {Redactor().redact(tracking_uri)}; experiments: {sorted(known)}"
+        )
     if not names:
         return pd.DataFrame()
     table = search_runs_table(tracking_uri, [known[name] for name in names], filter_string)
@@ -105,11 +116,18 @@ def select_runs(tracking_uri: str, experiments: Sequence[str] | None, filter_str
 
 def artifact_names(client: MlflowClient, runs: pd.DataFrame) -> dict[str, set[str]]:
     """Run id → names of its top-level artifacts (one listing per run)."""
-    return {str(run_id): {entry.path for entry in retry_locked(client.list_artifacts, str(run_id))} for run_id in runs["run_id"]}
+    return {
+        str(run_id): {entry.path for entry in retry_locked(client.list_artifacts, str(run_id))}
+        for run_id in runs["run_id"]
+    }
 
 
 def collect_artifact(
-    client: MlflowClient, runs: pd.DataFrame, artifact: str, download_dir: Path, available: Mapping[str, set[str]] | None = None
+    client: MlflowClient,
+    runs: pd.DataFrame,
+    artifact: str,
+    download_dir: Path,
+    available: Mapping[str, set[str]] | None = None,
 ) -> pd.DataFrame | None:
     """One artifact CSV of every run that has it, concatenated, with ``run_id``, ``experiment``, ``seed``.
 
@@ -118,14 +136,19 @@ def collect_artifact(
     """
     frames = []
     available = artifact_names(client, runs) if available is None else available
-    seeds = dict(zip(runs["run_id"], runs["tags.seed"] if "tags.seed" in runs else [None] * len(runs), strict=True))
+    seeds = dict(
+        zip(runs["run_id"], runs["tags.seed"] if "tags.seed" in runs else [None] * len(runs), strict=True)
+    )
     for row in runs.itertuples(index=False):
         run_id = str(row.run_id)
         if artifact not in available.get(run_id, set()):
             continue
         local = Path(
             mlflow.artifacts.download_artifacts(
-                run_id=run_id, artifact_path=artifact, dst_path=str(download_dir / run_id), tracking_uri=client.tracking_uri
+                run_id=run_id,
+                artifact_path=artifact,
+                dst_path=str(download_dir / run_id),
+                tracking_uri=client.tracking_uri,
             )
         )
         try:
@@ -175,7 +198,11 @@ def build_report(
     with tempfile.TemporaryDirectory(prefix="lwrlab_report_") as download_dir:
         for kind in kinds or ARTIFACT_KINDS:
             artifact, builder = ARTIFACT_KINDS[kind]
-            frame = None if runs.empty else collect_artifact(client, runs, artifact, Path(download_dir), available)
+            frame = (
+                None
+                if runs.empty
+                else collect_artifact(client, runs, artifact, Path(download_dir), available)
+            )
             if frame is None:
                 report.skipped[kind] = f"no selected run has `{artifact}`"
                 log.warning("%s skipped: %s", kind, report.skipped[kind])
@@ -196,7 +223,11 @@ def build_report(
             report.parts[kind] = part
     _write_markdown(report, experiments, filter_string, tracking_uri)
     if not runs.empty:
-        columns = [c for c in ("run_id", "experiment", "status", "tags.overrides", "tags.seed", "tags.config_hash") if c in runs]
+        columns = [
+            c
+            for c in ("run_id", "experiment", "status", "tags.overrides", "tags.seed", "tags.config_hash")
+            if c in runs
+        ]
         runs[columns].to_csv(output_dir / "runs.csv", index=False)
     return report
 
@@ -211,8 +242,10 @@ def unseparated_parameters(differing: Sequence[str], frame: pd.DataFrame) -> lis
     columns = [str(column) for column in frame.columns if column not in _PROVENANCE_COLUMNS]
     labels = [column for column in columns if not pd.api.types.is_numeric_dtype(frame[column])]
     return [
-        parameter for parameter in differing
-        if short_name(parameter) not in columns and not any(short_name(parameter).endswith("_" + column) for column in labels)
+        parameter
+        for parameter in differing
+        if short_name(parameter) not in columns
+        and not any(short_name(parameter).endswith("_" + column) for column in labels)
     ]
 
 
@@ -226,7 +259,9 @@ def pooling_refusal(runs: pd.DataFrame, parameters: Sequence[str]) -> str:
     )
 
 
-def _write_markdown(report: Report, experiments: Sequence[str] | None, filter_string: str, tracking_uri: str) -> Path:
+def _write_markdown(
+    report: Report, experiments: Sequence[str] | None, filter_string: str, tracking_uri: str
+) -> Path:
     lines = [
         "# lwrlab report",
         "",
@@ -245,7 +280,9 @@ def _write_markdown(report: Report, experiments: Sequence[str] | None, filter_st
     return path
 
 
-def log_report(report: Report, tracking_uri: str, experiments: Sequence[str] | None, filter_string: str) -> tuple[str, bool] | None:
+def log_report(
+    report: Report, tracking_uri: str, experiments: Sequence[str] | None, filter_string: str
+) -> tuple[str, bool] | None:
     """Log the report folder once, as a run of its source experiment.
 
     Returns
@@ -272,7 +309,14 @@ def log_report(report: Report, tracking_uri: str, experiments: Sequence[str] | N
     }
     source_ids = list(report.runs["run_id"]) if not report.runs.empty else []
     key = derived_key("report", source_ids, {"filter": filter_string, "kinds": sorted(report.parts)})
-    return log_derived_run(client, experiment.experiment_id, key, report.output_dir, f"report · {', '.join(report.parts) or 'empty'}", tags)
+    return log_derived_run(
+        client,
+        experiment.experiment_id,
+        key,
+        report.output_dir,
+        f"report · {', '.join(report.parts) or 'empty'}",
+        tags,
+    )
 
 
 def parse_pairs(values: Sequence[str], what: str) -> dict[str, str]:
@@ -295,18 +339,32 @@ def main(argv: Sequence[str] | None = None) -> int:
         help=f"MLflow store (default: $MLFLOW_TRACKING_URI, else {DEFAULT_TRACKING_URI})",
     )
     parser.add_argument("--experiment", action="append", help="experiment name (repeatable; default: all)")
-    parser.add_argument("--tag", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this tag")
-    parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this param")
-    parser.add_argument("--filter", default="", help="extra MLflow filter, e.g. \"metrics.rms_mean < 0.5\"")
-    parser.add_argument("--kinds", default=",".join(ARTIFACT_KINDS), help=f"comma-separated subset of {','.join(ARTIFACT_KINDS)}")
-    parser.add_argument("--output", type=Path, default=None, help="output folder (default: outputs/reports/<time>)")
+    parser.add_argument(
+        "--tag", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this tag"
+    )
+    parser.add_argument(
+        "--param", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this param"
+    )
+    parser.add_argument("--filter", default="", help='extra MLflow filter, e.g. "metrics.rms_mean < 0.5"')
+    parser.add_argument(
+        "--kinds",
+        default=",".join(ARTIFACT_KINDS),
+        help=f"comma-separated subset of {','.join(ARTIFACT_KINDS)}",
+    )
+    parser.add_argument(
+        "--output", type=Path, default=None, help="output folder (default: outputs/reports/<time>)"
+    )
     parser.add_argument("--no-log", action="store_true", help="do not log the report as an MLflow run")
     arguments = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 
     uri = absolute_tracking_uri(arguments.tracking_uri, Path.cwd())
-    output = arguments.output or Path("outputs") / "reports" / _dt.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
-    filter_string = selection_filter(parse_pairs(arguments.tag, "tag"), parse_pairs(arguments.param, "param"), arguments.filter)
+    output = arguments.output or Path("outputs") / "reports" / _dt.datetime.now().strftime(
+        "%Y-%m-%d_%H-%M-%S"
+    )
+    filter_string = selection_filter(
+        parse_pairs(arguments.tag, "tag"), parse_pairs(arguments.param, "param"), arguments.filter
+    )
     kinds = [kind.strip() for kind in arguments.kinds.split(",") if kind.strip()]
     try:
         report = build_report(uri, output, arguments.experiment, filter_string, kinds)
@@ -319,8 +377,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             print("report not logged: its runs come from several experiments (name one with --experiment)")
         else:
             report.run_id = logged[0]
-            experiment = report.runs["experiment"].iloc[0] if not report.runs.empty else arguments.experiment[0]
-            print(f"report {'logged as' if logged[1] else 'already logged as'} run {report.run_id} of experiment {experiment!r}")
+            experiment = (
+                report.runs["experiment"].iloc[0] if not report.runs.empty else arguments.experiment[0]
+            )
+            print(
+                f"report {'logged as' if logged[1] else 'already logged as'} run {report.run_id} of experiment {experiment!r}"
+            )
     print(f"report written to {output}")
     return 0
 

@@ -23,8 +23,12 @@ def download_run_artifact(run_id: str, artifact_path: str, tracking_uri: str | N
     from mlflow.exceptions import MlflowException
 
     try:
-        local = mlflow.artifacts.download_artifacts(run_id=run_id, artifact_path=artifact_path, tracking_uri=tracking_uri)
+        local = mlflow.artifacts.download_artifacts(
+            run_id=run_id, artifact_path=artifact_path, tracking_uri=tracking_uri
+        )
     except (MlflowException, OSError) as error:
         store = tracking_uri or "(default)"
-        raise FileNotFoundError(f"no {artifact_path} for MLflow run {run_id!r} in store {store}: {error}") from error
+        raise FileNotFoundError(
+            f"no {artifact_path} for MLflow run {run_id!r} in store {store}: {error}"
+        ) from error
     return Path(local)

@@ -46,7 +46,9 @@ def swept_parameters(runs: pd.DataFrame) -> list[str]:
             continue  # a copy of the seed (``${seed}``): replication, not a parameter
         varying.append(key)
     # Keys under a varying choice follow from it: `estimator` explains `estimator._target_`.
-    return [key for key in varying if not any(key.startswith(other + ".") for other in varying if other != key)]
+    return [
+        key for key in varying if not any(key.startswith(other + ".") for other in varying if other != key)
+    ]
 
 
 def value_summary(runs: pd.DataFrame, parameter: str, limit: int = 6) -> str:
@@ -60,4 +62,4 @@ def short_name(parameter: str) -> str:
     return parameter.rsplit(".", 1)[-1]
 
 
-__all__ = ["swept_parameters", "short_name", "value_summary"]
+__all__ = ["short_name", "swept_parameters", "value_summary"]

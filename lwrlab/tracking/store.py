@@ -86,7 +86,9 @@ def prepare_sqlite_store(tracking_uri: str) -> None:
 
     with store_lock(tracking_uri):
         copy_schema_template(database)  # a new store: MLflow's schema copied, not migrated again
-        MlflowClient(tracking_uri=tracking_uri).search_experiments(max_results=1)  # creates or migrates the schema
+        MlflowClient(tracking_uri=tracking_uri).search_experiments(
+            max_results=1
+        )  # creates or migrates the schema
         _use_wal_journal(database)
 
 

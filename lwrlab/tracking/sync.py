@@ -59,7 +59,9 @@ class Syncer:
         self._failed_parents: set[str] = set()
 
     def _experiment(self, name: str) -> str:
-        return ensure_experiment(self.client, TrackingSettings(self.tracking_uri, name, self.artifact_location, self.log_artifacts))
+        return ensure_experiment(
+            self.client, TrackingSettings(self.tracking_uri, name, self.artifact_location, self.log_artifacts)
+        )
 
     def _parent(self, experiment_id: str, record: dict[str, Any]) -> str | None:
         sweep_dir = record.get("sweep_dir")
@@ -82,13 +84,23 @@ class Syncer:
                     experiment_id,
                     run_name=f"sweep (synced): {overrides}".strip(),
                     start_time=record.get("start_time_ms"),
-                    tags={RUN_KIND_TAG: "sweep", "overrides": overrides, "hydra_sweep_dir": sweep_dir, "synced": "true"},
+                    tags={
+                        RUN_KIND_TAG: "sweep",
+                        "overrides": overrides,
+                        "hydra_sweep_dir": sweep_dir,
+                        "synced": "true",
+                    },
                 )
                 self._parents[key] = run.info.run_id
         return self._parents[key]
 
     def _already_synced(self, experiment_id: str, record_id: str) -> str | None:
-        runs = retry_locked(self.client.search_runs, [experiment_id], filter_string=f"tags.{RECORD_TAG} = '{record_id}'", max_results=1)
+        runs = retry_locked(
+            self.client.search_runs,
+            [experiment_id],
+            filter_string=f"tags.{RECORD_TAG} = '{record_id}'",
+            max_results=1,
+        )
         return runs[0].info.run_id if runs else None
 
     def sync(self, path: Path) -> str:
@@ -103,7 +115,11 @@ class Syncer:
             if parent is not None:
                 tags["mlflow.parentRunId"] = parent
             run = retry_locked(
-                self.client.create_run, experiment_id, run_name=record["run_name"], start_time=record.get("start_time_ms"), tags=tags
+                self.client.create_run,
+                experiment_id,
+                run_name=record["run_name"],
+                start_time=record.get("start_time_ms"),
+                tags=tags,
             )
             run_id = run.info.run_id
             log_params(self.client, run_id, record["params"])
@@ -112,7 +128,9 @@ class Syncer:
                 redactor = Redactor.for_output_folder(output_dir)
                 log_output_folder(self.client, run_id, output_dir, redactor, exclude=[offline.OFFLINE_RECORD])
             status = record["status"] if record["status"] != "RUNNING" else "KILLED"  # the job never ended
-            retry_locked(self.client.set_terminated, run_id, status=status, end_time=record.get("end_time_ms"))
+            retry_locked(
+                self.client.set_terminated, run_id, status=status, end_time=record.get("end_time_ms")
+            )
             if status != "FINISHED" and parent is not None:
                 self._failed_parents.add(parent)
         (output_dir / RUN_ID_FILE).write_text(run_id + "\n", encoding="utf-8")
@@ -164,7 +182,9 @@ def sync_offline_runs(
 def main(argv: Sequence[str] | None = None) -> int:
     """``lwrlab sync [FOLDER ...] [--tracking-uri URI]``; returns the process exit status."""
     parser = argparse.ArgumentParser(prog="lwrlab sync", description=__doc__.split("\n\n")[0])
-    parser.add_argument("folders", nargs="*", type=Path, default=[Path("outputs")], help="where to look (default: outputs)")
+    parser.add_argument(
+        "folders", nargs="*", type=Path, default=[Path("outputs")], help="where to look (default: outputs)"
+    )
     parser.add_argument(
         "--tracking-uri",
         default=os.environ.get("MLFLOW_TRACKING_URI", DEFAULT_TRACKING_URI),

@@ -55,7 +55,9 @@ class LimitViolation(ValueError):
     """A motion leaves the robot's joint limits; the message names each violated limit."""
 
 
-def limit_violations(trajectory: Trajectory, robot: RobotModel, torque: np.ndarray | None = None) -> list[str]:
+def limit_violations(
+    trajectory: Trajectory, robot: RobotModel, torque: np.ndarray | None = None
+) -> list[str]:
     """Human-readable descriptions of every violated joint limit (empty if none).
 
     ``torque`` (N, N_J) — e.g. the CAD model's inverse dynamics — is checked against the torque limits
@@ -92,7 +94,9 @@ def require_motion_limits(robot: RobotModel, purpose: str) -> None:
         )
 
 
-def check_limits(trajectory: Trajectory, robot: RobotModel, torque: np.ndarray | None = None, what: str = "motion") -> None:
+def check_limits(
+    trajectory: Trajectory, robot: RobotModel, torque: np.ndarray | None = None, what: str = "motion"
+) -> None:
     """Raise :class:`LimitViolation` naming every violated limit of ``trajectory`` on ``robot``."""
     require_motion_limits(robot, f"check the {what}")
     problems = limit_violations(trajectory, robot, torque)

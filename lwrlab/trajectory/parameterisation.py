@@ -56,7 +56,9 @@ class LinearParameterisation:
         """(N, n_coefficients) basis functions (derivative 0, 1, 2: units 1, 1/s, 1/s²) at times t (s)."""
         raise NotImplementedError
 
-    def initial_coefficients(self, robot: RobotModel, rng: np.random.Generator, amplitude: float) -> np.ndarray:
+    def initial_coefficients(
+        self, robot: RobotModel, rng: np.random.Generator, amplitude: float
+    ) -> np.ndarray:
         """A random starting point (n_coefficients, N_J) around the middle of the position ranges.
 
         ``amplitude`` is the fraction of each joint's half position range the motion may roughly span.
@@ -81,16 +83,25 @@ class LinearParameterisation:
         """A copy carrying ``coefficients`` (n_coefficients, N_J)."""
         coefficients = np.asarray(coefficients, dtype=float)
         if coefficients.ndim != 2 or coefficients.shape[0] != self.n_coefficients:
-            raise ValueError(f"expected ({self.n_coefficients}, N_J) coefficients, got shape {coefficients.shape}")
+            raise ValueError(
+                f"expected ({self.n_coefficients}, N_J) coefficients, got shape {coefficients.shape}"
+            )
         return type(self)(duration=self.duration, coefficients=coefficients, **self.settings())
 
-    def evaluate(self, t: np.ndarray, coefficients: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def evaluate(
+        self, t: np.ndarray, coefficients: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """q (rad), q̇ (rad/s), q̈ (rad/s²) at times t (s), each (N, N_J)."""
         c = self._coefficients(coefficients)
         return tuple(b @ c for b in self.bases(np.asarray(t, dtype=float)))  # type: ignore[return-value]
 
     @staticmethod
-    def pull_back(bases: tuple[np.ndarray, np.ndarray, np.ndarray], grad_q: np.ndarray, grad_dq: np.ndarray, grad_ddq: np.ndarray) -> np.ndarray:
+    def pull_back(
+        bases: tuple[np.ndarray, np.ndarray, np.ndarray],
+        grad_q: np.ndarray,
+        grad_dq: np.ndarray,
+        grad_ddq: np.ndarray,
+    ) -> np.ndarray:
         """``∂J/∂C`` (n_coefficients, N_J) from gradients with respect to the samples (N, N_J) each."""
         b, db, ddb = bases
         return b.T @ grad_q + db.T @ grad_dq + ddb.T @ grad_ddq
@@ -99,10 +110,18 @@ class LinearParameterisation:
         """The motion at ``rate_hz`` (Hz) — a :class:`~lwrlab.trajectory.core.MotionSource`."""
         c = self._coefficients(None)
         if c.shape[1] != robot.n_joints:
-            raise ValueError(f"{self.kind} motion has {c.shape[1]} joints but {robot.name} has {robot.n_joints}")
+            raise ValueError(
+                f"{self.kind} motion has {c.shape[1]} joints but {robot.name} has {robot.n_joints}"
+            )
         t = self.times(rate_hz)
         q, dq, ddq = self.evaluate(t)
-        return Trajectory(t=t, q=q, dq=dq, ddq=ddq, metadata={"source": self.kind, "duration": self.duration, **self.settings()})
+        return Trajectory(
+            t=t,
+            q=q,
+            dq=dq,
+            ddq=ddq,
+            metadata={"source": self.kind, "duration": self.duration, **self.settings()},
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """Plain description (kind, duration, settings, coefficients as lists) for YAML."""

@@ -34,7 +34,9 @@ class Mahalanobis(DistanceClassifier):
     def distances(self, phi: np.ndarray, covariance: np.ndarray | None = None) -> np.ndarray:
         phi = self._check_fitted(phi)
         if covariance is None:
-            raise ValueError("the mahalanobis classifier needs the identification covariance (10×10, flange frame)")
+            raise ValueError(
+                "the mahalanobis classifier needs the identification covariance (10×10, flange frame)"
+            )
         covariance = np.asarray(covariance, dtype=float)
         regularised = covariance + self.regularisation * np.abs(covariance).max() * np.eye(10)
         factor = np.linalg.cholesky(regularised)

@@ -41,7 +41,14 @@ class PCALookup(DistanceClassifier):
     'small_roller'
     """
 
-    def __init__(self, n_components: int = 4, center: bool = False, scaling: str = "none", geometry_method: str = "linear", neighbours: int = 3) -> None:
+    def __init__(
+        self,
+        n_components: int = 4,
+        center: bool = False,
+        scaling: str = "none",
+        geometry_method: str = "linear",
+        neighbours: int = 3,
+    ) -> None:
         self.n_components = n_components
         self.center = center
         self.scaling = scaling
@@ -52,16 +59,22 @@ class PCALookup(DistanceClassifier):
         if self.scaling not in SCALINGS:
             raise ValueError(f"unknown scaling {self.scaling!r}; valid: {list(SCALINGS)}")
         if not 1 <= self.n_components <= min(10, len(library)):
-            raise ValueError(f"n_components must lie in [1, {min(10, len(library))}] for {len(library)} tools, got {self.n_components}")
+            raise ValueError(
+                f"n_components must lie in [1, {min(10, len(library))}] for {len(library)} tools, got {self.n_components}"
+            )
         parameters = library.parameters
         spread = parameters.std(axis=0)
-        self.scale_ = np.where(spread > 1e-9 * spread.max(), spread, np.inf) if self.scaling == "std" else np.ones(10)
+        self.scale_ = (
+            np.where(spread > 1e-9 * spread.max(), spread, np.inf) if self.scaling == "std" else np.ones(10)
+        )
         self.mean_ = parameters.mean(axis=0) if self.center else np.zeros(10)
         matrix = ((parameters - self.mean_) / self.scale_).T  # Φ̄, 10 × N_T
         u, singular_values, _ = np.linalg.svd(matrix, full_matrices=False)
         self.components_ = u[:, : self.n_components]  # U_p
         self.singular_values_ = singular_values
-        self.explained_ = float(np.sum(singular_values[: self.n_components] ** 2) / np.sum(singular_values**2))
+        self.explained_ = float(
+            np.sum(singular_values[: self.n_components] ** 2) / np.sum(singular_values**2)
+        )
         self.library_ = library
         self.embedding_ = self.transform(parameters)
         return self
@@ -77,4 +90,10 @@ class PCALookup(DistanceClassifier):
     def estimate_geometry(self, phi: np.ndarray) -> np.ndarray:
         """Length and width (m) of a tool not in the library, interpolated in PCA space."""
         phi = self._check_fitted(phi)
-        return interpolate_geometry(self.embedding_, self.library_.geometry, self.transform(phi), self.geometry_method, self.neighbours)
+        return interpolate_geometry(
+            self.embedding_,
+            self.library_.geometry,
+            self.transform(phi),
+            self.geometry_method,
+            self.neighbours,
+        )

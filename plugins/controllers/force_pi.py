@@ -65,7 +65,9 @@ class ForcePIControl:
         self.joint.reset(q0)
         self.sensor_filter = FirstOrderLowPass(self.sensor_cutoff_hz, setup.period)
         self.sensor_filter.reset(np.zeros(3))
-        self.force_loop = ForcePI(self.desired_force, self.force_kp, self.force_ki, setup.period, self.max_displacement)
+        self.force_loop = ForcePI(
+            self.desired_force, self.force_kp, self.force_ki, setup.period, self.max_displacement
+        )
 
     def command(self, k: int, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
         if self.feedback == "estimate":
@@ -73,4 +75,6 @@ class ForcePIControl:
         else:
             displacement = self.force_loop.update(self.sensor_filter(measured_force))
         q_desired = self.path_ik(k, displacement)
-        return ControlOutput(self.joint.torque(q_desired, state.q, state.dq), self.positions[k] + displacement, q_desired)
+        return ControlOutput(
+            self.joint.torque(q_desired, state.q, state.dq), self.positions[k] + displacement, q_desired
+        )

@@ -27,7 +27,12 @@ class PositionControl:
 
     name = "position"
 
-    def __init__(self, kp: Sequence[float] | float, kd: Sequence[float] | float, offset: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
+    def __init__(
+        self,
+        kp: Sequence[float] | float,
+        kd: Sequence[float] | float,
+        offset: Sequence[float] = (0.0, 0.0, 0.0),
+    ) -> None:
         self.kp, self.kd = kp, kd
         self.offset = np.asarray(offset, dtype=float).reshape(3)
 

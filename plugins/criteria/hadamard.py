@@ -17,5 +17,7 @@ class Hadamard:
     def value_and_gradient(self, w: np.ndarray) -> tuple[float, np.ndarray]:
         squared_norms = np.einsum("kg,kg->g", w, w)
         if np.any(squared_norms <= 0.0):
-            raise np.linalg.LinAlgError("a column of the regressor is zero: the motion does not excite every base parameter")
+            raise np.linalg.LinAlgError(
+                "a column of the regressor is zero: the motion does not excite every base parameter"
+            )
         return -float(np.sum(np.log(squared_norms))), -2.0 * w / squared_norms

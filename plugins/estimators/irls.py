@@ -61,7 +61,7 @@ class IterativelyReweightedLeastSquares(HyperParameters):
         self.tol = tol
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
         """Fit to regressor rows ``W`` and torques ``tau``; ``context`` gives N_J when ``n_joints`` is None."""
         if self.loss not in LOSSES:
             raise ValueError(f"unknown loss {self.loss!r}; valid: {sorted(LOSSES)}")
@@ -88,5 +88,5 @@ class IterativelyReweightedLeastSquares(HyperParameters):
         set_learned_attributes(self, fit, W)
         return self
 
-    def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803
+    def predict(self, W: np.ndarray) -> np.ndarray:
         return W @ self.phi_

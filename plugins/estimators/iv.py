@@ -33,7 +33,9 @@ class InstrumentalVariables(HyperParameters):
     """
 
     @staticmethod
-    def _instruments(rows: int, context: IdentificationContext | None, instruments: np.ndarray | None) -> np.ndarray:
+    def _instruments(
+        rows: int, context: IdentificationContext | None, instruments: np.ndarray | None
+    ) -> np.ndarray:
         z = instruments if instruments is not None else getattr(context, "reference_regressor", None)
         if z is None:
             raise ValueError(
@@ -48,7 +50,7 @@ class InstrumentalVariables(HyperParameters):
     @dense_algebra()
     def fit(
         self,
-        W: np.ndarray,  # noqa: N803 - the paper's symbol
+        W: np.ndarray,
         tau: np.ndarray,
         *,
         context: IdentificationContext | None = None,
@@ -68,5 +70,5 @@ class InstrumentalVariables(HyperParameters):
         set_learned_attributes(self, fit_with_covariance(W, tau, phi, projected.T @ projected), W)
         return self
 
-    def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803
+    def predict(self, W: np.ndarray) -> np.ndarray:
         return W @ self.phi_

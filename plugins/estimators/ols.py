@@ -31,10 +31,10 @@ class OrdinaryLeastSquares(HyperParameters):
         self.rcond = rcond
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
         """Fit to regressor rows ``W`` and torques ``tau``; ``context`` is not needed (accepted for the protocol)."""
         set_learned_attributes(self, weighted_least_squares(W, tau, rcond=self.rcond), W)
         return self
 
-    def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803
+    def predict(self, W: np.ndarray) -> np.ndarray:
         return W @ self.phi_

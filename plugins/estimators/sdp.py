@@ -39,7 +39,12 @@ import cvxpy as cp
 import numpy as np
 
 from lwrlab.identification.compression import compress
-from lwrlab.identification.consistency import consistency_constraints, min_pseudo_inertia_eigenvalues, pseudo_inertia_expression, segment_slices
+from lwrlab.identification.consistency import (
+    consistency_constraints,
+    min_pseudo_inertia_eigenvalues,
+    pseudo_inertia_expression,
+    segment_slices,
+)
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
@@ -108,13 +113,19 @@ class PhysicallyConsistentSDP(HyperParameters):
 
     def _check(self, context: IdentificationContext | None) -> IdentificationContext:
         if context is None:
-            raise ValueError("sdp needs the identification context (regrouping K, CAD prior): call fit(W, tau, context=...)")
+            raise ValueError(
+                "sdp needs the identification context (regrouping K, CAD prior): call fit(W, tau, context=...)"
+            )
         if self.regularization not in REGULARIZATIONS:
-            raise ValueError(f"unknown regularization {self.regularization!r}; valid: {list(REGULARIZATIONS)}")
+            raise ValueError(
+                f"unknown regularization {self.regularization!r}; valid: {list(REGULARIZATIONS)}"
+            )
         if self.mass_bounds is not None:
             low, high = self.mass_bounds
             if not 0.0 <= low <= high:
-                raise ValueError(f"mass_bounds {list(self.mass_bounds)} must satisfy 0 ≤ low ≤ high (factors of the CAD masses)")
+                raise ValueError(
+                    f"mass_bounds {list(self.mass_bounds)} must satisfy 0 ≤ low ≤ high (factors of the CAD masses)"
+                )
         return context
 
     def _regularizer(self, phi: cp.Variable, context: IdentificationContext) -> cp.Expression:
@@ -128,12 +139,19 @@ class PhysicallyConsistentSDP(HyperParameters):
             terms.append(-cp.log_det(j) + cp.trace(j_prior_inv @ j))
         return cp.sum(cp.hstack(terms))
 
-    def _problem(self, W: np.ndarray, tau: np.ndarray, context: IdentificationContext) -> tuple[cp.Problem, cp.Variable]:  # noqa: N803
+    def _problem(
+        self, W: np.ndarray, tau: np.ndarray, context: IdentificationContext
+    ) -> tuple[cp.Problem, cp.Variable]:
         phi = cp.Variable(context.n_parameters, name="phi")
         if self.compress:
             compressed = compress(W, tau)
             # ‖Wφ − τ‖ = ‖[Rφ − y; ρ]‖ exactly (the floor ρ matters once the norm is not squared)
-            residual = cp.hstack([compressed.R @ context.regrouping @ phi - compressed.y, np.array([compressed.residual_floor])])
+            residual = cp.hstack(
+                [
+                    compressed.R @ context.regrouping @ phi - compressed.y,
+                    np.array([compressed.residual_floor]),
+                ]
+            )
             fit = cp.norm(residual) / np.sqrt(W.shape[0])
         else:
             fit = cp.norm(W @ context.regrouping @ phi - tau) / np.sqrt(W.shape[0])
@@ -142,13 +160,18 @@ class PhysicallyConsistentSDP(HyperParameters):
             objective = fit + self.weight * self._regularizer(phi, context)
         constraints = consistency_constraints(phi, context.n_links, margin=self.min_eigenvalue)
         if self.friction_nonnegative:
-            dissipative = np.concatenate([context.friction_indices("coulomb"), context.friction_indices("viscous")])
+            dissipative = np.concatenate(
+                [context.friction_indices("coulomb"), context.friction_indices("viscous")]
+            )
             if dissipative.size:
                 constraints.append(phi[dissipative] >= 0)
         if self.mass_bounds is not None:
             masses = np.array([part.start for part in segment_slices(context.n_links)])
             low, high = self.mass_bounds
-            constraints += [phi[masses] >= low * context.prior[masses], phi[masses] <= high * context.prior[masses]]
+            constraints += [
+                phi[masses] >= low * context.prior[masses],
+                phi[masses] <= high * context.prior[masses],
+            ]
         return cp.Problem(cp.Minimize(objective), constraints), phi
 
     def _solve(self, problem: cp.Problem) -> None:
@@ -166,11 +189,18 @@ class PhysicallyConsistentSDP(HyperParameters):
                 self.solver_, self.solver_status_ = name, problem.status
                 self.solver_fallback_ = name != self.solver
                 if self.solver_fallback_:
-                    log.warning("sdp: %s failed (%s); the result comes from the fallback solver %s", self.solver, "; ".join(failures), name)
+                    log.warning(
+                        "sdp: %s failed (%s); the result comes from the fallback solver %s",
+                        self.solver,
+                        "; ".join(failures),
+                        name,
+                    )
                 return
             failures.append(f"{name}: status {problem.status}")
-        raise SolverFailure(f"sdp: no solver succeeded ({'; '.join(failures)}); constraints: pseudo-inertia ⪰ {self.min_eigenvalue}, "
-                            f"friction ≥ 0 = {self.friction_nonnegative}, mass bounds = {self.mass_bounds}")
+        raise SolverFailure(
+            f"sdp: no solver succeeded ({'; '.join(failures)}); constraints: pseudo-inertia ⪰ {self.min_eigenvalue}, "
+            f"friction ≥ 0 = {self.friction_nonnegative}, mass bounds = {self.mass_bounds}"
+        )
 
     def _clean(self, standard: np.ndarray, context: IdentificationContext) -> np.ndarray:
         """Undo the solver's tolerance (eigenvalues ~ −1e-9): clip every pseudo-inertia's eigenvalues
@@ -180,7 +210,9 @@ class PhysicallyConsistentSDP(HyperParameters):
         for part in segment_slices(context.n_links):
             values, vectors = np.linalg.eigh(pseudo_inertia(standard[part]))
             if values[0] < self.min_eigenvalue:
-                standard[part] = from_pseudo_inertia((vectors * np.maximum(values, self.min_eigenvalue)) @ vectors.T)
+                standard[part] = from_pseudo_inertia(
+                    (vectors * np.maximum(values, self.min_eigenvalue)) @ vectors.T
+                )
         if self.friction_nonnegative:
             for term in ("coulomb", "viscous"):
                 index = context.friction_indices(term)
@@ -188,7 +220,7 @@ class PhysicallyConsistentSDP(HyperParameters):
         return standard
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
         """Fit to regressor rows ``W`` and torques ``tau``; ``context`` (regrouping K, CAD prior) is required."""
         context = self._check(context)
         tau = np.asarray(tau, dtype=float).ravel()
@@ -210,5 +242,5 @@ class PhysicallyConsistentSDP(HyperParameters):
         }
         return self
 
-    def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803
+    def predict(self, W: np.ndarray) -> np.ndarray:
         return W @ self.phi_

@@ -41,20 +41,24 @@ class WeightedLeastSquares(HyperParameters):
     True
     """
 
-    def __init__(self, n_joints: int | None = None, min_relative_std: float = 1e-6, reweight_steps: int = 2) -> None:
+    def __init__(
+        self, n_joints: int | None = None, min_relative_std: float = 1e-6, reweight_steps: int = 2
+    ) -> None:
         self.n_joints = n_joints
         self.min_relative_std = min_relative_std
         self.reweight_steps = reweight_steps
 
     @dense_algebra()
-    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:  # noqa: N803 - the paper's symbol
+    def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
         """Fit to regressor rows ``W`` and torques ``tau``; ``context`` gives N_J when ``n_joints`` is None."""
         n_joints = resolve_joint_count(self.n_joints, context, "wls")
-        fit = grouped_least_squares(W, tau, row_joints(W.shape[0], n_joints), self.reweight_steps, self.min_relative_std)
+        fit = grouped_least_squares(
+            W, tau, row_joints(W.shape[0], n_joints), self.reweight_steps, self.min_relative_std
+        )
         self.joint_std_ = fit.group_std
         self.weights_ = 1.0 / fit.group_std**2
         set_learned_attributes(self, fit, W)
         return self
 
-    def predict(self, W: np.ndarray) -> np.ndarray:  # noqa: N803
+    def predict(self, W: np.ndarray) -> np.ndarray:
         return W @ self.phi_

@@ -63,7 +63,9 @@ class LogPlant:
         self.robot = robot
         self.paths = _as_list(path, paths)
         if not self.paths:
-            raise LogError("plant=log needs the identification log(s): set data.paths=[log.csv, …] (or data.path=log.csv)")
+            raise LogError(
+                "plant=log needs the identification log(s): set data.paths=[log.csv, …] (or data.path=log.csv)"
+            )
         self.validation_paths = _as_list(validation_path, validation_paths)
         self.validation_fraction = validation_fraction
         self._options = {
@@ -102,7 +104,9 @@ class LogPlant:
         n = len(whole.t)
         split = int(round(n * (1.0 - self.validation_fraction)))
         if min(split, n - split) < self._options["min_samples"]:
-            raise LogError(f"{whole.metadata['path']}: {n} samples cannot be split into identification and validation parts; give data.validation_paths")
+            raise LogError(
+                f"{whole.metadata['path']}: {n} samples cannot be split into identification and validation parts; give data.validation_paths"
+            )
         part = slice(split, None) if validation else slice(None, split)
         t = whole.t[part]
         logged = {}
@@ -111,9 +115,18 @@ class LogPlant:
             logged = {"logged_t": whole.logged_t[keep], "logged_tau": whole.logged_tau[keep]}
         name = f"{whole.name}_{'tail' if validation else 'head'}"
         return replace(
-            whole, t=t, q=whole.q[part], tau=whole.tau[part], dq=None if whole.dq is None else whole.dq[part], **logged,
-            metadata={**whole.metadata, "name": name, "role": "validation" if validation else "identification",
-                      "part": f"{'last' if validation else 'first'} {100 * (self.validation_fraction if validation else 1 - self.validation_fraction):.0f} %"},
+            whole,
+            t=t,
+            q=whole.q[part],
+            tau=whole.tau[part],
+            dq=None if whole.dq is None else whole.dq[part],
+            **logged,
+            metadata={
+                **whole.metadata,
+                "name": name,
+                "role": "validation" if validation else "identification",
+                "part": f"{'last' if validation else 'first'} {100 * (self.validation_fraction if validation else 1 - self.validation_fraction):.0f} %",
+            },
         )
 
     def identification_measurements(self) -> list[Measurement]:

@@ -113,8 +113,16 @@ class SimulatedPlant:
         if self.mode == "playback":
             q, tau = trajectory.q, playback_torques(robot, trajectory)
         else:
-            steps = tqdm(range(trajectory.t.shape[0]), desc="closed-loop simulation", unit="step", disable=not self.show_progress, leave=False)
-            q, _, tau = track_closed_loop(robot, self.nominal, trajectory, self.kp, self.kd, self.substeps, progress=steps)
+            steps = tqdm(
+                range(trajectory.t.shape[0]),
+                desc="closed-loop simulation",
+                unit="step",
+                disable=not self.show_progress,
+                leave=False,
+            )
+            q, _, tau = track_closed_loop(
+                robot, self.nominal, trajectory, self.kp, self.kd, self.substeps, progress=steps
+            )
         return Measurement(
             t=trajectory.t.copy(),
             q=encoder_reading(q, self.encoder_noise_std, self.encoder_resolution, self._rng),

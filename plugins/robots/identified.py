@@ -71,9 +71,13 @@ def load_identified_robot(
     target = str(robot_config.get("_target_", ""))
     # The description comes from a file that may be shared: build only known robot plugins.
     if not target.startswith(_ALLOWED_TARGET_PREFIX):
-        raise ValueError(f"{path}: robot _target_ {target!r} is not a robot plugin ({_ALLOWED_TARGET_PREFIX}*)")
+        raise ValueError(
+            f"{path}: robot _target_ {target!r} is not a robot plugin ({_ALLOWED_TARGET_PREFIX}*)"
+        )
     prior = build_robot(robot_config)
     if tuple(prior.parameter_names) != identified.standard_names:
-        raise ValueError(f"{path}: its standard parameters do not match the robot it describes ({prior.name})")
+        raise ValueError(
+            f"{path}: its standard parameters do not match the robot it describes ({prior.name})"
+        )
     robot = prior.with_parameters(identified.standard_values)
     return replace(robot, name=f"{prior.name}_identified")

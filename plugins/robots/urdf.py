@@ -54,10 +54,14 @@ def _locked_configuration(
     model: pin.Model, locked_joints: Sequence[str] | Mapping[str, float], path: Path
 ) -> tuple[list[int], np.ndarray]:
     """Ids of the joints to lock and the configuration (zero but for the given positions) they are locked at."""
-    positions = dict(locked_joints) if isinstance(locked_joints, Mapping) else {name: 0.0 for name in locked_joints}
+    positions = (
+        dict(locked_joints) if isinstance(locked_joints, Mapping) else {name: 0.0 for name in locked_joints}
+    )
     unknown = [name for name in positions if not model.existJointName(name)]
     if unknown:
-        raise ValueError(f"{path}: locked_joints {unknown} are not joints of the model; joints: {list(model.names)[1:]}")
+        raise ValueError(
+            f"{path}: locked_joints {unknown} are not joints of the model; joints: {list(model.names)[1:]}"
+        )
     q_reference = pin.neutral(model)
     ids = []
     for name, position in positions.items():
@@ -87,7 +91,9 @@ def _check_limits(model: pin.Model, path: Path) -> None:
         )
 
 
-def _acceleration_limits(acceleration_limits: Sequence[float] | float | None, n: int, path: Path) -> np.ndarray:
+def _acceleration_limits(
+    acceleration_limits: Sequence[float] | float | None, n: int, path: Path
+) -> np.ndarray:
     if acceleration_limits is None:  # unknown: fine for identifying from logs; motion stages refuse it
         return np.full(n, np.inf)
     values = np.asarray(acceleration_limits, dtype=float).ravel()
@@ -103,11 +109,15 @@ def _acceleration_limits(acceleration_limits: Sequence[float] | float | None, n:
 def _add_flange(model: pin.Model, flange_frame: str, path: Path) -> None:
     """Add an operational frame named ``flange`` at the URDF frame ``flange_frame``."""
     if not model.existFrame(flange_frame):
-        raise ValueError(f"{path}: flange_frame {flange_frame!r} is not a frame of the model; frames: {[f.name for f in model.frames]}")
+        raise ValueError(
+            f"{path}: flange_frame {flange_frame!r} is not a frame of the model; frames: {[f.name for f in model.frames]}"
+        )
     if flange_frame == "flange":
         return  # the URDF already names its flange
     if model.existFrame("flange"):
-        raise ValueError(f"{path}: the URDF already has a frame named 'flange'; drop flange_frame or set it to 'flange'")
+        raise ValueError(
+            f"{path}: the URDF already has a frame named 'flange'; drop flange_frame or set it to 'flange'"
+        )
     frame = model.frames[model.getFrameId(flange_frame)]
     model.addFrame(pin.Frame("flange", frame.parentJoint, frame.placement, pin.FrameType.OP_FRAME))
 

@@ -43,19 +43,30 @@ class BSplineMotion(LinearParameterisation):
     coefficients_are_positions = True
     """The coefficients are via points (rad): the position limits bound them directly."""
 
-    def __init__(self, duration: float = 10.0, via_point_spacing: float = 1.0, coefficients: Any = None, from_file: str | None = None) -> None:
+    def __init__(
+        self,
+        duration: float = 10.0,
+        via_point_spacing: float = 1.0,
+        coefficients: Any = None,
+        from_file: str | None = None,
+    ) -> None:
         if from_file is not None:
             from lwrlab.io.exciting_motion import load_motion_description
 
             description = load_motion_description(Path(from_file), expected_kind=self.kind)
-            duration, via_point_spacing = description["duration"], description.get("via_point_spacing", via_point_spacing)
+            duration, via_point_spacing = (
+                description["duration"],
+                description.get("via_point_spacing", via_point_spacing),
+            )
             coefficients = description["coefficients"]
         super().__init__(duration, coefficients)
         if not via_point_spacing > 0:
             raise ValueError(f"via_point_spacing must be positive, got {via_point_spacing}")
         intervals = self.duration / via_point_spacing
         if abs(intervals - round(intervals)) > 1e-9 or round(intervals) < 1:
-            raise ValueError(f"duration {self.duration} s must be a positive multiple of via_point_spacing {via_point_spacing} s")
+            raise ValueError(
+                f"duration {self.duration} s must be a positive multiple of via_point_spacing {via_point_spacing} s"
+            )
         self.via_point_spacing = float(via_point_spacing)
         self.n_intervals = int(round(intervals))
 
@@ -89,7 +100,9 @@ class BSplineMotion(LinearParameterisation):
             raise ValueError(f"times must lie in [0, {self.duration}] s")
         return self._spline(np.clip(t, 0.0, self.duration), derivative)
 
-    def initial_coefficients(self, robot: RobotModel, rng: np.random.Generator, amplitude: float) -> np.ndarray:
+    def initial_coefficients(
+        self, robot: RobotModel, rng: np.random.Generator, amplitude: float
+    ) -> np.ndarray:
         """Via points uniform in ``middle ± amplitude·half-range`` per joint (rad)."""
         lim = robot.limits
         middle = 0.5 * (lim.position_lower + lim.position_upper)

@@ -73,7 +73,9 @@ class FourierMotion(LinearParameterisation):
         t = np.asarray(t, dtype=float)
         return self._series(t, derivative) + self._polynomial(t, derivative) @ self._correction
 
-    def initial_coefficients(self, robot: RobotModel, rng: np.random.Generator, amplitude: float) -> np.ndarray:
+    def initial_coefficients(
+        self, robot: RobotModel, rng: np.random.Generator, amplitude: float
+    ) -> np.ndarray:
         """Constant term at the middle of each range; harmonics decaying as 1/k (rad)."""
         lim = robot.limits
         middle = 0.5 * (lim.position_lower + lim.position_upper)

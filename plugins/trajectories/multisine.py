@@ -85,12 +85,22 @@ class MultisineMotion:
         if np.any(room <= 0):
             raise ValueError(f"center {center} is outside the position limits of {robot.name}")
         scale = self.limit_fraction * np.min(
-            [room / np.abs(x).max(0), lim.velocity / np.abs(dx).max(0), lim.acceleration / np.abs(ddx).max(0)], axis=0
+            [
+                room / np.abs(x).max(0),
+                lim.velocity / np.abs(dx).max(0),
+                lim.acceleration / np.abs(ddx).max(0),
+            ],
+            axis=0,
         )
         return Trajectory(
             t=t,
             q=center + scale * x,
             dq=scale * dx,
             ddq=scale * ddx,
-            metadata={"source": "multisine", "seed": self.seed, "duration": self.duration, "harmonics": self.harmonics},
+            metadata={
+                "source": "multisine",
+                "seed": self.seed,
+                "duration": self.duration,
+                "harmonics": self.harmonics,
+            },
         )

@@ -82,7 +82,9 @@ class OptimalExcitingMotion:
             coulomb_smoothing=self.coulomb_smoothing,
         )
 
-    def optimise(self, robot: RobotModel, base: BaseParameters | None = None) -> tuple[LinearParameterisation, ExcitationResult, ExcitationProblem]:
+    def optimise(
+        self, robot: RobotModel, base: BaseParameters | None = None
+    ) -> tuple[LinearParameterisation, ExcitationResult, ExcitationProblem]:
         """Solve the excitation problem; the motion (with coefficients), the result and the problem.
 
         ``base``: the robot's base parameters, when a caller optimising many motions has them.
@@ -107,7 +109,9 @@ class OptimalExcitingMotion:
         if found != wanted:
             log.warning(
                 "%s holds a motion for (robot, criterion, duration, parameterisation, settings) = %s, not %s: optimising instead",
-                description["path"], found, wanted,
+                description["path"],
+                found,
+                wanted,
             )
             return None
         log.info("exciting motion loaded from %s", description["path"])
@@ -126,9 +130,16 @@ class OptimalExcitingMotion:
             cost = result.cost
         check_motion(robot, motion, self.constraints, rate_hz)
         trajectory = motion.sample(robot, rate_hz)
-        metadata = {**trajectory.metadata, "source": "optimal", "parameterisation": motion.kind, "criterion": self.criterion.name}
+        metadata = {
+            **trajectory.metadata,
+            "source": "optimal",
+            "parameterisation": motion.kind,
+            "criterion": self.criterion.name,
+        }
         if cost is not None:
             metadata["cost"] = cost
         if self.from_file and cost is None:
             metadata["file"] = str(self.from_file)
-        return Trajectory(t=trajectory.t, q=trajectory.q, dq=trajectory.dq, ddq=trajectory.ddq, metadata=metadata)
+        return Trajectory(
+            t=trajectory.t, q=trajectory.q, dq=trajectory.dq, ddq=trajectory.ddq, metadata=metadata
+        )

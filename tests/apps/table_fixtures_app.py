@@ -30,14 +30,30 @@ def main(cfg: DictConfig) -> dict[str, float]:
     criterion, seed = str(cfg.fixture_criterion), int(cfg.seed)
     rms = [fixture_rms(criterion, seed, joint) for joint in JOINTS]
     pd.DataFrame(
-        {"criterion": criterion, "seed": seed, "joint": list(JOINTS), "rms": rms, "nrms": [10 * value for value in rms]}
+        {
+            "criterion": criterion,
+            "seed": seed,
+            "joint": list(JOINTS),
+            "rms": rms,
+            "nrms": [10 * value for value in rms],
+        }
     ).to_csv(output_dir / "fig6_criteria.csv", index=False)
     durations = [1.0, 5.0, 10.0, 15.0]
     pd.DataFrame(
-        {"criterion": criterion, "duration_s": durations, "cost": [CRITERIA[criterion] * 100 / d + seed for d in durations]}
+        {
+            "criterion": criterion,
+            "duration_s": durations,
+            "cost": [CRITERIA[criterion] * 100 / d + seed for d in durations],
+        }
     ).to_csv(output_dir / "fig5_duration.csv", index=False)
     pd.DataFrame(
-        {"tool": ["large", "large"], "parameter": ["M", "MSZ"], "phi": [0.23 + 0.001 * seed, 0.065], "relative_std": [0.5, 0.6], "truth": [0.2371, 0.065]}
+        {
+            "tool": ["large", "large"],
+            "parameter": ["M", "MSZ"],
+            "phi": [0.23 + 0.001 * seed, 0.065],
+            "relative_std": [0.5, 0.6],
+            "truth": [0.2371, 0.065],
+        }
     ).to_csv(output_dir / "table3_tools.csv", index=False)
     pd.DataFrame(
         {
@@ -49,7 +65,10 @@ def main(cfg: DictConfig) -> dict[str, float]:
             "nrms": [8.0, 9.0],
         }
     ).to_csv(output_dir / "table4_force.csv", index=False)
-    return {"rms_mean": sum(rms) / len(rms), **{f"rms_joint{joint}": value for joint, value in zip(JOINTS, rms, strict=True)}}
+    return {
+        "rms_mean": sum(rms) / len(rms),
+        **{f"rms_joint{joint}": value for joint, value in zip(JOINTS, rms, strict=True)},
+    }
 
 
 if __name__ == "__main__":
