@@ -102,21 +102,16 @@ def choose_velocity(logged: np.ndarray, differentiated: np.ndarray, forced: bool
     norm = float(np.linalg.norm(a))
     mismatch = float(np.linalg.norm(a - b) / norm) if norm > 0 else np.inf
     moving = np.sum(a * a, axis=0) > 1e-6 * np.max(np.sum(a * a, axis=0), initial=0.0)
-    figures = {"delay_samples": delay, "gain": gain, "mismatch": mismatch}
+
+    def choice(logged: bool, reason: str) -> VelocityChoice:
+        return VelocityChoice(logged, reason, delay_samples=delay, gain=gain, mismatch=mismatch)
+
     if forced:
-        return VelocityChoice(logged=True, reason="requested", **figures)
+        return choice(True, "requested")
     if not np.isfinite(mismatch):
-        return VelocityChoice(logged=False, reason="the positions do not move", **figures)
+        return choice(False, "the positions do not move")
     if np.any(np.abs(gain[moving] - 1.0) > MAX_GAIN_ERROR):
-        return VelocityChoice(
-            logged=False,
-            reason=f"logged velocities are off in scale by more than {100 * MAX_GAIN_ERROR:g} %",
-            **figures,
-        )
+        return choice(False, f"logged velocities are off in scale by more than {100 * MAX_GAIN_ERROR:g} %")
     if mismatch > MAX_MISMATCH:
-        return VelocityChoice(
-            logged=False,
-            reason=f"logged velocities disagree with the positions (> {100 * MAX_MISMATCH:g} %)",
-            **figures,
-        )
-    return VelocityChoice(logged=True, reason="consistent with the positions", **figures)
+        return choice(False, f"logged velocities disagree with the positions (> {100 * MAX_MISMATCH:g} %)")
+    return choice(True, "consistent with the positions")

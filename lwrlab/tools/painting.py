@@ -21,13 +21,15 @@ Brush (a handle rod, a ferrule and a block of bristles)::
 
 from __future__ import annotations
 
+import numpy as np
+
 from lwrlab.tools.model import Tool
 from lwrlab.tools.shapes import Box, Cylinder
 
 
 def _plate(mass: float, diameter: float, thickness: float) -> Cylinder:
     return Cylinder(
-        mass=mass, center=[0.0, 0.0, thickness / 2], radius=diameter / 2, length=thickness, axis="z"
+        mass=mass, center=np.array([0.0, 0.0, thickness / 2]), radius=diameter / 2, length=thickness, axis="z"
     )
 
 
@@ -73,21 +75,21 @@ def paint_roller(
         "plate": _plate(plate_mass, plate_diameter, plate_thickness),
         "handle": Cylinder(
             mass=handle_mass,
-            center=[0.0, 0.0, plate_thickness + handle_length / 2],
+            center=np.array([0.0, 0.0, plate_thickness + handle_length / 2]),
             radius=rod,
             length=handle_length,
             axis="z",
         ),
         "frame": Cylinder(
             mass=frame_mass,
-            center=[0.0, (frame_start + frame_end) / 2, axle_z],
+            center=np.array([0.0, (frame_start + frame_end) / 2, axle_z]),
             radius=rod,
             length=frame_end - frame_start,
             axis="y",
         ),
         "cover": Cylinder(
             mass=cover_mass,
-            center=[0.0, lateral_offset, axle_z],
+            center=np.array([0.0, lateral_offset, axle_z]),
             radius=roller_diameter / 2,
             length=width,
             axis="y",
@@ -100,8 +102,8 @@ def paint_roller(
         length=float(length),
         width=float(width),
         parts=parts,
-        contact_point=[0.0, lateral_offset, length],
-        contact_axis=[0.0, 1.0, 0.0],
+        contact_point=np.array([0.0, lateral_offset, length]),
+        contact_axis=np.array([0.0, 1.0, 0.0]),
         description=description,
     )
 
@@ -145,19 +147,19 @@ def paint_brush(
         "plate": _plate(plate_mass, plate_diameter, plate_thickness),
         "handle": Cylinder(
             mass=handle_mass,
-            center=[0.0, 0.0, plate_thickness + handle_length / 2],
+            center=np.array([0.0, 0.0, plate_thickness + handle_length / 2]),
             radius=handle_diameter / 2,
             length=handle_length,
             axis="z",
         ),
         "ferrule": Box(
             mass=ferrule_mass,
-            center=[0.0, 0.0, ferrule_start + ferrule_length / 2],
+            center=np.array([0.0, 0.0, ferrule_start + ferrule_length / 2]),
             size=[bristle_thickness + 0.004, width + 0.004, ferrule_length],
         ),
         "bristles": Box(
             mass=bristle_mass,
-            center=[0.0, 0.0, bristles_start + bristle_length / 2],
+            center=np.array([0.0, 0.0, bristles_start + bristle_length / 2]),
             size=[bristle_thickness, width, bristle_length],
         ),
     }
@@ -167,7 +169,7 @@ def paint_brush(
         length=float(length),
         width=float(width),
         parts=parts,
-        contact_point=[0.0, 0.0, length],
-        contact_axis=[0.0, 1.0, 0.0],
+        contact_point=np.array([0.0, 0.0, length]),
+        contact_axis=np.array([0.0, 1.0, 0.0]),
         description=description,
     )

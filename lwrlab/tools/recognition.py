@@ -86,6 +86,10 @@ class DistanceClassifier:
 
     library_: ToolLibrary
 
+    def distances(self, phi: np.ndarray, covariance: np.ndarray | None = None) -> np.ndarray:
+        """(N_tools,) distance of ``phi`` to every library tool (each classifier defines it)."""
+        raise NotImplementedError
+
     def predict(self, phi: np.ndarray, covariance: np.ndarray | None = None) -> Recognition:
         """The nearest library tool, its geometry and the confidence."""
         distances = self.distances(phi, covariance)  # checks the input and that fit was called

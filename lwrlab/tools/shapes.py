@@ -45,10 +45,17 @@ def _positive(value: float, what: str, allow_zero: bool = False) -> float:
 
 
 class Shape(Protocol):
-    """A homogeneous solid in the flange frame."""
+    """A homogeneous solid in the flange frame (read-only: the solids are frozen)."""
 
-    mass: float
-    center: np.ndarray
+    @property
+    def mass(self) -> float:
+        """Mass (kg)."""
+        ...
+
+    @property
+    def center(self) -> np.ndarray:
+        """Centre of mass in the flange frame (m)."""
+        ...
 
     def inertia_about_com(self) -> np.ndarray:
         """3×3 inertia tensor about the shape's centre of mass, flange axes (kg·m²)."""
