@@ -110,7 +110,7 @@ class ProcessedData:
         w = regressor(self.q, self.dq, self.ddq)
         columns = w.shape[1]
         w = w.reshape(n, n_joints * columns)
-        if self.filtered:
+        if self.cutoff_hz is not None:
             w = lowpass(w, self.working_rate_hz, self.cutoff_hz, self.order)
         w = w[self.index].reshape(len(self.index) * n_joints, columns)
         return w, self.tau[self.index].ravel()
@@ -123,7 +123,8 @@ class ProcessedData:
             else f"low-pass {self.cutoff_hz:.3g} Hz (order {self.order}) on q, τ and W"
         )
         return (
-            f"{cutoff}; {len(self.index)} rows at {self.rate_hz:.4g} Hz (working rate {self.working_rate_hz:.4g} Hz); "
+            f"{cutoff}; {len(self.index)} rows at {self.rate_hz:.4g} Hz "
+            f"(working rate {self.working_rate_hz:.4g} Hz); "
             f"velocity: {self.velocity.describe()}"
         )
 
@@ -192,8 +193,9 @@ def _resolve_cutoff(cutoff_hz: float | str | None, q: np.ndarray, rate: float) -
     cutoff = float(cutoff_hz)
     if not 0.0 < cutoff < rate / 2:
         raise ConfigError(
-            f"measurement.processing.cutoff_hz = {cutoff:g} Hz must lie in (0, {rate / 2:g}) Hz, the Nyquist band of a "
-            f"{rate:g} Hz measurement (is the time column in the declared unit? see data.time_unit)"
+            f"measurement.processing.cutoff_hz = {cutoff:g} Hz must lie in (0, {rate / 2:g}) Hz, "
+            f"the Nyquist band of a {rate:g} Hz measurement "
+            "(is the time column in the declared unit? see data.time_unit)"
         )
     return cutoff
 
@@ -255,22 +257,25 @@ def process(
     working_rate = rate / step
     dt = 1.0 / working_rate
     differentiated = central_difference(q, dt, difference_accuracy)
+    velocities = differentiated
     if dq is None or velocity == "differentiated":
         choice = VelocityChoice.differentiated(
             "requested" if velocity == "differentiated" else "no logged velocities"
         )
     else:
         choice = choose_velocity(dq[source_index], differentiated, forced=velocity == "logged")
-    velocities = choice.apply(dq[source_index]) if choice.logged else differentiated
+        if choice.logged:
+            velocities = choice.apply(dq[source_index])
     accelerations = central_difference(velocities, dt, difference_accuracy)
 
     trim = (
         (TRIM_PER_CUTOFF_PERIOD / cutoff if cutoff is not None else 0.0) if trim_s is None else float(trim_s)
     )
-    first = int(round(trim * working_rate))
+    first = round(trim * working_rate)
     if 2 * first >= len(t) - 1:
         raise ConfigError(
-            f"measurement.processing.trim_s: trimming {trim:.3g} s at each end leaves nothing of a {t[-1] - t[0]:.3f} s measurement"
+            f"measurement.processing.trim_s: trimming {trim:.3g} s at each end leaves nothing "
+            f"of a {t[-1] - t[0]:.3f} s measurement"
         )
     target = (
         rate_hz
@@ -281,7 +286,8 @@ def process(
         raise ConfigError(f"measurement.processing.rate_hz must be positive, got {target}")
     if cutoff is not None and target < 2.0 * cutoff:
         raise ConfigError(
-            f"measurement.processing.rate_hz = {target:g} Hz aliases the {cutoff:g} Hz band: give at least {2 * cutoff:g} Hz"
+            f"measurement.processing.rate_hz = {target:g} Hz aliases the {cutoff:g} Hz band: "
+            f"give at least {2 * cutoff:g} Hz"
         )
     decimation = 1 if every_sample else max(1, int(np.floor(working_rate / target + 1e-9)))
     index = np.arange(first, len(t) - first, decimation)

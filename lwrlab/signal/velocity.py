@@ -55,7 +55,10 @@ class VelocityChoice:
         if self.mismatch is None:
             return f"{source} ({self.reason})"
         gains = f"gain {np.min(self.gain):.4f}…{np.max(self.gain):.4f}" if self.gain is not None else ""
-        return f"{source} ({self.reason}; logged vs derivative: delay {self.delay_samples:.2f} samples, {gains}, mismatch {100 * self.mismatch:.2f} %)"
+        return (
+            f"{source} ({self.reason}; logged vs derivative: delay {self.delay_samples:.2f} samples, "
+            f"{gains}, mismatch {100 * self.mismatch:.2f} %)"
+        )
 
 
 def _shift(x: np.ndarray, delay: float) -> np.ndarray:
@@ -67,7 +70,10 @@ def _shift(x: np.ndarray, delay: float) -> np.ndarray:
 
 
 def estimate_delay(reference: np.ndarray, delayed: np.ndarray, iterations: int = 8) -> float:
-    """Delay (samples) of ``delayed`` behind ``reference``: Gauss–Newton on ``delayed(k + d) ≈ reference(k)``."""
+    """Delay (samples) of ``delayed`` behind ``reference``.
+
+    Gauss–Newton on ``delayed(k + d) ≈ reference(k)``.
+    """
     delay = 0.0
     interior = slice(min(25, reference.shape[0] // 10), -min(25, reference.shape[0] // 10) or None)
     for _ in range(iterations):
