@@ -1,4 +1,5 @@
-"""Artifact files: Parquet for long series, CSV for what a robot or a spreadsheet reads, YAML for models, npz for exactness.
+"""Artifact files: Parquet for long series, CSV for what a robot or a spreadsheet reads, YAML for models,
+npz for exactness.
 
 Nothing here unpickles: npz files are read with ``allow_pickle=False`` and YAML with ``safe_load``.
 """
@@ -48,7 +49,10 @@ def load_trajectory_csv(path: Path) -> Trajectory:
     """Read a CSV written by :func:`save_trajectory_csv`."""
     frame = pd.read_csv(path)
     n = sum(1 for c in frame.columns if c.startswith("q") and c[1:].isdigit())
-    pick = lambda prefix: frame[_joint_columns(prefix, n)].to_numpy()  # noqa: E731
+
+    def pick(prefix: str) -> np.ndarray:
+        return frame[_joint_columns(prefix, n)].to_numpy()
+
     return Trajectory(
         t=frame["t"].to_numpy(), q=pick("q"), dq=pick("dq"), ddq=pick("ddq"), metadata={"source": str(path)}
     )

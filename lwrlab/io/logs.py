@@ -164,7 +164,8 @@ def _npz_frame(path: Path, mapping: dict[str, str], n_joints: int) -> tuple[pd.D
         raise LogError(f"{path}: arrays of different lengths {lengths}")
     if not columns:
         raise LogError(
-            f"{path}: no arrays named by the schema or column_map; the file has {sorted(arrays)} (map them: data.column_map)"
+            f"{path}: no arrays named by the schema or column_map; the file has {sorted(arrays)} "
+            "(map them: data.column_map)"
         )
     return pd.DataFrame(columns), names
 
@@ -195,7 +196,8 @@ def _read(
         return _bag_frame(path.parent if path.is_file() else path, joint_names, topic, n_joints)
     if path.is_dir():
         raise LogError(
-            f"{path}: a directory, not a log file (nor a ROS 2 bag folder with metadata.yaml); formats: {', '.join(FORMATS)}"
+            f"{path}: a directory, not a log file (nor a ROS 2 bag folder with metadata.yaml); "
+            f"formats: {', '.join(FORMATS)}"
         )
     if not path.is_file():
         raise LogError(f"{path}: no such log file")
@@ -311,7 +313,10 @@ def load_log(
     )  # it imports this module
 
     frame, mapping = _read(path, dict(column_map or {}), n_joints, joint_names, topic)
-    name = lambda schema: mapping.get(schema, schema)  # noqa: E731
+
+    def name(schema: str) -> str:
+        return mapping.get(schema, schema)
+
     if len(frame) < min_samples:
         raise LogError(f"{path}: {len(frame)} rows, too short (at least {min_samples} samples needed)")
 
@@ -339,13 +344,15 @@ def load_log(
     if np.any(steps <= 0):
         row = int(np.argmax(steps <= 0)) + 1
         raise LogError(
-            f"{path}: column {name('t')!r}, {row_location(path, row)}: time {t[row]:.9g} s does not increase (previous {t[row - 1]:.9g} s)"
+            f"{path}: column {name('t')!r}, {row_location(path, row)}: "
+            f"time {t[row]:.9g} s does not increase (previous {t[row - 1]:.9g} s)"
         )
     median = float(np.median(steps))
     if np.any(steps > max_gap * median):
         row = int(np.argmax(steps > max_gap * median)) + 1
         raise LogError(
-            f"{path}: column {name('t')!r}, {row_location(path, row)}: gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)"
+            f"{path}: column {name('t')!r}, {row_location(path, row)}: "
+            f"gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)"
         )
     q = block("q") * POSITION_UNITS[position_unit]
     tau = block("tau") if drive_gains is None else block("current") * np.asarray(drive_gains, dtype=float)
@@ -403,7 +410,7 @@ def write_log(measurement: Measurement, path: str | Path, dq: np.ndarray | None 
             "tau": measurement.tau,
             **({"dq": np.asarray(dq)} if dq is not None else {}),
         }
-        np.savez(path, **blocks)
+        np.savez(path, allow_pickle=False, **blocks)
         return path
     frame = log_frame(measurement, dq)
     if path.suffix.lower() in (".parquet", ".pq"):

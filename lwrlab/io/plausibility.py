@@ -46,12 +46,30 @@ SEVERITIES = ("error", "warning")
 
 
 class LogLimits(Protocol):
-    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it)."""
+    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it).
 
-    position_lower: np.ndarray
-    position_upper: np.ndarray
-    velocity: np.ndarray
-    torque: np.ndarray
+    Read-only, so that the frozen ``JointLimits`` satisfies it.
+    """
+
+    @property
+    def position_lower(self) -> np.ndarray:
+        """(N_J,) lowest joint positions (rad)."""
+        ...
+
+    @property
+    def position_upper(self) -> np.ndarray:
+        """(N_J,) highest joint positions (rad)."""
+        ...
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """(N_J,) largest absolute joint velocities (rad/s)."""
+        ...
+
+    @property
+    def torque(self) -> np.ndarray:
+        """(N_J,) largest absolute joint torques (N·m)."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -158,7 +176,8 @@ def _absurd(path: Path, column: str, values: np.ndarray, bound: float, unit: str
         str(path),
         column,
         "absurd_value",
-        f"{row_location(path, row)}: value {values[row]:.6g} {unit} is beyond any physical meaning (|value| > {bound:.0e}): a corrupt cell?{others}",
+        f"{row_location(path, row)}: value {values[row]:.6g} {unit} is beyond any physical meaning "
+        f"(|value| > {bound:.0e}): a corrupt cell?{others}",
     )
 
 
@@ -193,7 +212,8 @@ def _period_findings(
             str(path),
             column,
             "sampling_period",
-            f"median sampling period {median:.3g} s with data.time_unit={time_unit} is implausible for a robot log "
+            f"median sampling period {median:.3g} s with data.time_unit={time_unit} "
+            "is implausible for a robot log "
             f"(expected {thresholds.min_period:g} to {thresholds.max_period:g} s); {hint}",
         )
     ]
@@ -231,7 +251,8 @@ def _position_findings(
                     str(path),
                     name,
                     "still_joint",
-                    f"joint {j + 1} never moves (range {np.ptp(column):.2g} rad): its friction cannot be identified from this log",
+                    f"joint {j + 1} never moves (range {np.ptp(column):.2g} rad): "
+                    "its friction cannot be identified from this log",
                 )
             )
         if limits is None:
@@ -255,7 +276,8 @@ def _position_findings(
                 str(path),
                 name,
                 "position_limit",
-                f"joint {j + 1} position {column[row]:.4g} rad ({row_location(path, row)}) is beyond its {side} rad "
+                f"joint {j + 1} position {column[row]:.4g} rad ({row_location(path, row)}) "
+                f"is beyond its {side} rad "
                 f"by {excess:.3g} rad ({np.degrees(excess):.3g}°){hint}",
             )
         )
@@ -292,7 +314,8 @@ def _torque_findings(
     units_hint = (
         "check data.drive_gains (N·m/A at the joint: torque constant × gear ratio)"
         if from_current
-        else "motor currents or another unit? Torques are N·m at the joint; for currents give current1… columns and data.drive_gains"
+        else "motor currents or another unit? Torques are N·m at the joint; "
+        "for currents give current1… columns and data.drive_gains"
     )
     for j, name, column in _sound_columns(tau, names, skip):
         if not np.any(column):
@@ -313,7 +336,8 @@ def _torque_findings(
                     str(path),
                     name,
                     "constant_torque",
-                    f"joint {j + 1} torque is {column[0]:.6g} N·m in every row: a stuck sensor or a filled-in default?",
+                    f"joint {j + 1} torque is {column[0]:.6g} N·m in every row: "
+                    "a stuck sensor or a filled-in default?",
                 )
             )
         if limits is None:
@@ -328,8 +352,8 @@ def _torque_findings(
                     str(path),
                     name,
                     "torque_limit",
-                    f"joint {j + 1} torque {column[row]:.4g} N·m ({row_location(path, row)}) is {ratio:.3g}× its limit {limit:.4g} N·m"
-                    + (f": {units_hint}" if far else ""),
+                    f"joint {j + 1} torque {column[row]:.4g} N·m ({row_location(path, row)}) "
+                    f"is {ratio:.3g}× its limit {limit:.4g} N·m" + (f": {units_hint}" if far else ""),
                 )
             )
     return findings
@@ -354,8 +378,9 @@ def _velocity_findings(
                     str(path),
                     name,
                     "velocity_limit",
-                    f"joint {j + 1} velocity {column[row]:.4g} rad/s ({row_location(path, row)}) is {ratio:.3g}× its limit {limit:.4g} rad/s: "
-                    f"degrees per second? (data.position_unit applies to velocities too)",
+                    f"joint {j + 1} velocity {column[row]:.4g} rad/s ({row_location(path, row)}) "
+                    f"is {ratio:.3g}× its limit {limit:.4g} rad/s: "
+                    "degrees per second? (data.position_unit applies to velocities too)",
                 )
             )
     return findings
@@ -406,7 +431,8 @@ def check_plausibility(
     columns = columns or LogColumns.schema(n_joints, velocities=dq is not None)
     if time_unit not in TIME_UNITS or position_unit not in POSITION_UNITS:
         raise ValueError(
-            f"time_unit must be one of {list(TIME_UNITS)} and position_unit one of {list(POSITION_UNITS)}, got {time_unit!r}, {position_unit!r}"
+            f"time_unit must be one of {list(TIME_UNITS)} and position_unit one of {list(POSITION_UNITS)}, "
+            f"got {time_unit!r}, {position_unit!r}"
         )
     if (
         len(columns.q) != n_joints
@@ -415,7 +441,8 @@ def check_plausibility(
         or len(t) != len(q)
     ):
         raise ValueError(
-            f"shapes disagree: t {t.shape}, q {q.shape}, tau {tau.shape}, columns {len(columns.q)} q, {len(columns.tau)} tau"
+            f"shapes disagree: t {t.shape}, q {q.shape}, tau {tau.shape}, "
+            f"columns {len(columns.q)} q, {len(columns.tau)} tau"
         )
 
     bounds = dict(thresholds.absurd)
@@ -461,7 +488,10 @@ def check_plausibility(
 
 
 def raise_for_errors(findings: Iterable[Finding]) -> list[Finding]:
-    """Raise one :class:`LogError` listing every error (and, below, the warnings); else return the warnings."""
+    """Raise one :class:`LogError` listing every error (and, below, the warnings).
+
+    Without errors, return the warnings.
+    """
     findings = list(findings)
     errors = [f for f in findings if f.severity == "error"]
     warnings = [f for f in findings if f.severity != "error"]
@@ -496,8 +526,8 @@ def column_dtype_finding(
         what = f"holds booleans (True/False), not measurements (read as 0/1 they would be fitted): {advice}"
     elif pd.api.types.is_datetime64_any_dtype(dtype):
         what = (
-            "holds date-times: convert it to seconds, e.g. (t - t.iloc[0]).dt.total_seconds(), or give numbers"
-            + (" with data.time_unit" if role == "time" else "")
+            "holds date-times: convert it to seconds, e.g. (t - t.iloc[0]).dt.total_seconds(), "
+            "or give numbers" + (" with data.time_unit" if role == "time" else "")
         )
     elif pd.api.types.is_timedelta64_dtype(dtype):
         what = "holds durations (timedelta): convert it to seconds with .dt.total_seconds(), or give numbers"

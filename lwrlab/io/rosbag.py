@@ -44,12 +44,17 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
+from rosbags.interfaces import TopicInfo
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys.stores.ros2_humble import builtin_interfaces__msg__Time as Time
+from rosbags.typesys.stores.ros2_humble import sensor_msgs__msg__JointState as JointState
+from rosbags.typesys.stores.ros2_humble import std_msgs__msg__Header as Header
 
 from lwrlab.io.logs import LogError
 
@@ -110,16 +115,18 @@ def _bag_folder(path: Path) -> Path:
     raise LogError(f"{path}: not a ROS 2 bag; give the bag folder or its .db3/.mcap file")
 
 
-def _joint_state_topic(bag: Path, topics: dict[str, Any], topic: str | None) -> str:
+def _joint_state_topic(bag: Path, topics: dict[str, TopicInfo], topic: str | None) -> str:
     joint_state_topics = sorted(name for name, info in topics.items() if info.msgtype == JOINT_STATE_TYPE)
     if topic is not None:
         if topic not in topics:
             raise LogError(
-                f"{bag}: no topic {topic!r}; its {JOINT_STATE_TYPE} topics are {joint_state_topics}, all topics {sorted(topics)}"
+                f"{bag}: no topic {topic!r}; its {JOINT_STATE_TYPE} topics are {joint_state_topics}, "
+                f"all topics {sorted(topics)}"
             )
         if topic not in joint_state_topics:
             raise LogError(
-                f"{bag}: topic {topic!r} carries {topics[topic].msgtype}, not {JOINT_STATE_TYPE}; its JointState topics are {joint_state_topics}"
+                f"{bag}: topic {topic!r} carries {topics[topic].msgtype}, not {JOINT_STATE_TYPE}; "
+                f"its JointState topics are {joint_state_topics}"
             )
         return topic
     if not joint_state_topics:
@@ -132,7 +139,7 @@ def _joint_state_topic(bag: Path, topics: dict[str, Any], topic: str | None) -> 
 
 
 def _sample(
-    msg: Any, index: int, receive_ns: int, columns: np.ndarray, where: str, joint_names: Sequence[str]
+    msg: JointState, index: int, receive_ns: int, columns: np.ndarray, where: str, joint_names: Sequence[str]
 ) -> _Sample:
     n_names = len(msg.name)
     for field in ("position", "effort"):
@@ -149,7 +156,8 @@ def _sample(
         if bad.any():
             column = int(np.argmax(bad))
             raise LogError(
-                f"{where}, message {index}: non-finite {field} {float(values[column])} of joint {joint_names[column]!r}"
+                f"{where}, message {index}: non-finite {field} {float(values[column])} "
+                f"of joint {joint_names[column]!r}"
             )
     dq = np.asarray(msg.velocity, dtype=float)[columns] if len(msg.velocity) == n_names else None
     if dq is not None and not np.isfinite(dq).all():
@@ -176,6 +184,8 @@ def _samples(
             msg = _TYPESTORE.deserialize_cdr(raw, connection.msgtype)
         except Exception as error:  # a corrupt message: name it rather than fail deep in rosbags
             raise LogError(f"{where}, message {index}: cannot decode ({error})") from error
+        if not isinstance(msg, JointState):  # the topic's type was checked; a connection may still lie
+            raise LogError(f"{where}, message {index}: a {type(msg).__name__}, not a {JOINT_STATE_TYPE}")
         names = tuple(msg.name)
         if names not in columns_by_names:
             bag_joints.update(names)
@@ -186,7 +196,8 @@ def _samples(
             if present and len(present) < len(joint_names):
                 missing = [name for name in joint_names if name not in position]
                 raise LogError(
-                    f"{where}, message {index}: joints {missing} of the robot missing; the message has {list(names)}"
+                    f"{where}, message {index}: joints {missing} of the robot missing; "
+                    f"the message has {list(names)}"
                 )
             columns_by_names[names] = np.array([position[name] for name in joint_names]) if present else None
         columns = columns_by_names[names]
@@ -207,14 +218,18 @@ def _times_ns(samples: list[_Sample], where: str) -> np.ndarray:
     if late_zero.size:
         sample = samples[stamped[0] + late_zero[0]]
         raise LogError(
-            f"{where}, message {sample.index}: zero header stamp after stamped messages (an unstamped publisher mixed with a stamped one?)"
+            f"{where}, message {sample.index}: zero header stamp after stamped messages "
+            "(an unstamped publisher mixed with a stamped one?)"
         )
     return stamps
 
 
 def _same_values(a: _Sample, b: _Sample) -> bool:
-    same_dq = (a.dq is None) == (b.dq is None) and (a.dq is None or np.array_equal(a.dq, b.dq))
-    return np.array_equal(a.q, b.q) and np.array_equal(a.tau, b.tau) and same_dq
+    if not (np.array_equal(a.q, b.q) and np.array_equal(a.tau, b.tau)):
+        return False
+    if a.dq is None or b.dq is None:
+        return a.dq is None and b.dq is None
+    return np.array_equal(a.dq, b.dq)
 
 
 def read_joint_states(
@@ -257,18 +272,20 @@ def read_joint_states(
         if not bag_joints:
             raise LogError(f"{where}: no messages" if not skipped else f"{where}: no message names any joint")
         raise LogError(
-            f"{where}: no message carries the robot's joints; missing {missing}; the bag's joints are {sorted(bag_joints)}"
+            f"{where}: no message carries the robot's joints; missing {missing}; "
+            f"the bag's joints are {sorted(bag_joints)}"
         )
 
     times_ns = _times_ns(samples, where)
     order = np.argsort(times_ns, kind="stable")
     kept = [order[0]]
-    for previous, current in zip(order[:-1], order[1:]):
+    for previous, current in pairwise(order):
         if times_ns[current] != times_ns[previous]:
             kept.append(current)
         elif not _same_values(samples[previous], samples[current]):
             raise LogError(
-                f"{where}, messages {samples[previous].index} and {samples[current].index}: same time stamp {times_ns[current] / _NS:.9f} s, different values"
+                f"{where}, messages {samples[previous].index} and {samples[current].index}: "
+                f"same time stamp {times_ns[current] / _NS:.9f} s, different values"
             )
     rows = [samples[i] for i in kept]
     seconds = times_ns[kept] // _NS
@@ -293,16 +310,18 @@ def _nanoseconds(seconds: np.ndarray, what: str) -> np.ndarray:
     return np.round(seconds * _NS).astype(np.int64)
 
 
+def _contiguous(array: np.ndarray | None) -> np.ndarray | None:
+    """A C-contiguous float copy (what the CDR serialiser writes), or None."""
+    return None if array is None else np.ascontiguousarray(array, dtype=float)
+
+
 def _messages(
     stamps_ns: np.ndarray, names: list[str], q: np.ndarray, dq: np.ndarray | None, tau: np.ndarray | None
-) -> Iterator[Any]:
-    joint_state = _TYPESTORE.types[JOINT_STATE_TYPE]
-    header = _TYPESTORE.types["std_msgs/msg/Header"]
-    time = _TYPESTORE.types["builtin_interfaces/msg/Time"]
+) -> Iterator[JointState]:
     empty = np.zeros(0)
     for k, stamp in enumerate(stamps_ns):
-        yield joint_state(
-            header=header(stamp=time(sec=int(stamp // _NS), nanosec=int(stamp % _NS)), frame_id=""),
+        yield JointState(
+            header=Header(stamp=Time(sec=int(stamp // _NS), nanosec=int(stamp % _NS)), frame_id=""),
             name=names,
             position=q[k],
             velocity=empty if dq is None else dq[k],
@@ -360,12 +379,9 @@ def write_joint_states(
     receive_ns = _nanoseconds(t if receive_time is None else np.asarray(receive_time, dtype=float), str(bag))
     if receive_ns.shape != (n,):
         raise LogError(f"{bag}: receive_time has shape {receive_ns.shape}, expected ({n},)")
-    float_or_none = {
-        key: None if a is None else np.ascontiguousarray(a, dtype=float) for key, a in arrays.items()
-    }
     with Writer(bag, version=Writer.VERSION_LATEST, storage_plugin=STORAGES[storage]) as writer:
         connection = writer.add_connection(topic, JOINT_STATE_TYPE, typestore=_TYPESTORE)
-        messages = _messages(stamps_ns, names, float_or_none["q"], float_or_none["dq"], float_or_none["tau"])
-        for received, msg in zip(receive_ns, messages):
+        messages = _messages(stamps_ns, names, np.ascontiguousarray(q), _contiguous(dq), _contiguous(tau))
+        for received, msg in zip(receive_ns, messages, strict=True):
             writer.write(connection, int(received), _TYPESTORE.serialize_cdr(msg, JOINT_STATE_TYPE))
     return bag
