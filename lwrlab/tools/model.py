@@ -107,8 +107,9 @@ def composite_tool(
     Examples
     --------
     >>> tool = composite_tool("rod", "probe", 0.2, 0.01,
-    ...                       {"rod": {"shape": "cylinder", "mass": 0.1, "center": [0, 0, 0.1], "radius": 0.005, "length": 0.2}})
-    >>> round(tool.parameters[3], 6)  # MSZ = 0.1 kg · 0.1 m
+    ...     {"rod": {"shape": "cylinder", "mass": 0.1, "center": [0, 0, 0.1],
+    ...              "radius": 0.005, "length": 0.2}})
+    >>> round(float(tool.parameters[3]), 6)  # MSZ = 0.1 kg · 0.1 m
     0.01
     """
     if not isinstance(parts, Mapping):

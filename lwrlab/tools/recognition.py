@@ -105,7 +105,8 @@ class DistanceClassifier:
 
 
 INTERPOLATIONS = ("linear", "idw")
-"""Ways to estimate an unknown tool's geometry: an affine fit over the library, or inverse-distance weighting."""
+"""Ways to estimate an unknown tool's geometry: an affine fit over the library, or inverse-distance
+weighting."""
 
 
 def interpolate_geometry(
