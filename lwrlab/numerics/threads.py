@@ -38,7 +38,10 @@ DENSE_ALGEBRA_THREADS: int | None = 1
 
 @functools.cache
 def _controller() -> object | None:
-    """A threadpoolctl controller over the BLAS libraries numpy and scipy load (None without threadpoolctl)."""
+    """A threadpoolctl controller over the BLAS libraries numpy and scipy load.
+
+    None without threadpoolctl.
+    """
     import numpy  # noqa: F401 - load both BLAS libraries before the scan
     import scipy.linalg  # noqa: F401
 
@@ -62,7 +65,9 @@ def blas_threads(limit: int | None) -> Iterator[None]:
 
 @contextmanager
 def dense_algebra() -> Iterator[None]:
-    """:func:`blas_threads` with :data:`DENSE_ALGEBRA_THREADS` (read at each entry), as a block or a decorator.
+    """:func:`blas_threads` with :data:`DENSE_ALGEBRA_THREADS` (read at each entry).
+
+    Usable as a block or a decorator.
 
     Examples
     --------
