@@ -1,4 +1,7 @@
-"""Figures of the exciting-motion study: the motion (Fig. 9), costs vs duration (Fig. 5), criteria (Fig. 6)."""
+"""Figures of the exciting-motion study.
+
+The motion (Fig. 9), costs vs duration (Fig. 5), criteria (Fig. 6).
+"""
 
 from __future__ import annotations
 

@@ -46,18 +46,24 @@ def path_on_wall(
 
 
 def normal_force(
-    t: np.ndarray, panels: Mapping[str, Mapping[str, np.ndarray]], desired: float, path: Path, title: str
+    t: np.ndarray,
+    panels: Mapping[str, Mapping[str, np.ndarray]],
+    desired: float | None,
+    path: Path,
+    title: str,
 ) -> Path:
     """Desired, estimated and measured normal force over time, one panel per case, like Fig. 13.
 
-    ``panels``: panel title → {"estimated": (N,), "measured": (N,)} (N); ``desired`` (N).
+    ``panels``: panel title → {"estimated": (N,), "measured": (N,)} (N); ``desired`` (N), None for a
+    controller without a force target (no line drawn).
     """
     plt = pyplot()
     fig, axes = plt.subplots(len(panels), 1, figsize=(7.0, 2.4 * len(panels)), sharex=True, squeeze=False)
     for ax, (name, series) in zip(axes[:, 0], panels.items(), strict=True):
         ax.plot(t, series["measured"], color="tab:blue", lw=0.8, label="measured (wall sensor)")
         ax.plot(t, series["estimated"], color="tab:red", lw=0.8, label="estimated (eq. 14)")
-        ax.axhline(desired, color="k", lw=1.2, ls="--", label="desired")
+        if desired is not None:
+            ax.axhline(desired, color="k", lw=1.2, ls="--", label="desired")
         ax.set_ylabel("F_x (N)")
         ax.set_title(name, fontsize=9)
         ax.grid(alpha=0.3)

@@ -90,7 +90,8 @@ def table2_base_parameters(frame: pd.DataFrame, paper: Mapping[str, Any], output
     shown = table[table.index.isin(reference)] if any(table.index.isin(reference)) else table
     markdown = "\n".join(
         [
-            f"Base parameters identified in {_runs_line(frame)}: mean estimate, spread (std over runs), mean %σ; "
+            f"Base parameters identified in {_runs_line(frame)}: "
+            "mean estimate, spread (std over runs), mean %σ; "
             "the paper's CAD and identified values (Table II) alongside. Parameters of Table II:",
             "",
             shown.to_markdown(floatfmt=".4g"),
