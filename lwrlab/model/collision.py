@@ -32,7 +32,10 @@ class CollisionSphere:
 def build_collision_spheres(
     entries: Sequence[Mapping[str, Any]] | None, n_links: int, robot: str
 ) -> tuple[CollisionSphere, ...]:
-    """Spheres from config entries ``{name, link, center: [x, y, z], radius}`` (clear errors on bad entries)."""
+    """Spheres from config entries ``{name, link, center: [x, y, z], radius}``.
+
+    Bad entries raise a clear error naming the robot and the sphere.
+    """
     spheres = []
     for i, entry in enumerate(entries or ()):
         missing = {"name", "link", "center", "radius"} - set(entry)
@@ -41,7 +44,8 @@ def build_collision_spheres(
         center = np.asarray(entry["center"], dtype=float).ravel()
         if center.shape != (3,):
             raise ValueError(
-                f"robot {robot!r} collision sphere {entry['name']!r}: center needs 3 values, got {center.size}"
+                f"robot {robot!r} collision sphere {entry['name']!r}: "
+                f"center needs 3 values, got {center.size}"
             )
         link, radius = int(entry["link"]), float(entry["radius"])
         if not 0 <= link <= n_links:

@@ -27,7 +27,8 @@ The keys, as in the robot configs (``conf/robot/<name>.yaml``) or any YAML file 
     friction_terms: [coulomb, viscous]      # columns of the regressor; add offset if needed
     rotor_inertia: [...]                    # optional: drive inertia reflected to the joint (kg·m²)
     collision_spheres:                      # optional: self-collision spheres (lwrlab/model/collision.py)
-      - {name: elbow, link: 4, center: [0, 0, 0], radius: 0.08}   # link 0 = base; center in the joint frame (m)
+      # link 0 = base; center in the joint frame (m)
+      - {name: elbow, link: 4, center: [0, 0, 0], radius: 0.08}
 
 ``build_robot`` takes these keys as arguments (what Hydra's ``instantiate`` passes through the robot
 plugin ``plugins.robots.mdh``); ``load_robot_yaml`` reads them from a file. ``build_limits`` and
@@ -82,7 +83,7 @@ def build_friction(friction: Mapping[str, Sequence[float]] | None, n: int, robot
     friction = friction or {}
     return Friction(
         **{
-            k: _array(friction.get(k, np.zeros(n)), n, f"robot {robot!r} friction.{k}")
+            k: _array(friction.get(k, [0.0] * n), n, f"robot {robot!r} friction.{k}")
             for k in ("coulomb", "viscous", "offset")
         }
     )

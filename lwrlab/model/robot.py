@@ -96,11 +96,13 @@ class RobotModel:
             object.__setattr__(self, "link_labels", tuple(str(j) for j in range(1, self.n_joints + 1)))
         if self.rotor_inertia is not None and np.shape(self.rotor_inertia) != (self.n_joints,):
             raise ValueError(
-                f"{self.name}: rotor_inertia needs {self.n_joints} values, got shape {np.shape(self.rotor_inertia)}"
+                f"{self.name}: rotor_inertia needs {self.n_joints} values, "
+                f"got shape {np.shape(self.rotor_inertia)}"
             )
         if self.model.nq != self.model.nv:
             raise ValueError(
-                f"{self.name}: only joints with nq == nv are supported (got nq={self.model.nq}, nv={self.model.nv})"
+                f"{self.name}: only joints with nq == nv are supported "
+                f"(got nq={self.model.nq}, nv={self.model.nv})"
             )
 
     @property
