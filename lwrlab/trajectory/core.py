@@ -85,12 +85,14 @@ def limit_violations(
 
 
 def require_motion_limits(robot: RobotModel, purpose: str) -> None:
-    """A clear error when ``robot`` has no acceleration limits (a URDF has none) and ``purpose`` needs them."""
+    """A clear error when ``robot`` has no acceleration limits (a URDF has none) and ``purpose`` needs
+    them."""
     unknown = [j + 1 for j in range(robot.n_joints) if not np.isfinite(robot.limits.acceleration[j])]
     if unknown:
         raise ValueError(
-            f"{robot.name}: no acceleration limits for joints {unknown} (a URDF holds none): give robot.acceleration_limits "
-            f"(rad/s², one per joint or a scalar) to {purpose}; identifying from recorded logs (plant=log) does not need them"
+            f"{robot.name}: no acceleration limits for joints {unknown} (a URDF holds none): "
+            f"give robot.acceleration_limits (rad/s², one per joint or a scalar) to {purpose}; "
+            "identifying from recorded logs (plant=log) does not need them"
         )
 
 

@@ -73,7 +73,7 @@ class LinearParameterisation:
 
     def times(self, rate_hz: float) -> np.ndarray:
         """Uniform sample times 0, 1/rate, …, T_F (s)."""
-        return np.arange(int(round(self.duration * rate_hz)) + 1) / rate_hz
+        return np.arange(round(self.duration * rate_hz) + 1) / rate_hz
 
     def bases(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(B, Ḃ, B̈)`` at times t (s)."""
@@ -93,7 +93,8 @@ class LinearParameterisation:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """q (rad), q̇ (rad/s), q̈ (rad/s²) at times t (s), each (N, N_J)."""
         c = self._coefficients(coefficients)
-        return tuple(b @ c for b in self.bases(np.asarray(t, dtype=float)))  # type: ignore[return-value]
+        b, db, ddb = self.bases(np.asarray(t, dtype=float))
+        return b @ c, db @ c, ddb @ c
 
     @staticmethod
     def pull_back(
