@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import re
 import shlex
 import subprocess
@@ -206,3 +207,35 @@ def _write_readme_files(root: Path) -> None:
             path = root / match.group(1)
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(body)
+
+
+def _tables_script():  # docs/ is not a package: load the script by path
+    spec = importlib.util.spec_from_file_location("readme_tables", ROOT / "docs" / "readme_tables.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["readme_tables"] = module  # dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_generated_table_has_a_source() -> None:
+    tables = _tables_script()
+    assert set(tables.blocks(README.read_text())) == set(tables.SOURCES)
+
+
+def test_the_table_check_compares_figures() -> None:
+    tables = _tables_script()
+    table = "| a | b |\n|:--|--:|\n| x | 1.2345 |\n| y | −0.5 |\n"
+    assert tables.same_figures(table, table.replace("1.2345", "1.2346"))  # beyond 3 figures
+    assert not tables.same_figures(table, table.replace("1.2345", "1.25"))
+    assert not tables.same_figures(table, table.replace("−0.5", "0.5"))
+
+
+@pytest.mark.slow
+def test_table2_in_the_readme_is_what_a_run_gives() -> None:
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "docs" / "readme_tables.py"), "table2", "--check"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr

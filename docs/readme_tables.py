@@ -1,0 +1,181 @@
+"""Rewrite the README's result tables from runs, so that no figure in them is typed by hand.
+
+Each generated table sits between ``<!-- generated: <name> -->`` and ``<!-- /generated -->`` in
+README.md. For every name this script runs the command that produces it (a preset and
+``lwrlab report``, or a benchmark), in a temporary folder with its own MLflow store, takes the table
+from the output and writes it between the markers::
+
+    .venv/bin/python docs/readme_tables.py                    # every table (about 20 minutes on 2 cores)
+    .venv/bin/python docs/readme_tables.py table2 fig6       # some of them
+    .venv/bin/python docs/readme_tables.py table2 --check    # exit 1 if the README differs from a new run
+
+``--check`` compares numbers to 3 significant figures (BLAS builds differ in the last digits); the
+slow test suite runs it on Table II.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+REPOSITORY = Path(__file__).resolve().parents[1]
+README = REPOSITORY / "README.md"
+BIN = Path(sys.executable).parent
+BLOCK = re.compile(r"(<!-- generated: (?P<name>\w+) -->\n)(?P<body>.*?)(<!-- /generated -->)", re.S)
+NUMBER = re.compile(r"−?-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+@dataclass(frozen=True)
+class Source:
+    """How one README table is produced."""
+
+    commands: tuple[tuple[str, ...], ...]
+    """Commands run in order in a fresh folder (``lwrlab`` and ``python`` from this environment)."""
+    table: Callable[[str, Path], str]
+    """The markdown table, from the last command's output and the folder."""
+    minutes: float
+    """About how long it takes on 2 cores."""
+
+
+def _report_table(heading: str) -> Callable[[str, Path], str]:
+    """The first markdown table after ``heading`` in the newest ``report.md``."""
+
+    def table(_: str, folder: Path) -> str:
+        report = max((folder / "outputs" / "reports").glob("*/report.md"))
+        return first_table(report.read_text().split(heading, 1)[1])
+
+    return table
+
+
+def _printed_table(after: str) -> Callable[[str, Path], str]:
+    """The first markdown table printed after the line containing ``after``."""
+    return lambda output, _: first_table(output.split(after, 1)[1])
+
+
+def _file_table(pattern: str) -> Callable[[str, Path], str]:
+    """The markdown table in the newest file matching ``pattern`` under the folder."""
+    return lambda _, folder: first_table(max(folder.glob(pattern)).read_text())
+
+
+SOURCES = {
+    "table2": Source(
+        (("lwrlab", "experiment=paper_table2"), ("lwrlab", "report", "--experiment", "paper_table2")),
+        _report_table("## Table II"),
+        0.3,
+    ),
+    "fig5": Source(
+        (
+            ("lwrlab", "experiment=paper_fig5_duration", "task.durations=[2,4,6,8,10]"),
+            ("lwrlab", "report", "--experiment", "paper_fig5_duration", "--kinds", "fig5"),
+        ),
+        _report_table("## Fig. 5"),
+        3.0,
+    ),
+    "fig6": Source(
+        (
+            ("lwrlab", "experiment=paper_fig6_criteria", "task.seeds=[0,1,2]"),
+            ("lwrlab", "report", "--experiment", "paper_fig6_criteria", "--kinds", "fig6"),
+        ),
+        _report_table("## Fig. 6"),
+        3.0,
+    ),
+    "processing": Source(
+        (("python", str(REPOSITORY / "benchmarks" / "processing_study.py"), "--output", "study.csv"),),
+        _printed_table("on motions not in the fit"),
+        4.0,
+    ),
+    "estimator_benchmark": Source(
+        (("lwrlab", "-m", "experiment=estimator_benchmark", "hydra/launcher=parallel"),),
+        _file_table("outputs/multiruns/*/*/estimator_benchmark_summary.md"),
+        10.0,
+    ),
+}
+"""Every generated README table, by the name in its marker."""
+
+
+def first_table(text: str) -> str:
+    """The first markdown table (consecutive ``|`` lines) in ``text``, with a final newline."""
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("|"))
+    end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")), len(lines))
+    return "\n".join(lines[start:end]) + "\n"
+
+
+def produce(name: str) -> str:
+    """Run ``name``'s commands in a fresh folder and return its table."""
+    source = SOURCES[name]
+    with tempfile.TemporaryDirectory(prefix=f"readme-{name}-") as tmp:
+        folder = Path(tmp)
+        output = ""
+        for command in source.commands:
+            program = str(BIN / command[0])
+            done = subprocess.run(
+                [program, *command[1:]], cwd=folder, capture_output=True, text=True, check=False
+            )
+            if done.returncode != 0:
+                raise SystemExit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr[-3000:]}")
+            output = done.stdout
+        return source.table(output, folder)
+
+
+def numbers(table: str) -> list[float]:
+    """The numbers of a table, in reading order (− read as a minus sign)."""
+    return [float(n.replace("−", "-")) for n in NUMBER.findall(table)]
+
+
+def same_figures(a: str, b: str, significant: int = 3) -> bool:
+    """True if the two tables hold the same numbers to ``significant`` figures."""
+    x, y = numbers(a), numbers(b)
+    return len(x) == len(y) and all(
+        f"{u:.{significant}g}" == f"{v:.{significant}g}" for u, v in zip(x, y, strict=False)
+    )
+
+
+def blocks(text: str) -> dict[str, str]:
+    """The README's generated tables by name."""
+    return {m.group("name"): m.group("body") for m in BLOCK.finditer(text)}
+
+
+def replace(text: str, name: str, table: str) -> str:
+    """``text`` with the block ``name`` holding ``table``."""
+    return BLOCK.sub(
+        lambda m: m.group(1) + table + m.group(4) if m.group("name") == name else m.group(0), text
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("names", nargs="*", help=f"tables to rewrite (default all: {', '.join(SOURCES)})")
+    parser.add_argument("--check", action="store_true", help="compare with the README, change nothing")
+    args = parser.parse_args(argv)
+    text = README.read_text()
+    present = blocks(text)
+    names = args.names or list(SOURCES)
+    for name in names:
+        if name not in SOURCES or name not in present:
+            raise SystemExit(f"unknown table {name!r}: the README's generated tables are {sorted(present)}")
+    stale = []
+    for name in names:
+        print(f"{name}: running (about {SOURCES[name].minutes:g} min)", flush=True)
+        table = produce(name)
+        if args.check:
+            if not same_figures(present[name], table):
+                stale.append(name)
+                print(f"{name}: the README differs from a new run:\n{table}")
+        else:
+            text = replace(text, name, table)
+    if args.check:
+        return 1 if stale else 0
+    README.write_text(text)
+    print(f"rewrote {', '.join(names)} in {README}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
