@@ -45,19 +45,6 @@ def save_trajectory(trajectory: Trajectory, path: Path) -> Path:
     return path
 
 
-def load_trajectory_csv(path: Path) -> Trajectory:
-    """Read a CSV written by :func:`save_trajectory_csv`."""
-    frame = pd.read_csv(path)
-    n = sum(1 for c in frame.columns if c.startswith("q") and c[1:].isdigit())
-
-    def pick(prefix: str) -> np.ndarray:
-        return frame[_joint_columns(prefix, n)].to_numpy()
-
-    return Trajectory(
-        t=frame["t"].to_numpy(), q=pick("q"), dq=pick("dq"), ddq=pick("ddq"), metadata={"source": str(path)}
-    )
-
-
 def save_measurement(measurement: Measurement, path: Path) -> Path:
     """Write a measurement as npz (t, q, tau, and the metadata as a YAML string)."""
     np.savez_compressed(
@@ -68,14 +55,6 @@ def save_measurement(measurement: Measurement, path: Path) -> Path:
         metadata=yaml.safe_dump(measurement.metadata),
     )
     return path
-
-
-def load_measurement(path: Path) -> Measurement:
-    """Read a measurement written by :func:`save_measurement` (no pickle)."""
-    with np.load(path, allow_pickle=False) as data:
-        return Measurement(
-            t=data["t"], q=data["q"], tau=data["tau"], metadata=yaml.safe_load(str(data["metadata"]))
-        )
 
 
 IDENTIFIED_MODEL_FILE = "identified_model.yaml"

@@ -15,13 +15,13 @@ written by the excitation task (``exciting_motion.yaml``).
 from __future__ import annotations
 
 from functools import cached_property
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy.interpolate import BSpline
 
 from lwrlab.model.robot import RobotModel
+from lwrlab.resources import resolve_data_path
 from lwrlab.trajectory.parameterisation import LinearParameterisation
 
 DEGREE = 5
@@ -53,7 +53,7 @@ class BSplineMotion(LinearParameterisation):
         if from_file is not None:
             from lwrlab.io.exciting_motion import load_motion_description
 
-            description = load_motion_description(Path(from_file), expected_kind=self.kind)
+            description = load_motion_description(resolve_data_path(from_file), expected_kind=self.kind)
             duration, via_point_spacing = (
                 description["duration"],
                 description.get("via_point_spacing", via_point_spacing),
