@@ -53,6 +53,8 @@ PATH = PaintingPathParameters(
 BRANCH = Branch(1, -1, -1)
 PERIOD = 1e-3
 JOINT_KP, JOINT_KD, FORCE_KI, DESIRED = 2000.0, 60.0, 2e-3, -30.0
+WALL = Wall(x=-0.8, center_y=0.3, center_z=0.4, width=0.6, height=0.8)
+"""The wall of §VI.B (conf/task/painting.yaml)."""
 
 
 @dataclass
@@ -83,7 +85,7 @@ def make_case(seconds: float) -> Case:
     tool = load_tool("large_roller")
     tcp = np.eye(4)
     tcp[:3, 3] = tool.contact_point
-    wall = Wall()
+    wall = WALL
     poses = sample_path(PATH, wall.x, 1.0 / PERIOD).poses()
     reference = np.concatenate([np.repeat(poses[:1], 2000, axis=0), poses])[: int(round(seconds / PERIOD))]
     start = reference[0].copy()
@@ -218,7 +220,14 @@ class PerSampleLoop:
 def batched_loop(case: Case) -> ContactRun:
     """The loop of the painting stage."""
     controller = ForcePIControl(
-        kp=JOINT_KP, kd=JOINT_KD, desired_force=(DESIRED, 0, 0), force_kp=(0, 0, 0), force_ki=(FORCE_KI, 0, 0)
+        kp=JOINT_KP,
+        kd=JOINT_KD,
+        desired_force=(DESIRED, 0, 0),
+        force_kp=(0, 0, 0),
+        force_ki=(FORCE_KI, 0, 0),
+        feedback="estimate",
+        max_displacement=0.05,
+        sensor_cutoff_hz=20.0,
     )
     estimator = ExternalForceEstimator(case.model, case.tcp, PERIOD, coulomb_smoothing=0.01)
     return simulate_contact(
@@ -308,7 +317,7 @@ def optimisation_figures(starts: tuple[float, ...], repeat: int) -> None:
     tcp = np.eye(4)
     tcp[:3, 3] = tool.contact_point
     loaded = attach_payload(robot, tool.parameters)
-    wall = Wall()
+    wall = WALL
     problem = PathProblem(
         loaded,
         SwivelIK(loaded),

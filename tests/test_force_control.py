@@ -68,7 +68,16 @@ def test_filters_are_causal_and_pass_constants():
 
 def test_force_controller_rejects_unknown_feedback():
     with pytest.raises(ValueError, match="estimate"):
-        ForcePIControl(kp=1.0, kd=1.0, feedback="camera")
+        ForcePIControl(
+            kp=1.0,
+            kd=1.0,
+            desired_force=(-30.0, 0.0, 0.0),
+            force_kp=(0.0, 0.0, 0.0),
+            force_ki=(2e-3, 0.0, 0.0),
+            feedback="camera",
+            max_displacement=0.05,
+            sensor_cutoff_hz=20.0,
+        )
 
 
 def test_filtered_differences_equal_two_cascaded_backward_differences(rng):

@@ -36,6 +36,17 @@ class ControlOutput(NamedTuple):
 class PaintingController(Protocol):
     """A controller plugin (config group ``controller``)."""
 
+    @property
+    def uses_force_feedback(self) -> bool:
+        """Whether a force loop closes on a measured or estimated force; such a controller takes a
+        ``feedback`` argument (``estimate``: eq. 14, ``sensor``: the wall's sensor)."""
+        ...
+
+    @property
+    def desired_force(self) -> np.ndarray | None:
+        """(3,) F_d (N) the controller regulates, base axes; None without a force target."""
+        ...
+
     def reset(self, setup: ControlSetup, q0: np.ndarray, reference: np.ndarray) -> None:
         """Prepare for a run starting at rest at ``q0`` (rad) along the tool poses ``reference`` (N, 4, 4).
 

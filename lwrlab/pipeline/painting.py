@@ -12,475 +12,312 @@ For every roller the chain of Fig. 1 runs on the simulated LWR4:
    the estimated or the sensed force fed back; and by the comparison position controller;
 4. the normal forces are compared (Table IV) and the painted coverage measured from the contact trace.
 
-Side effects (files) only in :func:`run_painting`; the other functions return values.
+:func:`paint` is pure computation on configured objects and returns a :class:`PaintingReport`;
+:mod:`lwrlab.pipeline.painting_report` writes it to disk. :func:`run_painting`, the task, builds the
+objects from the config, paints and writes.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, cast
 
 import numpy as np
 import pandas as pd
-from tqdm.auto import tqdm
 
-from lwrlab.control.contact_loop import ContactRun, PaintingController, simulate_contact
-from lwrlab.control.filters import FirstOrderLowPass
-from lwrlab.control.force_estimation import ExternalForceEstimator
-from lwrlab.control.joint_pd import ControlSetup
+from lwrlab.control.contact_loop import PaintingController
+from lwrlab.errors import ConfigError
 from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
-from lwrlab.planning.coverage import painted_fraction
-from lwrlab.planning.painting_path import PaintingPathParameters
-from lwrlab.planning.path_optimisation import PathProblem, PathSolution, WallBounds, optimise_path
-from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall
+from lwrlab.pipeline.identification import IdentificationReport
+from lwrlab.pipeline.painting_runs import (
+    COMPARISONS,
+    RollerPlan,
+    ScoredRun,
+    score_run,
+    simulate_painting,
+    tcp_transform,
+)
+from lwrlab.pipeline.tools import ToolBench, identify_tool
+from lwrlab.planning.path_optimisation import PathProblem, WallBounds, optimise_path
+from lwrlab.plants.core import Plant, PlantTruth
+from lwrlab.plants.mujoco_contact import Wall
+from lwrlab.tools.library import ToolLibrary
 from lwrlab.tools.model import Tool
+from lwrlab.tools.recognition import ToolClassifier
+from lwrlab.trajectory.core import MotionSource, Trajectory
 
 log = logging.getLogger(__name__)
 
-COMPARISONS = (("estimated", "measured"), ("estimated", "desired"), ("measured", "desired"))
-"""Table IV's rows: the first signal against the second."""
+
+class ToolPlant(Plant, Protocol):
+    """A simulated plant that carries a tool on demand: the painting's truth comes from it."""
+
+    @property
+    def truth(self) -> PlantTruth:
+        """The true model (the painting plant's robot)."""
+        ...
+
+    def with_tool(self, tool: Tool | None) -> ToolPlant:
+        """The same robot carrying ``tool`` (None: unloaded)."""
+        ...
 
 
-def tcp_transform(tool: Tool) -> np.ndarray:
-    """(4, 4) the tool centre point (middle of the contact line) in the flange frame, flange axes."""
-    pose = np.eye(4)
-    pose[:3, 3] = tool.contact_point
-    return pose
+@dataclass(frozen=True, kw_only=True)
+class PaintingSettings:
+    """The painting task's settings (conf/task/painting.yaml, the one place of their values)."""
 
-
-def force_errors(first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
-    """RMS (N) of ``first − second`` and NRMS (%): RMS over the mean magnitude of ``second``.
-
-    The paper's NRMS (Table IV: 2.9 N ↔ 9.8 %, 0.2 N ↔ 0.7 %) is this ratio with ``second`` ≈ 30 N.
-    """
-    rms = float(np.sqrt(np.mean((first - second) ** 2)))
-    return rms, float(100.0 * rms / np.abs(np.mean(second)))
+    tools: tuple[str, ...]
+    """Rollers to paint with (names in the tool library)."""
+    n_steps: Mapping[str, int]
+    """N_r per roller: horizontal steps of the zig-zag."""
+    models: tuple[str, ...]
+    """The controller's model: ``identified`` and/or ``cad``."""
+    feedbacks: tuple[str, ...]
+    """Force fed back (``estimate`` | ``sensor``) by a controller with force feedback."""
+    wall: Wall
+    path: Mapping[str, Any]
+    """Eq. (12): rate_hz, search_rate_hz, duration_bounds, min_stroke, singularity_margin,
+    stripe_overlap, branch, starting_swivels."""
+    contact: Mapping[str, Any]
+    """The MuJoCo plant and the run's timing (see :func:`simulate_painting`)."""
+    estimator: Mapping[str, Any]
+    """Keyword arguments of :class:`~lwrlab.control.force_estimation.ExternalForceEstimator`."""
 
 
 @dataclass
-class RollerPlan:
-    """What the painting of one roller starts from."""
+class PaintingReport:
+    """Everything a painting stage produced, in memory."""
 
-    tool: Tool
-    """The true roller (the plant carries it)."""
-    recognised: Tool
-    """The library tool recognition returned (its width and contact point plan the path)."""
-    identified_parameters: np.ndarray
-    """(10,) identified flange-frame parameters of the roller (eq. 7)."""
-    path: PathSolution
-    optimisation_s: float
+    plans: dict[str, RollerPlan]
+    """Per roller: recognition, identified parameters and optimised path."""
+    runs: list[ScoredRun]
+    """Every painting run (roller × model × feedback, then the comparison controller), scored."""
+    wall: Wall
+    desired_force: float | None
+    """F_d along the wall normal (N) of the controller, None when it has no force target."""
+    timings: dict[str, float]
+    """Stage wall times (s) not held by a plan or a run: ``identification_s`` when identified here."""
+    metrics: dict[str, float]
+
+    @property
+    def force_errors(self) -> pd.DataFrame:
+        """Table IV: roller, model, feedback, comparison, rms (N), rms_over_mean_pct (%)."""
+        return pd.DataFrame([row for run in self.runs for row in run.force_errors])
+
+    @property
+    def run_summary(self) -> pd.DataFrame:
+        """Per run: coverage, worst column and row, tracking RMS, mean forces, times."""
+        return pd.DataFrame([run.summary for run in self.runs])
+
+    @property
+    def path_summary(self) -> pd.DataFrame:
+        """Per roller: the eq. (12) solution, its cost terms, painted area and optimisation time."""
+        return pd.DataFrame([plan.summary(name) for name, plan in self.plans.items()])
 
 
-def normal_force_table(run: ContactRun, desired_force: float, cutoff_hz: float) -> dict[str, np.ndarray]:
-    """Desired, estimated and measured normal force (N) over the painting samples.
-
-    The wall sensor's reading passes through the same causal low-pass as the estimate (``cutoff_hz``),
-    so both are compared at the bandwidth the controller uses; the stiff contact's kHz ringing,
-    which neither the estimate nor a force loop can follow, is left out of both.
-    """
-    measured = FirstOrderLowPass(cutoff_hz, float(run.t[1] - run.t[0])).apply(
-        run.measured_force[:, 0], initial=0.0
+def plan_roller(
+    tool: Tool,
+    estimate_parameters: np.ndarray,
+    recognised: Tool,
+    identified_robot: RobotModel,
+    settings: PaintingSettings,
+) -> RollerPlan:
+    """The painting path (eq. 12) of ``tool``, recognised as ``recognised``, on ``identified_robot``."""
+    path, wall = settings.path, settings.wall
+    if tool.name not in settings.n_steps:
+        raise ConfigError(f"task.n_steps has no entry for roller {tool.name!r}: {dict(settings.n_steps)}")
+    problem = PathProblem(
+        attach_payload(identified_robot, estimate_parameters),
+        SwivelIK(identified_robot),
+        tcp_transform(recognised),
+        WallBounds(wall.x, *wall.y_bounds, *wall.z_bounds),
+        roller_width=recognised.width,
+        n_steps=int(settings.n_steps[tool.name]),
+        branch=Branch(*path["branch"]),
+        rate_hz=float(path["rate_hz"]),
+        search_rate_hz=float(path["search_rate_hz"]),
+        duration_bounds=tuple(path["duration_bounds"]),
+        min_stroke=float(path["min_stroke"]),
+        singularity_margin=float(path["singularity_margin"]),
+        stripe_overlap=float(path["stripe_overlap"]),
     )
-    mask = run.painting
-    return {
-        "t": run.t[mask],
-        "estimated": run.estimated_wrench[mask, 0],
-        "measured": measured[mask],
-        "desired": np.full(int(mask.sum()), desired_force),
-    }
-
-
-def reference_poses(
-    plan: RollerPlan,
-    wall: Wall,
-    rate_hz: float,
-    approach_s: float,
-    duration_scale: float,
-    max_duration: float | None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 4, 4) tool poses at the control rate: ``approach_s`` at the start point, then the path.
-
-    ``duration_scale`` shortens the path in time (same geometry), ``max_duration`` cuts the run
-    (s); both are for quick checks only. Returns the poses and the painting mask.
-    """
-    parameters = plan.path.parameters
-    if duration_scale != 1.0:
-        parameters = PaintingPathParameters(
-            **{**parameters.__dict__, "duration": parameters.duration * duration_scale}
-        )
-    from lwrlab.planning.painting_path import sample_path
-
-    path = sample_path(parameters, wall.x, rate_hz)
-    poses = path.poses()
-    approach = np.repeat(poses[:1], int(round(approach_s * rate_hz)), axis=0)
-    reference = np.concatenate([approach, poses])
-    painting = np.concatenate([np.zeros(approach.shape[0], bool), np.ones(poses.shape[0], bool)])
-    if max_duration is not None:
-        n = int(round(max_duration * rate_hz))
-        reference, painting = reference[:n], painting[:n]
-    return reference, painting
+    started = time.perf_counter()
+    solution = optimise_path(problem, starting_swivels=tuple(path["starting_swivels"]), progress=True)
+    return RollerPlan(tool, recognised, estimate_parameters, solution, time.perf_counter() - started)
 
 
 def paint(
-    plan: RollerPlan,
-    truth: RobotModel,
-    controller_model: RobotModel,
-    controller: PaintingController,
-    wall: Wall,
-    contact: Mapping[str, Any],
-    estimator_settings: Mapping[str, Any],
+    settings: PaintingSettings,
+    *,
+    identification: IdentificationReport,
+    plant: ToolPlant,
+    library: ToolLibrary,
+    classifier: ToolClassifier,
+    bench: ToolBench,
+    loaded_motion: Trajectory | None,
+    make_controller: Callable[..., PaintingController],
+    comparison_controller: PaintingController | None,
     seed: int,
-    rate_hz: float = 1000.0,
-) -> ContactRun:
-    """One painting run in MuJoCo: true robot + roller on the plant side, ``controller_model`` in the controller."""
-    period = 1.0 / rate_hz
-    plant = MujocoContactPlant(
-        truth,
-        ContactTool(
-            plan.tool.parameters,
-            plan.tool.contact_point,
-            plan.tool.contact_axis,
-            plan.tool.width,
-            float(contact.get("contact_radius", 0.025)),
-        ),
-        wall,
-        control_period=period,
-        substeps=int(contact.get("substeps", 2)),
-        torque_noise_std=contact["torque_noise_std"],
-        encoder_noise_std=float(contact["encoder_noise_std"]),
-        force_noise_std=float(contact.get("force_noise_std", 0.0)),
-        friction=float(contact.get("friction", 0.1)),
-        contact_time_constant=float(contact.get("contact_time_constant", 0.02)),
-        seed=seed,
-    )
-    tcp = tcp_transform(plan.recognised)
-    setup = ControlSetup(
-        controller_model,
-        SwivelIK(controller_model),
-        tcp,
-        plan.path.parameters.swivel,
-        plan.path.branch,
-        period,
-    )
-    estimator = ExternalForceEstimator(controller_model, tcp, period, **estimator_settings)
-    reference, painting = reference_poses(
-        plan,
-        wall,
-        rate_hz,
-        float(contact["approach_s"]),
-        float(contact.get("duration_scale", 1.0)),
-        contact.get("max_duration"),
-    )
-    start = reference[0].copy()
-    start[0, 3] += float(contact["standoff"])  # start off the wall; the force loop brings the roller on it
-    steps = tqdm(
-        range(reference.shape[0]), desc="contact simulation", unit="step", leave=False, mininterval=2.0
-    )
-    return simulate_contact(
-        plant, controller, estimator, setup, reference, painting, start=start, progress=steps
-    )
+    timings: Mapping[str, float],
+) -> PaintingReport:
+    """Identify and recognise each roller, plan its path, paint it with every controller case and score it.
 
-
-def _wall(wall: Mapping[str, float]) -> Wall:
-    return Wall(**{k: float(v) for k, v in wall.items()})
-
-
-def run_painting(
-    cfg: Any,
-    output_dir: Path,
-    tools: Sequence[str] = ("large_roller", "small_roller"),
-    n_steps: Mapping[str, int] | None = None,
-    models: Sequence[str] = ("identified", "cad"),
-    feedbacks: Sequence[str] = ("estimate", "sensor"),
-    wall: Mapping[str, float] | None = None,
-    path: Mapping[str, Any] | None = None,
-    contact: Mapping[str, Any] | None = None,
-    estimator: Mapping[str, Any] | None = None,
-    tool_motion: Any = None,
-    comparison_controller: Any = None,
-    identification: Any = None,
-) -> dict[str, float]:
-    """Task ``painting``: Table IV, Fig. 12 and Fig. 13 for each roller (keyword arguments: conf/task/painting.yaml).
-
-    ``identification``: the :class:`~lwrlab.pipeline.identification.IdentificationReport` of this
-    config's robot and plant when an earlier stage made it (the plant is drawn again from the same
-    seed, so its truth is the same); None identifies the robot here.
-
-    Writes ``table4_force.csv`` with columns ``roller, model, feedback, comparison, rms, nrms``
-    (model: ``identified`` | ``cad`` | ``position`` (the comparison position controller, identified
-    model); feedback: ``estimate`` | ``sensor`` | ``none``; comparison: ``estimated/measured``,
-    ``estimated/desired``, ``measured/desired`` of the normal force F_x over the painting path; rms in
-    N, nrms in % of the second signal's mean magnitude), ``painting_paths.csv`` (per roller: the
-    eq. (12) solution x = [T_C, φ, Z_u, Z_l, Y_0, ΔY], N_r, branch, cost terms, painted area (m²),
-    recognised tool and w_L, optimisation time), ``painting_runs.csv`` (per run: coverage of the
-    planned area from the contact trace, its worst interior column (2 mm cells, 1 cm from the
-    sides left out) and worst row, path tracking RMS in the wall
-    plane (m), mean normal forces, simulation time), ``contact_<roller>_<model>_<feedback>.npz``
-    (the run at 100 Hz: reference, commanded and actual positions, wrenches, joints), figures ``fig12_<roller>.png`` and ``fig13_<roller>.png``, and
-    ``summary.md``.
+    ``loaded_motion`` carries each roller for its identification (None: the identification's
+    exciting motion). ``make_controller(**overrides)`` builds the ``controller`` plugin; when it declares
+    ``uses_force_feedback`` it runs once per ``settings.feedbacks`` (``feedback=…``), else once per
+    model (feedback ``none``). ``comparison_controller`` (model ``position``, identified model) runs
+    after them when given. ``timings`` are the caller's stage times (``identification_s``).
     """
-    from hydra.utils import instantiate
-    from omegaconf import OmegaConf
-
-    from lwrlab.figures.painting import normal_force, path_on_wall
-    from lwrlab.pipeline.identification import identify_configured
-    from lwrlab.pipeline.tool_library import load_library
-    from lwrlab.pipeline.tools import ToolBench, identify_tool
-
-    output_dir.mkdir(parents=True, exist_ok=True)
-    path = dict(path or {})
-    contact = dict(contact or {})
-    estimator_settings = dict(estimator or {})
-    n_steps = dict(n_steps or {})
-    the_wall = _wall(wall or {})
-    seed = int(cfg.seed)
-    rate = float(cfg.measurement.rate_hz)
-    processing = OmegaConf.to_container(cfg.measurement.processing, resolve=True)
-
-    # 1. identification of the robot, then of each roller and its recognition
-    timing: dict[str, float] = {}  # identification_s: only when this stage identifies (else the caller's)
-    if identification is None:
-        started = time.perf_counter()
-        identification = identify_configured(cfg)
-        timing["identification_s"] = time.perf_counter() - started
-    report = identification
-    robot = report.robot
-    plant = instantiate(cfg.plant, tool=None, show_progress=False)(robot=robot)
-    identified_robot = robot.with_parameters(report.identified.standard_values)
-    truth = plant.truth.robot
-    log.info("identified %s: cross-validation mean RMS %.3f N·m", robot.name, report.metrics["rms_mean"])
-    library = load_library(None)
-    classifier = instantiate(cfg.classifier).fit(library)
-    bench = ToolBench.for_robot(robot, processing)
-    unloaded = bench.data(plant, report.motion)
-    # Hydra builds nested `_target_` configs of the task before calling it: these arrive as objects
-    loaded_motion = tool_motion.sample(robot, rate) if tool_motion is not None else report.motion
+    robot = identification.robot
+    identified_robot = robot.with_parameters(identification.identified.standard_values)
+    if identification.motion is None:
+        raise ConfigError("the painting stage needs a simulated plant (the identification played no motion)")
+    unloaded = bench.data(plant, identification.motion)
+    loaded = loaded_motion if loaded_motion is not None else identification.motion
+    main = make_controller()
+    force_feedback = bool(main.uses_force_feedback)
+    desired = None if main.desired_force is None else float(main.desired_force[0])  # along the wall normal
+    cases = [(m, f) for m in settings.models for f in (settings.feedbacks if force_feedback else ("none",))]
+    cutoff = float(settings.estimator["wrench_cutoff_hz"])
 
     plans: dict[str, RollerPlan] = {}
-    for name in tools:
+    for name in settings.tools:
         tool = library[name]
-        estimate = identify_tool(bench, unloaded, bench.data(plant.with_tool(tool), loaded_motion))
+        estimate = identify_tool(bench, unloaded, bench.data(plant.with_tool(tool), loaded))
         recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
         recognised = library[recognition.tool]
         log.info("%s: recognised as %s (w_L = %.3f m)", name, recognised.name, recognised.width)
-        problem = PathProblem(
-            attach_payload(identified_robot, estimate.phi_flange),
-            SwivelIK(identified_robot),
-            tcp_transform(recognised),
-            WallBounds(the_wall.x, *the_wall.y_bounds, *the_wall.z_bounds),
-            roller_width=recognised.width,
-            n_steps=int(n_steps.get(name, 2)),
-            branch=Branch(*path.get("branch", (1, -1, -1))),
-            rate_hz=float(path.get("rate_hz", 100.0)),
-            search_rate_hz=float(path.get("search_rate_hz", 10.0)),
-            duration_bounds=tuple(path.get("duration_bounds", (10.0, 120.0))),
-            min_stroke=float(path.get("min_stroke", 0.1)),
-            singularity_margin=float(path.get("singularity_margin", 0.1)),
-            stripe_overlap=float(path.get("stripe_overlap", 0.0)),
-        )
-        started = time.perf_counter()
-        solution = optimise_path(
-            problem, starting_swivels=tuple(path.get("starting_swivels", (-1.6, -0.8))), progress=True
-        )
-        plans[name] = RollerPlan(
-            tool, recognised, estimate.phi_flange, solution, time.perf_counter() - started
-        )
+        plans[name] = plan_roller(tool, estimate.phi_flange, recognised, identified_robot, settings)
 
-    # 2. painting runs
-    # a controller without force feedback (controller=position) runs once per model
-    cases = [
-        (model, feedback)
-        for model in models
-        for feedback in (feedbacks if "feedback" in cfg.controller else ["none"])
-    ]
-    desired = float(
-        np.asarray(OmegaConf.to_container(cfg.controller, resolve=True).get("desired_force", [-30.0, 0, 0]))[
-            0
-        ]
-    )
-    cutoff = float(estimator_settings.get("wrench_cutoff_hz", 20.0))
-    rows, run_rows, metrics = [], [], {**timing, "identification_rms_mean": report.metrics["rms_mean"]}
+    runs: list[ScoredRun] = []
     for name, plan in plans.items():
         models_for = {
             "identified": attach_payload(identified_robot, plan.identified_parameters),
             "cad": attach_payload(robot, plan.recognised.parameters),
         }
-        runs: dict[tuple[str, str], ContactRun] = {}
-        jobs = [
-            (m, f, instantiate(cfg.controller, **({"feedback": f} if f != "none" else {}))) for m, f in cases
-        ]
+        jobs = [(m, f, make_controller(**({"feedback": f} if force_feedback else {}))) for m, f in cases]
         if comparison_controller is not None:
             jobs.append(("position", "none", comparison_controller))
         for model, feedback, controller in jobs:
             started = time.perf_counter()
-            run = paint(
+            run = simulate_painting(
                 plan,
-                truth,
+                plant.truth.robot,
                 models_for["identified" if model == "position" else model],
                 controller,
-                the_wall,
-                contact,
-                estimator_settings,
+                settings.wall,
+                settings.contact,
+                settings.estimator,
                 seed,
             )
             seconds = time.perf_counter() - started
-            runs[(model, feedback)] = run
-            forces = normal_force_table(run, desired, cutoff)
-            for first, second in COMPARISONS:
-                rms, nrms = force_errors(forces[first], forces[second])
-                rows.append(
-                    {
-                        "roller": name,
-                        "model": model,
-                        "feedback": feedback,
-                        "comparison": f"{first}/{second}",
-                        "rms": rms,
-                        "nrms": nrms,
-                    }
-                )
-            in_contact = run.painting & (run.measured_force[:, 0] < -1.0)
-            p = plan.path.parameters
-            width = plan.recognised.width
-            coverage, painted = painted_fraction(
-                run.actual[:, 1],
-                run.actual[:, 2],
-                in_contact,
-                plan.tool.width,
-                (p.y_start - width / 2, p.y_end + width / 2, p.z_lower, p.z_upper),
-            )
-            tracking = float(
-                np.sqrt(
-                    np.mean(
-                        np.sum((run.actual[run.painting, 1:] - run.reference[run.painting, 1:]) ** 2, axis=1)
-                    )
-                )
-            )
-            run_rows.append(
-                {
-                    "roller": name,
-                    "model": model,
-                    "feedback": feedback,
-                    "coverage": coverage,
-                    # a gap between two stripes would leave an interior column (a vertical band)
-                    # unpainted; the outer 1 cm on each side follows the path's lateral tracking error
-                    "worst_interior_column_coverage": float(painted.mean(axis=0)[5:-5].min()),
-                    "worst_row_coverage": float(painted.mean(axis=1).min()),
-                    "tracking_rms_m": tracking,
-                    "mean_measured_N": float(forces["measured"].mean()),
-                    "mean_estimated_N": float(forces["estimated"].mean()),
-                    "painting_s": float(run.painting.sum() * (run.t[1] - run.t[0])),
-                    "simulation_s": seconds,
-                }
-            )
-            metrics[f"coverage_{name}_{model}_{feedback}"] = coverage
-            decimated = slice(None, None, 10)  # 100 Hz: the figures' resolution, a few MB per run
-            np.savez_compressed(
-                output_dir / f"contact_{name}_{model}_{feedback}.npz",
-                t=run.t[decimated],
-                reference=run.reference[decimated],
-                commanded=run.commanded[decimated],
-                actual=run.actual[decimated],
-                estimated_wrench=run.estimated_wrench[decimated],
-                measured_force=run.measured_force[decimated],
-                q=run.q[decimated],
-                q_desired=run.q_desired[decimated],
-                tau=run.tau[decimated],
-                painting=run.painting[decimated],
-            )
-        # figures like the paper's (large roller in Fig. 13; here every roller)
-        main = runs.get(("identified", "estimate")) or next(iter(runs.values()))
-        path_on_wall(
-            main.reference[main.painting],
-            main.actual[main.painting],
-            (*the_wall.y_bounds, *the_wall.z_bounds),
-            output_dir / f"fig12_{name}.png",
-            f"{name}: desired vs actual path",
-        )
-        panels = {
-            f"{model} model, {feedback} feedback": {
-                k: v
-                for k, v in normal_force_table(run, desired, cutoff).items()
-                if k in ("estimated", "measured")
-            }
-            for (model, feedback), run in runs.items()
-            if model != "position"
-        }
-        t_painting = main.t[main.painting]
-        normal_force(
-            t_painting - t_painting[0],
-            panels,
-            desired,
-            output_dir / f"fig13_{name}.png",
-            f"{name}: normal force on the wall",
-        )
-
-    table = pd.DataFrame(rows)
-    run_table = pd.DataFrame(run_rows)
-    plans_table = pd.DataFrame(
-        [
-            {
-                "roller": name,
-                "recognised": plan.recognised.name,
-                "roller_width_m": plan.recognised.width,
-                **dict(
-                    zip(
-                        ("T_C", "phi", "Z_u", "Z_l", "Y_0", "dY"),
-                        plan.path.parameters.vector().tolist(),
-                        strict=True,
-                    )
-                ),
-                "N_r": plan.path.parameters.n_steps,
-                "branch": tuple(plan.path.branch),
-                **{f"cost_{k}": v for k, v in plan.path.cost_terms.items()},
-                "painted_area_m2": plan.path.painted_area,
-                "active_constraints": "; ".join(plan.path.active),
-                "optimisation_s": plan.optimisation_s,
-            }
-            for name, plan in plans.items()
-        ]
-    )
-    table.to_csv(output_dir / "table4_force.csv", index=False)
-    run_table.to_csv(output_dir / "painting_runs.csv", index=False)
-    plans_table.to_csv(output_dir / "painting_paths.csv", index=False)
-    for row in rows:
-        key = f"{row['roller']}_{row['model']}_{row['feedback']}_{row['comparison'].replace('/', '_vs_')}"
-        metrics[f"rms_{key}"] = row["rms"]
+            runs.append(score_run(name, model, feedback, plan, run, desired, cutoff, seconds))
+    metrics = {**timings, "identification_rms_mean": identification.metrics["rms_mean"]}
+    metrics |= {f"coverage_{scored.key}": scored.summary["coverage"] for scored in runs}
+    for scored in runs:
+        for row in scored.force_errors:
+            metrics[f"rms_{scored.key}_{row['comparison'].replace('/', '_vs_')}"] = row["rms"]
     for name, plan in plans.items():
         metrics[f"duration_s_{name}"] = plan.path.parameters.duration
         metrics[f"painted_area_m2_{name}"] = plan.path.painted_area
-    text = format_painting(table, plans_table, run_table)
-    (output_dir / "summary.md").write_text(text + "\n")
-    (output_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
-    print(text)
-    return {k: float(v) for k, v in metrics.items()}
+    return PaintingReport(plans, runs, settings.wall, desired, dict(timings), metrics)
 
 
-def format_painting(table: pd.DataFrame, plans: pd.DataFrame, runs: pd.DataFrame) -> str:
-    """Table IV (RMS and NRMS per roller, model and feedback), the optimised paths and the runs, as Markdown."""
-    wide = table.pivot_table(
-        index=["model", "feedback", "comparison"], columns="roller", values=["rms", "nrms"], sort=False
+def paint_configured(
+    cfg: Any,
+    settings: PaintingSettings,
+    tool_motion: MotionSource | None,
+    comparison_controller: PaintingController | None,
+    identification: IdentificationReport | None,
+) -> PaintingReport:
+    """:func:`paint` with the objects ``cfg`` configures (plant, classifier, controller, processing).
+
+    ``tool_motion``: the motion carrying each roller for its identification (None: the
+    identification's exciting motion). ``identification``: an earlier stage's report of this
+    config's robot and plant (the plant is drawn again from the same seed, so its truth is the
+    same); None identifies the robot here.
+    """
+    from functools import partial
+
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    from lwrlab.pipeline.identification import identify_configured
+    from lwrlab.pipeline.tool_library import load_library
+
+    timings: dict[str, float] = {}
+    if identification is None:
+        started = time.perf_counter()
+        identification = identify_configured(cfg)
+        timings["identification_s"] = time.perf_counter() - started
+    robot = identification.robot
+    log.info(
+        "identified %s: cross-validation mean RMS %.3f N·m", robot.name, identification.metrics["rms_mean"]
     )
-    wide.columns = [f"{roller} {stat}" for stat, roller in wide.columns]
-    wide = wide[sorted(wide.columns, key=lambda c: (c.split()[0], c.split()[1] != "rms"))]
-    return "\n".join(
-        [
-            "## Table IV: normal external force (RMS in N, NRMS in %)",
-            "",
-            wide.reset_index().to_markdown(index=False, floatfmt=".3g"),
-            "",
-            "## Optimised painting paths (eq. 12)",
-            "",
-            plans.drop(columns=["active_constraints"]).to_markdown(index=False, floatfmt=".4g"),
-            "",
-            "## Painting runs",
-            "",
-            runs.to_markdown(index=False, floatfmt=".4g"),
-        ]
+    library = load_library(None)
+    processing = cast(dict[str, Any], OmegaConf.to_container(cfg.measurement.processing, resolve=True))
+    return paint(
+        settings,
+        identification=identification,
+        plant=instantiate(cfg.plant, tool=None, show_progress=False)(robot=robot),
+        library=library,
+        classifier=instantiate(cfg.classifier).fit(library),
+        bench=ToolBench.for_robot(robot, processing),
+        loaded_motion=None
+        if tool_motion is None
+        else tool_motion.sample(robot, float(cfg.measurement.rate_hz)),
+        make_controller=partial(instantiate, cfg.controller),
+        comparison_controller=comparison_controller,
+        seed=int(cfg.seed),
+        timings=timings,
     )
+
+
+def run_painting(
+    cfg: Any,
+    output_dir: Path,
+    *,
+    tools: Sequence[str],
+    n_steps: Mapping[str, int],
+    models: Sequence[str],
+    feedbacks: Sequence[str],
+    wall: Mapping[str, float],
+    path: Mapping[str, Any],
+    contact: Mapping[str, Any],
+    estimator: Mapping[str, Any],
+    tool_motion: MotionSource | None,
+    comparison_controller: PaintingController | None,
+    identification: IdentificationReport | None = None,
+) -> dict[str, float]:
+    """Task ``painting``: Table IV, Fig. 12 and Fig. 13 per roller (keyword arguments: its YAML).
+
+    Hydra builds the nested ``_target_`` settings (``tool_motion``, ``comparison_controller``) before
+    the call. ``identification``: see :func:`paint_configured`. Paints (:func:`paint`), writes the
+    report (:func:`lwrlab.pipeline.painting_report.write_painting`, which lists the files), prints
+    its summary and returns its metrics.
+    """
+    from lwrlab.pipeline.painting_report import format_painting, write_painting
+
+    settings = PaintingSettings(
+        tools=tuple(tools),
+        n_steps=dict(n_steps),
+        models=tuple(models),
+        feedbacks=tuple(feedbacks),
+        wall=Wall(**{key: float(value) for key, value in wall.items()}),
+        path=dict(path),
+        contact=dict(contact),
+        estimator=dict(estimator),
+    )
+    report = paint_configured(cfg, settings, tool_motion, comparison_controller, identification)
+    write_painting(report, output_dir)
+    print(format_painting(report))
+    return {key: float(value) for key, value in report.metrics.items()}
+
+
+__all__ = ["COMPARISONS", "PaintingReport", "PaintingSettings", "paint", "paint_configured", "run_painting"]

@@ -41,19 +41,23 @@ _AFTER_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
 """``mj_forwardSkip`` stage: redo the acceleration stage only (looked up once, not per step)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Wall:
-    """A flat wall facing the robot: painted face in the plane ``x = x``, normal +x."""
+    """A flat wall facing the robot: painted face in the plane ``x = x``, normal +x.
 
-    x: float = -0.8
+    The painting task's ``wall`` (conf/task/painting.yaml) gives the face; only the box's depth,
+    which the contact does not feel, has a value here.
+    """
+
+    x: float
     """Position of the painted face along the base x axis (m)."""
-    center_y: float = 0.3
+    center_y: float
     """Horizontal centre (m)."""
-    center_z: float = 0.4
+    center_z: float
     """Vertical centre (m)."""
-    width: float = 0.6
+    width: float
     """Extent along y (m)."""
-    height: float = 0.8
+    height: float
     """Extent along z (m)."""
     thickness: float = 0.02
     """Extent along x, behind the face (m)."""

@@ -24,6 +24,8 @@ FEEDBACKS = ("estimate", "sensor")
 class ForcePIControl:
     """Force PI on the Cartesian reference around a joint PD + gravity compensation.
 
+    Every setting is required: conf/controller/force_pi.yaml is the one place of their values.
+
     Parameters
     ----------
     kp, kd : joint gains (N·m/rad, N·m·s/rad).
@@ -37,22 +39,25 @@ class ForcePIControl:
     """
 
     name = "force_pi"
+    uses_force_feedback = True
+    """A force loop closes on ``feedback``: the painting stage runs it once per force source."""
 
     def __init__(
         self,
+        *,
         kp: Sequence[float] | float,
         kd: Sequence[float] | float,
-        desired_force: Sequence[float] = (-30.0, 0.0, 0.0),
-        force_kp: Sequence[float] = (2e-5, 0.0, 0.0),
-        force_ki: Sequence[float] = (2e-3, 0.0, 0.0),
-        feedback: str = "estimate",
-        max_displacement: float = 0.05,
-        sensor_cutoff_hz: float = 20.0,
+        desired_force: Sequence[float],
+        force_kp: Sequence[float],
+        force_ki: Sequence[float],
+        feedback: str,
+        max_displacement: float,
+        sensor_cutoff_hz: float,
     ) -> None:
         if feedback not in FEEDBACKS:
             raise ValueError(f"unknown force feedback {feedback!r}; valid: {list(FEEDBACKS)}")
         self.kp, self.kd = kp, kd
-        self.desired_force = np.asarray(desired_force, dtype=float)
+        self.desired_force = np.asarray(desired_force, dtype=float).reshape(3)
         self.force_kp, self.force_ki = force_kp, force_ki
         self.feedback = feedback
         self.max_displacement = max_displacement

@@ -19,6 +19,9 @@ from lwrlab.control.joint_pd import ControlSetup, JointPDGravity
 class PositionControl:
     """Joint PD + gravity compensation tracking the IK of the (offset) painting path.
 
+    Every setting is required: conf/controller/position.yaml (or the painting task's
+    ``comparison_controller``) gives their values.
+
     Parameters
     ----------
     kp, kd : joint gains (N·m/rad, N·m·s/rad), one per joint or one for all.
@@ -26,12 +29,17 @@ class PositionControl:
     """
 
     name = "position"
+    uses_force_feedback = False
+    """No force loop: the contact force is left to the joint stiffness."""
+    desired_force: np.ndarray | None = None
+    """No force target."""
 
     def __init__(
         self,
+        *,
         kp: Sequence[float] | float,
         kd: Sequence[float] | float,
-        offset: Sequence[float] = (0.0, 0.0, 0.0),
+        offset: Sequence[float],
     ) -> None:
         self.kp, self.kd = kp, kd
         self.offset = np.asarray(offset, dtype=float).reshape(3)
