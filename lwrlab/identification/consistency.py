@@ -62,7 +62,8 @@ def pseudo_inertia_expression(phi_segment: cp.Expression) -> cp.Expression:
     """
     if phi_segment.shape != (SEGMENT_SIZE,):
         raise ValueError(
-            f"a segment has {SEGMENT_SIZE} standard parameters, got an expression of shape {phi_segment.shape}"
+            f"a segment has {SEGMENT_SIZE} standard parameters, "
+            f"got an expression of shape {phi_segment.shape}"
         )
     import cvxpy as cp
 
@@ -138,6 +139,6 @@ def consistency_margin(
         constraints.append(phi[dissipative] >= margin)
     problem = cp.Problem(cp.Maximize(margin), constraints)
     problem.solve(solver=cp.CLARABEL)
-    if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+    if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or margin.value is None:
         raise RuntimeError(f"consistency margin: solver status {problem.status}")
     return float(margin.value)

@@ -45,6 +45,28 @@ class Estimator(Protocol):
         ...
 
 
+class LearnedAttributes:
+    """The learned attributes of the :class:`Estimator` protocol, declared for the type checker.
+
+    Estimators derive from it; it sets nothing, so an unfitted estimator has no ``*_`` attribute
+    (scikit-learn's convention) until ``fit`` stores them
+    (:func:`lwrlab.identification.least_squares.set_learned_attributes`).
+    """
+
+    phi_: np.ndarray
+    """(N_B,) estimated base parameters."""
+    covariance_: np.ndarray
+    """(N_B, N_B) their covariance."""
+    std_: np.ndarray
+    """(N_B,) standard deviations σ."""
+    relative_std_: np.ndarray
+    """(N_B,) %σ = 100·σ/|φ|."""
+    residual_std_: float
+    """Standard deviation of the torque residual (N·m)."""
+    cond_: float
+    """Condition number of the column-scaled regressor."""
+
+
 def relative_std(phi: np.ndarray, std: np.ndarray) -> np.ndarray:
     """%σ = 100·σ/|φ|: the relative standard deviation of each parameter (inf where φ = 0)."""
     with np.errstate(divide="ignore"):

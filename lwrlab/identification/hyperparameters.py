@@ -85,7 +85,8 @@ def clone_estimator(estimator: Any) -> Any:
     """A fresh, unfitted estimator with (copies of) the same hyper-parameters, as ``sklearn.base.clone``."""
     if not hasattr(estimator, "get_params"):
         raise TypeError(
-            f"{type(estimator).__name__} has no get_params: estimators follow scikit-learn's parameter protocol "
+            f"{type(estimator).__name__} has no get_params: "
+            "estimators follow scikit-learn's parameter protocol "
             "(derive from lwrlab.identification.hyperparameters.HyperParameters)"
         )
     params = {

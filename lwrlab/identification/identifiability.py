@@ -70,12 +70,30 @@ DEFAULT_LOW_FRACTION = 0.05
 
 
 class ExcitationLimits(Protocol):
-    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it)."""
+    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it).
 
-    position_lower: np.ndarray
-    position_upper: np.ndarray
-    velocity: np.ndarray
-    acceleration: np.ndarray
+    Read-only, so that the frozen ``JointLimits`` satisfies it.
+    """
+
+    @property
+    def position_lower(self) -> np.ndarray:
+        """(N_J,) lowest joint positions (rad)."""
+        ...
+
+    @property
+    def position_upper(self) -> np.ndarray:
+        """(N_J,) highest joint positions (rad)."""
+        ...
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """(N_J,) largest absolute joint velocities (rad/s)."""
+        ...
+
+    @property
+    def acceleration(self) -> np.ndarray:
+        """(N_J,) largest absolute joint accelerations (rad/s²)."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -223,7 +241,9 @@ def still_joint_friction(names: Sequence[str], joint: int) -> tuple[str, ...]:
 
 def _joint_messages(per_joint: pd.DataFrame, names: Sequence[str], low_fraction: float) -> list[str]:
     lines = []
-    for joint, row in per_joint.iterrows():
+    # The index holds the 1-based joint numbers (:func:`joint_excitation`).
+    for joint in per_joint.index.to_numpy(dtype=int):
+        row = per_joint.loc[joint]
         if row["still"]:
             friction = still_joint_friction(names, int(joint))
             lost = (
@@ -232,12 +252,14 @@ def _joint_messages(per_joint: pd.DataFrame, names: Sequence[str], low_fraction:
                 else ""
             )
             lines.append(
-                f"joint {joint} never moves (range of q {row['q_range']:.2g} rad, peak |dq| {row['dq_peak']:.2g} rad/s){lost}"
+                f"joint {joint} never moves "
+                f"(range of q {row['q_range']:.2g} rad, peak |dq| {row['dq_peak']:.2g} rad/s){lost}"
             )
         elif "q_range_fraction" in row and row["q_range_fraction"] < low_fraction:
             lines.append(
                 f"joint {joint} moves weakly: {100 * row['q_range_fraction']:.2g} % of its position range, "
-                f"{100 * row['dq_peak_fraction']:.2g} % of its velocity limit, {100 * row['ddq_peak_fraction']:.2g} % of its acceleration limit"
+                f"{100 * row['dq_peak_fraction']:.2g} % of its velocity limit, "
+                f"{100 * row['ddq_peak_fraction']:.2g} % of its acceleration limit"
             )
     return lines
 
@@ -327,7 +349,8 @@ def assess_identifiability(
     ]
     if weak:
         messages.append(
-            f"the data cannot determine {len(weak)} combination(s) of base parameters (relative singular value: weights):"
+            f"the data cannot determine {len(weak)} combination(s) of base parameters "
+            "(relative singular value: weights):"
         )
         messages += [f"  {d.relative_singular_value:.2g}: {d.describe()}" for d in weak[:max_listed]]
         if len(weak) > max_listed:
@@ -373,4 +396,7 @@ def format_prior_note(report: IdentifiabilityReport, min_share: float = 0.25) ->
     if not taken:
         return ""
     listed = ", ".join(f"{name} ({100 * share:.0f} %)" for name, share in taken)
-    return f"from the estimator's prior, not the data (share of each parameter the data do not determine): {listed}"
+    return (
+        "from the estimator's prior, not the data "
+        f"(share of each parameter the data do not determine): {listed}"
+    )

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lwrlab.identification.compression import compress
-from lwrlab.identification.core import column_scaled_condition_number, relative_std
+from lwrlab.identification.core import LearnedAttributes, column_scaled_condition_number, relative_std
 from lwrlab.numerics.threads import dense_algebra
 
 
@@ -40,7 +40,10 @@ class LeastSquaresFit:
         return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
 
     def weighted_system(self, W: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(√P·W, √P·τ)``: the rows as the solver saw them (for a constrained or total least-squares re-solve)."""
+        """``(√P·W, √P·τ)``: the rows as the solver saw them.
+
+        For a constrained or total least-squares re-solve.
+        """
         if self.weights is None:
             return W, np.asarray(tau, dtype=float).ravel()
         root = np.sqrt(self.weights)
@@ -173,12 +176,12 @@ def fit_with_covariance(
 
 
 @dense_algebra()
-def set_learned_attributes(estimator: object, fit: LeastSquaresFit, W: np.ndarray) -> None:
+def set_learned_attributes(estimator: LearnedAttributes, fit: LeastSquaresFit, W: np.ndarray) -> None:
     """Store the protocol's learned attributes (phi_, covariance_, std_, …) of a least-squares fit."""
-    estimator.phi_ = fit.phi  # type: ignore[attr-defined]
-    estimator.covariance_ = fit.covariance  # type: ignore[attr-defined]
-    estimator.std_ = fit.std  # type: ignore[attr-defined]
-    estimator.relative_std_ = relative_std(fit.phi, fit.std)  # type: ignore[attr-defined]
+    estimator.phi_ = fit.phi
+    estimator.covariance_ = fit.covariance
+    estimator.std_ = fit.std
+    estimator.relative_std_ = relative_std(fit.phi, fit.std)
     rows, columns = W.shape
-    estimator.residual_std_ = float(np.sqrt(fit.residual @ fit.residual / (rows - columns)))  # type: ignore[attr-defined]
-    estimator.cond_ = column_scaled_condition_number(W)  # type: ignore[attr-defined]
+    estimator.residual_std_ = float(np.sqrt(fit.residual @ fit.residual / (rows - columns)))
+    estimator.cond_ = column_scaled_condition_number(W)

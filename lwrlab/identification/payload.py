@@ -56,7 +56,7 @@ class PayloadEstimate:
     """(N_B,) base parameters of the robot identified alongside (eq. (7) only)."""
     robot_base_std: np.ndarray | None = None
     """(N_B,) their standard deviations."""
-    extras: dict[str, float] = field(default_factory=dict)
+    extras: dict[str, float | str] = field(default_factory=dict)
     """Solver status and the like."""
 
     @property
@@ -114,8 +114,10 @@ def _fit(
     """Solve ``τ = W·[Φ_b; Φ_L]`` (the first ``n_base`` columns the robot's, the last 10 the tool's)."""
     fit = grouped_least_squares(W, tau, groups if weighted else None, known_variance=True)
     theta, covariance = fit.phi, fit.covariance
+    if fit.group_std is None:
+        raise RuntimeError("grouped least squares returned no per-group residual σ")
     weighted_w, weighted_tau = fit.weighted_system(W, tau)
-    extras: dict[str, float] = {}
+    extras: dict[str, float | str] = {}
     if consistent:
         theta, status = _consistent_solution(weighted_w, weighted_tau, slice(n_base, n_base + 10), solver)
         method, extras = f"{method}+consistent", {"solver_status": status}

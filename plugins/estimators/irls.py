@@ -15,6 +15,7 @@ from typing import Self
 import numpy as np
 
 from lwrlab.identification.context import IdentificationContext, resolve_joint_count, row_joints
+from lwrlab.identification.core import LearnedAttributes
 from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import set_learned_attributes, weighted_least_squares
 from lwrlab.numerics.threads import dense_algebra
@@ -31,7 +32,7 @@ def robust_weights(u: np.ndarray, loss: str) -> np.ndarray:
     return np.where(a < 1.0, (1.0 - u**2) ** 2, 0.0)
 
 
-class IterativelyReweightedLeastSquares(HyperParameters):
+class IterativelyReweightedLeastSquares(HyperParameters, LearnedAttributes):
     """Robust base-parameter estimate by IRLS with per-joint robust scale.
 
     Parameters
@@ -45,6 +46,10 @@ class IterativelyReweightedLeastSquares(HyperParameters):
     Learned attributes: the protocol's, plus ``weights_`` (rows,) the final row weights,
     ``n_iter_`` and ``outlier_fraction_`` (share of rows with weight < 0.5).
     """
+
+    weights_: np.ndarray
+    n_iter_: int
+    outlier_fraction_: float
 
     def __init__(
         self,
@@ -62,7 +67,10 @@ class IterativelyReweightedLeastSquares(HyperParameters):
 
     @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
-        """Fit to regressor rows ``W`` and torques ``tau``; ``context`` gives N_J when ``n_joints`` is None."""
+        """Fit to regressor rows ``W`` and torques ``tau``.
+
+        ``context`` gives N_J when ``n_joints`` is None.
+        """
         if self.loss not in LOSSES:
             raise ValueError(f"unknown loss {self.loss!r}; valid: {sorted(LOSSES)}")
         tau = np.asarray(tau, dtype=float).ravel()
@@ -71,8 +79,9 @@ class IterativelyReweightedLeastSquares(HyperParameters):
         c = self.tuning if self.tuning is not None else LOSSES[self.loss]
         fit = weighted_least_squares(W, tau)  # start from OLS (Huber's loss is convex: any start)
         weights = np.ones(W.shape[0])
-        self.n_iter_ = 0
-        for self.n_iter_ in range(1, self.max_iter + 1):
+        iterations = 0
+        for _ in range(self.max_iter):
+            iterations += 1
             scale = np.array([1.4826 * np.median(np.abs(fit.residual[joints == j])) for j in range(n_joints)])
             tiny = np.finfo(float).eps * max(1.0, float(np.abs(tau).max()))
             if np.all(scale <= tiny):  # exact fit: nothing to reweight
@@ -83,6 +92,7 @@ class IterativelyReweightedLeastSquares(HyperParameters):
             fit = new
             if moved < self.tol:
                 break
+        self.n_iter_ = iterations
         self.weights_ = weights
         self.outlier_fraction_ = float(np.mean(weights < 0.5))
         set_learned_attributes(self, fit, W)

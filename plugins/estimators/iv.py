@@ -16,12 +16,13 @@ from typing import Self
 import numpy as np
 
 from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.core import LearnedAttributes
 from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
 from lwrlab.numerics.threads import dense_algebra
 
 
-class InstrumentalVariables(HyperParameters):
+class InstrumentalVariables(HyperParameters, LearnedAttributes):
     """Two-stage least squares with the reference motion's regressor as instruments.
 
     No hyper-parameters: the instruments are data, given to :meth:`fit` (the context's

@@ -7,12 +7,13 @@ from typing import Self
 import numpy as np
 
 from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.core import LearnedAttributes
 from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import set_learned_attributes, weighted_least_squares
 from lwrlab.numerics.threads import dense_algebra
 
 
-class OrdinaryLeastSquares(HyperParameters):
+class OrdinaryLeastSquares(HyperParameters, LearnedAttributes):
     """Base parameters minimising ‖τ − W·φ‖², with their covariance σ²·(WᵀW)⁻¹ and %σ.
 
     Parameters
@@ -32,7 +33,10 @@ class OrdinaryLeastSquares(HyperParameters):
 
     @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
-        """Fit to regressor rows ``W`` and torques ``tau``; ``context`` is not needed (accepted for the protocol)."""
+        """Fit to regressor rows ``W`` and torques ``tau``.
+
+        ``context`` is not needed (accepted for the protocol).
+        """
         set_learned_attributes(self, weighted_least_squares(W, tau, rcond=self.rcond), W)
         return self
 

@@ -46,6 +46,7 @@ from lwrlab.identification.consistency import (
     segment_slices,
 )
 from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.core import LearnedAttributes
 from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
 from lwrlab.model.inertia import from_pseudo_inertia, pseudo_inertia
@@ -61,7 +62,7 @@ class SolverFailure(RuntimeError):
     """Neither the solver nor its fallback returned a solution."""
 
 
-class PhysicallyConsistentSDP(HyperParameters):
+class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     """Standard parameters of physically consistent bodies fitting the base-parameter data.
 
     Parameters
@@ -87,7 +88,16 @@ class PhysicallyConsistentSDP(HyperParameters):
     """
 
     uses_prior = True
-    """Regularised toward the CAD prior: directions the data do not see come from it (none: still convex, bounded)."""
+    """Regularised toward the CAD prior: directions the data do not see come from it (none: still convex,
+    bounded)."""
+
+    standard_phi_: np.ndarray
+    min_eigenvalues_: np.ndarray
+    solver_: str
+    solver_fallback_: bool
+    solver_status_: str
+    solve_time_: float
+    diagnostics_: dict[str, float]
 
     def __init__(
         self,
@@ -114,7 +124,8 @@ class PhysicallyConsistentSDP(HyperParameters):
     def _check(self, context: IdentificationContext | None) -> IdentificationContext:
         if context is None:
             raise ValueError(
-                "sdp needs the identification context (regrouping K, CAD prior): call fit(W, tau, context=...)"
+                "sdp needs the identification context (regrouping K, CAD prior): "
+                "call fit(W, tau, context=...)"
             )
         if self.regularization not in REGULARIZATIONS:
             raise ValueError(
@@ -124,7 +135,8 @@ class PhysicallyConsistentSDP(HyperParameters):
             low, high = self.mass_bounds
             if not 0.0 <= low <= high:
                 raise ValueError(
-                    f"mass_bounds {list(self.mass_bounds)} must satisfy 0 ≤ low ≤ high (factors of the CAD masses)"
+                    f"mass_bounds {list(self.mass_bounds)} must satisfy 0 ≤ low ≤ high "
+                    "(factors of the CAD masses)"
                 )
         return context
 
@@ -198,7 +210,8 @@ class PhysicallyConsistentSDP(HyperParameters):
                 return
             failures.append(f"{name}: status {problem.status}")
         raise SolverFailure(
-            f"sdp: no solver succeeded ({'; '.join(failures)}); constraints: pseudo-inertia ⪰ {self.min_eigenvalue}, "
+            f"sdp: no solver succeeded ({'; '.join(failures)}); "
+            f"constraints: pseudo-inertia ⪰ {self.min_eigenvalue}, "
             f"friction ≥ 0 = {self.friction_nonnegative}, mass bounds = {self.mass_bounds}"
         )
 
@@ -221,7 +234,10 @@ class PhysicallyConsistentSDP(HyperParameters):
 
     @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
-        """Fit to regressor rows ``W`` and torques ``tau``; ``context`` (regrouping K, CAD prior) is required."""
+        """Fit to regressor rows ``W`` and torques ``tau``.
+
+        ``context`` (regrouping K, CAD prior) is required.
+        """
         context = self._check(context)
         tau = np.asarray(tau, dtype=float).ravel()
         rows = W.shape[0]

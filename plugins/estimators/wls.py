@@ -12,12 +12,13 @@ from typing import Self
 import numpy as np
 
 from lwrlab.identification.context import IdentificationContext, resolve_joint_count, row_joints
+from lwrlab.identification.core import LearnedAttributes
 from lwrlab.identification.hyperparameters import HyperParameters
 from lwrlab.identification.least_squares import grouped_least_squares, set_learned_attributes
 from lwrlab.numerics.threads import dense_algebra
 
 
-class WeightedLeastSquares(HyperParameters):
+class WeightedLeastSquares(HyperParameters, LearnedAttributes):
     """Base parameters minimising ``Σ_j ‖τ_j − W_j·φ‖² / σ_j²`` (eq. (6)), with covariance and %σ.
 
     Parameters
@@ -41,6 +42,9 @@ class WeightedLeastSquares(HyperParameters):
     True
     """
 
+    joint_std_: np.ndarray
+    weights_: np.ndarray
+
     def __init__(
         self, n_joints: int | None = None, min_relative_std: float = 1e-6, reweight_steps: int = 2
     ) -> None:
@@ -50,11 +54,16 @@ class WeightedLeastSquares(HyperParameters):
 
     @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
-        """Fit to regressor rows ``W`` and torques ``tau``; ``context`` gives N_J when ``n_joints`` is None."""
+        """Fit to regressor rows ``W`` and torques ``tau``.
+
+        ``context`` gives N_J when ``n_joints`` is None.
+        """
         n_joints = resolve_joint_count(self.n_joints, context, "wls")
         fit = grouped_least_squares(
             W, tau, row_joints(W.shape[0], n_joints), self.reweight_steps, self.min_relative_std
         )
+        if fit.group_std is None:
+            raise RuntimeError("grouped least squares returned no per-joint residual σ")
         self.joint_std_ = fit.group_std
         self.weights_ = 1.0 / fit.group_std**2
         set_learned_attributes(self, fit, W)
