@@ -3,7 +3,8 @@
 The values are a deterministic function of (criterion, seed), so tests can compute what the report
 must show. They are not results of lwrlab; they only exercise the tracking → report path::
 
-    python tests/apps/table_fixtures_app.py hydra.searchpath=[file:///abs/repo/conf] fixture_criterion=cond seed=1
+    python tests/apps/table_fixtures_app.py \\
+        hydra.searchpath=[file:///abs/repo/conf] fixture_criterion=cond seed=1
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ def main(cfg: DictConfig) -> dict[str, float]:
             "feedback": ["estimated", "estimated"],
             "comparison": ["estimated_vs_measured", "measured_vs_desired"],
             "rms": [2.5 + seed, 2.6],
-            "nrms": [8.0, 9.0],
+            "rms_over_mean_pct": [8.0, 9.0],
         }
     ).to_csv(output_dir / "table4_force.csv", index=False)
     return {
