@@ -51,7 +51,7 @@ from typing import Protocol
 import numpy as np
 import pandas as pd
 
-from lwrlab.model.robot import FRICTION_TERMS
+from lwrlab.model.robot import FRICTION_TERMS, MotionLimits
 
 STATUSES = ("good", "poor", "rank_deficient")
 """Possible values of :attr:`IdentifiabilityReport.status`, best first."""
@@ -69,26 +69,8 @@ DEFAULT_LOW_FRACTION = 0.05
 """A joint moving over less than this fraction of its position range is named as weakly excited."""
 
 
-class ExcitationLimits(Protocol):
-    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it).
-
-    Read-only, so that the frozen ``JointLimits`` satisfies it.
-    """
-
-    @property
-    def position_lower(self) -> np.ndarray:
-        """(N_J,) lowest joint positions (rad)."""
-        ...
-
-    @property
-    def position_upper(self) -> np.ndarray:
-        """(N_J,) highest joint positions (rad)."""
-        ...
-
-    @property
-    def velocity(self) -> np.ndarray:
-        """(N_J,) largest absolute joint velocities (rad/s)."""
-        ...
+class ExcitationLimits(MotionLimits, Protocol):
+    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it)."""
 
     @property
     def acceleration(self) -> np.ndarray:

@@ -41,30 +41,13 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.io.logs import POSITION_UNITS, TIME_UNITS, LogError, joint_columns, row_location
+from lwrlab.model.robot import MotionLimits
 
 SEVERITIES = ("error", "warning")
 
 
-class LogLimits(Protocol):
-    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it).
-
-    Read-only, so that the frozen ``JointLimits`` satisfies it.
-    """
-
-    @property
-    def position_lower(self) -> np.ndarray:
-        """(N_J,) lowest joint positions (rad)."""
-        ...
-
-    @property
-    def position_upper(self) -> np.ndarray:
-        """(N_J,) highest joint positions (rad)."""
-        ...
-
-    @property
-    def velocity(self) -> np.ndarray:
-        """(N_J,) largest absolute joint velocities (rad/s)."""
-        ...
+class LogLimits(MotionLimits, Protocol):
+    """What is read of the robot's limits (:class:`lwrlab.model.robot.JointLimits` has it)."""
 
     @property
     def torque(self) -> np.ndarray:

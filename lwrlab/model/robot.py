@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import numpy as np
 import pinocchio as pin
@@ -16,6 +17,29 @@ FRICTION_TERMS: dict[str, str] = {"coulomb": "FC", "viscous": "FV", "offset": "F
 Coulomb: ``FC_j·sign(q̇_j)`` (N·m); viscous: ``FV_j·q̇_j`` (N·m·s/rad); offset: ``FO_j`` (N·m), a
 constant torque-sensor or current offset.
 """
+
+
+class MotionLimits(Protocol):
+    """The position and velocity limits, read-only (:class:`JointLimits` has them).
+
+    Checks that read a few limits type them with a protocol deriving from this one, so any object
+    with these arrays will do; read-only, so the frozen ``JointLimits`` satisfies it.
+    """
+
+    @property
+    def position_lower(self) -> np.ndarray:
+        """(N_J,) lowest joint positions (rad)."""
+        ...
+
+    @property
+    def position_upper(self) -> np.ndarray:
+        """(N_J,) highest joint positions (rad)."""
+        ...
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """(N_J,) largest absolute joint velocities (rad/s)."""
+        ...
 
 
 @dataclass(frozen=True)
