@@ -23,6 +23,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from itertools import combinations
+from typing import ClassVar
 
 import numpy as np
 import pinocchio as pin
@@ -134,14 +135,16 @@ class ConstraintSet:
         if settings.z_ground is not None and settings.ground_spheres and not names:
             # a robot described without collision geometry (a plain URDF): nothing to keep off the floor
             log.warning(
-                "%s has no collision spheres: the exciting motion is not kept above the floor or free of self-collision",
+                "%s has no collision spheres: "
+                "the exciting motion is not kept above the floor or free of self-collision",
                 robot.name,
             )
         elif settings.z_ground is not None and settings.ground_spheres:
             unknown = [name for name in settings.ground_spheres if name not in names]
             if unknown:
                 raise ValueError(
-                    f"ground_spheres {unknown} are not collision spheres of {robot.name}; its spheres: {names} "
+                    f"ground_spheres {unknown} are not collision spheres of {robot.name}; "
+                    f"its spheres: {names} "
                     "(add a collision_spheres block to the robot config, or set z_ground: null)"
                 )
             self.ground_indices = [names.index(name) for name in settings.ground_spheres]
@@ -194,7 +197,7 @@ class ConstraintSet:
             return np.tile(per_joint[family], 2)
         return np.ones(len(self.column_labels(family)))
 
-    UNITS = {
+    UNITS: ClassVar[dict[str, str]] = {
         "position": "rad",
         "velocity": "rad/s",
         "acceleration": "rad/s²",
@@ -298,7 +301,8 @@ class ConstraintSet:
     def _torque_derivatives(
         self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, samples: np.ndarray, columns: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``∓∂Γ_j/∂(q, q̇, q̈)`` by Pinocchio's RNEA derivatives, once per distinct sample, plus viscous friction."""
+        """``∓∂Γ_j/∂(q, q̇, q̈)`` by Pinocchio's RNEA derivatives, once per distinct sample, plus viscous
+        friction."""
         n = self.robot.n_joints
         model, data = self.robot.model, self._data
         unique, inverse = np.unique(samples, return_inverse=True)
@@ -312,4 +316,4 @@ class ConstraintSet:
             slope = (1.0 - np.tanh(dq[unique] / self.coulomb_smoothing) ** 2) / self.coulomb_smoothing
             d_v += np.einsum("uj,jl->ujl", slope * self.robot.friction.coulomb, np.eye(n))
         joint, sign = columns % n, np.where(columns < n, 1.0, -1.0)[:, None]
-        return tuple(sign * d[inverse, joint] for d in (d_q, d_v, d_a))  # type: ignore[return-value]
+        return sign * d_q[inverse, joint], sign * d_v[inverse, joint], sign * d_a[inverse, joint]

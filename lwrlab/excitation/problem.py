@@ -118,7 +118,7 @@ class ExcitationProblem:
         self.times = parameterisation.times(rate_hz)
         self.bases = parameterisation.bases(self.times)
         self.parameters = robot.parameters
-        samples_per_window = max(1, int(round(window_s * rate_hz)))
+        samples_per_window = max(1, round(window_s * rate_hz))
         # The last sample (at rest) joins the last window rather than making one of its own.
         self.window_starts = np.arange(0, max(len(self.times) - 1, 1), samples_per_window)
         self._cache: _Evaluation | None = None

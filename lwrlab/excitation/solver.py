@@ -14,12 +14,13 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import minimize
+from scipy.optimize import OptimizeResult, minimize
 from tqdm.auto import tqdm
 
 from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.model.robot import RobotModel
+from lwrlab.numerics.slsqp import vector_inequality
 from lwrlab.numerics.threads import blas_threads
 from lwrlab.trajectory.parameterisation import LinearParameterisation
 
@@ -58,7 +59,10 @@ class FamilyReport:
 def family_reports(
     constraint_set: ConstraintSet, t: np.ndarray, slacks: dict[str, np.ndarray], scaled_tolerance: float = 0.0
 ) -> list[FamilyReport]:
-    """Worst slack of each family over samples at times t (s); violations beyond ``scaled_tolerance`` count."""
+    """Worst slack of each family over samples at times t (s).
+
+    Violations beyond ``scaled_tolerance`` count.
+    """
     reports = []
     for family, slack in slacks.items():
         scaled = slack / constraint_set.scales(family)
@@ -99,17 +103,31 @@ class ExcitationResult:
     def summary(self) -> str:
         """The report as Markdown lines."""
         lines = [
-            f"criterion {self.cost:.6g} after {self.iterations} iterations ({self.evaluations} criterion evaluations, "
+            f"criterion {self.cost:.6g} after {self.iterations} iterations "
+            f"({self.evaluations} criterion evaluations, "
             f"{self.seconds:.1f} s, best of {len(self.start_costs)} start(s))",
             "",
             "| constraint | worst slack | unit | where | t [s] | active windows |",
             "|---|---|---|---|---|---|",
         ]
         lines += [
-            f"| {r.family} | {r.worst_slack:.4g} | {r.unit} | {r.where} | {r.time_s:.2f} | {r.active_windows} |"
+            f"| {r.family} | {r.worst_slack:.4g} | {r.unit} | {r.where} "
+            f"| {r.time_s:.2f} | {r.active_windows} |"
             for r in self.reports
         ]
         return "\n".join(lines)
+
+
+@dataclass
+class _StartRun:
+    """What one start of :class:`SlsqpOptimizer` leaves: SLSQP's result and the best feasible iterate."""
+
+    result: OptimizeResult = field(default_factory=OptimizeResult)
+    evaluations: int = 0
+    """Criterion evaluations by SLSQP (the callback's are not counted)."""
+    best_feasible_cost: float = np.inf
+    best_feasible: np.ndarray | None = None
+    """The feasible iterate of lowest criterion, or None when no iterate was feasible."""
 
 
 class SlsqpOptimizer:
@@ -157,8 +175,9 @@ class SlsqpOptimizer:
             if np.isfinite(problem.objective(x)):
                 return x
         raise InfeasibleExcitationError(
-            f"no random start excites every base parameter of {problem.robot.name}: the motion is too short "
-            f"({problem.parameterisation.duration} s) or too constrained for {problem.base.count} base parameters"
+            f"no random start excites every base parameter of {problem.robot.name}: "
+            f"the motion is too short ({problem.parameterisation.duration} s) "
+            f"or too constrained for {problem.base.count} base parameters"
         )
 
     def solve(self, problem: ExcitationProblem) -> ExcitationResult:
@@ -172,44 +191,16 @@ class SlsqpOptimizer:
         best: tuple[float, np.ndarray] | None = None
         costs, iterations, evaluations, messages = [], 0, 0, []
         last_x = None
-        bounds = problem.bounds()
-        constraints = {"type": "ineq", "fun": problem.constraint_values, "jac": problem.constraint_jacobian}
         for start in range(self.n_starts):
             x0 = self._start(problem, rng)
-            counter = {"f": 0}
-
-            def objective(x: np.ndarray) -> float:
-                counter["f"] += 1
-                return problem.objective(x)
-
-            label = f"{problem.criterion.name} {problem.parameterisation.duration:g} s, start {start + 1}/{self.n_starts}"
-            best_iterate: dict[str, object] = {}
-            with tqdm(
-                total=self.max_iterations, desc=label, unit="it", disable=not self.show_progress, leave=False
-            ) as bar:
-
-                def callback(x: np.ndarray) -> None:
-                    # Keep the best feasible iterate: a start stopped by the iteration limit still counts.
-                    cost = problem.objective(x)
-                    if problem.constraint_values(
-                        x
-                    ).min() >= -FEASIBILITY_TOLERANCE and cost < best_iterate.get("cost", np.inf):
-                        best_iterate.update(cost=cost, x=x.copy())
-                    bar.update(1)
-                    bar.set_postfix(J=f"{cost:.5g}", refresh=False)
-
-                result = minimize(
-                    objective,
-                    x0,
-                    jac=problem.objective_gradient,
-                    method="SLSQP",
-                    bounds=bounds,
-                    constraints=[constraints],
-                    callback=callback,
-                    options={"maxiter": self.max_iterations, "ftol": self.tolerance},
-                )
+            label = (
+                f"{problem.criterion.name} {problem.parameterisation.duration:g} s, "
+                f"start {start + 1}/{self.n_starts}"
+            )
+            run = self._run_start(problem, x0, label)
+            result = run.result
             iterations += int(result.nit)
-            evaluations += counter["f"]
+            evaluations += run.evaluations
             messages.append(str(result.message))
             last_x = result.x
             violation = -min(0.0, float(problem.constraint_values(result.x).min()))
@@ -217,8 +208,8 @@ class SlsqpOptimizer:
             candidates = (
                 [(cost, result.x)] if violation <= FEASIBILITY_TOLERANCE and np.isfinite(cost) else []
             )
-            if best_iterate:
-                candidates.append((best_iterate["cost"], best_iterate["x"]))  # type: ignore[arg-type]
+            if run.best_feasible is not None:
+                candidates.append((run.best_feasible_cost, run.best_feasible))
             if not candidates:
                 costs.append(float("inf"))
                 continue
@@ -232,8 +223,8 @@ class SlsqpOptimizer:
             reports = self.reports(problem, last_x)
             raise InfeasibleExcitationError(
                 f"no feasible exciting motion for {problem.robot.name} after {self.n_starts} start(s) "
-                f"(last solver message: {messages[-1]}); violated constraints on the {problem.rate_hz:g} Hz grid:\n  "
-                + describe_violations(reports)
+                f"(last solver message: {messages[-1]}); "
+                f"violated constraints on the {problem.rate_hz:g} Hz grid:\n  " + describe_violations(reports)
             )
         cost, x = best
         return ExcitationResult(
@@ -247,9 +238,43 @@ class SlsqpOptimizer:
             message="; ".join(messages),
         )
 
+    def _run_start(self, problem: ExcitationProblem, x0: np.ndarray, label: str) -> _StartRun:
+        """One SLSQP run from ``x0``, counting the criterion evaluations and keeping the best feasible
+        iterate: a start stopped by the iteration limit still counts."""
+        run = _StartRun()
+
+        def objective(x: np.ndarray) -> float:
+            run.evaluations += 1
+            return problem.objective(x)
+
+        with tqdm(
+            total=self.max_iterations, desc=label, unit="it", disable=not self.show_progress, leave=False
+        ) as bar:
+
+            def callback(xk: np.ndarray) -> None:  # the name scipy-stubs gives the iterate
+                cost = problem.objective(xk)
+                feasible = problem.constraint_values(xk).min() >= -FEASIBILITY_TOLERANCE
+                if feasible and cost < run.best_feasible_cost:
+                    run.best_feasible_cost, run.best_feasible = cost, xk.copy()
+                bar.update(1)
+                bar.set_postfix(J=f"{cost:.5g}", refresh=False)
+
+            run.result = minimize(
+                objective,
+                x0,
+                jac=problem.objective_gradient,
+                method="SLSQP",
+                bounds=problem.bounds(),
+                constraints=[vector_inequality(problem.constraint_values, problem.constraint_jacobian)],
+                callback=callback,
+                options={"maxiter": self.max_iterations, "ftol": self.tolerance},
+            )
+        return run
+
     @staticmethod
     def reports(problem: ExcitationProblem, x: np.ndarray) -> list[FamilyReport]:
-        """Worst slack per family on the optimisation grid, with the count of active aggregated constraints."""
+        """Worst slack per family on the optimisation grid, with the count of active aggregated
+        constraints."""
         ev_slacks = {w.family: w for w in problem.windowed_slacks(x)}
         q, dq, ddq = (b @ problem.coefficients(x) for b in problem.bases)
         slacks = problem.constraint_set.slacks(q, dq, ddq)
