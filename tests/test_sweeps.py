@@ -12,7 +12,7 @@ import pytest
 import yaml
 from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, run_app, runs_of
 
-from lwrlab.tracking.mlflow_callback import ERROR_FILE, RESUMED_FILE
+from lwrlab.tracking.run_logging import ERROR_FILE, RESUMED_FILE
 
 # A 2 s multisine motion instead of the (optimised) default one: seconds per job.
 SHORT_JOB = [

@@ -21,15 +21,9 @@ from mlflow.tracking import MlflowClient
 from omegaconf import DictConfig, OmegaConf
 
 from lwrlab.tracking import MlflowTracking, runs_table
-from lwrlab.tracking.mlflow_callback import (
-    ERROR_FILE,
-    PARAM_VALUE_MAX_LENGTH,
-    RUN_ID_FILE,
-    absolute_tracking_uri,
-    config_hash,
-    flatten_config,
-    numeric_metrics,
-)
+from lwrlab.tracking.config_params import PARAM_VALUE_MAX_LENGTH, config_hash, flatten_config, numeric_metrics
+from lwrlab.tracking.run_logging import ERROR_FILE, RUN_ID_FILE
+from lwrlab.tracking.store import absolute_tracking_uri
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 TOY_APP = REPO_ROOT / "tests" / "apps" / "toy_app.py"

@@ -10,13 +10,13 @@ from mlflow.tracking import MlflowClient
 from omegaconf import OmegaConf
 from tracking_apps import REPO_CONF, TOY_APP, jobs_and_parents, run_app, runs_of
 
+from lwrlab.tracking.config_params import plugin_choices
 from lwrlab.tracking.mlflow_callback import MlflowTracking
 from lwrlab.tracking.naming import (
     DESCRIPTION_TAG,
     EXPERIMENT_KIND,
     EXPERIMENT_KIND_TAG,
     log_file_stem,
-    plugin_choices,
     run_name,
     swept_keys,
 )

@@ -22,7 +22,7 @@ from mlflow.tracking import MlflowClient
 from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, runs_of
 
 from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
-from lwrlab.tracking.mlflow_callback import RUN_ID_FILE
+from lwrlab.tracking.run_logging import RUN_ID_FILE
 from lwrlab.tracking.processes import descendant_pids, process_alive, wait_until
 
 # A real identification job that runs ~10 s on one core (a 30 s motion), so a signal finds it busy.

@@ -12,17 +12,21 @@ Examples
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from lwrlab.tracking.mlflow_callback import MlflowTracking, runs_table
+    from lwrlab.tracking.mlflow_callback import MlflowTracking
+    from lwrlab.tracking.run_queries import runs_table
 
+_MODULE_OF = {
+    "MlflowTracking": "lwrlab.tracking.mlflow_callback",
+    "runs_table": "lwrlab.tracking.run_queries",
+}
 __all__ = ["MlflowTracking", "runs_table"]
 
 
 def __getattr__(name: str) -> Any:
-    if name in __all__:
-        from lwrlab.tracking import mlflow_callback
-
-        return getattr(mlflow_callback, name)
+    if name in _MODULE_OF:
+        return getattr(importlib.import_module(_MODULE_OF[name]), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

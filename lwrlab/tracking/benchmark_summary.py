@@ -40,7 +40,7 @@ class EstimatorBenchmarkSummary(Callback):
         try:
             import mlflow
 
-            from lwrlab.tracking.mlflow_callback import absolute_tracking_uri
+            from lwrlab.tracking.store import absolute_tracking_uri
 
             client = mlflow.MlflowClient(absolute_tracking_uri(self.tracking_uri, Path.cwd()))
             experiment = client.get_experiment_by_name(self.experiment)

@@ -38,12 +38,12 @@ import pandas as pd
 from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.derived_runs import derived_key, log_derived_run
-from lwrlab.tracking.mlflow_callback import RUN_KIND_TAG, absolute_tracking_uri, provenance_tags
+from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.naming import HEADLINE_METRICS, PER_JOINT_RMS, is_timing_metric
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.report import DEFAULT_TRACKING_URI, parse_pairs, select_runs, selection_filter
 from lwrlab.tracking.run_groups import PARAM_PREFIX, swept_parameters
-from lwrlab.tracking.store import retry_locked
+from lwrlab.tracking.store import absolute_tracking_uri, retry_locked
 
 log = logging.getLogger(__name__)
 

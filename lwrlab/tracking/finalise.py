@@ -68,7 +68,7 @@ def end_killed(
     str
         A sentence saying where the outputs are (also tagged ``interrupted_outputs``).
     """
-    from lwrlab.tracking.mlflow_callback import log_output_folder  # the callback module imports this one
+    from lwrlab.tracking.run_logging import log_output_folder  # the callback module imports this one
 
     if output_dir is None or not output_dir.is_dir():
         where = "no output folder on this machine"

@@ -1,19 +1,19 @@
-"""What a reader of the MLflow store sees first: experiment kind and description, run names, plugin names.
+"""What a reader of the MLflow store sees first: experiment kind and description, run names.
 
 * Experiments are created as model-development experiments (tag ``mlflow.experimentKind``), so that
   MLflow 3's UI opens on their runs rather than on an empty GenAI traces page, and their description
   lists the headline metrics with their units.
 * A run is named by what differs: the swept overrides first (a config-group choice by its option
   alone: ``wls · seed=1``), then the other overrides, and for a recorded log the log file's stem.
-* Every config-group choice is logged as a param under its group's name (``estimator=wls``,
-  ``criterion=logdet``, ``robot=kuka_lwr4``), read from Hydra's runtime choices.
 
 Examples
 --------
->>> run_name(["estimator=wls", "seed=1", "task=identification"], swept={"estimator", "seed"}, groups={"estimator", "task"})
+>>> run_name(
+...     ["estimator=wls", "seed=1", "task=identification"],
+...     swept={"estimator", "seed"},
+...     groups={"estimator", "task"},
+... )
 'wls · seed=1 · identification'
->>> plugin_choices({"estimator": "wls", "trajectory@validation": "multisine_validation", "hydra/launcher": "basic", "tool": None})
-{'estimator': 'wls', 'validation': 'multisine_validation', 'tool': 'none'}
 """
 
 from __future__ import annotations
@@ -25,6 +25,9 @@ from pathlib import PurePath
 from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from lwrlab.tracking.config_params import RUN_NAME_MAX_LENGTH, runtime_choices, task_overrides, truncate
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +71,8 @@ def is_timing_metric(name: str) -> bool:
 def experiment_description(name: str) -> str:
     """The description of a new experiment: what its runs are and the headline metrics with units."""
     lines = [
-        f"lwrlab runs of `{name}`: one run per Hydra job; a sweep is a parent run with one nested run per job.",
+        f"lwrlab runs of `{name}`: one run per Hydra job; "
+        "a sweep is a parent run with one nested run per job.",
         "Run names start with what differs (swept overrides first); config-group choices are params "
         "(estimator, criterion, robot, trajectory, plant, …).",
         "",
@@ -76,32 +80,10 @@ def experiment_description(name: str) -> str:
         *(f"- `{metric}` [{unit}]: {meaning}" for metric, (unit, meaning) in HEADLINE_METRICS.items()),
         "- timings [s]: `fit_cpu_s` (estimator fit), `stage_*_s` (stages of the whole chain)",
         "",
-        f"Compare runs grouped by what was swept, seeds as replication: `lwrlab compare --experiment {name}`.",
+        "Compare runs grouped by what was swept, seeds as replication: "
+        f"`lwrlab compare --experiment {name}`.",
     ]
     return "\n".join(lines)
-
-
-def plugin_choices(choices: Mapping[str, Any]) -> dict[str, str]:
-    """Config-group choices as params: ``{"estimator": "wls", …}``; ``group@package`` under its package.
-
-    Hydra's own groups (``hydra/launcher``, …) are left out; an empty slot (``tool: null``) is ``none``.
-    """
-    params: dict[str, str] = {}
-    for group, option in choices.items():
-        if str(group).startswith("hydra/"):
-            continue
-        name = str(group).rsplit("@", 1)[-1] if "@" in str(group) else str(group)
-        params[name.replace("/", ".")] = "none" if option is None else str(option)
-    return params
-
-
-def runtime_choices(config: DictConfig) -> dict[str, Any]:
-    """Hydra's runtime choices of a job's config (``{}`` outside Hydra)."""
-    choices = OmegaConf.select(config, "hydra.runtime.choices", default=None)
-    if not OmegaConf.is_config(choices):
-        return {}
-    container = OmegaConf.to_container(choices, resolve=False)
-    return dict(container) if isinstance(container, dict) else {}
 
 
 def _key_and_value(override: str) -> tuple[str, str]:
@@ -110,27 +92,28 @@ def _key_and_value(override: str) -> tuple[str, str]:
 
 
 def swept_keys(sweep_overrides: Iterable[str], sweeper_params: Mapping[str, Any] | None = None) -> list[str]:
-    """The keys a sweep varies: overrides with several values (``a,b``, ``range()``, ``choice()``…) and sweeper params."""
+    """The keys a sweep varies: overrides with several values (``a,b``, ``range()``…) and sweeper params."""
     keys: list[str] = []
     overrides = [str(item) for item in sweep_overrides]
-    try:
-        from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import OverrideParseException
 
+    try:
         for parsed in OverridesParser.create().parse_overrides(overrides):
             if parsed.is_sweep_override():
                 keys.append(parsed.get_key_element().lstrip("+~"))
-    except Exception:  # an override Hydra's grammar rejects here: fall back on commas
+    except OverrideParseException:  # an override Hydra's grammar rejects here: fall back on commas
         keys = [key for key, value in map(_key_and_value, overrides) if "," in value]
     keys += [str(key) for key in (sweeper_params or {})]
     return list(dict.fromkeys(keys))
 
 
 def log_file_stem(config: DictConfig) -> str | None:
-    """The stem of a recorded log's file (``data.path``, or the first of ``data.paths``), if the job reads one."""
+    """The stem of a recorded log's file (``data.path``, or the first of ``data.paths``), if any."""
     for key in ("data.path", "data.paths"):
         try:
             value = OmegaConf.select(config, key, default=None, throw_on_missing=False)
-        except Exception:  # an interpolation that does not resolve here
+        except OmegaConfBaseException:  # an interpolation that does not resolve here
             continue
         if OmegaConf.is_list(value) or isinstance(value, (list, tuple)):
             value = value[0] if len(value) else None
@@ -178,6 +161,15 @@ def run_name(
     return NAME_SEPARATOR.join(first + rest) or fallback
 
 
+def job_run_name(config: DictConfig, swept: Collection[str] = ()) -> str:
+    """The name of a job's run (see :func:`run_name`), read from its config and cut to MLflow's limit."""
+    choices = runtime_choices(config)
+    fallback = str(choices.get("task") or OmegaConf.select(config, "hydra.job.name", default="job"))
+    log_stem = log_file_stem(config) if choices.get("plant") == "log" else None
+    name = run_name(task_overrides(config), swept, set(choices), fallback, log_stem)
+    return truncate(name, RUN_NAME_MAX_LENGTH)
+
+
 __all__ = [
     "DESCRIPTION_TAG",
     "EXPERIMENT_KIND",
@@ -186,9 +178,8 @@ __all__ = [
     "PER_JOINT_RMS",
     "experiment_description",
     "is_timing_metric",
+    "job_run_name",
     "log_file_stem",
-    "plugin_choices",
     "run_name",
-    "runtime_choices",
     "swept_keys",
 ]

@@ -11,7 +11,7 @@ record_id : str — unique id, also logged as tag ``offline_record_id`` so a syn
 experiment, run_name : str
 tags, params : dict[str, str]
 metrics : dict[str, float]
-status : ``RUNNING`` (the job never ended), ``FINISHED`` or ``FAILED``.
+status : ``RUNNING`` (the job never ended), ``FINISHED``, ``FAILED`` or ``KILLED`` (a stop signal).
 start_time_ms, end_time_ms : int | None — Unix time in milliseconds.
 sweep_dir : str | None — the Hydra sweep folder; jobs of one sweep are nested under one parent run.
 sweep_overrides : str — the sweep's override string, for the parent run.
@@ -20,6 +20,7 @@ sweep_overrides : str — the sweep's override string, for the parent run.
 from __future__ import annotations
 
 import json
+import time
 import uuid
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -52,6 +53,16 @@ def new_record(
         "sweep_dir": sweep_dir,
         "sweep_overrides": sweep_overrides,
     }
+
+
+def finish_record(
+    record: dict[str, Any], metrics: Mapping[str, float], status: str, error: str | None = None
+) -> dict[str, Any]:
+    """``record`` ended now with ``status`` (``FINISHED``, ``FAILED``, ``KILLED``), its metrics and error."""
+    record.update(metrics=dict(metrics), status=status, end_time_ms=int(time.time() * 1000))
+    if error is not None:
+        record["tags"]["error"] = error
+    return record
 
 
 def write_record(output_dir: Path, record: Mapping[str, Any]) -> Path:
@@ -99,6 +110,7 @@ __all__ = [
     "OFFLINE_RECORD",
     "SYNCED_RECORD",
     "find_records",
+    "finish_record",
     "mark_synced",
     "new_record",
     "read_record",

@@ -36,15 +36,11 @@ from mlflow.tracking import MlflowClient
 from lwrlab.figures.paper_artifacts import ARTIFACT_KINDS, ArtifactColumnsError, ReportPart
 from lwrlab.reference import paper_results
 from lwrlab.tracking.derived_runs import derived_key, log_derived_run
-from lwrlab.tracking.mlflow_callback import (
-    RUN_KIND_TAG,
-    absolute_tracking_uri,
-    provenance_tags,
-    search_runs_table,
-)
+from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.run_groups import short_name, swept_parameters, value_summary
-from lwrlab.tracking.store import retry_locked
+from lwrlab.tracking.run_queries import search_runs_table
+from lwrlab.tracking.store import absolute_tracking_uri, retry_locked
 
 log = logging.getLogger(__name__)
 

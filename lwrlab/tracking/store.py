@@ -11,11 +11,15 @@ new database at once (migration races), two processes creating the same experime
   journaling (readers no longer block the writer; the setting persists in the file);
 * :func:`retry_locked` — retries a store call that failed with ``database is locked``, with
   jittered exponential back-off.
+
+:func:`absolute_tracking_uri` and :func:`absolute_artifact_location` pin a relative store or artifact
+folder to the folder a command was started in, so that every process of a sweep finds the same store.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import random
 import sqlite3
 import time
@@ -39,6 +43,39 @@ LOCKED_MESSAGES = ("database is locked", "database table is locked")
 RETRY_ATTEMPTS = 12
 RETRY_FIRST_DELAY_S = 0.05
 RETRY_MAX_DELAY_S = 2.0
+
+# Tracking URIs without "://" that are not file paths.
+_BARE_URI_SCHEMES = frozenset({"databricks", "databricks-uc", "uc"})
+
+
+def absolute_tracking_uri(tracking_uri: str, base_dir: Path) -> str:
+    """Make a relative SQLite path (``sqlite:///outputs/mlflow.db``) or plain folder absolute.
+
+    Relative paths are taken from ``base_dir`` (the directory Hydra was started from), so the store
+    does not move when ``hydra.job.chdir=true`` changes the working directory.
+
+    Examples
+    --------
+    >>> absolute_tracking_uri("sqlite:///outputs/mlflow.db", Path("/home/me/lab"))
+    'sqlite:////home/me/lab/outputs/mlflow.db'
+    >>> absolute_tracking_uri("http://127.0.0.1:5000", Path("/home/me/lab"))
+    'http://127.0.0.1:5000'
+    """
+    if tracking_uri.startswith("sqlite:///"):
+        path = tracking_uri[len("sqlite:///") :]
+        if path and path != ":memory:" and not os.path.isabs(path):
+            return "sqlite:///" + str((base_dir / path).resolve())
+        return tracking_uri
+    if "://" not in tracking_uri and ":" not in tracking_uri and tracking_uri not in _BARE_URI_SCHEMES:
+        return str((base_dir / tracking_uri).resolve())
+    return tracking_uri
+
+
+def absolute_artifact_location(artifact_location: str | None, base_dir: Path) -> str | None:
+    """Make a relative artifact folder absolute (URIs such as ``s3://`` are kept as they are)."""
+    if artifact_location is None or "://" in artifact_location:
+        return artifact_location
+    return str((base_dir / artifact_location).resolve())
 
 
 def sqlite_database_path(tracking_uri: str) -> Path | None:
@@ -109,7 +146,7 @@ def retry_locked(function: Callable[..., Result], *args: object, **kwargs: objec
     for attempt in range(RETRY_ATTEMPTS):
         try:
             return function(*args, **kwargs)
-        except Exception as error:
+        except Exception as error:  # a filter, not a catch: anything but a lock error is raised again
             if attempt == RETRY_ATTEMPTS - 1 or not is_locked_error(error):
                 raise
             log.debug("store locked, retry %d in %.2f s", attempt + 1, delay)
@@ -118,4 +155,12 @@ def retry_locked(function: Callable[..., Result], *args: object, **kwargs: objec
     raise AssertionError("unreachable")  # pragma: no cover
 
 
-__all__ = ["is_locked_error", "prepare_sqlite_store", "retry_locked", "sqlite_database_path", "store_lock"]
+__all__ = [
+    "absolute_artifact_location",
+    "absolute_tracking_uri",
+    "is_locked_error",
+    "prepare_sqlite_store",
+    "retry_locked",
+    "sqlite_database_path",
+    "store_lock",
+]

@@ -25,19 +25,17 @@ from typing import Any
 from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking import offline
-from lwrlab.tracking.mlflow_callback import (
-    RUN_ID_FILE,
-    RUN_KIND_TAG,
-    TrackingSettings,
+from lwrlab.tracking.connection import ensure_experiment
+from lwrlab.tracking.provenance import PARENT_RUN_TAG, RUN_KIND_TAG
+from lwrlab.tracking.redaction import Redactor
+from lwrlab.tracking.run_logging import RUN_ID_FILE, log_metrics, log_output_folder, log_params
+from lwrlab.tracking.settings import TrackingSettings
+from lwrlab.tracking.store import (
     absolute_artifact_location,
     absolute_tracking_uri,
-    ensure_experiment,
-    log_metrics,
-    log_output_folder,
-    log_params,
+    prepare_sqlite_store,
+    retry_locked,
 )
-from lwrlab.tracking.redaction import Redactor
-from lwrlab.tracking.store import prepare_sqlite_store, retry_locked
 
 log = logging.getLogger(__name__)
 
@@ -113,7 +111,7 @@ class Syncer:
             tags = {**record["tags"], RECORD_TAG: record["record_id"], "synced": "true"}
             parent = self._parent(experiment_id, record)
             if parent is not None:
-                tags["mlflow.parentRunId"] = parent
+                tags[PARENT_RUN_TAG] = parent
             run = retry_locked(
                 self.client.create_run,
                 experiment_id,
@@ -193,7 +191,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--artifact-location",
         default=None,
-        help=f"artifact root of experiments it creates (default: {DEFAULT_ARTIFACT_LOCATION} for SQLite stores)",
+        help="artifact root of experiments it creates "
+        f"(default: {DEFAULT_ARTIFACT_LOCATION} for SQLite stores)",
     )
     parser.add_argument("--no-artifacts", action="store_true", help="upload params, tags and metrics only")
     arguments = parser.parse_args(argv)
