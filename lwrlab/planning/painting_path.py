@@ -129,7 +129,7 @@ def _segments(
         raise ValueError(f"painting path duration must be positive, got {parameters.duration} s")
     points = parameters.way_points()
     times = way_point_times(points, parameters.duration)
-    n = int(round(parameters.duration * rate_hz)) + 1
+    n = round(parameters.duration * rate_hz) + 1
     t = np.linspace(0.0, parameters.duration, n)
     segment = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
     tau = np.clip((t - times[segment]) / (times[segment + 1] - times[segment]), 0.0, 1.0)
@@ -167,7 +167,10 @@ def sample_path(
 
 
 def way_point_derivatives(parameters: PaintingPathParameters) -> np.ndarray:
-    """(2·(N_r + 1), 2, 6) ∂[y, z]/∂x of the way points, x = [T_C, φ, Z_u, Z_l, Y_0, ΔY] (they are linear in x)."""
+    """(2·(N_r + 1), 2, 6) ∂[y, z]/∂x of the way points, x = [T_C, φ, Z_u, Z_l, Y_0, ΔY].
+
+    The way points are linear in x.
+    """
     derivative = np.zeros((2 * (parameters.n_steps + 1), 2, 6))
     for stroke in range(parameters.n_steps + 1):
         first, second = 2 * stroke, 2 * stroke + 1
@@ -186,7 +189,7 @@ def sample_path_derivatives(parameters: PaintingPathParameters, rate_hz: float) 
     positions do not depend on T_C (nor on φ); they move with the way points and with the
     way-point times' split of the duration (segments ∝ √length).
     """
-    t, points, times, segment, tau = _segments(parameters, rate_hz)
+    t, points, _times, segment, tau = _segments(parameters, rate_hz)
     d_points = way_point_derivatives(parameters)
     step = np.diff(points, axis=0)
     d_step = np.diff(d_points, axis=0)

@@ -14,12 +14,13 @@ singularities of the analytic IK (|sin q2|, |sin q4|, |sin q6| ≥ ``singularity
 the chosen branch continuous: no branch flip along the path.
 
 SLSQP (scipy) from several starting swivel angles with analytic gradients of the cost and of every
-constraint (:meth:`PathProblem.cost_gradient`, :meth:`PathProblem.constraint_jacobian`): the path's
-positions differentiated in the way points and their times, the closed-form IK differentiated
-forward (:mod:`lwrlab.kinematics.swivel_ik_derivatives`), q̇ and q̈ through the same differences,
-torques by Pinocchio's RNEA derivatives at the samples where a limit is closest. Every constraint
-is written ``g(x) ≥ 0`` and named, so an infeasible problem ends with an error naming the violated
-constraints. A max/min over the path is differentiated at its arg max/min (a subgradient).
+constraint (:meth:`PathProblem.cost_gradient`, :meth:`PathProblem.constraint_jacobian`, computed in
+:mod:`lwrlab.planning.path_gradients`): the path's positions differentiated in the way points and
+their times, the closed-form IK differentiated forward (:mod:`lwrlab.kinematics.swivel_ik_derivatives`),
+q̇ and q̈ through the same differences, torques by Pinocchio's RNEA derivatives at the samples where a
+limit is closest. Every constraint is written ``g(x) ≥ 0`` and named, so an infeasible problem ends
+with an error naming the violated constraints. A max/min over the path is differentiated at its arg
+max/min (a subgradient).
 """
 
 from __future__ import annotations
@@ -28,38 +29,24 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import pinocchio as pin
 from scipy.optimize import minimize
 
 from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
-from lwrlab.kinematics.swivel_ik_derivatives import solve_branch_derivatives
 from lwrlab.model.robot import RobotModel
+from lwrlab.numerics.slsqp import vector_inequality
+from lwrlab.planning import path_gradients
 from lwrlab.planning.painting_path import (
     TOOL_ORIENTATION,
     PaintingPathParameters,
     SampledPath,
     sample_path,
-    sample_path_derivatives,
 )
+from lwrlab.planning.path_gradients import TrajectoryDerivatives
 
+DEFAULT_BRANCH = Branch(1, 1, 1)
+"""The IK branch of a :class:`PathProblem` not given one: sin q2, sin q4, sin q6 all positive."""
 GRADIENTS = ("analytic", "finite_differences")
 """How :func:`optimise_path` gets its gradients: analytic, or SLSQP's own finite differences."""
-
-
-@dataclass(frozen=True)
-class TrajectoryDerivatives:
-    """The search-grid joint trajectory and its derivatives in x = [T_C, φ, Z_u, Z_l, Y_0, ΔY]."""
-
-    t: np.ndarray
-    """(N,) time (s)."""
-    q: np.ndarray
-    """(N, N_J) positions (rad); ``dq``, ``ddq`` velocities and accelerations as :meth:`PathProblem.joint_trajectory`."""
-    dq: np.ndarray
-    ddq: np.ndarray
-    q_x: np.ndarray
-    """(N, N_J, 6) ∂q/∂x; ``dq_x``, ``ddq_x`` likewise (at a fixed number of samples)."""
-    dq_x: np.ndarray
-    ddq_x: np.ndarray
 
 
 class InfeasiblePath(ValueError):
@@ -106,7 +93,7 @@ class PathProblem:
     wall: WallBounds
     roller_width: float
     n_steps: int = 2
-    branch: Branch = Branch(1, 1, 1)
+    branch: Branch = DEFAULT_BRANCH
     rate_hz: float = 100.0
     search_rate_hz: float = 10.0
     torque_stride: int = 4
@@ -157,38 +144,22 @@ class PathProblem:
         return path.t, q, dq, ddq
 
     def trajectory_derivatives(self, x: np.ndarray) -> TrajectoryDerivatives:
-        """The search-grid trajectory with its derivatives in x; memoised for the last ``x``.
-
-        Positions along the path do not depend on T_C at a fixed sample count (the samples sit at
-        fixed fractions of T_C), so ∂q/∂T_C = 0, ∂q̇/∂T_C = −q̇/T_C and ∂q̈/∂T_C = −2·q̈/T_C.
-        """
+        """The search-grid trajectory with its derivatives in x (:mod:`lwrlab.planning.path_gradients`);
+        memoised for the last ``x``."""
         key = tuple(np.asarray(x, dtype=float))
         if self._derivative_memo is not None and self._derivative_memo[0] == key:
             return self._derivative_memo[1]
-        parameters = self.parameters(x)
-        path = self.path(x, self.search_rate_hz)
-        flange = self.flange_poses(path)
-        solution, q_position, q_swivel = solve_branch_derivatives(self.ik, flange, float(x[1]), self.branch)
-        position_x = sample_path_derivatives(
-            parameters, self.search_rate_hz
-        )  # (N, 3, 6); the flange moves with the tool
-        q_x = np.einsum("nja,nax->njx", q_position, position_x)
-        q_x[:, :, 1] += q_swivel
-        dt, duration = path.t[1] - path.t[0], float(x[0])
-        q = solution.q
-        dq = np.gradient(q, dt, axis=0, edge_order=2)
-        ddq = np.gradient(dq, dt, axis=0, edge_order=2)
-        dq_x = np.gradient(q_x, dt, axis=0, edge_order=2)
-        dq_x[:, :, 0] -= dq / duration
-        ddq_x = np.gradient(dq_x, dt, axis=0, edge_order=2)
-        ddq_x[:, :, 0] -= ddq / duration
-        result = TrajectoryDerivatives(path.t, q, dq, ddq, q_x, dq_x, ddq_x)
+        result = path_gradients.trajectory_derivatives(self, x)
         self._derivative_memo = (key, result)
-        self._memo = ((key, None), (path.t, q, dq, ddq))  # the same trajectory for the constraints and cost
+        # the same trajectory for the constraints and the cost
+        self._memo = ((key, None), (result.t, result.q, result.dq, result.ddq))
         return result
 
     def strided_torques(self, x: np.ndarray) -> np.ndarray:
-        """(N / torque_stride, N_J) joint torques (N·m) every ``torque_stride`` samples; memoised for the last ``x``."""
+        """(N / torque_stride, N_J) joint torques (N·m) every ``torque_stride`` samples.
+
+        Memoised for the last ``x``.
+        """
         key = tuple(np.asarray(x, dtype=float))
         if self._torque_memo is None or self._torque_memo[0] != key:
             _, q, dq, ddq = self.joint_trajectory(x)
@@ -242,7 +213,7 @@ class PathProblem:
 
     def constraints(self, x: np.ndarray) -> dict[str, float]:
         """Every constraint of eq. (12) by name, ``≥ 0`` when satisfied."""
-        values, _ = self._constraints_and_stage(x)
+        values, _ = self.constraints_and_stage(x)
         return values
 
     @staticmethod
@@ -250,7 +221,7 @@ class PathProblem:
         """Coinciding way points (Z_u = Z_l or ΔY ≤ 0): no path to evaluate."""
         return geometric["Z_u − Z_l ≥ min stroke"] + min_stroke <= 1e-6 or geometric["ΔY > 0"] < 0
 
-    def _constraints_and_stage(self, x: np.ndarray) -> tuple[dict[str, float], str]:
+    def constraints_and_stage(self, x: np.ndarray) -> tuple[dict[str, float], str]:
         """The constraints and how far they were evaluated: ``geometric``, ``reach`` or ``joints``."""
         values = self.geometric_constraints(x)
         if self._is_degenerate(values, self.min_stroke):
@@ -269,79 +240,13 @@ class PathProblem:
         values.update(self.joint_constraints(x))
         return values, "joints"
 
+    def constraint_values(self, x: np.ndarray) -> np.ndarray:
+        """The values of :meth:`constraints` as a vector, in its order (SLSQP's ``g(x) ≥ 0``)."""
+        return np.array(list(self.constraints(x).values()))
+
     def constraint_jacobian(self, x: np.ndarray) -> np.ndarray:
-        """(N_constraints, 6) ∂g/∂x of :meth:`constraints`, rows in its order; placeholders (−1) have zero rows."""
-        values, stage = self._constraints_and_stage(x)
-        gradients = {name: np.zeros(6) for name in values}
-        gradients.update(self._geometric_gradients())
-        if stage != "geometric":
-            gradients.update(self._reach_gradients(x))
-        if stage == "joints":
-            gradients.update(self._joint_gradients(x))
-        return np.array([gradients[name] for name in values])
-
-    def _geometric_gradients(self) -> dict[str, np.ndarray]:
-        rows = {
-            "Z_l ≥ Z⁻": (3, 1.0),
-            "Z_u ≤ Z⁺": (2, -1.0),
-            "Y_0 − w_L/2 ≥ Y⁻": (4, 1.0),
-            "ΔY ≤ w_L − overlap": (5, -1.0),
-            "ΔY > 0": (5, 1.0),
-        }
-        gradients = {name: np.eye(6)[i] * sign for name, (i, sign) in rows.items()}
-        gradients["Z_u − Z_l ≥ min stroke"] = np.eye(6)[2] - np.eye(6)[3]
-        gradients["Y_0 + N_r·ΔY + w_L/2 ≤ Y⁺"] = -np.eye(6)[4] - self.n_steps * np.eye(6)[5]
-        return gradients
-
-    def _reach_gradients(self, x: np.ndarray) -> dict[str, np.ndarray]:
-        # the wrist moves with the flange, the flange with the tool (fixed orientation): no IK needed
-        wrist = self.ik.wrist_pose(self.flange_poses(self.path(x, self.search_rate_hz)))[:, :3, 3]
-        wrist_x = sample_path_derivatives(self.parameters(x), self.search_rate_hz)
-        offset = wrist - [0.0, 0.0, self.ik.shoulder_height]
-        distance = np.linalg.norm(offset, axis=1)
-        distance_x = np.einsum("ni,nix->nx", offset, wrist_x) / distance[:, None]
-        return {
-            "reach (outer)": -distance_x[distance.argmax()],
-            "reach (inner)": distance_x[distance.argmin()],
-        }
-
-    def _joint_gradients(self, x: np.ndarray) -> dict[str, np.ndarray]:
-        d = self.trajectory_derivatives(x)
-        lim = self.robot.limits
-        span = lim.position_upper - lim.position_lower
-        stride = self.torque_stride
-        tau = self.strided_torques(x)
-        gradients = {}
-        for j in range(self.robot.n_joints):
-            gradients[f"q{j + 1} ≥ lower"] = d.q_x[d.q[:, j].argmin(), j] / span[j]
-            gradients[f"q{j + 1} ≤ upper"] = -d.q_x[d.q[:, j].argmax(), j] / span[j]
-            for name, values, derivative, limit in (
-                ("q̇", d.dq, d.dq_x, lim.velocity),
-                ("q̈", d.ddq, d.ddq_x, lim.acceleration),
-            ):
-                k = np.abs(values[:, j]).argmax()
-                gradients[f"|{name}{j + 1}| ≤ limit"] = -np.sign(values[k, j]) * derivative[k, j] / limit[j]
-            k = np.abs(tau[:, j]).argmax()
-            gradients[f"|Γ{j + 1}| ≤ limit"] = (
-                -np.sign(tau[k, j]) * self._torque_gradient(d, stride * k)[j] / lim.torque[j]
-            )
-        for name, j in zip(("shoulder", "elbow", "wrist"), (1, 3, 5), strict=True):
-            k = np.abs(np.sin(d.q[:, j])).argmin()
-            gradients[f"{name} singularity margin"] = (
-                np.sign(np.sin(d.q[k, j])) * np.cos(d.q[k, j]) * d.q_x[k, j]
-            )
-        return gradients
-
-    def _torque_gradient(self, d: TrajectoryDerivatives, k: int) -> np.ndarray:
-        """(N_J, 6) ∂Γ/∂x at sample k: RNEA derivatives chained with ∂(q, q̇, q̈)/∂x, plus viscous friction."""
-        model = self.robot.model
-        data = model.createData()  # kept alive while its derivative arrays (views into it) are used
-        tau_q, tau_v, tau_a = pin.computeRNEADerivatives(model, data, d.q[k], d.dq[k], d.ddq[k])
-        if "viscous" in self.robot.friction_terms:
-            tau_v = tau_v + np.diag(
-                self.robot.friction.viscous
-            )  # Coulomb's sign(q̇) has no derivative off q̇ = 0
-        return tau_q @ d.q_x[k] + tau_v @ d.dq_x[k] + tau_a @ d.ddq_x[k]
+        """(N_constraints, 6) ∂g/∂x of :meth:`constraints`, rows in its order (placeholders: zero rows)."""
+        return path_gradients.constraint_jacobian(self, x)
 
     @property
     def joint_constraint_names(self) -> list[str]:
@@ -361,9 +266,8 @@ class PathProblem:
         p = self.parameters(x)
         try:
             t, _, _, ddq = self.joint_trajectory(x)
-            smoothness = float(
-                self.rate_hz * np.trapezoid(np.sum(ddq**2, axis=1), t)
-            )  # ≈ Σ_k Σ_j q̈² at rate_hz
+            # ≈ Σ_k Σ_j q̈² at rate_hz
+            smoothness = float(self.rate_hz * np.trapezoid(np.sum(ddq**2, axis=1), t))
         except ValueError:  # degenerate or unreachable path: the constraints say so
             smoothness = 1e6
         return {
@@ -376,27 +280,8 @@ class PathProblem:
         return float(sum(self.cost_terms(x).values()))
 
     def cost_gradient(self, x: np.ndarray) -> np.ndarray:
-        """(6,) ∂cost/∂x of eq. (12)."""
-        p = self.parameters(x)
-        gradient = np.zeros(6)
-        gradient[0] = 1.0  # T_C
-        area = (p.z_upper - p.z_lower) * p.y_step
-        if area > 1e-6:
-            gradient[[2, 3, 5]] -= np.array([p.y_step, -p.y_step, p.z_upper - p.z_lower]) / area**2
-        try:
-            d = self.trajectory_derivatives(x)
-        except ValueError:  # degenerate or unreachable path: the smoothness term is a constant there
-            return gradient
-        # S = w·rate·trapz(Σ q̈², t); the grid spacing scales with T_C
-        squares = np.sum(d.ddq**2, axis=1)
-        smoothness = self.rate_hz * np.trapezoid(squares, d.t)
-        gradient += (
-            self.smoothness_weight
-            * self.rate_hz
-            * np.trapezoid(2 * np.einsum("nj,njx->nx", d.ddq, d.ddq_x), d.t, axis=0)
-        )
-        gradient[0] += self.smoothness_weight * smoothness / float(x[0])
-        return gradient
+        """(6,) ∂cost/∂x of eq. (12) (:func:`lwrlab.planning.path_gradients.cost_gradient`)."""
+        return path_gradients.cost_gradient(self, x)
 
 
 @dataclass
@@ -476,9 +361,9 @@ def optimise_path(
     ):
         candidate = replace(problem, branch=branch)
         x0 = np.array([np.mean(problem.duration_bounds), swivel, z_mid + 0.1, z_mid - 0.1, y_start, y_step])
-        constraint = {"type": "ineq", "fun": lambda x, c=candidate: np.array(list(c.constraints(x).values()))}
-        if analytic:
-            constraint["jac"] = candidate.constraint_jacobian
+        constraint = vector_inequality(
+            candidate.constraint_values, candidate.constraint_jacobian if analytic else None
+        )
         result = minimize(
             candidate.cost,
             x0,
