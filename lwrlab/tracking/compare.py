@@ -11,7 +11,10 @@ seed is replication), and writes under ``outputs/compare/``:
 * ``runs.csv``: the runs compared.
 
 The folder is logged once as a run of the compared experiment (nested under the sweep's parent when
-one is compared); the same comparison of the same runs is not logged twice.
+one is compared); the same comparison of the same runs is not logged twice. After the table it prints
+where to see the runs in MLflow's model-training view (MLflow 3.17 opens a new browser on its GenAI
+view whatever the experiment's kind): the URL for a server, the ``mlflow ui`` command and the URL for
+a local store.
 
 Examples
 --------
@@ -29,26 +32,31 @@ import datetime as _dt
 import logging
 import os
 import re
+import shlex
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from mlflow.exceptions import MlflowException
 from mlflow.tracking import MlflowClient
 
+from lwrlab.tracking.connection import without_userinfo
 from lwrlab.tracking.derived_runs import derived_key, log_derived_run
-from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.naming import HEADLINE_METRICS, PER_JOINT_RMS, is_timing_metric
+from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.report import DEFAULT_TRACKING_URI, parse_pairs, select_runs, selection_filter
 from lwrlab.tracking.run_groups import PARAM_PREFIX, swept_parameters
-from lwrlab.tracking.store import absolute_tracking_uri, retry_locked
+from lwrlab.tracking.store import absolute_tracking_uri, retry_locked, sqlite_database_path
 
 log = logging.getLogger(__name__)
 
 METRIC_PREFIX = "metrics."
 ALL_RUNS = "all runs"
+MLFLOW_UI_ADDRESS = "http://127.0.0.1:5000"
+"""Where ``mlflow ui`` serves by default."""
 
 
 @dataclass
@@ -168,7 +176,7 @@ def per_joint_rms(runs: pd.DataFrame, labels: pd.Series) -> tuple[np.ndarray, np
 
 
 def write_comparison(comparison: Comparison, output_dir: Path, title: str) -> list[Path]:
-    """Write ``compare.md``, ``compare.csv``, ``runs.csv`` and ``rms_per_joint.png`` (if per-joint RMS exist)."""
+    """Write ``compare.md``, ``compare.csv``, ``runs.csv`` and, given per-joint RMS, ``rms_per_joint.png``."""
     from lwrlab.figures.torques import rms_per_joint_by_group
 
     output_dir.mkdir(parents=True, exist_ok=True)
@@ -177,7 +185,8 @@ def write_comparison(comparison: Comparison, output_dir: Path, title: str) -> li
         [
             f"# {title}",
             "",
-            f"- runs: {len(comparison.runs)} FINISHED job runs; grouped by {grouped_by}; seeds pooled as replication",
+            f"- runs: {len(comparison.runs)} FINISHED job runs; grouped by {grouped_by}; "
+            "seeds pooled as replication",
             "- mean ± sample standard deviation over each group's runs",
             "",
             to_markdown(comparison),
@@ -204,6 +213,58 @@ def write_comparison(comparison: Comparison, output_dir: Path, title: str) -> li
         mean, spread, labels = joints
         written.append(rms_per_joint_by_group(mean, spread, labels, output_dir / "rms_per_joint.png", title))
     return written
+
+
+def runs_view_path(experiment_id: str) -> str:
+    """The UI path of an experiment's runs in MLflow's model-training view (not its GenAI view).
+
+    Examples
+    --------
+    >>> runs_view_path("3")
+    '/#/experiments/3/runs?workflowType=machine_learning'
+    """
+    return f"/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
+
+
+def runs_view_hint(tracking_uri: str, experiment_id: str) -> str | None:
+    """How to open an experiment's runs in MLflow's UI: a server's URL, or ``mlflow ui`` for a local store.
+
+    Parameters
+    ----------
+    tracking_uri
+        The store, absolute (see :func:`~lwrlab.tracking.store.absolute_tracking_uri`).
+    experiment_id
+        The experiment.
+
+    Returns
+    -------
+    str | None
+        One line; ``None`` for a store that is neither a server nor local (a database server, Databricks).
+
+    Examples
+    --------
+    >>> runs_view_hint("http://user:secret@mlflow.lab:5000/", "3")
+    'MLflow UI: http://mlflow.lab:5000/#/experiments/3/runs?workflowType=machine_learning'
+    >>> runs_view_hint("sqlite:////lab/outputs/mlflow.db", "3")  # doctest: +NORMALIZE_WHITESPACE
+    'MLflow UI: mlflow ui --backend-store-uri sqlite:////lab/outputs/mlflow.db, then open
+    http://127.0.0.1:5000/#/experiments/3/runs?workflowType=machine_learning'
+    """
+    path = runs_view_path(experiment_id)
+    if tracking_uri.startswith(("http://", "https://")):
+        server = Redactor().redact(without_userinfo(tracking_uri)).rstrip("/")
+        return f"MLflow UI: {server}{path}"
+    is_folder = "://" not in tracking_uri and ":" not in tracking_uri  # a plain path: a file store
+    if sqlite_database_path(tracking_uri) is None and not tracking_uri.startswith("file:") and not is_folder:
+        return None
+    command = f"mlflow ui --backend-store-uri {shlex.quote(tracking_uri)}"
+    return f"MLflow UI: {command}, then open {MLFLOW_UI_ADDRESS}{path}"
+
+
+def _experiment_id(client: MlflowClient, name: str) -> str:
+    found = retry_locked(client.get_experiment_by_name, name)
+    if found is None:
+        raise ValueError(f"no experiment named {name!r}")
+    return found.experiment_id
 
 
 def _experiment_of_parent(client: MlflowClient, parent_run_id: str) -> tuple[str, str]:
@@ -264,10 +325,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         runs = select_runs(uri, [experiment], filter_string)
         if runs.empty:
             parser.error(f"no FINISHED job run of experiment {experiment!r} matches `{filter_string}`")
+        if not arguments.parent:
+            experiment_id = _experiment_id(client, experiment)
         comparison = compare_runs(runs, arguments.by)
-    except Exception as error:  # an unknown experiment or parameter: one line, not a traceback
-        if isinstance(error, SystemExit):
-            raise
+    except (ValueError, MlflowException, OSError) as error:
+        # An unknown experiment, run or parameter, a bad filter, an unreachable store: one line, no traceback.
         parser.error(str(Redactor().redact(str(error))))
     name = arguments.parent or experiment
     stamp = _dt.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
@@ -276,8 +338,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     title = f"{experiment}: comparison" + (f" of sweep {arguments.parent}" if arguments.parent else "")
     write_comparison(comparison, output, title)
     print((output / "compare.md").read_text(encoding="utf-8"))
+    hint = runs_view_hint(uri, experiment_id)
+    if hint is not None:
+        print(hint)
     if not arguments.no_log:
-        experiment_id = retry_locked(client.get_experiment_by_name, experiment).experiment_id
         key = derived_key("compare", runs["run_id"], {"filter": filter_string, "by": comparison.groups})
         tags = {
             RUN_KIND_TAG: "compare",
@@ -288,9 +352,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         }
         run_name = "compare · " + (", ".join(comparison.groups) or ALL_RUNS)
         run_id, logged = log_derived_run(client, experiment_id, key, output, run_name, tags, arguments.parent)
-        print(
-            f"comparison {'logged as' if logged else 'already logged as'} run {run_id} of experiment {experiment!r}"
-        )
+        said = "logged as" if logged else "already logged as"
+        print(f"comparison {said} run {run_id} of experiment {experiment!r}")
     print(f"comparison written to {output}")
     return 0
 
@@ -301,6 +364,8 @@ __all__ = [
     "headline_metrics",
     "main",
     "per_joint_rms",
+    "runs_view_hint",
+    "runs_view_path",
     "to_markdown",
     "write_comparison",
 ]

@@ -1,0 +1,67 @@
+"""`lwrlab compare` says where its runs are in MLflow's model-training view (MLflow 3.17 opens on GenAI).
+
+The server URL must have the form the README documents; a local store gets the `mlflow ui` command and
+the same path. The command is checked end to end on a real SQLite store with one finished job run.
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+from mlflow.tracking import MlflowClient
+
+from lwrlab.tracking.compare import MLFLOW_UI_ADDRESS, main, runs_view_hint
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_a_server_gets_the_runs_url_the_readme_documents_without_its_password() -> None:
+    documented = re.search(r"`(http://127\.0\.0\.1:5000/#/experiments/<id>/runs\?[^`]+)`", README.read_text())
+    assert documented is not None, "README no longer documents the runs URL"
+    assert runs_view_hint("http://127.0.0.1:5000", "<id>") == f"MLflow UI: {documented.group(1)}"
+    hint = runs_view_hint("https://user:secret@mlflow.lab:8443/", "7")
+    assert hint == "MLflow UI: https://mlflow.lab:8443/#/experiments/7/runs?workflowType=machine_learning"
+
+
+def test_a_local_store_gets_the_mlflow_ui_command_and_the_path() -> None:
+    hint = runs_view_hint("sqlite:////lab/my outputs/mlflow.db", "4")
+    assert hint is not None
+    command, url = hint.removeprefix("MLflow UI: ").split(", then open ")
+    assert shlex.split(command) == [
+        "mlflow",
+        "ui",
+        "--backend-store-uri",
+        "sqlite:////lab/my outputs/mlflow.db",
+    ]
+    assert url == f"{MLFLOW_UI_ADDRESS}/#/experiments/4/runs?workflowType=machine_learning"
+    assert "--backend-store-uri /lab/mlruns," in str(runs_view_hint("/lab/mlruns", "0"))  # a file store
+    assert runs_view_hint("postgresql://user:secret@db/mlflow", "4") is None  # not local, not a UI server
+
+
+def test_compare_prints_the_hint_after_its_table_with_the_experiment_id(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    client = MlflowClient(tracking_uri=f"sqlite:///{tmp_path / 'store' / 'mlflow.db'}")
+    client.create_experiment("other")  # so that the compared experiment's id is not the first one
+    experiment_id = client.create_experiment("ui_link")
+    for seed in (0, 1):
+        run = client.create_run(experiment_id, tags={"run_kind": "job", "seed": str(seed)})
+        client.log_param(run.info.run_id, "seed", str(seed))
+        client.log_metric(run.info.run_id, "rms_mean", 0.1 + seed)
+        client.set_terminated(run.info.run_id, "FINISHED")
+
+    relative_store = "sqlite:///store/mlflow.db"  # made absolute before it is printed
+    assert main(["--tracking-uri", relative_store, "--experiment", "ui_link", "--no-log"]) == 0
+    printed = capsys.readouterr().out
+    table_end = printed.index("rms_mean [N·m]")
+    hint = next(line for line in printed.splitlines() if line.startswith("MLflow UI: "))
+    assert printed.index(hint) > table_end
+    store = f"sqlite:///{(tmp_path / 'store' / 'mlflow.db').resolve()}"
+    assert hint == (
+        f"MLflow UI: mlflow ui --backend-store-uri {store}, "
+        f"then open {MLFLOW_UI_ADDRESS}/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
+    )
