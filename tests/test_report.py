@@ -77,10 +77,10 @@ def test_report_of_one_criterion_pools_its_seeds_into_table3_and_table4(store: s
         store, tmp_path, ["report_fixture"], selection_filter(params={"fixture_criterion": "cond"})
     )
     table4 = report.parts["table4"].tables["table4_force"].set_index("comparison")
-    assert table4.loc["estimated_vs_measured", "rms"] == pytest.approx(
-        np.mean([2.5 + seed for seed in SEEDS])
-    )
-    assert table4.loc["estimated_vs_measured", "paper_rms"] == 2.9
+    assert table4.loc["estimated/measured", "rms"] == pytest.approx(np.mean([2.5 + seed for seed in SEEDS]))
+    # the painting's names (large_roller, estimated/measured) find the paper's row (large, …_vs_…)
+    assert table4.loc["estimated/measured", "paper_rms"] == 2.9
+    assert table4.loc["measured/desired", "paper_rms_over_mean_pct"] == 10.5
     table3 = report.parts["table3"].tables["table3_tools"].set_index("parameter")
     assert table3.loc["M", "paper_phi"] == pytest.approx(0.237)
 

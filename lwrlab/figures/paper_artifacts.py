@@ -275,7 +275,10 @@ def table4_force(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path
     reference = paper.get("table4_normal_force_accuracy", {})
     paper_rms, paper_rms_over_mean_pct = [], []
     for roller, _model, _feedback, comparison in table.index:
-        values = reference.get(str(roller), {}).get(str(comparison))
+        # The painting writes `large_roller` and `estimated/measured`; the paper's keys are `large`
+        # and `estimated_vs_measured`.
+        paper_roller = str(roller).removesuffix("_roller")
+        values = reference.get(paper_roller, {}).get(str(comparison).replace("/", "_vs_"))
         paper_rms.append(values[0] if values else np.nan)
         paper_rms_over_mean_pct.append(values[1] if values else np.nan)
     table["paper_rms"], table["paper_rms_over_mean_pct"] = paper_rms, paper_rms_over_mean_pct

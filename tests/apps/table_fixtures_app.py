@@ -58,10 +58,10 @@ def main(cfg: DictConfig) -> dict[str, float]:
     ).to_csv(output_dir / "table3_tools.csv", index=False)
     pd.DataFrame(
         {
-            "roller": ["large", "large"],
+            "roller": ["large_roller", "large_roller"],  # as the painting stage writes them
             "model": ["identified", "identified"],
             "feedback": ["estimated", "estimated"],
-            "comparison": ["estimated_vs_measured", "measured_vs_desired"],
+            "comparison": ["estimated/measured", "measured/desired"],
             "rms": [2.5 + seed, 2.6],
             "rms_over_mean_pct": [8.0, 9.0],
         }
