@@ -35,13 +35,13 @@ import numpy as np
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
-from lwrlab.dynamics.regressor_derivatives import (
-    _WRENCH_BASIS_FLAT,
-    _forward_pass,
+from lwrlab.dynamics.regressor_jacobians import (
+    forward_pass,
     regressor_jacobians,
     regressor_jacobians_pinocchio,
-    regressor_vjp,
 )
+from lwrlab.dynamics.regressor_vjp import regressor_vjp
+from lwrlab.dynamics.segment_wrench import WRENCH_BASIS_FLAT
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.excitation.solver import SlsqpOptimizer
@@ -83,12 +83,12 @@ def forward_mode_vjp(
     n_samples, n = q.shape
     g_t = np.ascontiguousarray(weights.reshape(n_samples, n, -1).transpose(1, 2, 0))
     grad = np.zeros((3, n, n_samples))
-    for seg in _forward_pass(robot, q, dq, ddq):
+    for seg in forward_pass(robot, q, dq, ddq):
         i, m = seg.index, seg.index + 1
         gi = g_t[:m, 10 * i : 10 * i + 10]
-        y = np.einsum("mr,mn->rn", _WRENCH_BASIS_FLAT, seg.state).reshape(6, 10, n_samples)
+        y = np.einsum("mr,mn->rn", WRENCH_BASIS_FLAT, seg.state).reshape(6, 10, n_samples)
         y_bar = np.einsum("kan,kpn->apn", seg.twists, gi)
-        state_bar = np.einsum("mr,rn->mn", _WRENCH_BASIS_FLAT, y_bar.reshape(60, n_samples))
+        state_bar = np.einsum("mr,rn->mn", WRENCH_BASIS_FLAT, y_bar.reshape(60, n_samples))
         grad[:, :m] += np.einsum("cdmn,mn->cdn", seg.state_tangent, state_bar)
         grad[0, :m] += np.einsum("dkan,kan->dn", seg.twist_tangent, np.einsum("apn,kpn->kan", y, gi))
     return grad
@@ -127,12 +127,14 @@ def compare_criteria(robot, base, duration: float, seeds: list[int], max_iterati
         )
     t_ref, it_ref = rows["logdet"][0], rows["logdet"][1]
     print(
-        f"\n| criterion ({duration:g} s, medians over seeds {seeds}) | time [s] | × logdet | iterations | × logdet | evaluations | cond(W_b) at 1 kHz |"
+        f"\n| criterion ({duration:g} s, medians over seeds {seeds}) | time [s] | × logdet | iterations"
+        " | × logdet | evaluations | cond(W_b) at 1 kHz |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|")
     for name, (seconds, iterations, evaluations, condition) in rows.items():
         print(
-            f"| {name} | {seconds:.1f} | {seconds / t_ref:.2f} | {iterations:.0f} | {iterations / it_ref:.2f} | {evaluations:.0f} | {condition:.3f} |"
+            f"| {name} | {seconds:.1f} | {seconds / t_ref:.2f} | {iterations:.0f} | {iterations / it_ref:.2f}"
+            f" | {evaluations:.0f} | {condition:.3f} |"
         )
 
 
@@ -164,7 +166,8 @@ def run(args: argparse.Namespace) -> None:
 
     print(
         f"robot {robot.name}: {base.count} base parameters, {problem.n_variables} variables, "
-        f"{len(problem.times)} samples at {problem.rate_hz:g} Hz, {len(problem.constraint_labels())} aggregated constraints"
+        f"{len(problem.times)} samples at {problem.rate_hz:g} Hz, "
+        f"{len(problem.constraint_labels())} aggregated constraints"
     )
 
     # 1. analytic gradient vs central finite differences
@@ -180,7 +183,8 @@ def run(args: argparse.Namespace) -> None:
     print("|---|---|---|")
     print(f"| analytic (regressor VJP + B-spline pull-back) | {1e3 * t_analytic:.1f} | 1 |")
     print(
-        f"| central finite differences ({2 * x.size} evaluations) | {1e3 * t_fd:.1f} | {t_fd / t_analytic:.1f}× slower |"
+        f"| central finite differences ({2 * x.size} evaluations) | {1e3 * t_fd:.1f}"
+        f" | {t_fd / t_analytic:.1f}× slower |"
     )
     print(f"largest relative difference analytic vs finite differences: {gap:.2e}")
 
@@ -197,7 +201,8 @@ def run(args: argparse.Namespace) -> None:
     print(f"| vector–Jacobian product (what the optimiser uses) | {1e3 * t_vjp:.2f} | |")
     print(f"| full tensors, forward-mode recursion | {1e3 * t_ours:.2f} | 1 |")
     print(
-        f"| full tensors, Pinocchio computeRNEADerivatives per column | {1e3 * t_pin:.1f} | {t_pin / t_ours:.1f}× slower |"
+        f"| full tensors, Pinocchio computeRNEADerivatives per column | {1e3 * t_pin:.1f}"
+        f" | {t_pin / t_ours:.1f}× slower |"
     )
 
     # 2b. the optimiser's VJP on the whole grid: reverse mode vs the forward-mode contraction (baseline)
@@ -218,7 +223,8 @@ def run(args: argparse.Namespace) -> None:
     print("|---|---|---|")
     print(f"| reverse mode (regressor_vjp) | {1e3 * t_reverse:.2f} | 1 |")
     print(
-        f"| forward-mode tangents contracted (baseline) | {1e3 * t_forward:.2f} | {t_forward / t_reverse:.1f}× slower |"
+        f"| forward-mode tangents contracted (baseline) | {1e3 * t_forward:.2f}"
+        f" | {t_forward / t_reverse:.1f}× slower |"
     )
     print(f"largest relative difference: {np.abs(reverse - forward).max() / np.abs(forward).max():.1e}")
 
@@ -237,7 +243,8 @@ def run(args: argparse.Namespace) -> None:
     print("\n| optimisation (10 s, 7 joints, logdet, all constraints, 1 start) | value |")
     print("|---|---|")
     print(
-        f"| median wall time [s] | {statistics.median(seconds):.1f} (min {min(seconds):.1f}, max {max(seconds):.1f}, {len(seconds)} seeds) |"
+        f"| median wall time [s] | {statistics.median(seconds):.1f} (min {min(seconds):.1f},"
+        f" max {max(seconds):.1f}, {len(seconds)} seeds) |"
     )
     print(f"| median iterations | {statistics.median([r.iterations for r in rows]):.0f} |")
     print(f"| criterion J (best, worst) | {min(r.cost for r in rows):.2f}, {max(r.cost for r in rows):.2f} |")

@@ -4,13 +4,17 @@ For a 7-joint LWR4-like arm (``conf/robot/kuka_lwr4.yaml`` if it exists, otherwi
 table of the KUKA LWR4 with random physically consistent segments) and N random states, it times
 
 * ``regressor(robot, q, dq, ddq)``: the full regressor, inertial and friction columns, (N·N_J, P), by
-  the vectorised recursion from ``SMALL_BATCH`` samples on and by the Pinocchio loop below (the
+  the vectorised recursion from ``SMALL_BATCH`` samples on and by the Pinocchio loop below it (the
   "engine" column);
-* the baseline, a Python loop of ``pin.computeJointTorqueRegressor`` stacked into one (N, N_J, 10·N_J)
-  array (the loop alone: no column permutation, no friction columns);
+* the baseline, the same (N, N_J, P) array by a plain Python loop: one
+  ``pin.computeJointTorqueRegressor`` per sample stacked into an (N, N_J, 10·N_J) array, one
+  ``np.take`` of its columns in the standard order (each segment's 10 from Pinocchio's order
+  ``[m, mc, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]``) into a zeroed (N, N_J, P) array, and the friction
+  columns (sign(q̇), q̇ or 1 on their diagonals);
+* for reference, the bare loop of Pinocchio calls alone (no column order, no friction columns);
 
-and prints samples per second of each (best of ``--repeat``), their ratio, and the largest absolute
-difference between the two inertial regressors (after putting Pinocchio's columns in standard order).
+and prints samples per second of each (best of ``--repeat``), the ratio of ours to the baseline and
+to the bare loop, and the largest absolute difference between ours and the baseline.
 
 Usage::
 
@@ -22,6 +26,7 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -62,12 +67,29 @@ def lwr4_like_robot(seed: int = 0) -> RobotModel:
     return RobotModel(name="lwr4_like", model=model, limits=limits, friction=friction)
 
 
-def pinocchio_loop(model: pin.Model, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-    """Baseline: one ``pin.computeJointTorqueRegressor`` per sample, stacked into (N, N_J, 10·N_J)."""
+def bare_loop(model: pin.Model, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+    """One ``pin.computeJointTorqueRegressor`` per sample into (N, N_J, 10·N_J), in Pinocchio's order."""
     data = model.createData()
     out = np.empty((q.shape[0], model.nv, 10 * (model.njoints - 1)))
     for k in range(q.shape[0]):
         out[k] = pin.computeJointTorqueRegressor(model, data, q[k], dq[k], ddq[k])
+    return out
+
+
+FRICTION_BASIS = {"coulomb": np.sign, "viscous": lambda v: v, "offset": np.ones_like}
+
+
+def baseline_loop(robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+    """Baseline: ``regressor(robot, q, dq, ddq, stacked=False)`` by the bare loop, a permutation, friction."""
+    n_samples, n = q.shape
+    pinocchio_order = bare_loop(robot.model, q, dq, ddq)
+    n_inertial = pinocchio_order.shape[2]
+    standard_columns = (10 * np.arange(n_inertial // 10)[:, None] + PIN_TO_STANDARD).ravel()
+    out = np.zeros((n_samples, n, robot.n_parameters))
+    out[:, :, :n_inertial] = np.take(pinocchio_order, standard_columns, axis=2)
+    joints = np.arange(n)
+    for t, term in enumerate(robot.friction_terms):
+        out[:, joints, n_inertial + t * n + joints] = FRICTION_BASIS[term](dq)
     return out
 
 
@@ -100,7 +122,8 @@ def main(argv: list[str] | None = None) -> None:
     rng = np.random.default_rng(args.seed)
     print(f"robot {robot.name}: {n} joints, {robot.n_parameters} parameters, best of {args.repeat}")
     print(
-        f"{'N':>8} {'engine':>10} {'ours [samples/s]':>18} {'loop [samples/s]':>18} {'ratio':>7} {'max |diff|':>11}"
+        f"{'N':>8} {'engine':>10} {'ours [samples/s]':>17} {'baseline':>10} {'bare loop':>10}"
+        f" {'ratio':>6} {'vs bare':>8} {'max |diff|':>11}"
     )
     for n_samples in args.samples:
         q = rng.uniform(robot.limits.position_lower, robot.limits.position_upper, (n_samples, n))
@@ -108,17 +131,21 @@ def main(argv: list[str] | None = None) -> None:
         ddq = rng.uniform(-robot.limits.acceleration, robot.limits.acceleration, (n_samples, n))
 
         ours = regressor(robot, q, dq, ddq, stacked=False)
-        looped = pinocchio_loop(model, q, dq, ddq)
-        standard = looped.reshape(n_samples, n, -1, 10)[..., PIN_TO_STANDARD].reshape(n_samples, n, -1)
-        difference = float(np.max(np.abs(ours[:, :, : standard.shape[2]] - standard)))
+        difference = float(np.max(np.abs(ours - baseline_loop(robot, q, dq, ddq))))
 
-        t_ours, t_loop = best_times(
-            [lambda: regressor(robot, q, dq, ddq), lambda: pinocchio_loop(model, q, dq, ddq)], args.repeat
+        times = best_times(
+            [
+                partial(regressor, robot, q, dq, ddq),
+                partial(baseline_loop, robot, q, dq, ddq),
+                partial(bare_loop, model, q, dq, ddq),
+            ],
+            args.repeat,
         )
-        rate_ours, rate_loop = n_samples / t_ours, n_samples / t_loop
+        rate_ours, rate_baseline, rate_bare = (n_samples / t for t in times)
         engine = "loop" if n_samples < SMALL_BATCH else "recursion"
         print(
-            f"{n_samples:>8} {engine:>10} {rate_ours:>18,.0f} {rate_loop:>18,.0f} {rate_ours / rate_loop:>7.2f} {difference:>11.1e}"
+            f"{n_samples:>8} {engine:>10} {rate_ours:>17,.0f} {rate_baseline:>10,.0f} {rate_bare:>10,.0f}"
+            f" {rate_ours / rate_baseline:>6.2f} {rate_ours / rate_bare:>8.2f} {difference:>11.1e}"
         )
 
 

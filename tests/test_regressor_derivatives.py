@@ -7,11 +7,8 @@ import pytest
 
 from lwrlab.dynamics.base_parameters import random_states
 from lwrlab.dynamics.regressor import regressor
-from lwrlab.dynamics.regressor_derivatives import (
-    regressor_jacobians,
-    regressor_jacobians_pinocchio,
-    regressor_vjp,
-)
+from lwrlab.dynamics.regressor_jacobians import regressor_jacobians, regressor_jacobians_pinocchio
+from lwrlab.dynamics.regressor_vjp import regressor_vjp
 from lwrlab.model.robot import RobotModel
 
 STEP = 1e-6
@@ -24,11 +21,11 @@ def finite_difference_jacobians(
     out = []
     for which in range(3):
         jac = np.zeros((q.shape[0], robot.n_joints, robot.n_parameters, robot.n_joints))
-        for l in range(robot.n_joints):
+        for joint in range(robot.n_joints):
             plus, minus = [q.copy(), dq.copy(), ddq.copy()], [q.copy(), dq.copy(), ddq.copy()]
-            plus[which][:, l] += STEP
-            minus[which][:, l] -= STEP
-            jac[..., l] = (
+            plus[which][:, joint] += STEP
+            minus[which][:, joint] -= STEP
+            jac[..., joint] = (
                 regressor(robot, *plus, stacked=False) - regressor(robot, *minus, stacked=False)
             ) / (2 * STEP)
         out.append(jac)

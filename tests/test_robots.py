@@ -22,7 +22,8 @@ from hypothesis import strategies as st
 from omegaconf import OmegaConf
 from omegaconf.errors import MissingMandatoryValue
 
-from lwrlab.dynamics.regressor import regressor, serial_chain
+from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.serial_chain import serial_chain
 from lwrlab.model.inertia import is_physically_consistent
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.core import check_limits
@@ -127,7 +128,7 @@ def test_panda_links_are_physically_consistent(panda: RobotModel) -> None:
 
 def test_panda_yaml_instantiates_through_hydra(panda: RobotModel) -> None:
     config = OmegaConf.load(PANDA_YAML)
-    assert list(config)[0] == "_target_"
+    assert next(iter(config)) == "_target_"
     robot = instantiate(config)
     np.testing.assert_array_equal(robot.parameters, panda.parameters)
 
@@ -298,7 +299,9 @@ ONE_JOINT_URDF = """<robot name="one">
     <inertial><origin xyz="0 0 0.1"/><mass value="1"/>
       <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
   </link>
-  <joint name="shoulder" type="{kind}"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>{limit}</joint>
+  <joint name="shoulder" type="{kind}">
+    <parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>{limit}
+  </joint>
 </robot>
 """
 GOOD_LIMIT = '<limit effort="10" lower="-1" upper="1" velocity="2"/>'
@@ -319,7 +322,7 @@ def test_one_joint_urdf_loads(tmp_path: Path) -> None:
 
 def test_missing_file_is_named(tmp_path: Path) -> None:
     missing = tmp_path / "nowhere.urdf"
-    with pytest.raises(ValueError, match="nowhere.urdf"):
+    with pytest.raises(ValueError, match=r"nowhere\.urdf"):
         load_urdf_robot(missing, acceleration_limits=1.0)
     with pytest.raises(FileNotFoundError, match="does not exist"):
         load_urdf_robot(missing, acceleration_limits=1.0)
@@ -373,7 +376,7 @@ def test_acceleration_limits_are_optional_for_logs_required_for_motions_and_size
     motion = MultisineMotion(duration=2.0, harmonics=2, seed=0).sample(
         load_urdf_robot(path, acceleration_limits=1.0), 100.0
     )
-    with pytest.raises(ValueError, match="give robot.acceleration_limits"):
+    with pytest.raises(ValueError, match=r"give robot\.acceleration_limits"):
         check_limits(motion, robot)
     with pytest.raises(ValueError, match="expected 1 values or a scalar, got 2"):
         load_urdf_robot(path, acceleration_limits=[1.0, 2.0])
@@ -405,7 +408,7 @@ def test_flange_frame_is_added_once(tmp_path: Path) -> None:
 
 
 def test_mdh_yaml_errors_name_the_problem(tmp_path: Path) -> None:
-    with pytest.raises(FileNotFoundError, match="missing.yaml"):
+    with pytest.raises(FileNotFoundError, match=r"missing\.yaml"):
         load_robot_yaml(tmp_path / "missing.yaml")
     description = yaml.safe_load(PANDA_YAML.read_text())
     del description["limits"]["acceleration"]

@@ -8,7 +8,7 @@ column-scaled base regressor. Its gradient is chained exactly::
     ∂J/∂C = Bᵀ·∂J/∂q + Ḃᵀ·∂J/∂q̇ + B̈ᵀ·∂J/∂q̈,    ∂J/∂(q, q̇, q̈) = Σ_{j,p} (∂J/∂W)[k, j, p]·∂W[k, j, p]/∂(q, q̇, q̈)
 
 with ``∂J/∂W`` the criterion's gradient scaled back and spread onto the base columns, and the
-vector–Jacobian product of :func:`lwrlab.dynamics.regressor_derivatives.regressor_vjp`.
+vector–Jacobian product of :func:`lwrlab.dynamics.regressor_vjp.regressor_vjp`.
 
 Constraints: each column of each family of :class:`~lwrlab.excitation.constraints.ConstraintSet` is
 aggregated over time windows of ``window_s`` seconds into the window's smallest slack (divided by
@@ -26,7 +26,7 @@ import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
-from lwrlab.dynamics.regressor_derivatives import regressor_vjp
+from lwrlab.dynamics.regressor_vjp import regressor_vjp
 from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.model.robot import RobotModel
