@@ -60,7 +60,8 @@ class PCALookup(DistanceClassifier):
             raise ValueError(f"unknown scaling {self.scaling!r}; valid: {list(SCALINGS)}")
         if not 1 <= self.n_components <= min(10, len(library)):
             raise ValueError(
-                f"n_components must lie in [1, {min(10, len(library))}] for {len(library)} tools, got {self.n_components}"
+                f"n_components must lie in [1, {min(10, len(library))}] for {len(library)} tools, "
+                f"got {self.n_components}"
             )
         parameters = library.parameters
         spread = parameters.std(axis=0)

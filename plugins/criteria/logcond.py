@@ -1,4 +1,5 @@
-"""``J = log cond(W_b)``: the paper's suggested future work (§VII), better scaled for badly conditioned systems.
+"""``J = log cond(W_b)``: the paper's suggested future work (§VII), better scaled for badly conditioned
+systems.
 
 Gradient ``u₁v₁ᵀ/σ_max − u_n·v_nᵀ/σ_min``.
 """

@@ -39,7 +39,8 @@ def _locate(source: str, tracking_uri: str | None, fetch_run_artifact: RunArtifa
         return identified_model_path(source)
     if fetch_run_artifact is None:
         raise FileNotFoundError(
-            f"identified model {source!r} is not a file or run folder, and no run look-up was given (fetch_run_artifact)"
+            f"identified model {source!r} is not a file or run folder, "
+            "and no run look-up was given (fetch_run_artifact)"
         )
     return Path(fetch_run_artifact(source, IDENTIFIED_MODEL_FILE, tracking_uri))
 

@@ -39,21 +39,23 @@ def _check_joints(model: pin.Model, path: Path) -> None:
         kind = joint.shortname()
         if kind in _FLOATING_JOINTS and model.parents[j] == 0:
             raise ValueError(
-                f"{path}: joint {model.names[j]!r} ({kind}) makes a floating base; only fixed-base robots are supported "
+                f"{path}: joint {model.names[j]!r} ({kind}) makes a floating base; "
+                "only fixed-base robots are supported "
                 "(fix the root link to the world in the URDF)"
             )
         if joint.nq != 1 or joint.nv != 1:
             raise ValueError(
-                f"{path}: joint {model.names[j]!r} is a {kind} (nq={joint.nq}, nv={joint.nv}); only one-degree-of-freedom "
-                "joints with nq == nv are supported (revolute with limits, prismatic), not continuous, planar, "
-                "spherical or floating joints"
+                f"{path}: joint {model.names[j]!r} is a {kind} (nq={joint.nq}, nv={joint.nv}); "
+                "only one-degree-of-freedom joints with nq == nv are supported "
+                "(revolute with limits, prismatic), not continuous, planar, spherical or floating joints"
             )
 
 
 def _locked_configuration(
     model: pin.Model, locked_joints: Sequence[str] | Mapping[str, float], path: Path
 ) -> tuple[list[int], np.ndarray]:
-    """Ids of the joints to lock and the configuration (zero but for the given positions) they are locked at."""
+    """Ids of the joints to lock, and the configuration they are locked at (zero but for the given
+    positions)."""
     positions = (
         dict(locked_joints) if isinstance(locked_joints, Mapping) else {name: 0.0 for name in locked_joints}
     )
@@ -86,8 +88,8 @@ def _check_limits(model: pin.Model, path: Path) -> None:
             problems.append(f"{name}: effort limit {effort}")
     if problems:
         raise ValueError(
-            f"{path}: missing joint limits (every joint needs <limit lower upper velocity effort> with lower < upper "
-            f"and positive velocity and effort): {'; '.join(problems)}"
+            f"{path}: missing joint limits (every joint needs <limit lower upper velocity effort> "
+            f"with lower < upper and positive velocity and effort): {'; '.join(problems)}"
         )
 
 
@@ -110,7 +112,8 @@ def _add_flange(model: pin.Model, flange_frame: str, path: Path) -> None:
     """Add an operational frame named ``flange`` at the URDF frame ``flange_frame``."""
     if not model.existFrame(flange_frame):
         raise ValueError(
-            f"{path}: flange_frame {flange_frame!r} is not a frame of the model; frames: {[f.name for f in model.frames]}"
+            f"{path}: flange_frame {flange_frame!r} is not a frame of the model; "
+            f"frames: {[f.name for f in model.frames]}"
         )
     if flange_frame == "flange":
         return  # the URDF already names its flange

@@ -65,10 +65,11 @@ class BSplineMotion(LinearParameterisation):
         intervals = self.duration / via_point_spacing
         if abs(intervals - round(intervals)) > 1e-9 or round(intervals) < 1:
             raise ValueError(
-                f"duration {self.duration} s must be a positive multiple of via_point_spacing {via_point_spacing} s"
+                f"duration {self.duration} s must be a positive multiple of "
+                f"via_point_spacing {via_point_spacing} s"
             )
         self.via_point_spacing = float(via_point_spacing)
-        self.n_intervals = int(round(intervals))
+        self.n_intervals = round(intervals)
 
     @property
     def n_coefficients(self) -> int:

@@ -63,7 +63,8 @@ class FourierMotion(LinearParameterisation):
 
     @cached_property
     def _correction(self) -> np.ndarray:
-        """(4, 2K + 1) map from series coefficients to polynomial coefficients cancelling ḟ, f̈ at both ends."""
+        """(4, 2K + 1) map from series coefficients to the polynomial coefficients cancelling ḟ, f̈ at
+        both ends."""
         ends = np.array([0.0, self.duration])
         series = np.vstack([self._series(ends, 1), self._series(ends, 2)])
         polynomial = np.vstack([self._polynomial(ends, 1), self._polynomial(ends, 2)])

@@ -69,7 +69,7 @@ class MultisineMotion:
         a = _remove_component(rng.normal(size=(n, self.harmonics)) / k, omega)  # q̇(0) = 0
         b = _remove_component(rng.normal(size=(n, self.harmonics)) / k, omega**2)  # q̈(0) = 0
 
-        t = np.arange(int(round(self.duration * rate_hz)) + 1) / rate_hz
+        t = np.arange(round(self.duration * rate_hz) + 1) / rate_hz
         sin, cos = np.sin(np.outer(t, omega)), np.cos(np.outer(t, omega))  # (N, K)
         x = sin @ a.T + (cos - 1.0) @ b.T
         dx = cos @ (a * omega).T - sin @ (b * omega).T

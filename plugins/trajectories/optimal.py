@@ -108,7 +108,8 @@ class OptimalExcitingMotion:
         found = (made_for, criterion, float(description["duration"]), description["kind"], settings)
         if found != wanted:
             log.warning(
-                "%s holds a motion for (robot, criterion, duration, parameterisation, settings) = %s, not %s: optimising instead",
+                "%s holds a motion for (robot, criterion, duration, parameterisation, settings) = %s, "
+                "not %s: optimising instead",
                 description["path"],
                 found,
                 wanted,
