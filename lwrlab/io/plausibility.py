@@ -451,7 +451,10 @@ def check_plausibility(
                 findings.append(finding)
                 corrupt.add(name)
     # a corrupt cell would only be reported again by the checks below, with a misleading hint
-    clean = lambda values: np.where(np.isfinite(values), values, 0.0)  # noqa: E731
+
+    def clean(values: np.ndarray) -> np.ndarray:
+        return np.where(np.isfinite(values), values, 0.0)
+
     if columns.t not in corrupt:
         findings += _period_findings(path, t, columns.t, time_unit, thresholds)
     findings += _position_findings(path, clean(q), columns.q, limits, position_unit, thresholds, corrupt)

@@ -29,15 +29,24 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
+from typing import Protocol
 
 DENSE_ALGEBRA_THREADS: int | None = 1
 """BLAS threads for the dense algebra of base parameters, least squares, criteria and compression
 (None: leave BLAS as it is; ``benchmarks/threads.py`` sets it to compare settings)."""
 
 
+class _BlasController(Protocol):
+    """What is used of ``threadpoolctl.ThreadpoolController`` (an untyped package)."""
+
+    def limit(self, *, limits: int, user_api: str) -> AbstractContextManager[object]:
+        """A block in which the libraries of ``user_api`` use at most ``limits`` threads."""
+        ...
+
+
 @functools.cache
-def _controller() -> object | None:
+def _controller() -> _BlasController | None:
     """A threadpoolctl controller over the BLAS libraries numpy and scipy load.
 
     None without threadpoolctl.
@@ -59,7 +68,7 @@ def blas_threads(limit: int | None) -> Iterator[None]:
     if limit is None or controller is None:
         yield
         return
-    with controller.limit(limits=limit, user_api="blas"):  # type: ignore[attr-defined]
+    with controller.limit(limits=limit, user_api="blas"):
         yield
 
 

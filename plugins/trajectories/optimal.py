@@ -94,12 +94,12 @@ class OptimalExcitingMotion:
         result = self.optimizer.solve(problem)
         return problem.parameterisation.with_coefficients(result.coefficients), result, problem
 
-    def _load(self, robot: RobotModel) -> LinearParameterisation | None:
+    def _load(self, robot: RobotModel, from_file: str) -> LinearParameterisation | None:
         """The motion of ``from_file`` if it was made for this robot and duration, else None (logged)."""
         from lwrlab.io.exciting_motion import load_motion_description
         from lwrlab.resources import resolve_data_path
 
-        description = load_motion_description(resolve_data_path(self.from_file))  # type: ignore[arg-type]
+        description = load_motion_description(resolve_data_path(from_file))
         provenance = description.get("provenance", {})
         made_for, criterion = provenance.get("robot"), provenance.get("criterion")
         bare = self.parameterisation(duration=float(description["duration"]))
@@ -124,7 +124,7 @@ class OptimalExcitingMotion:
         Sampling changes nothing on the source: what an optimisation found travels in the
         trajectory's metadata (``cost``), the motion in the trajectory itself.
         """
-        motion = self._load(robot) if self.from_file else None
+        motion = self._load(robot, self.from_file) if self.from_file else None
         cost = None
         if motion is None:
             motion, result, _ = self.optimise(robot)
