@@ -120,6 +120,41 @@ def test_displaced_path_ik_follows_the_exact_ik_of_the_displaced_poses(lwr4, rng
         path_ik(poses.shape[0], offsets[-1])
 
 
+def test_path_batch_equals_each_path_followed_alone_and_the_exact_ik(lwr4, rng):
+    """Three runs of one path with their own offsets (different drifts, one moving along y too) and
+    two models: the stacked lookup gives each run what it alone gives, each within 5e-7 rad of the IK."""
+    from lwrlab.kinematics import DisplacedPathIK
+    from lwrlab.kinematics.displaced_path import DisplacedPathBatch
+    from lwrlab.model.payload import attach_payload
+
+    tcp = np.eye(4)
+    tcp[:3, 3] = [0.0, 0.0, 0.35]
+    poses = _painting_poses(1500)
+    loaded = attach_payload(lwr4, np.array([1.2, 0.0, 0.0, 0.1, 0.02, 0.02, 0.0, 0.01, 0.0, 0.0]))
+    iks = [SwivelIK(lwr4), SwivelIK(loaded), SwivelIK(lwr4)]
+    n = poses.shape[0]
+    offsets = np.zeros((3, n, 3))
+    for r, (depth, rate) in enumerate([(0.01, 150.0), (0.004, 40.0), (0.02, 300.0)]):
+        offsets[r, :, 0] = -depth * (1 - np.exp(-np.arange(n) / rate)) + np.cumsum(rng.normal(size=n)) * 2e-6
+    offsets[1, 700:, 1] = 1e-3 * np.sin(np.arange(n - 700) / 100.0)
+
+    def follow(ik):
+        return DisplacedPathIK(ik, poses, tcp, -1.6, Branch(1, -1, -1))
+
+    batch = DisplacedPathBatch([follow(ik) for ik in iks])
+    stacked = np.array([batch(k, offsets[:, k]) for k in range(n)])  # (N, R, 7)
+    for r, ik in enumerate(iks):
+        alone = follow(ik)
+        np.testing.assert_allclose(
+            stacked[:, r], [alone(k, offsets[r, k]) for k in range(n)], rtol=0, atol=1e-12
+        )
+        displaced = poses.copy()
+        displaced[:, :3, 3] += offsets[r]
+        exact = ik.solve_branch(displaced @ np.linalg.inv(tcp), -1.6, Branch(1, -1, -1)).q
+        assert np.abs(stacked[:, r] - exact).max() < 5e-7
+    assert max(path.solves for path in batch.paths) < 100  # each path renews its own chunks only
+
+
 def test_ik_derivatives_match_finite_differences(lwr4, rng):
     from lwrlab.kinematics.swivel_ik_derivatives import solve_branch_derivatives
 

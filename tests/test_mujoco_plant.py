@@ -132,7 +132,7 @@ def test_plant_step_equals_plain_mujoco_steps_and_per_sample_noise(pressing_plan
     data.qpos[:] = q0
     mujoco.mj_forward(model, data)
     rng.normal(size=17)  # the reset's reading
-    friction = plant._friction
+    friction = plant.friction_torque
     for k in range(1200):  # more than one noise block
         tau = hold + 3.0 * np.sin(np.arange(7) + k / 50.0)
         sensors = plant.step(tau)

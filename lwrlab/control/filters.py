@@ -35,10 +35,8 @@ class FirstOrderLowPass:
 
     def __call__(self, value: np.ndarray) -> np.ndarray:
         """The filtered sample; a new array each call (the caller may keep it)."""
-        if self.state is None:
-            self.reset(value)
-        else:
-            self.state = self.state + self.gain * (value - self.state)
+        state = self.state
+        self.state = np.array(value, dtype=float) if state is None else state + self.gain * (value - state)
         return self.state
 
     def apply(self, signal: np.ndarray, initial: np.ndarray | float = 0.0) -> np.ndarray:
@@ -104,23 +102,30 @@ class FilteredDifferences:
         old_velocity = np.array([0.0, 1.0, 0.0, 0.0])
         acceleration = aa * r * (velocity - old_velocity) + (1.0 - aa) * np.array([0.0, 0.0, 1.0, 0.0])
         self.update_matrix = np.array([[0.0, 0.0, 0.0, 1.0], velocity, acceleration])
-        self.stacked: np.ndarray | None = None
-        """(4, n) rows x_{k−1}, v_{k−1}, a_{k−1} and the newest input."""
+        self.stacked = np.zeros((4, 0))
+        """(4, ...) x_{k−1}, v_{k−1}, a_{k−1} and the newest input, each of the value's shape."""
+        self._columns = self.stacked
+        self._state_shape: tuple[int, ...] = (3, 0)
+        self._started = False
 
     def reset(self, value: np.ndarray, rate: np.ndarray | None = None) -> None:
-        """Start at ``value`` with velocity ``rate`` (default zero) and zero acceleration."""
+        """Start at ``value`` (any shape, e.g. (N_J,) or (R, N_J)) with velocity ``rate`` (default zero)
+        and zero acceleration."""
         value = np.asarray(value, dtype=float)
-        self.stacked = np.zeros((4, value.size))
+        self.stacked = np.zeros((4, *value.shape))
         self.stacked[0] = value
         if rate is not None:
             self.stacked[1] = rate
+        self._columns = self.stacked.reshape(4, -1)  # a view: the state as one (4, n) matrix
+        self._state_shape = (3, *value.shape)
+        self._started = True
 
     def __call__(self, value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(velocity, acceleration) after the sample ``value``; new arrays each call."""
-        if self.stacked is None:
+        """(velocity, acceleration) after the sample ``value`` (shaped as at the reset); new arrays."""
+        if not self._started:
             self.reset(value)
         stacked = self.stacked
         stacked[3] = value
-        state = self.update_matrix @ stacked
+        state = (self.update_matrix @ self._columns).reshape(self._state_shape)
         stacked[:3] = state
         return state[1], state[2]

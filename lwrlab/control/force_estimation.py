@@ -16,6 +16,7 @@ real-time controller has no future samples); Coulomb friction uses ``tanh(q̇/ε
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -54,7 +55,8 @@ class StateEstimate(NamedTuple):
     external_torque: np.ndarray
     """(N_J,) Γ_ext = Γ − Γ_dyn − Γ_f (N·m)."""
     wrench: np.ndarray
-    """(6,) estimated wrench [f (N); m (N·m)] the robot exerts at the tool centre point, base axes, low-passed."""
+    """(6,) estimated wrench [f (N); m (N·m)] the robot exerts at the tool centre point, base axes,
+    low-passed."""
 
 
 class ExternalForceEstimator:
@@ -69,6 +71,9 @@ class ExternalForceEstimator:
     acceleration_cutoff_hz : low-pass on the difference of the filtered velocity (Hz).
     wrench_cutoff_hz : low-pass on the estimated wrench (Hz).
     coulomb_smoothing : ε (rad/s) of ``FC·tanh(q̇/ε)``.
+
+    The estimator holds the model and the settings; the per-sample work is that of
+    :class:`ForceEstimatorBatch`, which runs several estimators in lockstep (alone: a batch of one).
     """
 
     def __init__(
@@ -85,18 +90,22 @@ class ExternalForceEstimator:
         self.model, self.frame_id = add_tool_frame(robot, tcp_in_flange)
         self.data = self.model.createData()
         self.period = period
+        self.cutoffs_hz = (float(velocity_cutoff_hz), float(acceleration_cutoff_hz), float(wrench_cutoff_hz))
+        """Low-passes of the velocity, the acceleration and the wrench (Hz)."""
         self.coulomb_smoothing = coulomb_smoothing
-        self.differences = FilteredDifferences(period, velocity_cutoff_hz, acceleration_cutoff_hz)
-        self.wrench_filter = FirstOrderLowPass(wrench_cutoff_hz, period)
         # friction coefficients once: zero for a term the model leaves out
         friction, terms, n = robot.friction, robot.friction_terms, robot.n_joints
-        self._coulomb = np.asarray(friction.coulomb, dtype=float) if "coulomb" in terms else np.zeros(n)
-        self._viscous = np.asarray(friction.viscous, dtype=float) if "viscous" in terms else np.zeros(n)
-        self._offset = np.asarray(friction.offset, dtype=float) if "offset" in terms else np.zeros(n)
+        self.friction_coefficients = {
+            term: np.asarray(getattr(friction, term), dtype=float) if term in terms else np.zeros(n)
+            for term in ("coulomb", "viscous", "offset")
+        }
+        """FC, FV, FO (N·m, N·m·s/rad, N·m) per joint; zero for a term the model leaves out."""
+        self._single: ForceEstimatorBatch | None = None
 
     def friction_torque(self, dq: np.ndarray) -> np.ndarray:
         """Γ_f (N·m) with smoothed Coulomb friction."""
-        return self._coulomb * np.tanh(dq / self.coulomb_smoothing) + self._viscous * dq + self._offset
+        c = self.friction_coefficients
+        return c["coulomb"] * np.tanh(dq / self.coulomb_smoothing) + c["viscous"] * dq + c["offset"]
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """(6, N_J) Jacobian of the tool centre point, base-frame axes ([linear; angular])."""
@@ -104,17 +113,70 @@ class ExternalForceEstimator:
 
     def reset(self, q: np.ndarray) -> None:
         """Start at rest at ``q`` (rad), with no force."""
-        self.differences.reset(q)
-        self.wrench_filter.reset(np.zeros(6))
+        self._single = ForceEstimatorBatch([self])
+        self._single.reset(np.asarray(q, dtype=float)[None])
 
     def update(self, q: np.ndarray, tau: np.ndarray) -> StateEstimate:
         """One sample: measured positions ``q`` (rad) and link-side torques ``tau`` (N·m)."""
-        model, data = self.model, self.data
+        if self._single is None:
+            self.reset(q)
+        assert self._single is not None
+        state = self._single.update(np.asarray(q, dtype=float)[None], np.asarray(tau, dtype=float)[None])
+        return StateEstimate(*(value[0] for value in state))
+
+
+class ForceEstimatorBatch:
+    """R estimators of eq. (14) with the same period and filters, updated in lockstep.
+
+    Each keeps its own model (identified or CAD) for Γ_dyn and J, one Pinocchio call each per sample;
+    the differences, the friction and the filters run once on the stacked (R, ·) arrays.
+    """
+
+    def __init__(self, estimators: Sequence[ExternalForceEstimator]) -> None:
+        if not estimators:
+            raise ValueError("an estimator batch needs at least one estimator")
+        first = estimators[0]
+        for estimator in estimators[1:]:
+            if (estimator.period, estimator.cutoffs_hz) != (first.period, first.cutoffs_hz):
+                raise ValueError(
+                    "estimators updated together need one period and the same filters, got "
+                    f"{(first.period, first.cutoffs_hz)} and {(estimator.period, estimator.cutoffs_hz)}"
+                )
+        velocity_hz, acceleration_hz, wrench_hz = first.cutoffs_hz
+        self.differences = FilteredDifferences(first.period, velocity_hz, acceleration_hz)
+        self.wrench_filter = FirstOrderLowPass(wrench_hz, first.period)
+        self._coulomb, self._viscous, self._offset = (
+            np.stack([estimator.friction_coefficients[term] for estimator in estimators])
+            for term in ("coulomb", "viscous", "offset")
+        )
+        self._smoothing = np.array([[estimator.coulomb_smoothing] for estimator in estimators])
+        self._models = [(estimator.model, estimator.data, estimator.frame_id) for estimator in estimators]
+        n_joints = first.robot.n_joints
+        self._dynamics, self._raw_wrench = (
+            np.zeros((len(estimators), n_joints)),
+            np.zeros((len(estimators), 6)),
+        )
+
+    def reset(self, q: np.ndarray) -> None:
+        """Start at rest at ``q`` (R, N_J) rad, with no force."""
+        self.differences.reset(q)
+        self.wrench_filter.reset(np.zeros((q.shape[0], 6)))
+
+    def update(self, q: np.ndarray, tau: np.ndarray) -> StateEstimate:
+        """One sample of every run: measured positions ``q`` (R, N_J) rad and link-side torques ``tau`` (N·m).
+
+        The fields of the returned estimate are (R, ·) arrays, new each call.
+        """
         dq, ddq = self.differences(q)
-        external = tau - pin.rnea(model, data, q, dq, ddq) - self.friction_torque(dq)
-        jacobian = pin.computeFrameJacobian(model, data, q, self.frame_id, _BASE_AXES)
-        # eq. (14): (Jᵀ)⁺·Γ_ext = (J·Jᵀ)⁻¹·J·Γ_ext, the least-squares solution of Jᵀ·w = Γ_ext; one LAPACK
-        # QR solve (dgels) on Jᵀ, full rank away from singularities; lstsq (SVD) where it is not
-        _, solution, info = dgels(jacobian.T, external)
-        wrench = solution[:6] if info == 0 else np.linalg.lstsq(jacobian.T, external, rcond=None)[0]
+        dynamics, wrench = self._dynamics, self._raw_wrench  # scratch: fully rewritten each sample
+        for r, (model, data, _) in enumerate(self._models):
+            dynamics[r] = pin.rnea(model, data, q[r], dq[r], ddq[r])
+        friction = self._coulomb * np.tanh(dq / self._smoothing) + self._viscous * dq + self._offset
+        external = tau - dynamics - friction
+        for r, (model, data, frame_id) in enumerate(self._models):
+            jacobian = pin.computeFrameJacobian(model, data, q[r], frame_id, _BASE_AXES)
+            # eq. (14): (Jᵀ)⁺·Γ_ext = (J·Jᵀ)⁻¹·J·Γ_ext, the least-squares solution of Jᵀ·w = Γ_ext; one
+            # LAPACK QR solve (dgels) on Jᵀ, full rank away from singularities; lstsq (SVD) where it is not
+            _, solution, info = dgels(jacobian.T, external[r])
+            wrench[r] = solution[:6] if info == 0 else np.linalg.lstsq(jacobian.T, external[r], rcond=None)[0]
         return StateEstimate(q, dq, ddq, external, self.wrench_filter(wrench))

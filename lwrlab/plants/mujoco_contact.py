@@ -17,28 +17,23 @@ MuJoCo's and Pinocchio's inverse dynamics agree to round-off (tested). What the 
 The controller runs at ``1 / control_period`` (1 kHz), MuJoCo integrates ``substeps`` steps per
 control period. Everything is in SI units and in the robot's base frame (= MuJoCo's world).
 
-Per control period the plant reads the sensors at the new state (a full ``mj_forward``, which the
-link-side torque needs for q̈), then steps. The first substep starts from that very state, so its
-position and velocity stages (kinematics, inertia, collisions) are those of the reading: only the
-acceleration stage is redone with the new torque (``mj_forwardSkip``) before integrating
-(``mj_Euler``) — the same result as ``mj_step``, with one position/velocity stage less per period.
-Sensor noise is drawn in blocks, in the order a sample at a time would draw it (same values).
+The stepping (sensor reading, substeps, noise) is that of
+:class:`~lwrlab.plants.contact_batch.ContactPlantBatch`, which steps the several plants of a painting
+task together; a plant stepped alone is a batch of one.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import mujoco
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike
 
 from lwrlab.model.inertia import mass_com_inertia
 from lwrlab.model.robot import RobotModel
-
-_AFTER_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
-"""``mj_forwardSkip`` stage: redo the acceleration stage only (looked up once, not per step)."""
+from lwrlab.plants.contact_batch import ContactPlantBatch, ContactSensors
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -89,22 +84,7 @@ class ContactTool:
     """Radius of the capsule modelling the roller cover (m)."""
 
 
-class ContactSensors(NamedTuple):
-    """One sample of what the sensors read (and the true state, for scoring); a tuple, cheap at 1 kHz."""
-
-    q: np.ndarray
-    """(N_J,) encoder positions (rad)."""
-    tau: np.ndarray
-    """(N_J,) link-side joint torques (N·m)."""
-    wall_force: np.ndarray
-    """(3,) force the tool exerts on the wall, base frame (N), tared."""
-    q_true: np.ndarray
-    """(N_J,) true positions (rad)."""
-    dq_true: np.ndarray
-    """(N_J,) true velocities (rad/s)."""
-
-
-def _vector(values: np.ndarray) -> str:
+def _vector(values: ArrayLike) -> str:
     return " ".join(f"{v:.17g}" for v in np.ravel(values))
 
 
@@ -167,12 +147,15 @@ def mujoco_xml(
     for j in range(1, model.njoints):
         if model.joints[j].shortname() != "JointModelRZ" or model.parents[j] != j - 1:
             raise ValueError(
-                f"the MuJoCo plant needs a serial chain of revolute-z joints; joint {j} is {model.joints[j].shortname()}"
+                "the MuJoCo plant needs a serial chain of revolute-z joints; "
+                f"joint {j} is {model.joints[j].shortname()}"
             )
         placement = model.jointPlacements[j]
         bodies.append(
-            f'<body name="link{j}" pos="{_vector(placement.translation)}" quat="{_quaternion(placement.rotation)}">'
-            f'<joint name="joint{j}" type="hinge" axis="0 0 1" armature="{armature[j - 1]:.17g}" limited="false"/>'
+            f'<body name="link{j}" pos="{_vector(placement.translation)}" '
+            f'quat="{_quaternion(placement.rotation)}">'
+            f'<joint name="joint{j}" type="hinge" axis="0 0 1" armature="{armature[j - 1]:.17g}" '
+            'limited="false"/>'
             f"{_inertial(np.asarray(robot.link_parameters[j - 1]))}"
         )
         closing.append("</body>")
@@ -195,7 +178,8 @@ def mujoco_xml(
         f'<mujoco model="{robot.name}">'
         f'<option timestep="{timestep:.17g}" gravity="{_vector(gravity)}" integrator="Euler">'
         '<flag contact="enable"/></option>'
-        f'<default><geom friction="{friction:.17g} 0.005 0.0001" solref="{_vector(solref)}" solimp="{_vector(solimp)}" condim="3"/></default>'
+        f'<default><geom friction="{friction:.17g} 0.005 0.0001" solref="{_vector(solref)}" '
+        f'solimp="{_vector(solimp)}" condim="3"/></default>'
         f"<worldbody>{wall_xml}{''.join(bodies)}{''.join(closing)}</worldbody>"
         f"{sensor_xml}</mujoco>"
     )
@@ -272,66 +256,23 @@ class MujocoContactPlant:
             if robot.rotor_inertia is None
             else np.asarray(robot.rotor_inertia, dtype=float)
         )
-        self._rng = np.random.default_rng(seed)
-        self._sensor = self.model.sensor("wall_force").adr[0]
-        self._site = self.model.site("wall_sensor").id
-        self._tcp = self.model.site("tcp").id
-        self._tare = np.zeros(3)
-        # MjData arrays are views into MuJoCo's memory: fetched once, not per access
-        data = self.data
-        self._qpos, self._qvel, self._qacc, self._applied = data.qpos, data.qvel, data.qacc, data.qfrc_applied
-        self._wall_reading = data.sensordata[self._sensor : self._sensor + 3]
-        self._tcp_position = data.site_xpos[self._tcp]
-        self._to_tool_force = -np.eye(3)
-        # friction coefficients once
-        f = robot.friction
-        self._viscous, self._coulomb, self._offset = (
-            np.asarray(v, dtype=float) for v in (f.viscous, f.coulomb, f.offset)
-        )
-        self._noise_scale = np.concatenate(
+        self.rng = np.random.default_rng(seed)
+        """Generator of the sensor noise."""
+        self.noise_scale = np.concatenate(
             [np.full(robot.n_joints, encoder_noise_std), self.torque_noise_std, np.full(3, force_noise_std)]
         )
-        self._noise: tuple[np.ndarray, np.ndarray, np.ndarray] = ()  # type: ignore[assignment]
-        self._noise_row = self.NOISE_BLOCK
-        self._friction_now = np.zeros(robot.n_joints)
+        """(2 N_J + 3,) standard deviations of one sample's noise: encoders, torques, wall sensor."""
+        self.sensor_address = int(self.model.sensor("wall_force").adr[0])
+        """Index of the wall force sensor's 3 values in ``data.sensordata``."""
+        self.wall_site, self.tcp_site = self.model.site("wall_sensor").id, self.model.site("tcp").id
+        self._stepper: ContactPlantBatch | None = None
 
-    NOISE_BLOCK = 1024
-    """Samples of sensor noise drawn per call of the random generator."""
-
-    def _wall_force(self) -> np.ndarray:
-        # MuJoCo's force sensor gives the force on the wall from its parent (the world), in the
-        # site frame; the wall is static, so the tool's force on it is the opposite, less the tare.
-        return self._to_tool_force @ self._wall_reading - self._tare
-
-    def _friction(self, dq: np.ndarray) -> np.ndarray:
-        return self._viscous * dq + self._coulomb * np.tanh(dq / self.coulomb_smoothing) + self._offset
-
-    def _draw_noise(self) -> None:
-        """The next block of scaled sensor noise: encoders (N_J), torques (N_J), wall sensor (3) per sample."""
-        # a sample at a time drew q, τ then force noise: the rows of one block are the same numbers
-        block = self._rng.normal(size=(self.NOISE_BLOCK, self._noise_scale.size)) * self._noise_scale
-        n = self.robot.n_joints
-        self._noise = (block[:, :n], block[:, n : 2 * n], block[:, 2 * n :])
-        self._noise_row = 0
-
-    def _read(self, link_torque: np.ndarray) -> ContactSensors:
-        if self._noise_row == self.NOISE_BLOCK:
-            self._draw_noise()
-        row, (q_noise, tau_noise, force_noise) = self._noise_row, self._noise
-        self._noise_row = row + 1
-        q, dq = self._qpos.copy(), self._qvel.copy()
-        force = self._wall_force()
-        if self.force_noise_std:
-            force += force_noise[row]
-        return ContactSensors(
-            q=q + q_noise[row], tau=link_torque + tau_noise[row], wall_force=force, q_true=q, dq_true=dq
+    def friction_torque(self, dq: np.ndarray) -> np.ndarray:
+        """Joint friction ``FV·q̇ + FC·tanh(q̇/ε) + FO`` (N·m) at the velocities ``dq`` (rad/s)."""
+        friction = self.robot.friction
+        return (
+            friction.viscous * dq + friction.coulomb * np.tanh(dq / self.coulomb_smoothing) + friction.offset
         )
-
-    def _forward_with(self, tau: np.ndarray) -> None:
-        """The commanded torque less friction at the current velocity, then a full ``mj_forward``."""
-        self._friction_now = self._friction(self._qvel)
-        np.subtract(tau, self._friction_now, out=self._applied)
-        mujoco.mj_forward(self.model, self.data)
 
     def reset(self, q0: np.ndarray, hold_torque: np.ndarray) -> ContactSensors:
         """Place the robot at rest at ``q0`` (rad), tare the wall sensor, read the sensors.
@@ -339,14 +280,11 @@ class MujocoContactPlant:
         ``hold_torque`` (N·m) is the torque the controller applies first (gravity compensation):
         the link-side reading is computed with it.
         """
-        mujoco.mj_resetData(self.model, self.data)
-        self._qpos[:] = q0
-        mujoco.mj_forward(self.model, self.data)
-        self._to_tool_force = -self.data.site_xmat[self._site].reshape(3, 3)  # the wall is static: once
-        self._tare = np.zeros(3)
-        self._tare = self._wall_force()
-        self._forward_with(np.asarray(hold_torque, dtype=float))
-        return self._read(hold_torque - self.armature * self._qacc)
+        self._stepper = ContactPlantBatch([self])
+        sensors = self._stepper.reset(
+            np.asarray(q0, dtype=float)[None], np.asarray(hold_torque, dtype=float)[None]
+        )
+        return ContactSensors(*(value[0] for value in sensors))
 
     def step(self, tau: np.ndarray) -> ContactSensors:
         """Apply the joint torques ``tau`` (N·m) for one control period; read the sensors after it.
@@ -354,20 +292,12 @@ class MujocoContactPlant:
         The torque sensor reads the link-side torque ``τ − I_a·q̈`` at the new state under the
         same command (a zero-order hold, as the drives' current loop does).
         """
-        model, data, applied, velocity = self.model, self.data, self._applied, self._qvel
-        # first substep from the state of the last reading: positions, velocities and friction unchanged
-        np.subtract(tau, self._friction_now, out=applied)
-        mujoco.mj_forwardSkip(model, data, _AFTER_VELOCITY_STAGE, 1)
-        mujoco.mj_Euler(model, data)
-        for _ in range(self.substeps - 1):
-            np.subtract(tau, self._friction(velocity), out=applied)
-            mujoco.mj_step(model, data)
-        self._friction_now = friction = self._friction(velocity)
-        np.subtract(tau, friction, out=applied)
-        mujoco.mj_forward(model, data)
-        return self._read(tau - self.armature * self._qacc)
+        if self._stepper is None:
+            raise RuntimeError("reset the plant before stepping it")
+        sensors = self._stepper.step(np.asarray(tau, dtype=float)[None])
+        return ContactSensors(*(value[0] for value in sensors))
 
     @property
     def tcp_position(self) -> np.ndarray:
         """True position of the tool's contact point (m, base frame)."""
-        return self._tcp_position.copy()
+        return self.data.site_xpos[self.tcp_site].copy()

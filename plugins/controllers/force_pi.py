@@ -12,16 +12,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lwrlab.control.contact_loop import ControlOutput
-from lwrlab.control.filters import FirstOrderLowPass
-from lwrlab.control.force_estimation import StateEstimate
-from lwrlab.control.force_pi import ForcePI
-from lwrlab.control.joint_pd import ControlSetup, JointPDGravity
+from lwrlab.control.cartesian_offset import OffsetTrackingController, OffsetTrackingLaw
 
 FEEDBACKS = ("estimate", "sensor")
 
 
-class ForcePIControl:
+class ForcePIControl(OffsetTrackingController):
     """Force PI on the Cartesian reference around a joint PD + gravity compensation.
 
     Every setting is required: conf/controller/force_pi.yaml is the one place of their values.
@@ -63,23 +59,15 @@ class ForcePIControl:
         self.max_displacement = max_displacement
         self.sensor_cutoff_hz = sensor_cutoff_hz
 
-    def reset(self, setup: ControlSetup, q0: np.ndarray, reference: np.ndarray) -> None:
-        self.positions = reference[:, :3, 3]
-        self.path_ik = setup.path_ik(reference)
-        self.joint = JointPDGravity(setup.robot, self.kp, self.kd, setup.period)
-        self.joint.reset(q0)
-        self.sensor_filter = FirstOrderLowPass(self.sensor_cutoff_hz, setup.period)
-        self.sensor_filter.reset(np.zeros(3))
-        self.force_loop = ForcePI(
-            self.desired_force, self.force_kp, self.force_ki, setup.period, self.max_displacement
-        )
-
-    def command(self, k: int, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
-        if self.feedback == "estimate":
-            displacement = self.force_loop.update(state.wrench[:3])  # eq. (15)
-        else:
-            displacement = self.force_loop.update(self.sensor_filter(measured_force))
-        q_desired = self.path_ik(k, displacement)
-        return ControlOutput(
-            self.joint.torque(q_desired, state.q, state.dq), self.positions[k] + displacement, q_desired
+    def law(self) -> OffsetTrackingLaw:
+        """Eq. (15) on the chosen force around eq. (13); the contact loop steps it with the other runs."""
+        return OffsetTrackingLaw(
+            kp=self.kp,
+            kd=self.kd,
+            feedback=self.feedback,
+            desired_force=self.desired_force,
+            force_kp=self.force_kp,
+            force_ki=self.force_ki,
+            max_displacement=self.max_displacement,
+            sensor_cutoff_hz=self.sensor_cutoff_hz,
         )

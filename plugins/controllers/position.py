@@ -11,12 +11,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lwrlab.control.contact_loop import ControlOutput
-from lwrlab.control.force_estimation import StateEstimate
-from lwrlab.control.joint_pd import ControlSetup, JointPDGravity
+from lwrlab.control.cartesian_offset import OffsetTrackingController, OffsetTrackingLaw
 
 
-class PositionControl:
+class PositionControl(OffsetTrackingController):
     """Joint PD + gravity compensation tracking the IK of the (offset) painting path.
 
     Every setting is required: conf/controller/position.yaml (or the painting task's
@@ -44,12 +42,6 @@ class PositionControl:
         self.kp, self.kd = kp, kd
         self.offset = np.asarray(offset, dtype=float).reshape(3)
 
-    def reset(self, setup: ControlSetup, q0: np.ndarray, reference: np.ndarray) -> None:
-        self.positions = reference[:, :3, 3] + self.offset
-        self.path_ik = setup.path_ik(reference)
-        self.joint = JointPDGravity(setup.robot, self.kp, self.kd, setup.period)
-        self.joint.reset(q0)
-
-    def command(self, k: int, state: StateEstimate, measured_force: np.ndarray) -> ControlOutput:
-        q_desired = self.path_ik(k, self.offset)
-        return ControlOutput(self.joint.torque(q_desired, state.q, state.dq), self.positions[k], q_desired)
+    def law(self) -> OffsetTrackingLaw:
+        """Eq. (13) tracking the shifted path, no force loop."""
+        return OffsetTrackingLaw(kp=self.kp, kd=self.kd, offset=self.offset)
