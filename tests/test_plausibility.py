@@ -8,15 +8,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from lwrlab.io.column_types import check_column_dtypes, column_dtype_finding
+from lwrlab.io.log_findings import Finding, LogColumns, raise_for_errors
 from lwrlab.io.logs import LogError
-from lwrlab.io.plausibility import (
-    Finding,
-    LogColumns,
-    check_column_dtypes,
-    check_plausibility,
-    column_dtype_finding,
-    raise_for_errors,
-)
+from lwrlab.io.plausibility import check_plausibility
 from lwrlab.model.robot import RobotModel
 from plugins.plants.simulated import SimulatedPlant
 from plugins.trajectories.multisine import MultisineMotion
@@ -126,7 +121,8 @@ def test_dead_sensors_and_still_joints(lwr4, rng):
     [(1.0, "s", "ms"), (1e6, "s", "ns"), (1e-6, "ms", "s"), (1.0, "ms", "us")],
 )
 def test_time_unit_is_named_when_the_period_is_implausible(lwr4, rng, period, declared, suggested):
-    """``period``: the median step after conversion from the declared unit (1 ms stamps in ms read as s: 1.0 s)."""
+    """``period``: the median step after conversion from the declared unit (1 ms stamps in ms read as
+    s: 1.0 s)."""
     _, q, tau = _log(lwr4, rng)
     t = np.arange(N_SAMPLES) * period
     (finding,) = check_plausibility(t, q, tau, lwr4.limits, CSV, time_unit=declared)

@@ -305,12 +305,10 @@ def load_log(
         raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
     if drive_gains is not None and len(drive_gains) != n_joints:
         raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
-    from lwrlab.io.plausibility import (
-        LogColumns,
-        check_column_dtypes,
-        check_plausibility,
-        raise_for_errors,
-    )  # it imports this module
+    # the checks import this module
+    from lwrlab.io.column_types import check_column_dtypes
+    from lwrlab.io.log_findings import LogColumns, raise_for_errors
+    from lwrlab.io.plausibility import check_plausibility
 
     frame, mapping = _read(path, dict(column_map or {}), n_joints, joint_names, topic)
 

@@ -4,10 +4,11 @@ A log can be well formed (every cell a finite number, time increasing) and still
 in degrees read as radians, time in milliseconds labelled seconds, motor currents in the torque
 columns, a torque sensor that was not recorded, one corrupt cell of 1e30. Each would be fitted and
 give a confident wrong model. :func:`check_plausibility` compares the loaded values with the
-robot's limits and returns :class:`Finding` objects; :func:`raise_for_errors` turns the errors into
-one :class:`~lwrlab.io.logs.LogError` that lists them all and hands back the warnings for the
-caller to print and tag. :func:`check_column_dtypes` catches, before conversion, Parquet columns
-whose type is not a number (booleans, datetimes, text).
+robot's limits and returns :class:`~lwrlab.io.log_findings.Finding` objects;
+:func:`~lwrlab.io.log_findings.raise_for_errors` turns the errors into one
+:class:`~lwrlab.io.logs.LogError` that lists them all and hands back the warnings for the caller to
+print and tag. :func:`lwrlab.io.column_types.check_column_dtypes` catches, before conversion,
+Parquet columns whose type is not a number (booleans, datetimes, text).
 
 =====================  ========  ================================================================
 check                  severity  when
@@ -32,18 +33,16 @@ are the file's data rows (for CSV the message adds the line of the file). Nothin
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
-import pandas as pd
 
-from lwrlab.io.logs import POSITION_UNITS, TIME_UNITS, LogError, joint_columns, row_location
+from lwrlab.io.log_findings import SEVERITIES, Finding, LogColumns
+from lwrlab.io.logs import POSITION_UNITS, TIME_UNITS, joint_columns, row_location
 from lwrlab.model.robot import MotionLimits
-
-SEVERITIES = ("error", "warning")
 
 
 class LogLimits(MotionLimits, Protocol):
@@ -53,68 +52,6 @@ class LogLimits(MotionLimits, Protocol):
     def torque(self) -> np.ndarray:
         """(N_J,) largest absolute joint torques (N·m)."""
         ...
-
-
-@dataclass(frozen=True)
-class Finding:
-    """One implausibility found in a log."""
-
-    severity: str
-    """``error`` (the log must not be fitted) or ``warning`` (fit, but say so)."""
-    file: str
-    """The log file."""
-    column: str | None
-    """The column of the file concerned (its name in the file), or None for the whole log."""
-    check: str
-    """Which check found it (the table of :mod:`lwrlab.io.plausibility`), e.g. ``torque_limit``."""
-    message: str
-    """What is wrong and what to do, in a sentence."""
-
-    def __post_init__(self) -> None:
-        if self.severity not in SEVERITIES:
-            raise ValueError(f"severity must be one of {SEVERITIES}, got {self.severity!r}")
-
-    def __str__(self) -> str:
-        where = f"column {self.column!r}: " if self.column is not None else ""
-        return f"{self.file}: {where}{self.message} [{self.check}]"
-
-
-@dataclass(frozen=True)
-class LogColumns:
-    """The names, in the file, of the columns each quantity came from (for the messages)."""
-
-    t: str
-    """Time column."""
-    q: tuple[str, ...]
-    """Position column of each joint."""
-    tau: tuple[str, ...]
-    """Torque (or current) column of each joint."""
-    dq: tuple[str, ...] | None = None
-    """Velocity column of each joint, if the log has them."""
-    torque_from_current: bool = False
-    """Whether the torques are ``drive_gains·current`` (changes the hint of ``torque_limit``)."""
-
-    @classmethod
-    def schema(
-        cls,
-        n_joints: int,
-        column_map: Mapping[str, str] | None = None,
-        torque_from_current: bool = False,
-        velocities: bool = False,
-    ) -> LogColumns:
-        """The columns of the :mod:`lwrlab.io.logs` schema, renamed by ``column_map`` like the loader does."""
-        mapping = dict(column_map or {})
-
-        def names(prefix: str) -> tuple[str, ...]:
-            return tuple(mapping.get(c, c) for c in joint_columns(prefix, n_joints))
-
-        return cls(
-            t=mapping.get("t", "t"),
-            q=names("q"),
-            tau=names("current" if torque_from_current else "tau"),
-            dq=names("dq") if velocities else None,
-            torque_from_current=torque_from_current,
-        )
 
 
 @dataclass(frozen=True)
@@ -471,73 +408,3 @@ def check_plausibility(
             corrupt,
         )
     return sorted(findings, key=lambda f: SEVERITIES.index(f.severity))
-
-
-def raise_for_errors(findings: Iterable[Finding]) -> list[Finding]:
-    """Raise one :class:`LogError` listing every error (and, below, the warnings).
-
-    Without errors, return the warnings.
-    """
-    findings = list(findings)
-    errors = [f for f in findings if f.severity == "error"]
-    warnings = [f for f in findings if f.severity != "error"]
-    if errors:
-        files = sorted({f.file for f in errors})
-        lines = [f"implausible log {', '.join(files)}: {len(errors)} error(s)"]
-        lines += [f"  - {f}" for f in errors]
-        if warnings:
-            lines += ["  warnings:", *(f"  - {f}" for f in warnings)]
-        raise LogError("\n".join(lines))
-    return warnings
-
-
-_DTYPE_ADVICE = {
-    "time": "write seconds (or ms/us/ns with data.time_unit) as numbers",
-    "torque": "write the torque in N·m (or motor currents in A with data.drive_gains) as numbers",
-}
-"""What to write instead, by the role of the column; other roles get the generic advice."""
-
-
-def column_dtype_finding(
-    series: pd.Series, column: str, path: str | Path, role: str | None = None
-) -> Finding | None:
-    """An error if a column's type is not a real number (Parquet keeps types; CSV is read as text).
-
-    ``role``: ``time``, ``position``, ``velocity``, ``torque`` or None, to tailor the advice.
-    Integers and floats (also pandas' nullable ones) pass.
-    """
-    dtype = series.dtype
-    advice = _DTYPE_ADVICE.get(role or "", "write the measured values as numbers (float)")
-    if pd.api.types.is_bool_dtype(dtype):
-        what = f"holds booleans (True/False), not measurements (read as 0/1 they would be fitted): {advice}"
-    elif pd.api.types.is_datetime64_any_dtype(dtype):
-        what = (
-            "holds date-times: convert it to seconds, e.g. (t - t.iloc[0]).dt.total_seconds(), "
-            "or give numbers" + (" with data.time_unit" if role == "time" else "")
-        )
-    elif pd.api.types.is_timedelta64_dtype(dtype):
-        what = "holds durations (timedelta): convert it to seconds with .dt.total_seconds(), or give numbers"
-    elif pd.api.types.is_complex_dtype(dtype):
-        what = f"holds complex numbers: {advice}"
-    elif not pd.api.types.is_numeric_dtype(dtype):
-        what = f"holds {dtype} values, not numbers: {advice}"
-    else:
-        return None
-    return Finding("error", str(path), column, "dtype", f"{what} (dtype {dtype})")
-
-
-def check_column_dtypes(frame: pd.DataFrame, columns: LogColumns, path: str | Path) -> list[Finding]:
-    """:func:`column_dtype_finding` for every column of ``columns`` present in ``frame``.
-
-    For typed files (Parquet); a CSV read as text has every column of dtype object: convert there.
-    """
-    roles = [
-        (columns.t, "time"),
-        *((c, "position") for c in columns.q),
-        *((c, "torque") for c in columns.tau),
-        *((c, "velocity") for c in columns.dq or ()),
-    ]
-    findings = [
-        column_dtype_finding(frame[name], name, path, role) for name, role in roles if name in frame.columns
-    ]
-    return [f for f in findings if f is not None]
