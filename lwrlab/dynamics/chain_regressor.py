@@ -29,6 +29,7 @@ sample's regressor depends on the batch around it at the level of round-off (~1e
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 from typing import NamedTuple
@@ -37,12 +38,19 @@ import numpy as np
 
 from lwrlab.dynamics.segment_wrench import ENTRY_MAP, STATE, wrench_blocks
 from lwrlab.dynamics.serial_chain import SerialChain
+from lwrlab.numerics.threads import dense_algebra
 
 CHUNK_SAMPLES = 1000
 """Samples per chunk of the vectorised recursion (a few MB of working arrays).
 
 Smaller chunks cost more numpy calls per sample; larger ones no longer fit the cache.
 """
+
+THREADED_CHUNK = 256
+"""From this many samples a chunk's products run under :func:`~lwrlab.numerics.threads.dense_algebra`
+(one BLAS thread, ~15 µs to enter). OpenBLAS splits an m·n·k product over threads from 4·65 536 on:
+the (42 × 18)·(18 × c) product of the wrench regressor from c = 347 samples, and threads that wait
+for a busy core stall the call (20× slower measured on a loaded 2-core machine)."""
 
 _OWN_TWIST = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])[:, None]
 """A joint's unit twist (ω; v) in its own axis frame: it turns about z through the origin."""
@@ -273,12 +281,13 @@ def fill_chain_regressor(
     n_samples, n = q.shape
     size = _chunk_size(n_samples)
     work = _workspace(n)
-    for start in range(0, n_samples, size):
-        stop = min(start + size, n_samples)
-        states = [x[start:stop] for x in (q, dq, ddq)]
-        if stop - start < size:
-            states = [np.concatenate([x, np.zeros((size - (stop - start), n))]) for x in states]
-        _chunk_regressor(chain, states[0], states[1], states[2], out[start:stop], work)
+    with dense_algebra() if size >= THREADED_CHUNK else contextlib.nullcontext():
+        for start in range(0, n_samples, size):
+            stop = min(start + size, n_samples)
+            states = [x[start:stop] for x in (q, dq, ddq)]
+            if stop - start < size:
+                states = [np.concatenate([x, np.zeros((size - (stop - start), n))]) for x in states]
+            _chunk_regressor(chain, states[0], states[1], states[2], out[start:stop], work)
 
 
 def chain_inertial_regressor(
