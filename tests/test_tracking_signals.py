@@ -10,20 +10,27 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 import signal
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import pytest
 from mlflow.tracking import MlflowClient
-from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, runs_of
+from tracking_apps import (
+    TOY_APP,
+    jobs_and_parents,
+    runs_of,
+    start_app,
+    wait_for_files,
+    wait_for_held_jobs,
+)
 
 from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
-from lwrlab.tracking.run_logging import RUN_ID_FILE
 from lwrlab.tracking.processes import descendant_pids, process_alive, wait_until
+from lwrlab.tracking.run_logging import RUN_ID_FILE
 
 # A real identification job that runs ~10 s on one core (a 30 s motion), so a signal finds it busy.
 LONG_JOB = [
@@ -35,45 +42,11 @@ LONG_JOB = [
 ]
 
 
-def start(
-    app: Path | None, *overrides: str, store: Path, multirun: bool = False, env: dict[str, str] | None = None
-) -> subprocess.Popen[str]:
-    """Start ``app`` (``None``: ``lwrlab``) in its own session, tracking into ``store``, as a user would."""
-    command = [sys.executable, *(["-m", "lwrlab.cli"] if app is None else [str(app)])]
-    command += ["-m"] if multirun else []
-    command += [] if app is None else [f"hydra.searchpath=[file://{REPO_CONF}]"]
-    command += [
-        f"tracking.uri=sqlite:///{store / 'mlflow.db'}",
-        f"tracking.artifact_location={store / 'artifacts'}",
-        *overrides,
-    ]
-    environment = dict(os.environ, PYTHONPATH=str(REPO_ROOT), **(env or {}))
-    environment.pop("MLFLOW_TRACKING_URI", None)
-    return subprocess.Popen(
-        command,
-        cwd=store,
-        env=environment,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        start_new_session=True,
-    )
-
-
 def wait_for_runs(
     folder: Path, count: int, process: subprocess.Popen[str], timeout: float = 120
 ) -> list[Path]:
     """Wait until ``count`` jobs under ``folder`` have started their MLflow run (their run id file)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        started = sorted(folder.rglob(RUN_ID_FILE))
-        if len(started) >= count:
-            return started
-        if process.poll() is not None:
-            pytest.fail(f"the process ended before {count} runs started:\n{process.communicate()[0][-4000:]}")
-        time.sleep(0.2)
-    process.kill()
-    pytest.fail(f"fewer than {count} runs started in {timeout} s")
+    return wait_for_files(folder, RUN_ID_FILE, count, process, timeout)
 
 
 def stop(process: subprocess.Popen[str], signum: int, whole_group: bool = False, timeout: float = 120) -> str:
@@ -108,7 +81,7 @@ def assert_killed_with_outputs(client: MlflowClient, run_id: str, signal_name: s
     "signum", [signal.SIGTERM, pytest.param(signal.SIGINT, marks=pytest.mark.slow)], ids=["SIGTERM", "SIGINT"]
 )
 def test_a_stopped_toy_job_ends_killed_with_its_outputs(tmp_path: Path, signum: int) -> None:
-    process = start(
+    process = start_app(
         TOY_APP,
         "experiment_name=stop_toy",
         f"hydra.run.dir={tmp_path / 'run'}",
@@ -135,7 +108,7 @@ def test_a_stopped_toy_job_ends_killed_with_its_outputs(tmp_path: Path, signum: 
 def test_a_stopped_lwrlab_job_ends_killed_with_exit_status_128_plus_signal(
     tmp_path: Path, signum: int
 ) -> None:
-    process = start(
+    process = start_app(
         None, "experiment_name=stop_job", f"hydra.run.dir={tmp_path / 'run'}", *LONG_JOB, store=tmp_path
     )
     wait_for_runs(tmp_path / "run", 1, process)
@@ -161,7 +134,7 @@ def _sweep_and_stop(
     env: dict[str, str] | None = None,
 ):
     sweep_dir = tmp_path / "sweep"
-    process = start(
+    process = start_app(
         app,
         "hydra/launcher=parallel",
         f"hydra.sweep.dir={sweep_dir}",
@@ -227,7 +200,7 @@ def test_a_sigterm_to_an_lwrlab_joblib_sweep_ends_every_run(tmp_path: Path) -> N
 @pytest.mark.slow
 def test_a_resumed_sweep_finalises_runs_whose_processes_were_killed_outright(tmp_path: Path) -> None:
     sweep = ["experiment_name=stale", "x=1,2,3"]
-    process = start(
+    process = start_app(
         TOY_APP,
         "hydra/launcher=parallel",
         f"hydra.sweep.dir={tmp_path / 'a'}",
@@ -247,7 +220,7 @@ def test_a_resumed_sweep_finalises_runs_whose_processes_were_killed_outright(tmp
     jobs, parents = jobs_and_parents(runs_of(uri, "stale"))
     assert {run.info.status for run in jobs + parents} == {"RUNNING"}  # what a kill -9 leaves
 
-    resumed = start(
+    resumed = start_app(
         TOY_APP,
         "hydra/launcher=parallel",
         f"hydra.sweep.dir={tmp_path / 'b'}",
@@ -280,26 +253,28 @@ RAY_MISSING = importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is No
 def test_a_stopped_ray_sweep_leaves_no_run_running_and_no_ray_process_alive(
     tmp_path: Path, signum: int
 ) -> None:
-    env = {
-        "TOY_SLEEP_S": "60",
-        "RAY_USAGE_STATS_ENABLED": "0",
-        "RAY_TMPDIR": tempfile.mkdtemp(prefix="ray", dir="/tmp"),
-    }
-    sweep_dir = tmp_path / "sweep"
-    process = start(
+    ray_temp_dir = tempfile.mkdtemp(prefix="ray", dir="/tmp")  # Ray's socket paths must stay short
+    hold_dir = tmp_path / "hold"
+    hold_dir.mkdir()
+    env = {"TOY_HOLD_DIR": str(hold_dir), "RAY_USAGE_STATS_ENABLED": "0", "RAY_TMPDIR": ray_temp_dir}
+    process = start_app(
         TOY_APP,
         "hydra/launcher=ray_local",
         "experiment_name=stop_ray",
-        f"hydra.sweep.dir={sweep_dir}",
+        f"hydra.sweep.dir={tmp_path / 'sweep'}",
         "x=1,2,3,4",
         store=tmp_path,
         multirun=True,
         env=env,
     )
-    wait_for_runs(sweep_dir, 2, process, timeout=180)
-    time.sleep(1.0)
-    ray_processes = descendant_pids(process.pid)  # raylet, GCS, workers…
-    output = stop(process, signum)
+    try:
+        wait_for_held_jobs(hold_dir, 2, process, timeout=180)  # both busy, their table.csv written
+        ray_processes = descendant_pids(process.pid)  # raylet, GCS, workers…
+        output = stop(process, signum)
+    finally:
+        shutil.rmtree(ray_temp_dir, ignore_errors=True)
+    # Ray's C++ crash handler arms a 3 s abort on SIGTERM; the runs must be ended before it fires.
+    assert process.returncode != -signal.SIGABRT, f"aborted while ending the runs:\n{output[-3000:]}"
     wait_until(
         lambda: not any(process_alive(pid) for pid in ray_processes), 20.0
     )  # Ray's clean-up is asynchronous

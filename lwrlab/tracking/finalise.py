@@ -21,7 +21,7 @@ from pathlib import Path
 from mlflow.entities import Run
 from mlflow.tracking import MlflowClient
 
-from lwrlab.tracking.processes import HOSTNAME_TAG, PID_TAG, process_alive
+from lwrlab.tracking.processes import HOSTNAME_TAG, PID_TAG, postpone_abort_alarm, process_alive
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.store import retry_locked
 
@@ -36,7 +36,10 @@ OUTPUT_DIR_TAG = "hydra_output_dir"
 
 def stale_reason(pid: str, hostname: str) -> str:
     """The ``killed_by`` text of a run whose process died without ending it."""
-    return f"its process {pid} on {hostname} no longer exists; finalised when the store was next opened from {hostname}"
+    return (
+        f"its process {pid} on {hostname} no longer exists; "
+        f"finalised when the store was next opened from {hostname}"
+    )
 
 
 def end_killed(
@@ -70,6 +73,7 @@ def end_killed(
     """
     from lwrlab.tracking.run_logging import log_output_folder  # the callback module imports this one
 
+    postpone_abort_alarm()  # a Ray process stopped by SIGTERM would abort mid-upload
     if output_dir is None or not output_dir.is_dir():
         where = "no output folder on this machine"
     elif not upload:

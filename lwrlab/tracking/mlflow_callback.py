@@ -54,7 +54,13 @@ from lwrlab.tracking.connection import StoreConnections, ensure_experiment
 from lwrlab.tracking.finalise import finalise_stale_runs
 from lwrlab.tracking.job_run import JobRun
 from lwrlab.tracking.naming import job_run_name
-from lwrlab.tracking.processes import JobInterrupted, install_stop_handler, restore_handlers, signal_name
+from lwrlab.tracking.processes import (
+    JobInterrupted,
+    install_stop_handler,
+    postpone_abort_alarm,
+    restore_handlers,
+    signal_name,
+)
 from lwrlab.tracking.provenance import job_tags
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.settings import SETTING_FIELDS, TrackingSettings, job_redactor, job_settings
@@ -267,6 +273,7 @@ class MlflowTracking(Callback):
         """The launching process ends without on_multirun_end: end the sweep's runs (see ``sweep_stop``)."""
         if self._parent_run_id is None or self._parent_settings is None or self._sweep_pid != os.getpid():
             return
+        postpone_abort_alarm()  # Ray's SIGTERM handler aborts the process 3 s on, mid-way otherwise
         parent_run_id, self._parent_run_id = self._parent_run_id, None
         try:
             client = self._connect(self._parent_settings)

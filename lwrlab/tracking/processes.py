@@ -4,7 +4,8 @@ Used by the tracking callback so that every stop ends runs in a final state: a r
 and host of the process that runs it; a stop signal (SIGINT, SIGTERM) becomes a
 :class:`JobInterrupted` exception after the callback has finalised its runs; a sweep's launching
 process terminates its worker processes (joblib's loky workers, a local Ray instance) so that none
-outlives it; a resumed sweep finalises runs whose process no longer exists.
+outlives it; a resumed sweep finalises runs whose process no longer exists; a Ray process stopped by
+SIGTERM gets time to end its runs before Ray's crash handler aborts it.
 
 Examples
 --------
@@ -21,6 +22,7 @@ import contextlib
 import os
 import signal
 import socket
+import sys
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -31,6 +33,8 @@ PID_TAG = "pid"
 HOSTNAME_TAG = "hostname"
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
 EXIT_STATUS_OFFSET = 128  # a process ended by signal N exits with 128 + N (shell convention)
+FINALISE_DEADLINE_S = 60
+"""Seconds a Ray process stopped by SIGTERM gets to end its runs (see :func:`postpone_abort_alarm`)."""
 
 
 class JobInterrupted(KeyboardInterrupt):
@@ -183,6 +187,25 @@ def terminate_processes(pids: Iterable[int], grace_s: float) -> list[int]:
     return survivors
 
 
+def postpone_abort_alarm(seconds: int = FINALISE_DEADLINE_S) -> bool:
+    """Give a Ray process ``seconds`` to end its runs before the alarm that aborts it on SIGTERM.
+
+    Ray's core (a driver or a worker) handles SIGTERM with absl's failure-signal handler, which
+    prints a stack trace and arms ``alarm(3)``: its SIGALRM aborts the process three seconds later,
+    lest the exit hang. Ending runs (store writes, uploads), after Ray's own shutdown, takes longer
+    on a busy machine, and the abort left runs RUNNING. A pending alarm is re-armed to ``seconds``
+    from now, so a hung exit still ends. Returns whether an alarm was postponed; no-op (``False``)
+    in a process without Ray's core or without a pending alarm.
+    """
+    if "ray._raylet" not in sys.modules or not hasattr(signal, "alarm"):
+        return False
+    remaining = signal.alarm(0)
+    if remaining == 0:
+        return False  # none pending (cancelling none changed nothing)
+    signal.alarm(max(remaining, seconds))
+    return True
+
+
 Handler = Callable[[int, FrameType | None], Any] | int | None
 
 
@@ -210,11 +233,13 @@ def restore_handlers(previous: dict[int, Handler] | None) -> None:
 
 
 __all__ = [
+    "FINALISE_DEADLINE_S",
     "HOSTNAME_TAG",
     "PID_TAG",
     "JobInterrupted",
     "descendant_pids",
     "install_stop_handler",
+    "postpone_abort_alarm",
     "process_alive",
     "process_tags",
     "restore_handlers",

@@ -4,17 +4,41 @@ Run from the tests with the repository's ``conf/`` on the search path, so that `
 is the real tracking config of the project::
 
     python tests/apps/toy_app.py hydra.searchpath=[file:///abs/repo/conf] x=3 fail=true
+
+Two ways to keep a job busy, so that a test stops it mid-job (both outside the config, so that a
+resumed sweep has the same hash): ``TOY_SLEEP_S`` sleeps that long; ``TOY_HOLD_DIR`` announces the
+job in that folder (``started-<pid>-<random>``, holding its overrides, written once its CSV is) and
+waits until the test creates ``release`` there.
 """
 
 from __future__ import annotations
 
 import os
 import time
+import uuid
 from pathlib import Path
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
+
+import lwrlab.conf  # noqa: F401  (registers the schemas of lwrlab's tracking configs: read as file://)
+
+RELEASE_FILE = "release"
+"""Created by a test in ``TOY_HOLD_DIR`` to let the held jobs go on."""
+
+
+def hold(folder: Path, overrides: list[str]) -> None:
+    """Say that this job runs (``started-<pid>-<random>``: its overrides), then wait for ``folder/release``.
+
+    A pool worker runs several jobs: the random part keeps their announcements apart.
+    """
+    announcement = folder / f"started-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    draft = folder / f".{announcement.name}.tmp"
+    draft.write_text(" ".join(overrides), encoding="utf-8")
+    draft.rename(announcement)  # seen whole, or not at all
+    while not (folder / RELEASE_FILE).exists():
+        time.sleep(0.1)
 
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
@@ -22,8 +46,9 @@ def main(cfg: DictConfig) -> dict[str, object]:
     """Write ``table.csv`` into the job output folder, then fail if ``cfg.fail``, else return metrics."""
     output_dir = Path(HydraConfig.get().runtime.output_dir)
     (output_dir / "table.csv").write_text(f"x,doubled\n{cfg.x},{2 * cfg.x}\n", encoding="utf-8")
-    # A long job to stop with a signal (outside the config, so that a resumed sweep has the same hash).
     time.sleep(float(os.environ.get("TOY_SLEEP_S", "0")))
+    if os.environ.get("TOY_HOLD_DIR"):
+        hold(Path(os.environ["TOY_HOLD_DIR"]), list(HydraConfig.get().overrides.task))
     if cfg.fail:
         raise RuntimeError(f"toy failure requested with x={cfg.x}")
     # A failure from outside the config (a crashed node, a full disk): the same config succeeds later.
