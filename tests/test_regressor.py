@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import lwrlab.dynamics.chain_regressor as chain_regressor
 import lwrlab.dynamics.regressor as regressor_module
 from lwrlab.dynamics.chain_regressor import chain_inertial_regressor
 from lwrlab.dynamics.pinocchio_regressor import loop_inertial_regressor
@@ -246,6 +247,32 @@ def test_small_batches_go_through_the_loop_and_agree_with_the_recursion(rng: np.
     assert calls == [n - 1]
     scale = max(1.0, float(np.abs(large).max()))
     np.testing.assert_allclose(small, large[: 7 * (n - 1)], rtol=0, atol=RELATIVE_TOLERANCE * scale)
+
+
+def test_batches_of_several_chunks_agree_with_the_loop(rng: np.random.Generator) -> None:
+    """Two chunks (the last one padded), products on one BLAS thread: the same regressor as the loop."""
+    robot = make_robot(random_serial_model(rng, 7), rng, ALL_FRICTION)
+    n = chain_regressor.CHUNK_SAMPLES + 1
+    assert chain_regressor._chunk_size(n) >= chain_regressor.THREADED_CHUNK
+    q, dq, ddq = random_states(rng, n, 7)
+    vectorised = regressor(robot, q, dq, ddq)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(regressor_module, "SMALL_BATCH", n + 1)
+        looped = regressor(robot, q, dq, ddq)
+    scale = max(1.0, float(np.abs(looped).max()))
+    np.testing.assert_allclose(vectorised, looped, rtol=0, atol=RELATIVE_TOLERANCE * scale)
+
+
+def test_chain_geometry_is_read_once_per_model(rng: np.random.Generator) -> None:
+    model = random_serial_model(rng, 3)
+    chain = serial_chain(model)
+    assert chain is not None and serial_chain(model) is chain
+    moved = model.copy()
+    moved.jointPlacements[2] = random_placement(rng)  # joint 2: the chain's second
+    other = serial_chain(moved)
+    assert other is not None and other is not chain
+    np.testing.assert_array_equal(other.translations[1], moved.jointPlacements[2].translation)
+    np.testing.assert_array_equal(other.translations[[0, 2]], chain.translations[[0, 2]])
 
 
 @pytest.mark.parametrize(

@@ -27,10 +27,11 @@ from lwrlab.dynamics.pinocchio_regressor import loop_inertial_regressor
 from lwrlab.dynamics.serial_chain import serial_chain
 from lwrlab.model.robot import RobotModel
 
-SMALL_BATCH = 32
+SMALL_BATCH = 48
 """Below this many samples a serial chain goes through the Pinocchio loop too: the vectorised
 recursion costs ~0.15 ms whatever the batch (about a hundred numpy calls) and ~1.5 µs per sample,
-the loop ~4.5 µs per sample (7-joint arm, ``benchmarks/regressor.py``)."""
+the loop ~4.5 µs per sample; on the LWR4 the two cross between 40 and 60 samples, depending on the
+load of the machine (``benchmarks/regressor.py``)."""
 
 
 def joint_states(
@@ -75,7 +76,7 @@ def regressor(
     n_inertial = 10 * robot.n_links
     # Zeros where no column is written: calloc'd, so large outputs come zeroed by the system for free.
     full = np.zeros((q.shape[0], n, n_inertial + robot.n_friction))
-    chain = serial_chain(robot.model) if q.shape[0] >= SMALL_BATCH else None  # tens of µs
+    chain = serial_chain(robot.model) if q.shape[0] >= SMALL_BATCH else None
     if chain is not None:
         fill_chain_regressor(chain, q, dq, ddq, full[:, :, :n_inertial])
     else:
