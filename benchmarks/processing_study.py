@@ -16,7 +16,7 @@ and every regressor column at an automatic cut-off, 5 × cut-off rows, velocity 
 for logs), and one change at a time around the defaults. The score is ‖τ − τ̂‖/‖τ‖ (%) on the
 validation logs' raw torques at their logged samples; for simulators also the base-parameter error.
 
-    .venv/bin/python benchmarks/processing_study.py            # prints the table, writes outputs/processing_study.csv
+    .venv/bin/python benchmarks/processing_study.py    # prints the table, writes outputs/processing_study.csv
 """
 
 from __future__ import annotations
@@ -175,6 +175,8 @@ def ours(seed: int) -> DataSet:
     from hydra import compose, initialize_config_dir
     from hydra.utils import instantiate
 
+    import lwrlab.conf  # noqa: F401  (registers the schemas the YAML files link)
+
     with initialize_config_dir(config_dir=str(REPOSITORY / "conf"), version_base=None):
         cfg = compose(
             "config", overrides=["task=identification", f"seed={seed}", "plant.show_progress=false"]
@@ -221,9 +223,10 @@ def second_simulator(folder: Path) -> list[DataSet]:
 
     write_logs(folder, seed=0)
     robot = load_robot_yaml(REPOSITORY / "conf" / "robot" / "kuka_lwr4.yaml")
-    load = lambda name: load_log(
-        folder / f"{name}.npz", 7, column_map=NPZ_MAP, limits=robot.limits
-    ).to_measurement()
+
+    def load(name: str) -> Measurement:
+        return load_log(folder / f"{name}.npz", 7, column_map=NPZ_MAP, limits=robot.limits).to_measurement()
+
     names = (
         yaml.safe_load((folder / "splits.yaml").read_text()) if (folder / "splits.yaml").is_file() else None
     )

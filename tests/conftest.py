@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import lwrlab.conf  # noqa: F401  (registers the schemas conf/'s YAML files link, for compose from CONF)
 from lwrlab.model.robot import RobotModel
 from plugins.robots.mdh import load_robot_yaml
 

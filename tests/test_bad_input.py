@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from hydra import compose, initialize_config_dir
+from hydra.errors import CompactHydraException, ConfigCompositionException
 
 from lwrlab.cli import run
 from lwrlab.errors import ConfigError, IdentifiabilityError, UserError
@@ -194,12 +195,37 @@ CASES = [
         error=ConfigError,
         fragment="task=payload",
     ),
-    # settings checked where they are read
+    # settings of the wrong type or misspelt: Hydra refuses them while composing (lwrlab/config/ schemas)
     Case(
         "seed not an integer",
         ("task=identification", "tracking=none", "seed=1.5"),
+        error=ConfigCompositionException,
+        fragment="full_key: seed",
+    ),
+    Case(
+        "filter order not an integer",
+        ("task=identification", "tracking=none", "measurement.processing.order=2.5"),
+        error=ConfigCompositionException,
+        fragment="full_key: measurement.processing.order",
+    ),
+    Case(
+        "parameter spread not a number",
+        ("task=identification", "tracking=none", "plant.parameter_spread=abc"),
+        error=ConfigCompositionException,
+        fragment="full_key: plant.parameter_spread",
+    ),
+    Case(
+        "misspelt setting",
+        ("task=identification", "tracking=none", "plant.torque_noise_stdd=0.1"),
+        error=ConfigCompositionException,
+        fragment="full_key: plant.torque_noise_stdd",
+    ),
+    # settings checked where the job starts (lwrlab/pipeline/config_checks.py)
+    Case(
+        "setting forced into a typed option",
+        ("task=identification", "tracking=none", "+plant.torque_noise_stdd=0.1"),
         error=ConfigError,
-        fragment="seed=1.5",
+        fragment="plant.torque_noise_stdd: no such setting",
     ),
     Case(
         "noise not a number",
@@ -220,6 +246,12 @@ CASES = [
         fragment="trajectory.duration=0",
     ),
     Case(
+        "cut-off beyond the simulated sensors' Nyquist frequency",
+        ("task=identification", "tracking=none", "measurement.processing.cutoff_hz=600"),
+        error=ConfigError,
+        fragment="measurement.processing.cutoff_hz=600: must be below the Nyquist frequency",
+    ),
+    Case(
         "negative decimated rate",
         ("task=identification", "tracking=none", "measurement.processing.rate_hz=-50"),
         error=ConfigError,
@@ -230,7 +262,7 @@ CASES = [
         (*LOG, "data.velocity=encoder"),
         _frame,
         error=ConfigError,
-        fragment="measurement.processing.velocity='encoder'",
+        fragment="data.velocity='encoder'",
     ),
     Case(
         "validation fraction out of range",
@@ -257,6 +289,12 @@ def _run_case(case: Case, clean: Measurement, tmp_path: Path) -> None:
     run(cfg, tmp_path / "run")
 
 
+def _printed(error: BaseException) -> str:
+    """What lwrlab prints for ``error``: its message, and for Hydra's composition errors their cause."""
+    cause = error.__cause__ if isinstance(error, CompactHydraException) else None
+    return f"{error}\n{cause}" if cause is not None else str(error)
+
+
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
 def test_bad_input_is_never_a_silent_result(
     case: Case, clean: Measurement, tmp_path: Path, capsys: pytest.CaptureFixture[str]
@@ -267,10 +305,11 @@ def test_bad_input_is_never_a_silent_result(
         return
     with pytest.raises(case.error) as error:
         _run_case(case, clean, tmp_path)
-    assert case.fragment in str(error.value)
+    assert case.fragment in _printed(error.value)
     if case.error is LogError and case.log is not None:
         assert str(tmp_path / f"log{case.suffix}") in str(error.value)  # the file is named
-    assert isinstance(error.value, UserError)  # printed as one line by lwrlab
+    # printed without a traceback: lwrlab's one line, or Hydra's composition error naming the key
+    assert isinstance(error.value, UserError | CompactHydraException)
 
 
 def test_a_rank_deficient_fit_fails_naming_what_the_data_cannot_determine(
@@ -293,11 +332,26 @@ def test_a_rank_deficient_fit_fails_naming_what_the_data_cannot_determine(
 @pytest.mark.parametrize(
     "overrides, fragment",
     [
-        (("task=identification", "seed=1.5"), "seed=1.5: must be an integer"),
+        (("task=identification", "seed=-1"), "lwrlab: invalid settings:\n  seed=-1: must be an integer ≥ 0"),
         (("task=identification", "plant=log"), "data.paths"),
+        # compose-time failures: Hydra's short message (override, value, key), no traceback
+        (("task=identification", "seed=abc"), "Value 'abc' of type 'str' could not be converted to Integer"),
+        (("task=identification", "seed=abc"), "full_key: seed\n"),
+        (
+            ("task=identification", "measurement.processing.order=2.5"),
+            "full_key: measurement.processing.order",
+        ),
+        (
+            ("task=identification", "plant.torque_noise_stdd=0.1"),
+            "Key 'torque_noise_stdd' not in 'SimulatedPlantSettings'",
+        ),
+        (
+            ("task=identification", "plant.torque_noise_std=-1"),
+            "plant.torque_noise_std=-1: must be a number ≥ 0",
+        ),
     ],
 )
-def test_lwrlab_prints_one_clear_line_and_exits_non_zero(
+def test_lwrlab_prints_a_clear_message_and_exits_non_zero(
     tmp_path: Path, overrides: tuple[str, ...], fragment: str
 ) -> None:
     environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
@@ -312,8 +366,9 @@ def test_lwrlab_prints_one_clear_line_and_exits_non_zero(
     assert completed.returncode == 1
     assert fragment in completed.stderr
     assert "Traceback" not in completed.stderr
+    assert len(completed.stderr.strip().splitlines()) <= 8, completed.stderr  # a message, not a dump
 
 
 def test_the_suite_covers_the_reported_cases() -> None:
     """The README states how many bad inputs are tried: keep the count honest."""
-    assert len(CASES) + 3 >= 28
+    assert len(CASES) + 3 >= 34

@@ -1,34 +1,46 @@
-"""Settings checked where the job starts: a wrong type or range fails at once, naming the key.
+"""Settings checked where the job starts: a value out of range fails at once, naming the key.
 
-Hydra composes what the user typed (``seed=1.5``, ``plant.torque_noise_std=abc``) without knowing what
-a value means; the plugins would fail much later, with a numpy error that names no key, or not at
-all (a negative noise level is squared away). :data:`RULES` says, per key, what a value must be; a
-key the composed config does not hold (another plant, another task) is not checked. Every
+Types and key names are checked earlier, when Hydra composes, by the schemas of :mod:`lwrlab.config`
+(``plant.parameter_spread=abc`` or a misspelt key in a YAML never reaches this module). What a type
+cannot say is here: :data:`RULES` says, per key, what a value must be (a noise level ≥ 0, a
+duration > 0, a cut-off below the Nyquist frequency); a key the composed config does not hold
+(another plant, another task) is not checked, and a value copied from another checked key
+(``plant.seed: ${seed}``) is reported once, at the key it comes from. :func:`unknown_keys` catches
+the keys ``+key=value`` slipped into a typed node (Hydra adds those whatever the schema). Every
 violation is listed in one :class:`~lwrlab.errors.ConfigError`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Callable, Iterable
+import re
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
 from lwrlab.errors import ConfigError
 
 _MISSING = object()
+VELOCITY_SOURCES = ("auto", "logged", "differentiated")
+"""Where velocities come from (``measurement.processing.velocity``, ``data.velocity``)."""
 
 
 @dataclass(frozen=True)
 class Rule:
-    """What the value at ``key`` must be."""
+    """What the value at ``key`` must be, alone or given the rest of the config."""
 
     key: str
     """Dotted config key."""
-    accepts: Callable[[Any], bool]
-    """True for an acceptable value."""
-    expected: str
-    """What an acceptable value is, in words."""
+    accepts: Callable[[Any, Any], bool]
+    """True for an acceptable value: ``accepts(value, cfg)``."""
+    expected: Callable[[Any], str]
+    """What an acceptable value is, in words: ``expected(cfg)``."""
+
+
+def rule(key: str, accepts: Callable[[Any], bool], expected: str) -> Rule:
+    """A rule on the value alone."""
+    return Rule(key, lambda value, cfg: accepts(value), lambda cfg: expected)
 
 
 def _number(value: Any) -> bool:
@@ -39,6 +51,10 @@ def _integer(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
 
 
+def _positive(value: Any) -> bool:
+    return _number(value) and value > 0
+
+
 def _numbers(value: Any) -> list[Any]:
     """A scalar or a list of numbers (per-joint settings) as a list."""
     return list(value) if isinstance(value, list | tuple) else [value]
@@ -46,7 +62,7 @@ def _numbers(value: Any) -> list[Any]:
 
 def non_negative(key: str, per_joint: bool = False) -> Rule:
     """A number ≥ 0 (or a list of them, per joint)."""
-    return Rule(
+    return rule(
         key,
         lambda v: all(_number(x) and x >= 0 for x in (_numbers(v) if per_joint else [v])),
         "a number ≥ 0" + (" (or one per joint)" if per_joint else ""),
@@ -55,58 +71,135 @@ def non_negative(key: str, per_joint: bool = False) -> Rule:
 
 def positive(key: str, nullable: bool = False) -> Rule:
     """A number > 0 (or null)."""
-    return Rule(
+    return rule(
         key,
         lambda v: (nullable and v is None) or (_number(v) and v > 0),
         "a number > 0" + (" or null" if nullable else ""),
     )
 
 
+def positive_list(key: str, what: str, nullable: bool = False) -> Rule:
+    """A non-empty list of numbers > 0 (or null)."""
+    return rule(
+        key,
+        lambda v: (
+            (nullable and v is None) or (isinstance(v, list) and bool(v) and all(_positive(x) for x in v))
+        ),
+        f"{'null or ' if nullable else ''}a non-empty list of numbers > 0 ({what})",
+    )
+
+
+def integer_at_least(key: str, minimum: int) -> Rule:
+    """An integer ≥ ``minimum``."""
+    return rule(key, lambda v: _integer(v) and v >= minimum, f"an integer ≥ {minimum}")
+
+
+def fraction(key: str) -> Rule:
+    """A number in the open interval (0, 1)."""
+    return rule(key, lambda v: _number(v) and 0 < v < 1, "a number in (0, 1)")
+
+
 def one_of(key: str, *choices: Any) -> Rule:
     """One of ``choices``."""
-    return Rule(key, lambda v: v in choices, f"one of {list(choices)}")
+    return rule(key, lambda v: v in choices, f"one of {list(choices)}")
+
+
+def _reads_logs(cfg: Any) -> bool:
+    """Whether the job reads recorded logs (``plant=log`` adds ``data``): their rate is the files'."""
+    from omegaconf import OmegaConf
+
+    return OmegaConf.select(cfg, "data", default=None) is not None
+
+
+def _below_nyquist(cutoff: Any, cfg: Any) -> bool:
+    from omegaconf import OmegaConf
+
+    rate = OmegaConf.select(cfg, "measurement.rate_hz", default=None)
+    return not (_number(cutoff) and _number(rate)) or _reads_logs(cfg) or cutoff < rate / 2
+
+
+def _noise_presets(cfg: Any) -> list[str]:
+    from omegaconf import OmegaConf
+
+    return sorted(OmegaConf.select(cfg, "task.noise_presets", default=None) or {})
 
 
 RULES: tuple[Rule, ...] = (
-    Rule("seed", lambda v: _integer(v) and v >= 0, "an integer ≥ 0"),
+    integer_at_least("seed", 0),
+    # plant=simulated
+    one_of("plant.mode", "playback", "closed_loop"),
     non_negative("plant.torque_noise_std", per_joint=True),
     non_negative("plant.encoder_noise_std", per_joint=True),
     non_negative("plant.encoder_resolution"),
     non_negative("plant.parameter_spread"),
     non_negative("plant.friction_spread"),
-    Rule("plant.substeps", lambda v: _integer(v) and v >= 1, "an integer ≥ 1"),
+    integer_at_least("plant.seed", 0),
+    positive_list("plant.kp", "N·m/rad per joint", nullable=True),
+    positive_list("plant.kd", "N·m·s/rad per joint", nullable=True),
+    integer_at_least("plant.substeps", 1),
+    # motions
     positive("trajectory.duration"),
     positive("validation.duration"),
+    # measurement
     positive("measurement.rate_hz"),
-    Rule(
+    rule(
         "measurement.processing.cutoff_hz",
         lambda v: v is None or v == "auto" or (_number(v) and v > 0),
         "a number > 0 (Hz), auto or null",
     ),
-    Rule("measurement.processing.order", lambda v: _integer(v) and 1 <= v <= 12, "an integer in [1, 12]"),
+    Rule(  # a log's rate is known when it is read: lwrlab.signal.processing checks the cut-off there
+        "measurement.processing.cutoff_hz",
+        _below_nyquist,
+        lambda cfg: "below the Nyquist frequency of the simulated sensors, measurement.rate_hz / 2",
+    ),
+    rule("measurement.processing.order", lambda v: _integer(v) and 1 <= v <= 12, "an integer in [1, 12]"),
     one_of("measurement.processing.difference_accuracy", 2, 4),
-    Rule(
+    rule(
         "measurement.processing.trim_s",
         lambda v: v is None or (_number(v) and v >= 0),
         "a number ≥ 0 (s) or null",
     ),
     positive("measurement.processing.rate_hz", nullable=True),
-    one_of("measurement.processing.velocity", "auto", "logged", "differentiated"),
-    Rule("data.validation_fraction", lambda v: _number(v) and 0 < v < 1, "a number in (0, 1)"),
+    one_of("measurement.processing.velocity", *VELOCITY_SOURCES),
+    # plant=log
+    fraction("data.validation_fraction"),
     one_of("data.time_unit", "s", "ms", "us", "ns"),
     one_of("data.position_unit", "rad", "deg"),
     positive("data.rate_hz", nullable=True),
-    Rule("data.min_samples", lambda v: _integer(v) and v >= 2, "an integer ≥ 2"),
-    Rule(
+    integer_at_least("data.min_samples", 2),
+    rule(
         "data.drive_gains",
         lambda v: v is None or (isinstance(v, list | tuple) and all(_number(x) and x != 0 for x in v)),
         "null or a list of non-zero numbers (N·m/A per joint)",
     ),
-    Rule("statistics.resamples", lambda v: _integer(v) and v >= 0, "an integer ≥ 0"),
+    one_of("data.velocity", *VELOCITY_SOURCES),
+    # statistics
+    integer_at_least("statistics.resamples", 0),
     positive("statistics.block_s"),
-    Rule("statistics.confidence", lambda v: _number(v) and 0 < v < 1, "a number in (0, 1)"),
+    fraction("statistics.confidence"),
+    integer_at_least("statistics.seed", 0),
+    # task settings (each key belongs to one task)
+    positive("task.verify_rate_hz"),
+    positive_list("task.durations", "s"),
+    fraction("task.knee_fraction"),
+    rule(
+        "task.seeds",
+        lambda v: isinstance(v, list) and bool(v) and all(_integer(s) and s >= 0 for s in v),
+        "a non-empty list of integers ≥ 0",
+    ),
+    Rule("task.noise", lambda v, cfg: v in _noise_presets(cfg), lambda cfg: f"one of {_noise_presets(cfg)}"),
+    rule(
+        "task.noise_presets",
+        lambda v: all(_number(x) and x >= 0 for preset in v.values() for x in preset.values()),
+        "presets of noise levels ≥ 0",
+    ),
+    integer_at_least("task.n_seeds", 1),
+    integer_at_least("task.tool_motion_candidates", 1),
 )
 """The settings checked, by key."""
+
+_COPY = re.compile(r"^\$\{([\w.]+)\}$")
+"""A value that is another key's value (``${seed}``)."""
 
 
 def _plain(value: Any) -> Any:
@@ -117,18 +210,55 @@ def _plain(value: Any) -> Any:
     )
 
 
-def violations(cfg: Any, rules: Iterable[Rule] = RULES) -> list[str]:
-    """One line per rule that a value of ``cfg`` (a composed Hydra config) breaks."""
+def _copied_from(cfg: Any, key: str) -> str | None:
+    """The key whose value ``key`` copies (``plant.seed: ${seed}`` → ``seed``), else None."""
     from omegaconf import OmegaConf
 
-    problems = []
-    for rule in rules:
-        value = OmegaConf.select(cfg, rule.key, default=_MISSING, throw_on_missing=False)
-        if value is _MISSING or OmegaConf.is_missing(cfg, rule.key):
+    parent_key, _, name = key.rpartition(".")
+    parent = OmegaConf.select(cfg, parent_key) if parent_key else cfg
+    node = parent._get_node(name) if OmegaConf.is_dict(parent) else None
+    match = _COPY.match(str(node._value())) if node is not None else None
+    return match.group(1) if match else None
+
+
+def _unknown_below(node: Any, prefix: str) -> Iterator[str]:
+    from omegaconf import DictConfig, OmegaConf
+
+    if not isinstance(node, DictConfig):
+        return
+    schema = OmegaConf.get_type(node)
+    fields = [f.name for f in dataclasses.fields(schema)] if dataclasses.is_dataclass(schema) else None
+    for key in map(str, node):
+        if fields is not None and key not in fields:
+            assert isinstance(schema, type)
+            settings = ", ".join(name for name in fields if not name.startswith("_"))
+            yield f"{prefix}{key}: no such setting ({schema.__name__}: {settings})"
+        else:
+            yield from _unknown_below(node._get_node(key), f"{prefix}{key}.")
+
+
+def unknown_keys(cfg: Any) -> list[str]:
+    """Keys of typed nodes that their schema does not have (added with ``+key=value``).
+
+    The root is left out: its schema types ``seed`` and ``experiment_name`` and leaves the rest open.
+    """
+    return [found for key in cfg for found in _unknown_below(cfg._get_node(key), f"{key}.")]
+
+
+def violations(cfg: Any, rules: Iterable[Rule] = RULES) -> list[str]:
+    """One line per rule that a value of ``cfg`` (a composed Hydra config) breaks, and per unknown key."""
+    from omegaconf import OmegaConf
+
+    rules = tuple(rules)
+    checked = {r.key for r in rules}
+    problems = list(unknown_keys(cfg))
+    for each in rules:
+        value = OmegaConf.select(cfg, each.key, default=_MISSING, throw_on_missing=False)
+        if value is _MISSING or OmegaConf.is_missing(cfg, each.key) or _copied_from(cfg, each.key) in checked:
             continue
         value = _plain(value)
-        if not rule.accepts(value):
-            problems.append(f"{rule.key}={value!r}: must be {rule.expected}")
+        if not each.accepts(value, cfg):
+            problems.append(f"{each.key}={value!r}: must be {each.expected(cfg)}")
     return problems
 
 

@@ -227,9 +227,9 @@ def identify(
         with the :class:`IdentificationContext` of this identification.
     rate_hz : sampling rate of a simulated measurement (Hz).
     processing : keyword arguments of :func:`lwrlab.signal.processing.process`.
-    statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k}``: with n > 0, block
-        bootstrap confidence intervals (:func:`lwrlab.identification.bootstrap.block_bootstrap`)
-        are added to the parameter table.
+    statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k}`` (the ``statistics``
+        group's settings, all four): with n > 0, block bootstrap confidence intervals
+        (:func:`lwrlab.identification.bootstrap.block_bootstrap`) are added to the parameter table.
     """
     processing = dict(processing or {})
     base = compute_base_parameters(robot)
@@ -266,7 +266,8 @@ def identify(
     if identifiability.status == "rank_deficient" and not has_prior:
         raise IdentifiabilityError(
             f"{identifiability.warning_text().removeprefix('WARNING: ')}\n"
-            "The data cannot determine these parameters: excite the named joints more, or use an estimator with a prior (estimator=sdp)."
+            "The data cannot determine these parameters: excite the named joints more, or use an "
+            "estimator with a prior (estimator=sdp)."
         )
     context = _context(robot, base, motion, processed[0])
     cpu_start = time.process_time()
@@ -314,17 +315,16 @@ def identify(
         },
         index=pd.Index(base.names, name="parameter"),
     )
-    statistics = dict(statistics or {})
-    if statistics.get("resamples", 0) > 0:
+    if statistics is not None and statistics["resamples"] > 0:
         interval = block_bootstrap(
             estimator,
             w_base,
             tau,
             robot.n_joints,
-            block_samples=max(1, int(round(statistics.get("block_s", 1.0) * processed[0].rate_hz))),
+            block_samples=max(1, round(statistics["block_s"] * processed[0].rate_hz)),
             resamples=int(statistics["resamples"]),
-            confidence=float(statistics.get("confidence", 0.95)),
-            seed=int(statistics.get("seed", 0)),
+            confidence=float(statistics["confidence"]),
+            seed=int(statistics["seed"]),
             context=context,
         )
         parameters["ci_lower"], parameters["ci_upper"], parameters["bootstrap_std"] = (
@@ -429,16 +429,19 @@ def format_report(report: IdentificationReport) -> str:
         "",
         f"fit ‖τ−τ̂‖/‖τ‖ {100 * report.metrics['fit_rel_error']:.3g} %, validation ‖τ−τ̂‖/‖τ‖ "
         f"{100 * report.metrics['validation_rel_error']:.3g} % (mean over validation logs); "
-        f"mean RMS {report.metrics['rms_mean']:.4g} N·m, mean NRMS {report.metrics['nrms_mean']:.4g} % (RMS over the measured range), "
+        f"mean RMS {report.metrics['rms_mean']:.4g} N·m, mean NRMS "
+        f"{report.metrics['nrms_mean']:.4g} % (RMS over the measured range), "
         f"cond(W_b) {report.metrics['cond_W_b']:.4g}, smallest pseudo-inertia eigenvalue "
-        f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} of the reported standard set (< 0: not a rigid body)",
+        f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} of the reported standard set (< 0: "
+        "not a rigid body)",
     ]
     resampled = [
         m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")
     ]
     if resampled:
         lines.append(
-            f"NOTE: irregular time stamps in {', '.join(resampled)}: processed on a uniform grid, scored at the logged samples"
+            f"NOTE: irregular time stamps in {', '.join(resampled)}: processed on a uniform grid, "
+            "scored at the logged samples"
         )
     lines.append(report.identifiability.summary())
     lines += report.notes
@@ -454,7 +457,10 @@ def format_report(report: IdentificationReport) -> str:
 
 
 def predicted_torque_frame(report: IdentificationReport) -> pd.DataFrame:
-    """Measured and predicted torques of every log at its logged samples: ``log, role, t, scored, tau1…N, tau_hat1…N``."""
+    """Measured and predicted torques of every log at its logged samples.
+
+    Columns ``log, role, t, scored, tau1…N, tau_hat1…N``.
+    """
     n = report.robot.n_joints
     frames = []
     for p in report.predictions:
@@ -470,7 +476,8 @@ RUN_TAGS_FILE = "tags.json"
 
 
 def run_tags(report: IdentificationReport) -> dict[str, str]:
-    """``identifiability`` (good, poor, rank_deficient), ``warnings`` (count) and ``data`` (logs or simulation)."""
+    """Run tags: ``identifiability`` (good, poor, rank_deficient), ``warnings`` (count), ``data``
+    (logs or simulation)."""
     warnings = sum(
         len(m.metadata.get("warnings", [])) for m in [*report.measurements, *report.validation_measurements]
     )

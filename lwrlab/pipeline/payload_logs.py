@@ -150,8 +150,8 @@ def earlier_robot_base(bench: ToolBench, model_path: str | Path) -> np.ndarray:
     if tuple(model.base_names) != tuple(bench.base.names):
         raise ConfigError(
             f"{path}: its base parameters {list(model.base_names)} are not those of {bench.robot.name} with "
-            f"friction terms {list(bench.robot.friction_terms)} ({list(bench.base.names)}); identify the unloaded "
-            "robot with the same robot and robot.friction_terms"
+            f"friction terms {list(bench.robot.friction_terms)} ({list(bench.base.names)}); "
+            "identify the unloaded robot with the same robot and robot.friction_terms"
         )
     return np.asarray(model.base_values, dtype=float)
 
@@ -172,7 +172,8 @@ def identify_payload_from_rows(
     """
     if (unloaded is None) == (robot_base is None):
         raise ConfigError(
-            "give the unloaded robot either as unloaded logs (task.unloaded_paths) or as an identified model (task.unloaded_model), not both"
+            "give the unloaded robot either as unloaded logs (task.unloaded_paths) or as an "
+            "identified model (task.unloaded_model), not both"
         )
     method = method or ("joint" if unloaded is not None else "payload_only")
     if method not in METHODS:
@@ -292,17 +293,22 @@ def format_payload(document: dict[str, Any], truth: Any = None) -> str:
     lines = [
         f"## Payload identified from logs ({document['method']}), flange frame",
         "",
-        f"mass {document['mass']:.5g} kg, centre of mass ({com}) mm, physically consistent: {document['physically_consistent']}",
+        f"mass {document['mass']:.5g} kg, centre of mass ({com}) mm, physically consistent: "
+        f"{document['physically_consistent']}",
     ]
     if "recognised" in document:
         r = document["recognised"]
         lines.append(
-            f"recognised: {r['tool']} ({r['kind']}, confidence {r['confidence']:.3f}, length {r['geometry']['length']} m, width {r['geometry']['width']} m)"
+            f"recognised: {r['tool']} ({r['kind']}, confidence {r['confidence']:.3f}, length "
+            f"{r['geometry']['length']} m, width {r['geometry']['width']} m)"
         )
     header = "| parameter | value | std | %σ |" + (" truth |" if truth is not None else "")
     lines += ["", header, "|---|---|---|---|" + ("---|" if truth is not None else "")]
     for i, name in enumerate(LINK_PARAMETER_NAMES):
-        row = f"| {name} | {document['parameters'][name]:.6g} | {document['std'][name]:.3g} | {document['relative_std_pct'][name]:.3g} |"
+        row = (
+            f"| {name} | {document['parameters'][name]:.6g} | {document['std'][name]:.3g} | "
+            f"{document['relative_std_pct'][name]:.3g} |"
+        )
         lines.append(row + (f" {truth.parameters[i]:.6g} |" if truth is not None else ""))
     return "\n".join(lines)
 
@@ -343,7 +349,8 @@ def run_payload(
         raise ConfigError("task=payload needs the loaded log(s): 'task.loaded_paths=[loaded.csv]'")
     if not unloaded_paths and not unloaded_model:
         raise ConfigError(
-            "task=payload needs the unloaded robot: 'task.unloaded_paths=[unloaded.csv]' or task.unloaded_model=<run>/identified_model.yaml"
+            "task=payload needs the unloaded robot: 'task.unloaded_paths=[unloaded.csv]' or "
+            "task.unloaded_model=<run>/identified_model.yaml"
         )
     robot = instantiate(cfg.robot)
     bench = ToolBench.for_robot(robot, _processing(cfg))
@@ -414,7 +421,8 @@ def known_payload(
         return np.asarray(tool.parameters, dtype=float), np.ones(10, dtype=bool)
     if mass is None or mass <= 0:
         raise ConfigError(
-            "the drive gains need a known payload: task.payload.mass (kg, > 0), optionally task.payload.com, or task.payload.tool"
+            "the drive gains need a known payload: task.payload.mass (kg, > 0), optionally "
+            "task.payload.com, or task.payload.tool"
         )
     phi, known = np.zeros(10), np.zeros(10, dtype=bool)
     phi[0], known[0] = float(mass), True
@@ -530,7 +538,8 @@ def run_drive_gains(
     ----------
     unloaded_paths, loaded_paths : logs with motor currents (columns ``current1…N``, or mapped by
         ``data.column_map``), without and with the payload; read with gain 1 whatever ``data.drive_gains``.
-    payload : ``{mass: kg, com: [x, y, z] m or null}`` in the flange frame, or ``{tool: <library name>}``.
+    payload : ``{mass: kg or null, com: [x, y, z] m or null, tool: <library name> or null}`` in the
+        flange frame: the mass (and CoM), or a whole library tool.
     method : ``least_squares`` (Gautier and Briot) or ``total_least_squares``.
     weighted : Gautier's weighting per (log set, joint).
     true_gains : the true gains when known (simulation): errors are added to the metrics.
@@ -543,11 +552,13 @@ def run_drive_gains(
     output_dir.mkdir(parents=True, exist_ok=True)
     if not unloaded_paths or not loaded_paths:
         raise ConfigError(
-            "task=drive_gains needs current logs without and with the payload: 'task.unloaded_paths=[u.csv]' 'task.loaded_paths=[l.csv]'"
+            "task=drive_gains needs current logs without and with the payload: "
+            "'task.unloaded_paths=[u.csv]' 'task.loaded_paths=[l.csv]'"
         )
-    payload = dict(payload or {})
-    tool = load_tool(payload["tool"]) if payload.get("tool") else None
-    phi, known = known_payload(payload.get("mass"), payload.get("com"), tool)
+    mass, com, tool_name = (
+        (payload["mass"], payload["com"], payload["tool"]) if payload else (None, None, None)
+    )
+    phi, known = known_payload(mass, com, load_tool(tool_name) if tool_name else None)
     robot = instantiate(cfg.robot)
     bench = ToolBench.for_robot(robot, _processing(cfg))
     start = time.perf_counter()
@@ -584,9 +595,10 @@ def run_drive_gains(
     if weak:
         lines += [
             "",
-            f"WARNING: gains of joints {weak} are poorly determined (%σ > {WEAK_GAIN_RELATIVE_STD:g}): the known payload "
-            "barely loads them (a centre of mass on their axis). Give a payload whose centre of mass lies off those axes "
-            "(task.payload.com), a heavier one, or the whole tool (task.payload.tool).",
+            f"WARNING: gains of joints {weak} are poorly determined (%σ > {WEAK_GAIN_RELATIVE_STD:g}): "
+            "the known payload barely loads them (a centre of mass on their axis). Give a payload "
+            "whose centre of mass lies off those axes (task.payload.com), a heavier one, or the whole "
+            "tool (task.payload.tool).",
         ]
         log.warning("drive gains of joints %s are poorly determined (%%σ > %g)", weak, WEAK_GAIN_RELATIVE_STD)
     metrics["n_weak_gains"] = float(len(weak))

@@ -1,0 +1,19 @@
+"""Schema of the ``statistics`` group (``conf/statistics/``; :mod:`lwrlab.identification.bootstrap`)."""
+
+from __future__ import annotations
+
+from lwrlab.config.schema import schema
+
+
+@schema
+class StatisticsSettings:
+    """Parameter uncertainty: the estimator's covariance, plus block-bootstrap intervals when resampled."""
+
+    resamples: int
+    """Bootstrap fits (0: the covariance σ only)."""
+    block_s: float
+    """s per block of consecutive samples (longer than the correlation time of the torque errors)."""
+    confidence: float
+    """Level of the percentile intervals, in (0, 1)."""
+    seed: int
+    """Seed of the resampling."""

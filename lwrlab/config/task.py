@@ -1,0 +1,192 @@
+"""Schemas of the ``task`` group (``conf/task/``): each task's keywords besides ``(cfg, output_dir)``.
+
+A task is a function of :mod:`lwrlab.pipeline` built partially from its node (``_partial_: true``);
+the fields below are the keywords it receives. Nodes Hydra builds into objects (a criterion, a
+classifier, a motion) are typed ``Any``: their own group types them, or their plugin checks them.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from lwrlab.config.schema import Instantiable, schema
+
+
+@schema
+class IdentificationTask(Instantiable):
+    """``task=identification``: exciting motion → robot → processing → estimation → cross-validation."""
+
+    motion_format: str
+    """The 1 kHz motions played, as ``parquet`` or ``csv``."""
+
+
+@schema
+class ExcitationTask(Instantiable):
+    """``task=excitation``: optimise the exciting motion and write it."""
+
+    verify_rate_hz: float
+    """Hz, rate at which every constraint is checked against the true limits."""
+
+
+@schema
+class DurationStudyTask(Instantiable):
+    """``task=duration_study`` (Fig. 5): optimal cost of each criterion for each duration."""
+
+    criteria: dict[str, Any]
+    """Criteria compared, by name (options of the ``criterion`` group)."""
+    durations: list[float]
+    """s, the durations T_F."""
+    knee_fraction: float
+    """A step below this share of the criterion's total decrease is not significant."""
+
+
+@schema
+class CriteriaComparisonTask(Instantiable):
+    """``task=criteria_comparison`` (Fig. 6): each criterion's optimum identified and cross-validated."""
+
+    criteria: dict[str, Any]
+    """Criteria compared, by name (options of the ``criterion`` group)."""
+    seeds: list[int]
+    """Seeds of the truths and noises the comparison averages over."""
+
+
+@schema
+class NoisePreset:
+    """One noise level of the estimator benchmark (BIRDy's presets)."""
+
+    encoder_noise_deg: float
+    """°, encoder noise σ_q."""
+    torque_noise_std: float
+    """N·m, torque noise σ_τ."""
+
+
+@schema
+class EstimatorBenchmarkTask(Instantiable):
+    """``task=estimator_benchmark``: one (estimator, noise preset, seed) cell of the benchmark."""
+
+    noise: str
+    """The preset of this cell: a key of ``noise_presets``."""
+    noise_presets: dict[str, NoisePreset]
+    """Noise presets by name."""
+
+
+@schema
+class LoggedPayloadInputs(Instantiable):
+    """Logs of the robot without and with a payload (tasks ``payload`` and ``drive_gains``)."""
+
+    unloaded_paths: list[str] | None
+    """Logs of the robot without the payload."""
+    loaded_paths: list[str] | None
+    """Logs of the robot carrying the payload."""
+    weighted: bool
+    """Gautier's weighting per (log set, joint)."""
+
+
+@schema
+class PayloadTask(LoggedPayloadInputs):
+    """``task=payload``: a payload identified from logs and recognised in the tool library."""
+
+    unloaded_model: str | None
+    """Or an earlier run's identified_model.yaml (or its folder) for the unloaded robot."""
+    method: str | None
+    """``joint``, ``payload_only``, or null (joint with logs, payload_only with a model)."""
+    consistent: bool
+    """SDP with the payload's pseudo-inertia ⪰ 0."""
+    library: list[str] | None
+    """Tools of the look-up (null = every tool in conf/tool/)."""
+    truth: str | None
+    """A library tool known to be the payload (simulated logs): errors in metrics."""
+
+
+@schema
+class KnownPayload:
+    """What is known of the payload of a drive-gain identification (flange frame)."""
+
+    mass: float | None
+    """kg (required unless ``tool`` is given)."""
+    com: list[float] | None
+    """m, [x, y, z] if known."""
+    tool: str | None
+    """Or a library tool (conf/tool/): all 10 parameters known."""
+
+
+@schema
+class DriveGainsTask(LoggedPayloadInputs):
+    """``task=drive_gains``: joint drive gains (N·m/A) from current logs, unloaded and with a payload."""
+
+    payload: KnownPayload
+    """What is known of the payload."""
+    method: str
+    """``least_squares`` (Gautier and Briot) or ``total_least_squares``."""
+    true_gains: list[float] | None
+    """The true gains when known (simulation): errors in metrics."""
+
+
+@schema
+class ToolStudy(Instantiable):
+    """Tools identified by eq. (7) on the simulated robot and recognised (tool tasks)."""
+
+    library: list[str] | None
+    """Tools of the look-up (null = every tool in conf/tool/)."""
+    method: str
+    """``joint`` (eq. 7: robot and tool together) or ``payload_only`` (robot first, then tool)."""
+    weighted: bool
+    """Gautier's weighting per (motion, joint) row group."""
+    consistent: bool
+    """SDP with the tool's pseudo-inertia ⪰ 0."""
+    tool_motion: Any
+    """The motion carrying the tool (a ``trajectory`` plugin node, partial: seeds vary)."""
+    tool_motion_candidates: int
+    """Candidate motions; the one exciting the tool best is kept."""
+
+
+@schema
+class Table3ToolsTask(ToolStudy):
+    """``task=table3_tools`` (Table III): each tool's 10 inertial parameters, recognised."""
+
+    tools: list[str]
+    """Library names of the tools identified."""
+
+
+@schema
+class ToolRecognitionBenchmarkTask(ToolStudy):
+    """``task=tool_recognition_benchmark``: every classifier × library tool × seed."""
+
+    classifiers: dict[str, Any]
+    """Classifiers compared, by name (options of the ``classifier`` group)."""
+    n_seeds: int
+    """Robot truths and noise draws per tool: seeds ``seed`` … ``seed + n_seeds − 1``."""
+
+
+@schema
+class WriteExampleLogsTask(Instantiable):
+    """``task=write_example_logs``: the simulated motions written as logs."""
+
+    directory: str
+    """Where the logs go (also copied into the run folder)."""
+    file_format: str
+    """Log format, the file suffix: ``csv``, ``parquet`` or ``npz``."""
+
+
+@schema
+class PaperChainTask(Instantiable):
+    """``task=paper_chain``: the whole chain of the paper's Fig. 1."""
+
+    painting: Any
+    """The painting stage's settings (``conf/task/painting.yaml``, narrowed)."""
+
+
+TASK_SCHEMAS: dict[str, type] = {
+    "identification": IdentificationTask,
+    "excitation": ExcitationTask,
+    "duration_study": DurationStudyTask,
+    "criteria_comparison": CriteriaComparisonTask,
+    "estimator_benchmark": EstimatorBenchmarkTask,
+    "payload": PayloadTask,
+    "drive_gains": DriveGainsTask,
+    "table3_tools": Table3ToolsTask,
+    "tool_recognition_benchmark": ToolRecognitionBenchmarkTask,
+    "write_example_logs": WriteExampleLogsTask,
+    "paper_chain": PaperChainTask,
+}
+"""Schema of each task option, by option name."""
