@@ -273,6 +273,9 @@ def test_chain_geometry_is_read_once_per_model(rng: np.random.Generator) -> None
     assert other is not None and other is not chain
     np.testing.assert_array_equal(other.translations[1], moved.jointPlacements[2].translation)
     np.testing.assert_array_equal(other.translations[[0, 2]], chain.translations[[0, 2]])
+    moved.addJoint(3, pin.JointModelRY(), random_placement(rng), "joint4")  # a model being built
+    longer = serial_chain(moved)
+    assert longer is not None and len(longer.axes) == 4
 
 
 @pytest.mark.parametrize(

@@ -138,24 +138,24 @@ def serial_chain(model: pin.Model) -> SerialChain | None:
     """The chain's constant geometry, or None if ``model`` is not a serial chain of revolute joints.
 
     A model's geometry is read once and kept while the model lives (reading it through Pinocchio's
-    bindings costs ~50 µs, a sixth of a 100-sample regressor): models are built once and not changed
-    in place, but for their inertias, which the chain does not hold (``RobotModel.with_parameters``
-    copies the model).
+    bindings costs ~50 µs, a sixth of a 100-sample regressor): models are built once (a joint added
+    later is seen) and not changed in place, but for their inertias, which the chain does not hold
+    (``RobotModel.with_parameters`` copies the model).
     """
     cached = _CHAINS.get(id(model))
-    if cached is not None and cached[0]() is model:
-        return cached[1]
+    if cached is not None and cached[1] == model.njoints and cached[0]() is model:
+        return cached[2]
     chain = _read_serial_chain(model)
     if len(_CHAINS) >= 64:  # forget the models that are gone
-        for key in [key for key, (ref, _) in _CHAINS.items() if ref() is None]:
+        for key in [key for key, (ref, _, _) in _CHAINS.items() if ref() is None]:
             del _CHAINS[key]
-    _CHAINS[id(model)] = weakref.ref(model), chain
+    _CHAINS[id(model)] = weakref.ref(model), model.njoints, chain
     return chain
 
 
-_CHAINS: dict[int, tuple[weakref.ref[pin.Model], SerialChain | None]] = {}
+_CHAINS: dict[int, tuple[weakref.ref[pin.Model], int, SerialChain | None]] = {}
 """The chains of the models seen, keyed by ``id(model)``, with a weak reference to tell a model
-from a later one at the same address."""
+from a later one at the same address and the number of joints it had (a model being built)."""
 
 
 def _read_serial_chain(model: pin.Model) -> SerialChain | None:
