@@ -8,20 +8,23 @@ feels ``τ_k = u_kjᵀ·Y_j·φ_j``, with ``u_kj`` the unit twist of joint k see
 carried forward along the recursion: there is no backward pass.
 
 How it is laid out, and why (each point was measured with ``benchmarks/regressor.py``): a numpy
-call costs about a microsecond whatever its size, numpy's batched products of tiny matrices are
-slow, and fresh memory costs a page fault per 4 KiB, so
+call costs one to a few microseconds whatever its size, numpy's batched products of tiny matrices
+are slow, and fresh memory costs a page fault per 4 KiB, so
 
 * the samples are the *last* axis of every working array: every operation is a long contiguous loop;
-* samples go through in chunks of :data:`CHUNK_SAMPLES`, in a workspace kept between calls;
+* samples go through in chunks of :data:`CHUNK_SAMPLES`, in a workspace kept between calls, whose
+  views for each step are made once per chunk size;
 * each joint turns about the z axis of its "axis frame" (the joint frame itself in DH models,
-  :class:`~lwrlab.dynamics.serial_chain.SerialChain`), so its rotation is a few products with its
-  cosine and sine, and everything constant is one matrix product (BLAS) with a precomputed matrix;
-* a segment's frame is one array of rows: the unit twists of the joints before it, then its state
-  (ω, ω̇, a), then the rest of its value table; the twists sit right before the state so that one
-  set of calls turns them all;
-* the torque of joint k due to segment j is the twist u_kj dotted with the segment's wrench
-  regressor: two ``np.einsum`` calls per segment, written into the chunk's regressor laid out as
-  [column, joint, sample], which one transposition writes to the output [sample, joint, column].
+  :class:`~lwrlab.dynamics.serial_chain.SerialChain`), so its rotation is three products with its
+  cosine and sine, and everything constant is one BLAS product with a precomputed matrix: the
+  state's and the twists' transport to the next frame, and the segment's wrench regressor from its
+  state (:data:`~lwrlab.dynamics.segment_wrench.ENTRY_MAP`, which also takes the state from the axis
+  frame to the joint frame where the parameters are expressed);
+* a segment's frame is one array of rows: the unit twists of the joints before it right before its
+  state (ω, ω̇, a, vec(ωωᵀ)), so that one set of calls turns them all;
+* the torques of joints 0…j due to segment j are the twists dotted with the segment's wrench
+  regressor: two ``np.einsum`` calls, into a block laid out [column, joint, sample], which is
+  written to the output [sample, joint, column] while it is in the cache.
 
 The products with constant matrices go through BLAS, whose kernels depend on the batch's size: a
 sample's regressor depends on the batch around it at the level of round-off (~1e-16 relative).
@@ -176,7 +179,7 @@ _thread_state = threading.local()
 def _workspace(n: int) -> _Workspace:
     """This thread's workspace for N_J-joint chains (one per thread: numpy releases the GIL)."""
     spaces = _thread_state.__dict__.setdefault("workspaces", {})
-    if n not in spaces:
+    if n not in spaces or spaces[n].capacity <= CHUNK_SAMPLES:  # CHUNK_SAMPLES changed since
         if len(spaces) >= 4:  # a few MB each: keep those of the robots in use
             spaces.pop(next(iter(spaces)))
         spaces[n] = _Workspace(n, CHUNK_SAMPLES + 1)
