@@ -147,12 +147,11 @@ class _Groups:
 
 def _batch_controllers(controllers: Sequence[PaintingController]) -> _Batch | _Groups:
     """All offset-tracking controllers in one batch, every other one alone."""
-    tracking = [r for r, c in enumerate(controllers) if isinstance(c, OffsetTrackingController)]
+    laws = {r: c.law() for r, c in enumerate(controllers) if isinstance(c, OffsetTrackingController)}
     groups: list[tuple[list[int], _Batch]] = []
-    if tracking:
-        laws = [controllers[r].law() for r in tracking]  # type: ignore[attr-defined]
-        groups.append((tracking, OffsetTrackingBatch(laws)))
-    groups += [([r], _Alone(c)) for r, c in enumerate(controllers) if r not in tracking]
+    if laws:
+        groups.append((list(laws), OffsetTrackingBatch(list(laws.values()))))
+    groups += [([r], _Alone(c)) for r, c in enumerate(controllers) if r not in laws]
     if len(groups) == 1:  # one batch of every run in order: its decisions need no reordering
         return groups[0][1]
     return _Groups(groups, len(controllers))

@@ -113,15 +113,18 @@ class ExternalForceEstimator:
 
     def reset(self, q: np.ndarray) -> None:
         """Start at rest at ``q`` (rad), with no force."""
+        self._start(q)
+
+    def _start(self, q: np.ndarray) -> ForceEstimatorBatch:
         self._single = ForceEstimatorBatch([self])
         self._single.reset(np.asarray(q, dtype=float)[None])
+        return self._single
 
     def update(self, q: np.ndarray, tau: np.ndarray) -> StateEstimate:
-        """One sample: measured positions ``q`` (rad) and link-side torques ``tau`` (N·m)."""
-        if self._single is None:
-            self.reset(q)
-        assert self._single is not None
-        state = self._single.update(np.asarray(q, dtype=float)[None], np.asarray(tau, dtype=float)[None])
+        """One sample: measured positions ``q`` (rad) and link-side torques ``tau`` (N·m); before any
+        reset, the estimator starts at rest at ``q``."""
+        single = self._single if self._single is not None else self._start(q)
+        state = single.update(np.asarray(q, dtype=float)[None], np.asarray(tau, dtype=float)[None])
         return StateEstimate(*(value[0] for value in state))
 
 

@@ -1,20 +1,20 @@
-"""One painting run of the painting stage: its plan, its simulation in MuJoCo and its score (Table IV).
+"""The painting runs of the painting stage: their plan, their simulation in MuJoCo, their score (Table IV).
 
 Pure computation: :func:`simulate_painting` plays a roller's optimised path on the contact plant with
-a controller, :func:`score_run` compares the normal forces (Table IV) and measures the painted
-coverage from the contact trace.
+each controller (the runs stepped together), :func:`score_run` compares the normal forces (Table IV)
+and measures the painted coverage from the contact trace.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
 
-from lwrlab.control.contact_loop import ContactRun, PaintingController, simulate_contact
+from lwrlab.control.contact_loop import ContactCase, ContactRun, PaintingController, simulate_contacts
 from lwrlab.control.filters import FirstOrderLowPass
 from lwrlab.control.force_estimation import ExternalForceEstimator
 from lwrlab.control.joint_pd import ControlSetup
@@ -132,49 +132,30 @@ def reference_poses(
 def simulate_painting(
     plan: RollerPlan,
     truth: RobotModel,
-    controller_model: RobotModel,
-    controller: PaintingController,
+    controllers: Sequence[tuple[RobotModel, PaintingController]],
     wall: Wall,
     contact: Mapping[str, Any],
     estimator_settings: Mapping[str, Any],
     seed: int,
-) -> ContactRun:
-    """One painting run in MuJoCo: the true robot + roller in the plant, ``controller_model`` controlling.
+) -> list[ContactRun]:
+    """The painting runs of one roller in MuJoCo, one per (controller model, controller), stepped together.
 
-    ``contact`` (conf/task/painting.yaml ``contact``): ``approach_s``, ``standoff``,
-    ``duration_scale``, ``max_duration`` (the run's timing) and the plant's ``substeps``,
-    ``friction``, ``contact_time_constant``, ``contact_radius`` and noise levels.
+    Each run has its own plant (the true robot + roller, the same noise seed) and its controller and
+    force estimate (eq. 14) on its controller model; the runs share the path, so the contact loop
+    advances them all each period (:func:`~lwrlab.control.contact_loop.simulate_contacts`), each
+    equal to that run simulated alone. ``contact`` (conf/task/painting.yaml ``contact``):
+    ``approach_s``, ``standoff``, ``duration_scale``, ``max_duration`` (the runs' timing) and the
+    plant's ``substeps``, ``friction``, ``contact_time_constant``, ``contact_radius`` and noise levels.
     """
     period = 1.0 / CONTROL_RATE_HZ
-    plant = MujocoContactPlant(
-        truth,
-        ContactTool(
-            plan.tool.parameters,
-            plan.tool.contact_point,
-            plan.tool.contact_axis,
-            plan.tool.width,
-            float(contact["contact_radius"]),
-        ),
-        wall,
-        control_period=period,
-        substeps=int(contact["substeps"]),
-        torque_noise_std=contact["torque_noise_std"],
-        encoder_noise_std=float(contact["encoder_noise_std"]),
-        force_noise_std=float(contact["force_noise_std"]),
-        friction=float(contact["friction"]),
-        contact_time_constant=float(contact["contact_time_constant"]),
-        seed=seed,
+    tool = ContactTool(
+        plan.tool.parameters,
+        plan.tool.contact_point,
+        plan.tool.contact_axis,
+        plan.tool.width,
+        float(contact["contact_radius"]),
     )
     tcp = tcp_transform(plan.recognised)
-    setup = ControlSetup(
-        controller_model,
-        SwivelIK(controller_model),
-        tcp,
-        plan.path.parameters.swivel,
-        plan.path.branch,
-        period,
-    )
-    estimator = ExternalForceEstimator(controller_model, tcp, period, **estimator_settings)
     max_duration = contact["max_duration"]
     reference, painting = reference_poses(
         plan,
@@ -186,12 +167,32 @@ def simulate_painting(
     )
     start = reference[0].copy()
     start[0, 3] += float(contact["standoff"])  # start off the wall; the force loop brings the roller on it
+    cases = [
+        ContactCase(
+            MujocoContactPlant(
+                truth,
+                tool,
+                wall,
+                control_period=period,
+                substeps=int(contact["substeps"]),
+                torque_noise_std=contact["torque_noise_std"],
+                encoder_noise_std=float(contact["encoder_noise_std"]),
+                force_noise_std=float(contact["force_noise_std"]),
+                friction=float(contact["friction"]),
+                contact_time_constant=float(contact["contact_time_constant"]),
+                seed=seed,
+            ),
+            controller,
+            ExternalForceEstimator(model, tcp, period, **estimator_settings),
+            ControlSetup(model, SwivelIK(model), tcp, plan.path.parameters.swivel, plan.path.branch, period),
+            start,
+        )
+        for model, controller in controllers
+    ]
     steps = tqdm(
         range(reference.shape[0]), desc="contact simulation", unit="step", leave=False, mininterval=2.0
     )
-    return simulate_contact(
-        plant, controller, estimator, setup, reference, painting, start=start, progress=steps
-    )
+    return simulate_contacts(cases, reference, painting, progress=steps)
 
 
 @dataclass
@@ -227,7 +228,10 @@ def score_run(
     cutoff_hz: float,
     simulation_s: float,
 ) -> ScoredRun:
-    """Table IV's force errors, the painted coverage and the path tracking of ``run``."""
+    """Table IV's force errors, the painted coverage and the path tracking of ``run``.
+
+    ``simulation_s``: the run's share of the wall time its roller's runs took, stepped together (s).
+    """
     forces = normal_force_table(run, desired_force, cutoff_hz)
     labels = {"roller": roller, "model": model, "feedback": feedback}
     errors = []
