@@ -1,4 +1,4 @@
-"""MLflow opens on the answer: experiment kind and description, runs named by what differs, plugin names as params."""
+"""MLflow opens on the answer: experiment kind and description, runs named by what differs, plugin params."""
 
 from __future__ import annotations
 
