@@ -234,7 +234,7 @@ def _segment_step(chain: SerialChain, j: int, step: _Step, arrays: dict[str, np.
     np.add(step.omega_dot_xy, step.coupling, out=step.omega_dot_xy)
     np.add(step.z_rows, arrays["motion"][1, j], out=step.z_rows)
     np.multiply(*step.outer)
-    np.matmul(chain.entry_maps[j], step.state, out=arrays["entries"])
+    np.matmul(chain.entry_maps[j], step.state[3:], out=arrays["entries"])
     twists = step.joint_twists
     if chain.turns_axis[j]:  # to joint-frame coordinates, where φ_j and its wrench regressor are expressed
         np.matmul(chain.axis_frames[j], step.joint_vectors, out=step.seen_vectors)

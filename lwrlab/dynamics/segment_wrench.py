@@ -58,6 +58,7 @@ ENTRY_MAP = np.array(
 )
 """(42, 18) the non-zero blocks of the wrench regressor (:func:`wrench_blocks`) from the state."""
 ENTRY_MAP.flags.writeable = False
+assert not ENTRY_MAP[:, :3].any()  # Y depends on ω only through vec(ωωᵀ)
 
 
 def state_rotation(rotation: np.ndarray) -> np.ndarray:
@@ -91,7 +92,6 @@ def _wrench_basis() -> np.ndarray:
     basis = np.zeros((6, 10, len(STATE)))
     basis[:, :4] = first_moment
     basis[:3, 4:] = inertia
-    assert not basis[..., :3].any()
     return np.ascontiguousarray(basis[..., 3:].transpose(2, 0, 1))
 
 

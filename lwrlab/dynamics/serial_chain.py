@@ -82,9 +82,10 @@ class SerialChain:
     """(N_J, 6, 6) ``[[E_jᵀ, 0], [−E_jᵀ·S(t_j), E_jᵀ]]``: a twist (ω; v) from the parent's axis frame
     to frame j′ before its joint turns (v moves from the parent's origin to t_j: ``v + ω × t_j``)."""
     entry_maps: np.ndarray = field(init=False, repr=False, compare=False)
-    """(N_J, 42, 18) the non-zero blocks of segment j's wrench regressor (in joint-frame coordinates,
-    where its parameters are expressed) from its state in axis-frame coordinates
-    (:data:`~lwrlab.dynamics.segment_wrench.ENTRY_MAP` after the change of frame by Q_j)."""
+    """(N_J, 42, 15) the non-zero blocks of segment j's wrench regressor (in joint-frame coordinates,
+    where its parameters are expressed) from its state (ω̇, a, vec(ωωᵀ)) in axis-frame coordinates
+    (:data:`~lwrlab.dynamics.segment_wrench.ENTRY_MAP` after the change of frame by Q_j, without its
+    columns of ω, which are zero)."""
 
     def __post_init__(self) -> None:
         key = b"".join(
@@ -121,9 +122,9 @@ class SerialChain:
             "state_maps": state_maps,
             "base_state": base_state,
             "twist_maps": twist_maps,
-            "entry_maps": np.array([ENTRY_MAP @ state_rotation(frame) for frame in frames]).reshape(
-                n, 42, 18
-            ),
+            "entry_maps": np.array(
+                [ENTRY_MAP[:, 3:] @ state_rotation(frame)[3:, 3:] for frame in frames]
+            ).reshape(n, 42, 15),
         }
         for value in derived.values():
             value.flags.writeable = False  # shared by every chain of this geometry
