@@ -68,7 +68,8 @@ class OffsetTrackingBatch:
         offset = np.array([np.asarray(law.offset, dtype=float).reshape(3) for law in laws])
         self._offset = offset if offset.any() else None
         self._desired = np.array([np.asarray(law.desired_force, dtype=float).reshape(3) for law in laws])
-        feedbacks = np.array([[law.feedback] for law in laws])
+        # per-run constants at the full (R, 3) shape: a broadcast costs more than the operation itself
+        feedbacks = np.array([[law.feedback] * 3 for law in laws])
         self._sensed = feedbacks == "sensor" if (feedbacks == "sensor").any() else None
         self._unforced = feedbacks == "none" if (feedbacks == "none").any() else None
 
@@ -78,7 +79,7 @@ class OffsetTrackingBatch:
         laws, period = self.laws, setups[0].period
         if any(setup.period != period for setup in setups) or len(setups) != len(laws):
             raise ValueError(f"{len(laws)} controllers need as many setups with one period")
-        self._positions = reference[:, :3, 3]
+        self._positions = np.repeat(reference[:, None, :3, 3], len(laws), axis=1)  # (N, R, 3)
         self.path_ik = DisplacedPathBatch([setup.path_ik(reference) for setup in setups])
         n_joints = setups[0].robot.n_joints
         self.joint = JointPDGravity(
@@ -93,11 +94,11 @@ class OffsetTrackingBatch:
             [law.force_kp for law in laws],
             [law.force_ki for law in laws],
             period,
-            [[law.max_displacement] for law in laws],
+            [[law.max_displacement] * 3 for law in laws],
         )
         self._sensor_gain = np.array(
             [
-                [low_pass_gain(law.sensor_cutoff_hz, period) if law.feedback == "sensor" else 1.0]
+                [low_pass_gain(law.sensor_cutoff_hz, period) if law.feedback == "sensor" else 1.0] * 3
                 for law in laws
             ]
         )

@@ -186,34 +186,33 @@ def simulate_contacts(
     estimators = ForceEstimatorBatch([case.estimator for case in cases])
     estimators.reset(sensors.q)
     n_joints = q0.shape[1]
-    # one row per run: run r's records are contiguous
-    commanded, actual, measured_force = (np.empty((n_runs, n, 3)) for _ in range(3))
-    wrench = np.empty((n_runs, n, 6))
-    q, q_desired, tau = (np.empty((n_runs, n, n_joints)) for _ in range(3))
+    # sample-major: each period's records of all runs are one contiguous block
+    commanded, actual, measured_force = (np.empty((n, n_runs, 3)) for _ in range(3))
+    wrench = np.empty((n, n_runs, 6))
+    q, q_desired, tau = (np.empty((n, n_runs, n_joints)) for _ in range(3))
     update, command, step = estimators.update, controllers.command, plants.step  # bound once: 1 kHz loop
     for k in progress if progress is not None else range(n):
         state = update(sensors.q, sensors.tau)
         decision = command(k, state, sensors.wall_force)
-        commanded[:, k], actual[:, k], measured_force[:, k] = (
+        commanded[k], actual[k], measured_force[k] = (
             decision.commanded_position,
             plants.tcp_position,
             sensors.wall_force,
         )
-        wrench[:, k], q[:, k], q_desired[:, k] = state.wrench, sensors.q_true, decision.q_desired
-        tau[:, k] = decision.tau
+        wrench[k], q[k], q_desired[k], tau[k] = state.wrench, sensors.q_true, decision.q_desired, decision.tau
         sensors = step(decision.tau)
     t, positions, painting = np.arange(n) * setups[0].period, reference[:, :3, 3], np.asarray(painting, bool)
     return [
         ContactRun(
             t=t.copy(),
             reference=positions.copy(),
-            commanded=commanded[r],
-            actual=actual[r],
-            estimated_wrench=wrench[r],
-            measured_force=measured_force[r],
-            q=q[r],
-            q_desired=q_desired[r],
-            tau=tau[r],
+            commanded=commanded[:, r],
+            actual=actual[:, r],
+            estimated_wrench=wrench[:, r],
+            measured_force=measured_force[:, r],
+            q=q[:, r],
+            q_desired=q_desired[:, r],
+            tau=tau[:, r],
             painting=painting.copy(),
         )
         for r in range(n_runs)

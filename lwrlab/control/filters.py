@@ -28,15 +28,21 @@ class FirstOrderLowPass:
     def __init__(self, cutoff_hz: float, period: float) -> None:
         self.gain = low_pass_gain(cutoff_hz, period)
         self.state: np.ndarray | None = None
+        self._gains = np.asarray(self.gain)
 
     def reset(self, value: np.ndarray) -> None:
         """Start from ``value`` (a filter at rest)."""
+        self._start(value)
+
+    def _start(self, value: np.ndarray) -> np.ndarray:
         self.state = np.array(value, dtype=float)
+        self._gains = np.full(self.state.shape, self.gain)  # the gain at the value's shape: no broadcast
+        return self.state
 
     def __call__(self, value: np.ndarray) -> np.ndarray:
         """The filtered sample; a new array each call (the caller may keep it)."""
         state = self.state
-        self.state = np.array(value, dtype=float) if state is None else state + self.gain * (value - state)
+        self.state = self._start(value) if state is None else state + self._gains * (value - state)
         return self.state
 
     def apply(self, signal: np.ndarray, initial: np.ndarray | float = 0.0) -> np.ndarray:

@@ -152,9 +152,9 @@ class ForceEstimatorBatch:
             np.stack([estimator.friction_coefficients[term] for estimator in estimators])
             for term in ("coulomb", "viscous", "offset")
         )
-        self._smoothing = np.array([[estimator.coulomb_smoothing] for estimator in estimators])
+        n_joints = first.robot.n_joints  # per-run constants at the full shape: a broadcast costs more
+        self._smoothing = np.array([[estimator.coulomb_smoothing] * n_joints for estimator in estimators])
         self._models = [(estimator.model, estimator.data, estimator.frame_id) for estimator in estimators]
-        n_joints = first.robot.n_joints
         self._dynamics, self._raw_wrench = (
             np.zeros((len(estimators), n_joints)),
             np.zeros((len(estimators), 6)),

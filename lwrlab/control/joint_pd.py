@@ -81,6 +81,7 @@ class JointPDGravity:
         self.model, self.data = self._models[0]
         self._gravity = np.zeros(shape)  # scratch of the batched Ĝ, summed before it is rewritten
         self.inverse_period = 1.0 / period
+        self._inverse_period = np.full(shape, self.inverse_period)  # at the gains' shape: no broadcast
         self.previous_desired: np.ndarray | None = None
 
     def gravity(self, q: np.ndarray) -> np.ndarray:
@@ -100,7 +101,7 @@ class JointPDGravity:
         """Commanded joint torques (N·m); ``q_desired`` is kept (the caller must not change it)."""
         if self.previous_desired is None:
             self.reset(q_desired)
-        dq_desired = (q_desired - self.previous_desired) * self.inverse_period
+        dq_desired = (q_desired - self.previous_desired) * self._inverse_period
         self.previous_desired = q_desired
         if self._batched:
             gravity = self._gravity

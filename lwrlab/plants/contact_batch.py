@@ -92,7 +92,8 @@ class ContactPlantBatch:
             np.stack([np.asarray(getattr(plant.robot.friction, name), dtype=float) for plant in plants])
             for name in ("viscous", "coulomb", "offset")
         )
-        self._smoothing = np.array([[plant.coulomb_smoothing] for plant in plants])
+        # every per-run constant at the full (R, N_J) shape: a broadcast costs more than the operation
+        self._smoothing = np.array([[plant.coulomb_smoothing] * n_joints for plant in plants])
         self._armature = np.stack([plant.armature for plant in plants])
         self._noise_scale = np.stack([plant.noise_scale for plant in plants])
         self._force_noise = bool(np.any(self._noise_scale[:, 2 * n_joints :]))
@@ -127,7 +128,12 @@ class ContactPlantBatch:
             axis=1,
         )
         n = self._armature.shape[1]
-        self._noise = (block[:, :, :n], block[:, :, n : 2 * n], block[:, :, 2 * n :])
+        # each kind contiguous: an operation on a strided row costs several on a contiguous one
+        q_noise, tau_noise, force_noise = (
+            np.ascontiguousarray(block[:, :, columns])
+            for columns in (slice(0, n), slice(n, 2 * n), slice(2 * n, None))
+        )
+        self._noise = (q_noise, tau_noise, force_noise)
         self._noise_row = 0
 
     def _read(self, tau: np.ndarray, velocity: np.ndarray) -> ContactSensors:
