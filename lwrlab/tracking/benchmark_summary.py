@@ -51,7 +51,8 @@ class EstimatorBenchmarkSummary(Callback):
                 experiment_id, run_name="summary", tags={"run_kind": "summary", "sweep_dir": str(sweep_dir)}
             )
             table = summarize(collect(sweep_dir)[0])
-            for (preset, estimator), row in table.iterrows():
+            cells = zip(table.index.tolist(), table.to_dict("records"), strict=True)
+            for (preset, estimator), row in cells:
                 for metric in (
                     "base_parameter_error_mean",
                     "rms_mean_mean",

@@ -49,7 +49,8 @@ def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     share of seeds whose estimate is physically consistent (consistency margin ≥ −1e-9)."""
     grouped = rows.groupby(["preset", "estimator"], sort=True)
     table = grouped[list(METRICS)].agg(["mean", "std"])
-    table.columns = [f"{metric}_{stat}" for metric, stat in table.columns]
+    levels = table.columns.get_level_values(0), table.columns.get_level_values(1)
+    table.columns = [f"{metric}_{stat}" for metric, stat in zip(*levels, strict=True)]
     table["consistent_share"] = grouped["consistency_margin"].apply(lambda m: float(np.mean(m >= -1e-9)))
     table["seeds"] = grouped.size()
     return table

@@ -1,4 +1,4 @@
-"""Runs holding what lwrlab derives from other runs (a report, a comparison): logged once, beside their sources.
+"""Runs holding what lwrlab derives from other runs (a report, a comparison): logged once, by their sources.
 
 A derived run goes into the experiment of the runs it was made from (no stray ``reports`` experiment,
 artifacts under that experiment's artifact location rather than ``./mlruns`` of the current folder),
@@ -7,7 +7,8 @@ selection of the same runs finds the run logged before instead of adding another
 
 Examples
 --------
->>> derived_key("compare", ["b", "a"], {"by": ["estimator"]}) == derived_key("compare", ["a", "b"], {"by": ["estimator"]})
+>>> by = {"by": ["estimator"]}
+>>> derived_key("compare", ["b", "a"], by) == derived_key("compare", ["a", "b"], by)
 True
 """
 

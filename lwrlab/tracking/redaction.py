@@ -45,7 +45,7 @@ _URI_PASSWORD = re.compile(
 _QUERY_SECRET = re.compile(
     r"(?i)(?P<head>\b(?:password|passwd|pwd|token|secret|api_key|access_key)=)(?P<password>[^&\s'\"]+)"
 )
-# Environment variables whose values are secrets (MLFLOW_TRACKING_PASSWORD, AWS_SECRET_ACCESS_KEY, PGPASSWORD…).
+# Environment variables whose values are secrets (MLFLOW_TRACKING_PASSWORD, AWS_SECRET_ACCESS_KEY, …).
 SECRET_ENVIRONMENT_NAME = re.compile(
     r"(?i)(PASSWORD|PASSWD|SECRET|TOKEN|API_?KEY|ACCESS_KEY|PRIVATE_KEY|CREDENTIAL)"
 )
@@ -56,24 +56,34 @@ SECRET_KEY_WORD = re.compile(
 # The literal spellings of SECRET_KEY_WORD's words (lower case), for a quick test on raw bytes.
 _SECRET_KEY_WORD_LITERALS = tuple(
     word.encode()
-    for word in ("password", "passwd", "secret", "token", "apikey", "auth", "credential")
-    + tuple(f"{head}{separator}key" for head in ("api", "private") for separator in ("", "_", ".", "-"))
+    for word in (
+        "password",
+        "passwd",
+        "secret",
+        "token",
+        "apikey",
+        "auth",
+        "credential",
+        *(f"{head}{separator}key" for head in ("api", "private") for separator in ("", "_", ".", "-")),
+    )
 )
 # Non-ASCII letters that match ASCII ones under re.IGNORECASE (İ, ı, ſ, K), as UTF-8, with that letter.
 _ASCII_CASE_FOLDINGS = tuple(
     (letter.encode(), ascii_letter.encode())
-    for letter, ascii_letter in zip("\u0130\u0131\u017f\u212a", "iisk")
+    for letter, ascii_letter in zip("\u0130\u0131\u017f\u212a", "iisk", strict=True)
 )
 # ``api.key`` and ``private.key`` span the last dot: the whole key's tail is checked for them.
 _SECRET_KEY_TAIL = re.compile(r"(?i)(api|private)\.key[\w\-]*$")
 # ``key=value`` as in Hydra overrides, command lines and query strings (prefixes + ++ ~ allowed).
 _ASSIGNMENT = re.compile(
-    r"(?P<head>(?<![\w.\-])[+~]{0,2}(?P<key>\w[\w.\-]*)=)(?P<value>'[^']*'|\"[^\"]*\"|\$\{[^}\s]*\}|(?:[^\s'\"&,]|,(?![+~]{0,2}\w[\w.\-]*=))+)"
+    r"(?P<head>(?<![\w.\-])[+~]{0,2}(?P<key>\w[\w.\-]*)=)"
+    r"(?P<value>'[^']*'|\"[^\"]*\"|\$\{[^}\s]*\}|(?:[^\s'\"&,]|,(?![+~]{0,2}\w[\w.\-]*=))+)"
 )
 # ``key: value`` as in YAML and JSON (the key may be quoted; the value runs to the end of the line
 # or of a flow collection item).
 _MAPPING = re.compile(
-    r"(?P<head>(?P<quote>[\"']?)(?P<key>\w[\w.\-]*)(?P=quote)\s*:[ \t]+)(?P<value>'[^'\n]*'|\"[^\"\n]*\"|\$\{[^}\n]*\}|[^\n,}\]#]+)"
+    r"(?P<head>(?P<quote>[\"']?)(?P<key>\w[\w.\-]*)(?P=quote)\s*:[ \t]+)"
+    r"(?P<value>'[^'\n]*'|\"[^\"\n]*\"|\$\{[^}\n]*\}|[^\n,}\]#]+)"
 )
 # Values that are no secret: empty, missing, already redacted, or an interpolation naming one.
 _NOT_A_SECRET = re.compile(r"^(?:|null|None|~|\?\?\?|\*\*\*|\$\{[^}]*\}|\{\}|\[\])$")
@@ -246,9 +256,9 @@ def _may_name_a_secret_key(data: bytes) -> bool:
 
 def _files_needing_redaction(folder: Path, redactor: Redactor) -> Iterator[Path]:
     for path in folder.rglob("*"):
-        if path.is_file() and not path.is_symlink() and path.stat().st_size <= MAX_SCANNED_BYTES:
-            if redactor.needs_redaction(path.read_bytes()):
-                yield path
+        scanned = path.is_file() and not path.is_symlink() and path.stat().st_size <= MAX_SCANNED_BYTES
+        if scanned and redactor.needs_redaction(path.read_bytes()):
+            yield path
 
 
 @contextmanager

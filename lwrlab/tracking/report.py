@@ -74,8 +74,12 @@ def selection_filter(
 
     Examples
     --------
-    >>> selection_filter({"seed": "1"}, {"plant.torque_noise_std": "0.1"})
-    "attributes.status = 'FINISHED' and tags.run_kind = 'job' and tags.`seed` = '1' and params.`plant.torque_noise_std` = '0.1'"
+    >>> for clause in selection_filter({"seed": "1"}, {"plant.torque_noise_std": "0.1"}).split(" and "):
+    ...     print(clause)
+    attributes.status = 'FINISHED'
+    tags.run_kind = 'job'
+    tags.`seed` = '1'
+    params.`plant.torque_noise_std` = '0.1'
     """
     clauses = ["attributes.status = 'FINISHED'", f"tags.{RUN_KIND_TAG} = 'job'"]
     clauses += [f"tags.`{key}` = {_quoted(str(value))}" for key, value in (tags or {}).items()]
@@ -98,7 +102,8 @@ def select_runs(tracking_uri: str, experiments: Sequence[str] | None, filter_str
     missing = [name for name in names if name not in known]
     if missing:
         raise ValueError(
-            f"no experiment named {missing} in {Redactor().redact(tracking_uri)}; experiments: {sorted(known)}"
+            f"no experiment named {missing} in {Redactor().redact(tracking_uri)}; "
+            f"experiments: {sorted(known)}"
         )
     if not names:
         return pd.DataFrame()
@@ -316,7 +321,7 @@ def log_report(
 
 
 def parse_pairs(values: Sequence[str], what: str) -> dict[str, str]:
-    """``["a=1", "b=x"]`` → ``{"a": "1", "b": "x"}``; a value without ``=`` exits naming the ``--what`` option."""
+    """``["a=1", "b=x"]`` → ``{"a": "1", "b": "x"}``; a value without ``=`` exits naming ``--what``."""
     pairs = {}
     for value in values:
         key, separator, text = value.partition("=")
@@ -377,7 +382,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 report.runs["experiment"].iloc[0] if not report.runs.empty else arguments.experiment[0]
             )
             print(
-                f"report {'logged as' if logged[1] else 'already logged as'} run {report.run_id} of experiment {experiment!r}"
+                f"report {'logged as' if logged[1] else 'already logged as'} run {report.run_id} "
+                f"of experiment {experiment!r}"
             )
     print(f"report written to {output}")
     return 0

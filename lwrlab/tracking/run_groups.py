@@ -9,8 +9,13 @@ listed again. Keys that say where a run is logged (``tracking.*``, ``experiment_
 Examples
 --------
 >>> import pandas as pd
->>> runs = pd.DataFrame({"params.estimator": ["ols", "wls", "ols"], "params.estimator._target_": ["a.OLS", "a.WLS", "a.OLS"],
-...                      "params.seed": ["0", "0", "1"], "params.trajectory.seed": ["0", "0", "1"], "params.x": ["1", "1", "1"]})
+>>> runs = pd.DataFrame({
+...     "params.estimator": ["ols", "wls", "ols"],
+...     "params.estimator._target_": ["a.OLS", "a.WLS", "a.OLS"],
+...     "params.seed": ["0", "0", "1"],
+...     "params.trajectory.seed": ["0", "0", "1"],
+...     "params.x": ["1", "1", "1"],
+... })
 >>> swept_parameters(runs)
 ['estimator']
 """
