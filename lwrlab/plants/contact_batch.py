@@ -11,7 +11,9 @@ link-side torque needs for q̈), then steps. The first substep starts from that 
 position and velocity stages (kinematics, inertia, collisions) are those of the reading: only the
 acceleration stage is redone with the new torque (``mj_forwardSkip``) before integrating
 (``mj_Euler``) — the same result as ``mj_step``, with one position/velocity stage less per period.
-Sensor noise is drawn in blocks, in the order a sample at a time would draw it (same values).
+The later substeps are ``mj_step`` without its sensor stage (``mj_forwardSkip(…, skipsensor=1)``
+and ``mj_Euler``: the same state, no wall-force computation nobody reads). Sensor noise is drawn in
+blocks, in the order a sample at a time would draw it (same values).
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ if TYPE_CHECKING:  # the plant module steps itself as a batch of one: a runtime 
 
 _AFTER_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
 """``mj_forwardSkip`` stage: redo the acceleration stage only (looked up once, not per step)."""
+_FROM_THE_START = int(mujoco.mjtStage.mjSTAGE_NONE)
+"""``mj_forwardSkip`` stage: every stage, as ``mj_forward``."""
 
 NOISE_BLOCK = 1024
 """Samples of sensor noise drawn per call of each plant's random generator."""
@@ -194,7 +198,8 @@ class ContactPlantBatch:
         for _ in range(self.substeps - 1):
             self._command(tau, self.friction(np.array(self._velocities)))
             for model, data in steppers:
-                mujoco.mj_step(model, data)
+                mujoco.mj_forwardSkip(model, data, _FROM_THE_START, 1)
+                mujoco.mj_Euler(model, data)
         velocity = np.array(self._velocities)
         self._friction_now = self.friction(velocity)
         self._command(tau, self._friction_now)
