@@ -195,6 +195,15 @@ def test_the_processing_settings_are_the_keywords_of_process() -> None:
     assert settings <= keywords, f"not keywords of process(): {settings - keywords}"
 
 
+def test_schemas_are_not_choices_so_runs_log_the_options_chosen() -> None:
+    """The tracking logs Hydra's runtime choices as the job's options (``statistics=covariance``)."""
+    cfg = compose_config("plant=log", "data.paths=[a.csv]", "statistics=covariance", hydra_node=True)
+    choices = OmegaConf.to_container(cfg.hydra.runtime.choices)
+    assert isinstance(choices, dict)
+    assert not [group for group in choices if "schema" in str(group)]
+    assert choices["statistics"] == "covariance" and choices["tracking"] == "sqlite"
+
+
 def test_the_suite_walks_every_group_and_preset() -> None:
     assert {group for group, _ in OPTIONS} == set(GROUPS)
     assert len(OPTIONS) > 50 and len(PRESETS) >= 9

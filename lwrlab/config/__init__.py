@@ -10,9 +10,11 @@ and checks that none leaves a key MISSING. Ranges a type cannot say (a noise lev
 A YAML file links its schema first in its defaults list, its own values after it::
 
     defaults:
-      - /schema/measurement@_here_: default
+      - /schema/measurement/default@_here_
       - _self_
 
+named as a config (``/schema/<group>/<name>``), not as a group choice (``/schema/<group>: <name>``):
+a choice would appear in Hydra's runtime choices, which the tracking logs as the job's options.
 :data:`SCHEMAS` lists them as Hydra ConfigStore entries (group ``schema/<group>``). Importing the
 config package :mod:`lwrlab.conf` registers them, and Hydra imports it when it reads
 ``pkg://lwrlab.conf`` (what ``lwrlab`` does), so nothing else has to; code composing the tree from
@@ -46,6 +48,6 @@ SCHEMAS: tuple[tuple[str, str, type], ...] = (
     ("tracking", "mlflow", TrackingStoreSettings),
     *(("task", name, schema) for name, schema in TASK_SCHEMAS.items()),
 )
-"""(group, name, dataclass) of every schema: ``/schema/<group>@…: <name>`` in a YAML's defaults list."""
+"""(group, name, dataclass) of every schema: ``/schema/<group>/<name>@…`` in a YAML's defaults list."""
 
 __all__ = ["SCHEMAS", "SCHEMA_GROUP"]
