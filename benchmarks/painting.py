@@ -13,8 +13,9 @@ wall of §VI.B along the large roller's optimised path (README, Table IV), it me
    - one run alone (force PI, estimated force, CAD model);
    - the per-sample loop it replaced (``painting_reference.PerSampleLoop``: one single-pose IK call
      per period, filters one object call each, ``np.linalg.solve``, sensor noise drawn per sample);
-   - the floor: MuJoCo alone (two ``mj_step`` + one ``mj_forward`` per period) replaying the
-     torques of the run alone, no Python around it but the call itself;
+   - the floor: MuJoCo alone (the plant's calls per period: the acceleration stage + an Euler step,
+     a step without sensors, one ``mj_forward``) replaying the torques of the run alone, no Python
+     around it but the calls themselves;
    with the largest difference between each run of the batch and that run alone, and between the
    run alone and the per-sample loop (normal forces);
 2. the painting-path optimisation of that roller (2 SLSQP starts) with analytic gradients against
@@ -121,16 +122,20 @@ def alone(case: Case) -> ContactRun:
 
 
 def mujoco_floor(case: Case, tau: np.ndarray) -> None:
-    """MuJoCo alone: two ``mj_step`` and one ``mj_forward`` per period, replaying ``tau`` (N, 7) N·m."""
+    """MuJoCo alone, the calls the plant makes per period, replaying ``tau`` (N, 7) N·m: the acceleration
+    stage and an Euler step, a step without sensors, a full ``mj_forward`` (the reading)."""
     plant = case.plant()
     model, data = plant.model, plant.data
     data.qpos[:] = case.setup().joint_reference(case.start)
     mujoco.mj_forward(model, data)
     applied = data.qfrc_applied
+    acceleration_stage, every_stage = int(mujoco.mjtStage.mjSTAGE_VEL), int(mujoco.mjtStage.mjSTAGE_NONE)
     for row in tau:
         applied[:] = row
-        mujoco.mj_step(model, data)
-        mujoco.mj_step(model, data)
+        mujoco.mj_forwardSkip(model, data, acceleration_stage, 1)
+        mujoco.mj_Euler(model, data)
+        mujoco.mj_forwardSkip(model, data, every_stage, 1)
+        mujoco.mj_Euler(model, data)
         mujoco.mj_forward(model, data)
 
 

@@ -180,6 +180,11 @@ class ForceEstimatorBatch:
             jacobian = pin.computeFrameJacobian(model, data, q[r], frame_id, _BASE_AXES)
             # eq. (14): (Jᵀ)⁺·Γ_ext = (J·Jᵀ)⁻¹·J·Γ_ext, the least-squares solution of Jᵀ·w = Γ_ext; one
             # LAPACK QR solve (dgels) on Jᵀ, full rank away from singularities; lstsq (SVD) where it is not
-            _, solution, info = dgels(jacobian.T, external[r])
-            wrench[r] = solution[:6] if info == 0 else np.linalg.lstsq(jacobian.T, external[r], rcond=None)[0]
+            # (the Jacobian is this call's own array: LAPACK may factor it in place, no copy)
+            _, solution, info = dgels(jacobian.T, external[r], overwrite_a=1)
+            if info == 0:
+                wrench[r] = solution[:6]
+            else:
+                jacobian = pin.computeFrameJacobian(model, data, q[r], frame_id, _BASE_AXES)
+                wrench[r] = np.linalg.lstsq(jacobian.T, external[r], rcond=None)[0]
         return StateEstimate(q, dq, ddq, external, self.wrench_filter(wrench))
