@@ -74,6 +74,12 @@ def _compose(*overrides: str):
         ),
         (("task=tool_recognition_benchmark", "task.n_seeds=0"), "task.n_seeds=0: must be an integer ≥ 1"),
         (("task=table3_tools", "task.tool_motion_candidates=0"), "task.tool_motion_candidates=0"),
+        (("task=painting", "task.contact.substeps=0"), "task.contact.substeps=0: must be an integer ≥ 1"),
+        (
+            ("task.painting.contact.duration_scale=0",),
+            "task.painting.contact.duration_scale=0.0: must be a number > 0",
+        ),
+        (("task=painting", "plant.torque_noise_std=-1"), "plant.torque_noise_std=-1"),
         (
             ("task=identification", "+plant.torque_noise_stdd=0.1"),
             "plant.torque_noise_stdd: no such setting (SimulatedPlantSettings: mode, parameter_spread",
@@ -107,6 +113,8 @@ def test_a_value_out_of_range_fails_at_the_start_naming_its_key(
         (("task=drive_gains", "task.payload.mass=heavy"), "task.payload.mass"),
         (("task=duration_study", "task.durations=[a]"), "task.durations"),
         (("task=payload", "task.weighted=perhaps"), "task.weighted"),
+        (("task=painting", "task.wall.width=wide"), "task.wall.width"),
+        (("task.painting.contact.substeps=2.5",), "task.painting.contact.substeps"),
     ],
 )
 def test_a_wrong_type_or_unknown_key_fails_when_composed_naming_it(

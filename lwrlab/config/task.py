@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from lwrlab.config.painting import PaintingTask
 from lwrlab.config.schema import Instantiable, schema
 
 
@@ -172,7 +173,7 @@ class WriteExampleLogsTask(Instantiable):
 class PaperChainTask(Instantiable):
     """``task=paper_chain``: the whole chain of the paper's Fig. 1."""
 
-    painting: Any
+    painting: PaintingTask
     """The painting stage's settings (``conf/task/painting.yaml``, narrowed)."""
 
 
@@ -188,5 +189,6 @@ TASK_SCHEMAS: dict[str, type] = {
     "tool_recognition_benchmark": ToolRecognitionBenchmarkTask,
     "write_example_logs": WriteExampleLogsTask,
     "paper_chain": PaperChainTask,
+    "painting": PaintingTask,
 }
 """Schema of each task option, by option name."""

@@ -124,6 +124,34 @@ def _noise_presets(cfg: Any) -> list[str]:
     return sorted(OmegaConf.select(cfg, "task.noise_presets", default=None) or {})
 
 
+def painting_rules(prefix: str) -> tuple[Rule, ...]:
+    """The painting stage's ranges, under ``task.`` (``task=painting``) or ``task.painting.`` (the chain)."""
+    return (
+        rule(f"{prefix}n_steps", lambda v: all(_integer(n) and n >= 1 for n in v.values()), "integers ≥ 1"),
+        positive(f"{prefix}wall.width"),
+        positive(f"{prefix}wall.height"),
+        positive(f"{prefix}path.rate_hz"),
+        positive(f"{prefix}path.search_rate_hz"),
+        positive_list(f"{prefix}path.duration_bounds", "s"),
+        positive(f"{prefix}path.min_stroke"),
+        non_negative(f"{prefix}path.stripe_overlap"),
+        non_negative(f"{prefix}contact.approach_s"),
+        positive(f"{prefix}contact.duration_scale"),
+        positive(f"{prefix}contact.max_duration", nullable=True),
+        integer_at_least(f"{prefix}contact.substeps", 1),
+        non_negative(f"{prefix}contact.friction"),
+        positive(f"{prefix}contact.contact_time_constant"),
+        positive(f"{prefix}contact.contact_radius"),
+        non_negative(f"{prefix}contact.torque_noise_std", per_joint=True),
+        non_negative(f"{prefix}contact.encoder_noise_std", per_joint=True),
+        non_negative(f"{prefix}contact.force_noise_std"),
+        positive(f"{prefix}estimator.velocity_cutoff_hz"),
+        positive(f"{prefix}estimator.acceleration_cutoff_hz"),
+        positive(f"{prefix}estimator.wrench_cutoff_hz"),
+        positive(f"{prefix}estimator.coulomb_smoothing"),
+    )
+
+
 RULES: tuple[Rule, ...] = (
     integer_at_least("seed", 0),
     # plant=simulated
@@ -195,6 +223,8 @@ RULES: tuple[Rule, ...] = (
     ),
     integer_at_least("task.n_seeds", 1),
     integer_at_least("task.tool_motion_candidates", 1),
+    *painting_rules("task."),
+    *painting_rules("task.painting."),
 )
 """The settings checked, by key."""
 
@@ -215,8 +245,8 @@ def _copied_from(cfg: Any, key: str) -> str | None:
     from omegaconf import OmegaConf
 
     parent_key, _, name = key.rpartition(".")
-    parent = OmegaConf.select(cfg, parent_key) if parent_key else cfg
-    node = parent._get_node(name) if OmegaConf.is_dict(parent) else None
+    parent = OmegaConf.select(cfg, parent_key, default=None) if parent_key else cfg
+    node = parent._get_node(name) if OmegaConf.is_dict(parent) and name in parent else None
     match = _COPY.match(str(node._value())) if node is not None else None
     return match.group(1) if match else None
 
@@ -253,8 +283,10 @@ def violations(cfg: Any, rules: Iterable[Rule] = RULES) -> list[str]:
     checked = {r.key for r in rules}
     problems = list(unknown_keys(cfg))
     for each in rules:
+        if _copied_from(cfg, each.key) in checked:  # not resolved: the copy may dangle (painting on logs)
+            continue
         value = OmegaConf.select(cfg, each.key, default=_MISSING, throw_on_missing=False)
-        if value is _MISSING or OmegaConf.is_missing(cfg, each.key) or _copied_from(cfg, each.key) in checked:
+        if value is _MISSING or OmegaConf.is_missing(cfg, each.key):
             continue
         value = _plain(value)
         if not each.accepts(value, cfg):
