@@ -43,7 +43,7 @@ class UserFacingError(CompactHydraException):
 
 
 def _user_error(error: BaseException) -> UserError | None:
-    """The user error behind ``error`` (itself, or a cause: Hydra wraps errors raised by plugins it builds)."""
+    """The user error behind ``error`` (itself, or a cause: Hydra wraps errors raised by its plugins)."""
     seen: BaseException | None = error
     while seen is not None:
         if isinstance(seen, UserError):

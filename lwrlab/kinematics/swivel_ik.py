@@ -41,6 +41,10 @@ class Branch(NamedTuple):
     wrist: int = 1
 
 
+DEFAULT_BRANCH = Branch()
+"""All three signs +1 (the branch a call gets unless it names one)."""
+
+
 BRANCHES: tuple[Branch, ...] = tuple(Branch(s, e, w) for s in (1, -1) for e in (1, -1) for w in (1, -1))
 """The eight solution branches of the LWR4's inverse geometric model for a given swivel angle."""
 
@@ -110,7 +114,8 @@ class SwivelIK:
                 placement.rotation, _rx(alpha), atol=1e-12
             ):
                 raise ValueError(
-                    f"{robot.name}: joint {j} is not a revolute-z joint with twist {alpha:.4f} rad as in the LWR4's Table I"
+                    f"{robot.name}: joint {j} is not a revolute-z joint with twist {alpha:.4f} rad "
+                    "as in the LWR4's Table I"
                 )
             # the placement is Rx(α)·Tz(r): its translation is r·(Rx(α) e_z)
             offsets.append(float(placement.translation @ placement.rotation[:, 2]))
@@ -120,7 +125,8 @@ class SwivelIK:
                 )
         if any(abs(offsets[j]) > 1e-12 for j in (1, 3, 5, 6)):
             raise ValueError(
-                f"{robot.name}: offsets r2, r4, r6, r7 must be zero for concurrent shoulder and wrist axes, got {offsets}"
+                f"{robot.name}: offsets r2, r4, r6, r7 must be zero for concurrent shoulder and wrist axes, "
+                f"got {offsets}"
             )
         self.robot = robot
         self.shoulder_height, self.upper_arm, self.forearm = offsets[0], offsets[2], offsets[4]
@@ -166,7 +172,8 @@ class SwivelIK:
         bad = np.flatnonzero(norm_u < 1e-9)
         if bad.size:
             raise UnreachablePose(
-                f"pose #{bad[0]}: shoulder–wrist axis parallel to the swivel reference {self.reference}; φ is undefined"
+                f"pose #{bad[0]}: shoulder–wrist axis parallel to the swivel reference {self.reference}; "
+                "φ is undefined"
             )
         u /= norm_u[:, None]
         v = np.stack(
@@ -200,7 +207,7 @@ class SwivelIK:
 
     # --- joint angles ------------------------------------------------------------------------
     def solve_branch(
-        self, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = Branch()
+        self, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = DEFAULT_BRANCH
     ) -> IKSolution:
         """Joint positions of one branch for N flange poses (N, 4, 4) and swivel angles (rad).
 
@@ -244,7 +251,7 @@ class SwivelIK:
         self,
         flange_pose: np.ndarray,
         swivel: np.ndarray | float,
-        branch: Branch = Branch(),
+        branch: Branch = DEFAULT_BRANCH,
         min_singularity_margin: float = 1e-6,
     ) -> IKSolution:
         """One branch, checked: every pose reachable, away from singularities, inside the joint limits.
@@ -260,14 +267,16 @@ class SwivelIK:
         if low.any():
             k, which = np.argwhere(low)[0]
             raise UnreachablePose(
-                f"pose #{k}: {names[which]} singularity, |sin| = {solution.singularity_margin[k, which]:.2e} (branch {branch})"
+                f"pose #{k}: {names[which]} singularity, "
+                f"|sin| = {solution.singularity_margin[k, which]:.2e} (branch {branch})"
             )
         if not solution.within_limits.all():
             k = int(np.flatnonzero(~solution.within_limits)[0])
             q = solution.q[k]
             j = int(np.flatnonzero((q < self.position_lower) | (q > self.position_upper))[0])
             raise JointLimitViolation(
-                f"pose #{k} (of {solution.q.shape[0]}), branch {branch}: joint {j + 1} at {q[j]:.4f} rad outside "
+                f"pose #{k} (of {solution.q.shape[0]}), branch {branch}: "
+                f"joint {j + 1} at {q[j]:.4f} rad outside "
                 f"[{self.position_lower[j]:.4f}, {self.position_upper[j]:.4f}] rad"
             )
         return solution

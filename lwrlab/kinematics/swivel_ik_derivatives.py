@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from lwrlab.kinematics.swivel_ik import HALF_PI, Branch, IKSolution, SwivelIK, _rx, _rz
+from lwrlab.kinematics.swivel_ik import DEFAULT_BRANCH, HALF_PI, Branch, IKSolution, SwivelIK, _rx, _rz
 
 _GENERATOR_Z = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
 """S: dRz(q)/dq = Rz(q)·S."""
@@ -46,7 +46,7 @@ def _scaled(matrix: np.ndarray, rate: np.ndarray) -> np.ndarray:
 
 
 def solve_branch_derivatives(
-    ik: SwivelIK, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = Branch()
+    ik: SwivelIK, flange_pose: np.ndarray, swivel: np.ndarray | float, branch: Branch = DEFAULT_BRANCH
 ) -> tuple[IKSolution, np.ndarray, np.ndarray]:
     """The IK solution of N flange poses (N, 4, 4) and its derivatives at fixed flange orientation.
 

@@ -16,6 +16,7 @@ also a :class:`~lwrlab.trajectory.core.MotionSource` that a robot can play.
 
 from __future__ import annotations
 
+import copy
 from typing import Any, Self
 
 import numpy as np
@@ -39,7 +40,7 @@ class LinearParameterisation:
     coefficients_are_positions: bool = False
     """Whether the coefficients are joint positions (rad), so that the position limits bound them."""
 
-    def __init__(self, duration: float, coefficients: Any = None) -> None:
+    def __init__(self, duration: float, coefficients: Any) -> None:
         if not duration > 0:
             raise ValueError(f"duration must be positive, got {duration}")
         self.duration = float(duration)
@@ -66,7 +67,7 @@ class LinearParameterisation:
         raise NotImplementedError
 
     def settings(self) -> dict[str, Any]:
-        """Constructor arguments other than duration and coefficients (saved with the motion)."""
+        """Settings that shape the basis, except the duration (saved with the motion, compared on loading)."""
         return {}
 
     # --- shared ---------------------------------------------------------------------------------
@@ -86,7 +87,9 @@ class LinearParameterisation:
             raise ValueError(
                 f"expected ({self.n_coefficients}, N_J) coefficients, got shape {coefficients.shape}"
             )
-        return type(self)(duration=self.duration, coefficients=coefficients, **self.settings())
+        carrying = copy.copy(self)  # same settings and cached basis: only the coefficients differ
+        carrying.coefficients = coefficients
+        return carrying
 
     def evaluate(
         self, t: np.ndarray, coefficients: np.ndarray | None = None

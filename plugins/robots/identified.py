@@ -47,12 +47,14 @@ def _locate(source: str, tracking_uri: str | None, fetch_run_artifact: RunArtifa
 
 def load_identified_robot(
     source: str,
-    tracking_uri: str | None = None,
     *,
+    tracking_uri: str | None,
     build_robot: RobotBuilder,
-    fetch_run_artifact: RunArtifactFetcher | None = None,
+    fetch_run_artifact: RunArtifactFetcher | None,
 ) -> RobotModel:
     """The robot identified by an earlier run.
+
+    Every argument is required: conf/robot/identified.yaml gives their values.
 
     Parameters
     ----------
@@ -60,12 +62,17 @@ def load_identified_robot(
     tracking_uri : the store a run id is looked up in (``None``: MLflow's default).
     build_robot : builds the robot description stored in the file (e.g. ``hydra.utils.instantiate``);
         only robot plugins (``_target_: plugins.robots.*``) are built.
-    fetch_run_artifact : downloads a run's artifact (needed for a run id only).
+    fetch_run_artifact : downloads a run's artifact (needed for a run id only; None: no look-up).
 
     Examples
     --------
     >>> import hydra.utils  # doctest: +SKIP
-    >>> load_identified_robot("outputs/runs/<run>", build_robot=hydra.utils.instantiate)  # doctest: +SKIP
+    >>> load_identified_robot(
+    ...     "outputs/runs/<run>",
+    ...     tracking_uri=None,
+    ...     build_robot=hydra.utils.instantiate,
+    ...     fetch_run_artifact=None,
+    ... )  # doctest: +SKIP
     """
     path = _locate(str(source), tracking_uri, fetch_run_artifact)
     identified, robot_config = load_identified_model(path)
