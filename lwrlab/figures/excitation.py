@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.figures.backend import pyplot
+from lwrlab.figures.decimation import envelope
 
 
 def motion_figure(
@@ -23,7 +24,7 @@ def motion_figure(
         axes, (q, dq, ddq, torque), ("q [rad]", "q̇ [rad/s]", "q̈ [rad/s²]", "Γ (CAD) [N·m]"), strict=True
     ):
         for j in range(values.shape[1]):
-            ax.plot(t, values[:, j], lw=0.9, label=f"joint {j + 1}")
+            ax.plot(*envelope(t, values[:, j]), lw=0.9, label=f"joint {j + 1}")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from lwrlab.figures.backend import pyplot
+from lwrlab.figures.decimation import envelope
 
 
 def residuals_per_log(
@@ -26,7 +27,7 @@ def residuals_per_log(
     for row, (name, role, t, residual) in enumerate(zip(names, roles, times, residuals, strict=True)):
         over_time, per_joint = axes[row]
         for j in range(residual.shape[1]):
-            over_time.plot(t - t[0], residual[:, j], lw=0.6, label=f"joint {j + 1}")
+            over_time.plot(*envelope(t - t[0], residual[:, j]), lw=0.6, label=f"joint {j + 1}")
         over_time.set(ylabel="τ − τ̂ [N·m]", title=f"{name} ({role})")
         over_time.grid(alpha=0.3)
         joints = np.arange(1, residual.shape[1] + 1)

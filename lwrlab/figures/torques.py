@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from lwrlab.figures.backend import pyplot
+from lwrlab.figures.decimation import envelope
 
 
 def torque_overlay(
@@ -17,8 +18,8 @@ def torque_overlay(
     n = measured.shape[1]
     fig, axes = plt.subplots(n, 1, figsize=(8, 1.5 * n + 1), sharex=True)
     for j, ax in enumerate(np.atleast_1d(axes)):
-        ax.plot(t, measured[:, j], color="0.6", lw=0.8, label="measured")
-        ax.plot(t, estimated[:, j], color="C3", lw=1.0, label="estimated")
+        ax.plot(*envelope(t, measured[:, j]), color="0.6", lw=0.8, label="measured")
+        ax.plot(*envelope(t, estimated[:, j]), color="C3", lw=1.0, label="estimated")
         ax.set_ylabel(f"Γ{j + 1} [N·m]")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", ncol=2, fontsize=8)
