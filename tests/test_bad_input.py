@@ -25,9 +25,9 @@ from hydra.errors import CompactHydraException, ConfigCompositionException
 from lwrlab.cli import run
 from lwrlab.errors import ConfigError, IdentifiabilityError, UserError
 from lwrlab.io.logs import LogError, log_frame
+from lwrlab.pipeline.build import build
 from lwrlab.plants.core import Measurement
 from plugins.plants.simulated import SimulatedPlant
-from plugins.trajectories.multisine import MultisineMotion
 
 REPOSITORY = Path(__file__).resolve().parents[1]
 CONF = REPOSITORY / "conf"
@@ -36,7 +36,7 @@ CONF = REPOSITORY / "conf"
 @pytest.fixture(scope="module")
 def clean(lwr4) -> Measurement:
     """A sound 4 s log of the simulated LWR4 at 500 Hz."""
-    motion = MultisineMotion(duration=4.0, harmonics=3, seed=0).sample(lwr4, 500.0)
+    motion = build("trajectory", "multisine", duration=4.0, harmonics=3, seed=0).sample(lwr4, 500.0)
     return SimulatedPlant(lwr4, seed=1, show_progress=False).measure(motion)
 
 

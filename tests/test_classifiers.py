@@ -9,6 +9,7 @@ import pytest
 from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
+from lwrlab.pipeline.build import build
 from lwrlab.pipeline.tool_library import load_library
 from lwrlab.tools.recognition import interpolate_geometry, recognise
 
@@ -53,23 +54,19 @@ def test_classifiers_refuse_bad_input(path: Path, library) -> None:
 
 
 def test_mahalanobis_needs_a_covariance(library) -> None:
-    from plugins.classifiers.mahalanobis import Mahalanobis
-
     with pytest.raises(ValueError, match="covariance"):
-        Mahalanobis().fit(library).predict(library.tools[0].parameters)
+        build("classifier", "mahalanobis").fit(library).predict(library.tools[0].parameters)
 
 
 def test_pca_lookup_is_the_papers_projection(library) -> None:
-    from plugins.classifiers.pca_lookup import PCALookup
-
-    pca = PCALookup(n_components=4).fit(library)
+    pca = build("classifier", "pca_lookup", n_components=4).fit(library)
     u, _, _ = np.linalg.svd(library.parameters.T, full_matrices=False)  # Φ̄ = U·S·Vᵀ, 10 × N_T
     np.testing.assert_allclose(
         np.abs(pca.transform(library.parameters)), np.abs(library.parameters @ u[:, :4]), atol=1e-15
     )
     assert pca.explained_ > 0.999
     with pytest.raises(ValueError, match="scaling"):
-        PCALookup(scaling="minmax").fit(library)
+        build("classifier", "pca_lookup", scaling="minmax").fit(library)
 
 
 def test_recognition_confidence_is_one_minus_the_distance_ratio(library) -> None:

@@ -1,37 +1,22 @@
 """Every painting controller of conf/controller/: built from its YAML alone, it declares its force loop.
 
 The painting stage reads ``uses_force_feedback`` and ``desired_force`` from the controller it built
-(no probing of the config); the YAML is the one place of every setting, so the constructors take no
-Python defaults.
+(no probing of the config). That the YAML is the one place of every setting (the constructors take no
+Python defaults) is checked for every plugin group, controllers included, by tests/test_plugin_settings.py.
 """
 
 from __future__ import annotations
 
-import inspect
 from pathlib import Path
 
 import numpy as np
 import pytest
-from hydra.utils import get_class, instantiate
+from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 CONTROLLERS = sorted((CONF / "controller").glob("*.yaml"))
 TASK = OmegaConf.load(CONF / "task" / "painting.yaml")
-
-
-def test_every_controller_yaml_is_found():
-    assert {path.stem for path in CONTROLLERS} >= {"force_pi", "position"}
-
-
-@pytest.mark.parametrize("path", CONTROLLERS, ids=lambda p: p.stem)
-def test_controller_yaml_gives_every_setting_and_the_constructor_defaults_none(path: Path) -> None:
-    config = OmegaConf.load(path)
-    parameters = inspect.signature(get_class(config._target_)).parameters
-    defaulted = [name for name, p in parameters.items() if p.default is not inspect.Parameter.empty]
-    assert defaulted == [], f"{path.stem}: constructor defaults {defaulted} duplicate the YAML"
-    settings = {key for key in config if not str(key).startswith("_")}
-    assert settings == set(parameters), f"{path.stem}: YAML {sorted(settings)} vs {sorted(parameters)}"
 
 
 @pytest.mark.parametrize("path", CONTROLLERS, ids=lambda p: p.stem)

@@ -6,8 +6,7 @@ import numpy as np
 import scipy.signal
 
 from lwrlab.identification.bootstrap import block_bootstrap, clone_estimator
-from plugins.estimators.ols import OrdinaryLeastSquares
-from plugins.estimators.wls import WeightedLeastSquares
+from lwrlab.pipeline.build import build
 
 
 def _problem(rng: np.random.Generator, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -20,8 +19,8 @@ def _problem(rng: np.random.Generator, noise: np.ndarray) -> tuple[np.ndarray, n
 
 
 def test_bootstrap_std_matches_covariance_on_white_noise(rng: np.random.Generator) -> None:
-    w, tau, phi = _problem(rng, 0.1 * rng.normal(size=4000))
-    ols = OrdinaryLeastSquares().fit(w, tau)
+    w, tau, _ = _problem(rng, 0.1 * rng.normal(size=4000))
+    ols = build("estimator", "ols").fit(w, tau)
     result = block_bootstrap(
         ols, w, tau, n_joints=2, block_samples=20, resamples=300, seed=1, show_progress=False
     )
@@ -33,7 +32,7 @@ def test_block_bootstrap_sees_correlated_noise_that_the_covariance_misses(rng: n
     b, a = scipy.signal.butter(2, 0.02)  # low-passed noise: samples correlated over ~50 samples
     noise = scipy.signal.lfilter(b, a, rng.normal(size=4000))
     w, tau, _ = _problem(rng, noise / noise.std() * 0.1)
-    ols = OrdinaryLeastSquares().fit(w, tau)
+    ols = build("estimator", "ols").fit(w, tau)
     result = block_bootstrap(
         ols, w, tau, n_joints=2, block_samples=200, resamples=200, seed=2, show_progress=False
     )
@@ -41,7 +40,7 @@ def test_block_bootstrap_sees_correlated_noise_that_the_covariance_misses(rng: n
 
 
 def test_clone_keeps_hyperparameters_and_drops_learned_values(rng: np.random.Generator) -> None:
-    fitted = WeightedLeastSquares(n_joints=2, min_relative_std=1e-3).fit(
+    fitted = build("estimator", "wls", n_joints=2, min_relative_std=1e-3).fit(
         rng.normal(size=(40, 2)), rng.normal(size=40)
     )
     clone = clone_estimator(fitted)
@@ -51,14 +50,13 @@ def test_clone_keeps_hyperparameters_and_drops_learned_values(rng: np.random.Gen
 def test_identification_adds_bootstrap_intervals(lwr4) -> None:
     from lwrlab.pipeline.identification import identify
     from plugins.plants.simulated import SimulatedPlant
-    from plugins.trajectories.multisine import MultisineMotion
 
     report = identify(
         lwr4,
-        MultisineMotion(duration=3.0, harmonics=3),
-        MultisineMotion(duration=2.0, seed=9),
+        build("trajectory", "multisine", duration=3.0, harmonics=3),
+        build("trajectory", "multisine", duration=2.0, seed=9),
         SimulatedPlant(lwr4, seed=2, show_progress=False),
-        OrdinaryLeastSquares(),
+        build("estimator", "ols"),
         200.0,
         {"cutoff_hz": 10.0, "trim_s": 0.2},
         {"resamples": 10, "block_s": 0.5, "confidence": 0.9, "seed": 0},

@@ -8,21 +8,19 @@ import pytest
 
 from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.hyperparameters import HyperParameters, clone_estimator
-from plugins.estimators.iv import InstrumentalVariables
-from plugins.estimators.ols import OrdinaryLeastSquares
-from plugins.estimators.wls import WeightedLeastSquares
+from lwrlab.pipeline.build import build
 
 
 class Scaled(HyperParameters):
     """A composite: an inner estimator and a setting of its own."""
 
-    def __init__(self, inner: object = None, factor: float = 1.0) -> None:
+    def __init__(self, *, inner: object, factor: float) -> None:
         self.inner = inner
         self.factor = factor
 
 
 def test_nested_parameters_read_and_set_as_name__key() -> None:
-    composite = Scaled(inner=WeightedLeastSquares(n_joints=2), factor=2.0)
+    composite = Scaled(inner=build("estimator", "wls", n_joints=2), factor=2.0)
     params = composite.get_params()
     assert params["factor"] == 2.0 and params["inner__n_joints"] == 2 and params["inner__reweight_steps"] == 2
     assert "inner__n_joints" not in composite.get_params(deep=False)
@@ -33,7 +31,7 @@ def test_nested_parameters_read_and_set_as_name__key() -> None:
 
 
 def test_clone_copies_settings_deeply_and_drops_what_was_learned(rng: np.random.Generator) -> None:
-    inner = WeightedLeastSquares(n_joints=2).fit(rng.normal(size=(40, 2)), rng.normal(size=40))
+    inner = build("estimator", "wls", n_joints=2).fit(rng.normal(size=(40, 2)), rng.normal(size=40))
     bounds = [0.5, 2.0]
     composite = Scaled(inner=inner, factor=bounds)
     copy = clone_estimator(composite)
@@ -42,12 +40,21 @@ def test_clone_copies_settings_deeply_and_drops_what_was_learned(rng: np.random.
     assert not hasattr(copy.inner, "phi_")  # the nested estimator is cloned too: unfitted
 
 
-def test_repr_names_the_settings_that_differ_from_the_defaults() -> None:
-    assert repr(WeightedLeastSquares()) == "WeightedLeastSquares()"
+def test_repr_names_every_setting_but_unchanged_constants() -> None:
+    """A plugin's settings have no Python default (the YAML holds them): its repr names them all; a true
+    constant of a method, left as it is, is omitted."""
     assert (
-        repr(WeightedLeastSquares(n_joints=7, min_relative_std=1e-3))
-        == "WeightedLeastSquares(min_relative_std=0.001, n_joints=7)"
+        repr(build("estimator", "wls", n_joints=7, min_relative_std=1e-3))
+        == "WeightedLeastSquares(min_relative_std=0.001, n_joints=7, reweight_steps=2)"
     )
+
+    class Hull(HyperParameters):
+        def __init__(self, *, margin: float, dimension: int = 3) -> None:  # 3-D space: not a setting
+            self.margin = margin
+            self.dimension = dimension
+
+    assert repr(Hull(margin=0.1)) == "Hull(margin=0.1)"
+    assert repr(Hull(margin=0.1, dimension=2)) == "Hull(dimension=2, margin=0.1)"
 
 
 def test_positional_varargs_and_objects_without_the_protocol_are_refused() -> None:
@@ -75,7 +82,7 @@ def test_bootstrap_resamples_the_instruments_with_the_rows(rng: np.random.Genera
             return Context(self.reference_regressor[rows])
 
     settings = dict(n_joints=2, block_samples=10, resamples=20, seed=4, show_progress=False)
-    iv = block_bootstrap(InstrumentalVariables(), w, tau, context=Context(w), **settings)
-    ols = block_bootstrap(OrdinaryLeastSquares(), w, tau, **settings)
+    iv = block_bootstrap(build("estimator", "iv"), w, tau, context=Context(w), **settings)
+    ols = block_bootstrap(build("estimator", "ols"), w, tau, **settings)
     np.testing.assert_allclose(iv.estimates, ols.estimates, rtol=1e-9, atol=1e-12)
     assert iv.std.max() > 0  # the refits do differ from one another

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from typing import Any
 
 import cvxpy as cp
 import numpy as np
 import pytest
-from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
@@ -23,13 +23,9 @@ from lwrlab.identification.consistency import consistency_margin
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.hyperparameters import clone_estimator
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from lwrlab.plants.simulation import perturbed_robot
-from plugins.estimators.irls import IterativelyReweightedLeastSquares
-from plugins.estimators.iv import InstrumentalVariables
-from plugins.estimators.ols import OrdinaryLeastSquares
-from plugins.estimators.sdp import PhysicallyConsistentSDP, SolverFailure
-from plugins.estimators.wls import WeightedLeastSquares
-from plugins.trajectories.multisine import MultisineMotion
+from plugins.estimators.sdp import SolverFailure
 
 CONF = Path(__file__).resolve().parents[1] / "conf" / "estimator"
 ESTIMATOR_CONFIGS = sorted(p.stem for p in CONF.glob("*.yaml"))
@@ -40,7 +36,7 @@ def problem(lwr4: RobotModel) -> dict:
     """A 4 s LWR4 motion at 200 Hz, a perturbed (consistent) truth, its exact torques."""
     base = compute_base_parameters(lwr4)
     truth = perturbed_robot(lwr4, 0.1, 0.2, np.random.default_rng(7))
-    motion = MultisineMotion(duration=4.0, harmonics=4, seed=3, limit_fraction=0.8).sample(lwr4, 200.0)
+    motion = build("trajectory", "multisine", duration=4.0, harmonics=4, seed=3).sample(lwr4, 200.0)
     w = base.base_regressor(regressor(lwr4, motion.q, motion.dq, motion.ddq))
     tau = truth.inverse_dynamics(motion.q, motion.dq, motion.ddq).ravel()
     context = IdentificationContext.from_robot(lwr4, base, reference_regressor=w)
@@ -58,8 +54,9 @@ def _relative_error(estimate: np.ndarray, truth: np.ndarray) -> float:
     return float(np.linalg.norm(estimate - truth) / np.linalg.norm(truth))
 
 
-def _estimator(name: str):
-    return instantiate(OmegaConf.load(CONF / f"{name}.yaml"))
+def _estimator(name: str, **changes: Any) -> Any:
+    """The estimator of conf/estimator/<name>.yaml, as the pipeline builds it, with ``changes``."""
+    return build("estimator", name, **changes)
 
 
 def _learned(estimator: object) -> list[str]:
@@ -91,7 +88,7 @@ def test_every_estimator_config_holds_hyper_parameters_only(name: str) -> None:
     estimator = _estimator(name)
     params = estimator.get_params(deep=False)
     assert "_partial_" not in config and "context" not in params
-    assert set(config) - {"_target_"} <= set(params)
+    assert set(config) - {"_target_"} == set(params)  # every hyper-parameter is set in the YAML
     for key in set(config) - {"_target_"}:
         assert params[key] == config[key], key
 
@@ -126,7 +123,7 @@ def test_sklearn_clone_copies_every_estimator(name: str, problem: dict) -> None:
 
 def test_setting_a_hyper_parameter_changes_the_fit(problem: dict) -> None:
     """set_params reaches the fit: an SDP asked for tight mass bounds keeps the masses there."""
-    sdp = PhysicallyConsistentSDP().set_params(mass_bounds=[0.99, 1.01])
+    sdp = _estimator("sdp").set_params(mass_bounds=[0.99, 1.01])
     sdp.fit(problem["w"], problem["tau"], context=problem["context"])
     masses, prior = sdp.standard_phi_[0:70:10], problem["context"].prior[0:70:10]
     assert np.all(masses >= 0.99 * prior - 1e-7) and np.all(masses <= 1.01 * prior + 1e-7)
@@ -137,8 +134,8 @@ def test_wls_downweights_the_noisy_joint(rng: np.random.Generator) -> None:
     w = rng.normal(size=(4000, 5))
     phi = rng.normal(size=5)
     noise = rng.normal(size=4000) * np.tile([0.05, 1.0], 2000)
-    wls = WeightedLeastSquares(n_joints=2).fit(w, w @ phi + noise)
-    ols = OrdinaryLeastSquares().fit(w, w @ phi + noise)
+    wls = _estimator("wls", n_joints=2).fit(w, w @ phi + noise)
+    ols = _estimator("ols").fit(w, w @ phi + noise)
     np.testing.assert_allclose(wls.joint_std_, [0.05, 1.0], rtol=0.1)
     assert np.linalg.norm(wls.phi_ - phi) < 0.5 * np.linalg.norm(ols.phi_ - phi)
     assert np.all(wls.std_ < ols.std_)  # the covariance knows it too
@@ -146,7 +143,7 @@ def test_wls_downweights_the_noisy_joint(rng: np.random.Generator) -> None:
 
 def test_wls_without_joint_count_says_what_it_needs(rng: np.random.Generator) -> None:
     with pytest.raises(ValueError, match="n_joints= or call fit"):
-        WeightedLeastSquares().fit(rng.normal(size=(10, 2)), np.zeros(10))
+        _estimator("wls").fit(rng.normal(size=(10, 2)), np.zeros(10))
 
 
 def test_irls_resists_outliers_that_drag_ols(rng: np.random.Generator) -> None:
@@ -155,8 +152,8 @@ def test_irls_resists_outliers_that_drag_ols(rng: np.random.Generator) -> None:
     tau = w @ phi + 0.05 * rng.normal(size=2000)
     spikes = rng.choice(2000, 100, replace=False)
     tau[spikes] += 20.0  # sensor glitches on 5 % of the rows
-    robust = IterativelyReweightedLeastSquares(n_joints=2, loss="bisquare").fit(w, tau)
-    ols = OrdinaryLeastSquares().fit(w, tau)
+    robust = _estimator("irls", n_joints=2, loss="bisquare").fit(w, tau)
+    ols = _estimator("ols").fit(w, tau)
     assert np.linalg.norm(robust.phi_ - phi) < 0.02
     assert np.linalg.norm(ols.phi_ - phi) > 10 * np.linalg.norm(robust.phi_ - phi)
     assert robust.outlier_fraction_ == pytest.approx(0.05, abs=0.01)
@@ -168,15 +165,15 @@ def test_iv_removes_the_bias_of_a_noisy_regressor(rng: np.random.Generator) -> N
     phi = np.array([1.0, 2.0, -1.0])
     w_measured = z + 0.5 * rng.normal(size=z.shape)
     tau = z @ phi + 0.1 * rng.normal(size=20000)
-    iv = InstrumentalVariables().fit(w_measured, tau, instruments=z)
-    ols = OrdinaryLeastSquares().fit(w_measured, tau)
+    iv = _estimator("iv").fit(w_measured, tau, instruments=z)
+    ols = _estimator("ols").fit(w_measured, tau)
     assert np.linalg.norm(iv.phi_ - phi) < 0.03
     assert np.linalg.norm(ols.phi_ - phi) > 0.3
 
 
 def test_iv_without_instruments_names_the_alternatives(rng: np.random.Generator) -> None:
     with pytest.raises(ValueError, match="needs instruments"):
-        InstrumentalVariables().fit(rng.normal(size=(10, 2)), np.zeros(10))
+        _estimator("iv").fit(rng.normal(size=(10, 2)), np.zeros(10))
 
 
 def test_ols_on_short_noisy_data_is_inconsistent_where_sdp_is_not(lwr4: RobotModel, problem: dict) -> None:
@@ -184,15 +181,15 @@ def test_ols_on_short_noisy_data_is_inconsistent_where_sdp_is_not(lwr4: RobotMod
     OLS base parameters (negative consistency margin); the SDP's do, by construction."""
     base: BaseParameters = problem["base"]
     context: IdentificationContext = problem["context"]
-    motion = MultisineMotion(duration=2.0, harmonics=3, seed=0, limit_fraction=0.8).sample(lwr4, 100.0)
+    motion = build("trajectory", "multisine", duration=2.0, harmonics=3, seed=0).sample(lwr4, 100.0)
     w = base.base_regressor(regressor(lwr4, motion.q, motion.dq, motion.ddq))
     tau = (
         problem["truth"].inverse_dynamics(motion.q, motion.dq, motion.ddq)
         + 0.5 * np.random.default_rng(0).normal(size=(len(motion.t), 7))
     ).ravel()
     dissipative = np.concatenate([context.friction_indices("coulomb"), context.friction_indices("viscous")])
-    ols = OrdinaryLeastSquares().fit(w, tau)
-    sdp = PhysicallyConsistentSDP().fit(w, tau, context=context)
+    ols = _estimator("ols").fit(w, tau)
+    sdp = _estimator("sdp").fit(w, tau, context=context)
     assert consistency_margin(base.regrouping, ols.phi_, lwr4.n_links, dissipative) < -1e-3
     assert consistency_margin(base.regrouping, sdp.phi_, lwr4.n_links, dissipative) > -1e-9
     assert sdp.min_eigenvalues_.min() >= -1e-12
@@ -202,7 +199,7 @@ def test_ols_on_short_noisy_data_is_inconsistent_where_sdp_is_not(lwr4: RobotMod
 @pytest.mark.parametrize("regularization", ["none", "euclidean", "entropic"])
 def test_sdp_regularisations_give_consistent_models(regularization: str, problem: dict) -> None:
     noisy = problem["tau"] + 0.2 * np.random.default_rng(1).normal(size=problem["tau"].shape)
-    sdp = PhysicallyConsistentSDP(regularization=regularization, weight=1e-4).fit(
+    sdp = _estimator("sdp", regularization=regularization, weight=1e-4).fit(
         problem["w"], noisy, context=problem["context"]
     )
     assert sdp.solver_ == "CLARABEL" and not sdp.solver_fallback_
@@ -212,13 +209,13 @@ def test_sdp_regularisations_give_consistent_models(regularization: str, problem
 
 def test_sdp_compressed_and_uncompressed_agree(problem: dict) -> None:
     noisy = problem["tau"] + 0.2 * np.random.default_rng(2).normal(size=problem["tau"].shape)
-    compressed = PhysicallyConsistentSDP().fit(problem["w"], noisy, context=problem["context"])
-    full = PhysicallyConsistentSDP(compress=False).fit(problem["w"], noisy, context=problem["context"])
+    compressed = _estimator("sdp").fit(problem["w"], noisy, context=problem["context"])
+    full = _estimator("sdp", compress=False).fit(problem["w"], noisy, context=problem["context"])
     assert _relative_error(compressed.phi_, full.phi_) < 1e-5
 
 
 def test_sdp_mass_bounds_hold(problem: dict) -> None:
-    sdp = PhysicallyConsistentSDP(mass_bounds=[0.95, 1.05]).fit(
+    sdp = _estimator("sdp", mass_bounds=[0.95, 1.05]).fit(
         problem["w"], problem["tau"], context=problem["context"]
     )
     masses = sdp.standard_phi_[0 : 10 * 7 : 10]
@@ -230,7 +227,7 @@ def test_sdp_falls_back_and_says_so(problem: dict, caplog: pytest.LogCaptureFixt
     """A primary solver that cannot run the problem (OSQP has no SDP cones) falls back to SCS."""
     noisy = problem["tau"] + 0.2 * np.random.default_rng(3).normal(size=problem["tau"].shape)
     with caplog.at_level(logging.WARNING):
-        sdp = PhysicallyConsistentSDP(solver="OSQP").fit(problem["w"], noisy, context=problem["context"])
+        sdp = _estimator("sdp", solver="OSQP").fit(problem["w"], noisy, context=problem["context"])
     assert sdp.solver_ == "SCS" and sdp.solver_fallback_ and sdp.diagnostics_["solver_fallback"] == 1.0
     assert "fallback solver SCS" in caplog.text
 
@@ -238,11 +235,11 @@ def test_sdp_falls_back_and_says_so(problem: dict, caplog: pytest.LogCaptureFixt
 def test_sdp_failure_without_fallback_and_bad_settings_are_clear(problem: dict) -> None:
     w, tau, context = problem["w"], problem["tau"], problem["context"]
     with pytest.raises(SolverFailure, match="OSQP"):
-        PhysicallyConsistentSDP(solver="OSQP", fallback_solver=None).fit(w, tau, context=context)
+        _estimator("sdp", solver="OSQP", fallback_solver=None).fit(w, tau, context=context)
     with pytest.raises(ValueError, match="mass_bounds"):
-        PhysicallyConsistentSDP(mass_bounds=[2.0, 1.0]).fit(w, tau, context=context)
+        _estimator("sdp", mass_bounds=[2.0, 1.0]).fit(w, tau, context=context)
     with pytest.raises(ValueError, match="valid"):
-        PhysicallyConsistentSDP(regularization="ridge").fit(w, tau, context=context)
+        _estimator("sdp", regularization="ridge").fit(w, tau, context=context)
     with pytest.raises(ValueError, match="context="):
-        PhysicallyConsistentSDP().fit(w, tau)
+        _estimator("sdp").fit(w, tau)
     assert cp.CLARABEL in cp.installed_solvers()

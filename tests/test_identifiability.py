@@ -19,8 +19,7 @@ from lwrlab.identification.identifiability import (
 )
 from lwrlab.io.exciting_motion import load_motion_description
 from lwrlab.model.robot import RobotModel
-from plugins.trajectories.bspline import BSplineMotion
-from plugins.trajectories.multisine import MultisineMotion
+from lwrlab.pipeline.build import build
 
 RATE_HZ = 50.0  # the identification's rate after decimation
 
@@ -45,10 +44,9 @@ def _states(motion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def test_shipped_optimal_motion_is_good(lwr4, lwr4_base):
-    description = load_motion_description("lwrlab/data/exciting_motions/kuka_lwr4_logdet_10s.yaml")
-    motion = BSplineMotion(description["duration"], description["via_point_spacing"]).with_coefficients(
-        description["coefficients"]
-    )
+    shipped = "lwrlab/data/exciting_motions/kuka_lwr4_logdet_10s.yaml"
+    description = load_motion_description(shipped)
+    motion = build("trajectory", "bspline", from_file=shipped)
     report = _assess(lwr4, lwr4_base, *_states(motion.sample(lwr4, RATE_HZ)))
     assert report.status == "good" and report.ok
     assert report.rank == report.n_columns == lwr4_base.count
@@ -64,7 +62,7 @@ def test_shipped_optimal_motion_is_good(lwr4, lwr4_base):
 
 
 def test_joint_that_never_moves_is_named_with_what_it_loses(lwr4, lwr4_base):
-    q, dq, ddq = _states(MultisineMotion(seed=0).sample(lwr4, RATE_HZ))
+    q, dq, ddq = _states(build("trajectory", "multisine", seed=0).sample(lwr4, RATE_HZ))
     q[:, 4], dq[:, 4], ddq[:, 4] = 0.3, 0.0, 0.0  # joint 5 held
     report = _assess(lwr4, lwr4_base, q, dq, ddq)
     assert report.status == "rank_deficient"
@@ -76,7 +74,7 @@ def test_joint_that_never_moves_is_named_with_what_it_loses(lwr4, lwr4_base):
     }  # zero columns: friction needs motion
     assert report.still_joints == (5,)
     assert bool(report.per_joint.loc[5, "still"]) and not report.per_joint.drop(index=5)["still"].any()
-    # the weakest inertial combination the data still see is link 5's XX5R (the estimate the issue saw go wrong)
+    # the weakest inertial combination the data still see is link 5's XX5R (the estimate once wrong)
     inertial = [
         d
         for d in _assess(lwr4, lwr4_base, q, dq, ddq, n_smallest=3).smallest_directions
@@ -91,7 +89,7 @@ def test_joint_that_never_moves_is_named_with_what_it_loses(lwr4, lwr4_base):
 
 def test_held_joint_with_sensor_noise_is_still_named(lwr4, lwr4_base, rng):
     """Noise makes a held joint's friction columns well conditioned; the still joint makes it poor anyway."""
-    q, dq, ddq = _states(MultisineMotion(seed=0).sample(lwr4, RATE_HZ))
+    q, dq, ddq = _states(build("trajectory", "multisine", seed=0).sample(lwr4, RATE_HZ))
     n = len(q)
     q[:, 4] = 0.3 + 1e-5 * rng.normal(size=n)
     dq[:, 4], ddq[:, 4] = 3e-4 * rng.normal(size=n), 1e-2 * rng.normal(size=n)
@@ -103,11 +101,8 @@ def test_held_joint_with_sensor_noise_is_still_named(lwr4, lwr4_base, rng):
 
 @pytest.mark.parametrize("limit_fraction", [0.01, 0.001])
 def test_tiny_motion_is_poor_and_names_its_weak_combinations(lwr4, lwr4_base, limit_fraction):
-    report = _assess(
-        lwr4,
-        lwr4_base,
-        *_states(MultisineMotion(seed=0, harmonics=2, limit_fraction=limit_fraction).sample(lwr4, RATE_HZ)),
-    )
+    motion = build("trajectory", "multisine", seed=0, harmonics=2, limit_fraction=limit_fraction)
+    report = _assess(lwr4, lwr4_base, *_states(motion.sample(lwr4, RATE_HZ)))
     assert report.status == "poor"
     assert report.cond_scaled > 1e4
     assert report.weak_directions

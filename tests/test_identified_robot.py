@@ -16,6 +16,8 @@ from lwrlab.model.robot import RobotModel
 from plugins.robots.identified import load_identified_robot
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
+WITHOUT_LOOKUP = {"tracking_uri": None, "build_robot": instantiate, "fetch_run_artifact": None}
+"""The plugin's edges, with no way to look a run up: a file or folder must be given."""
 
 
 def _identified_run(
@@ -56,24 +58,24 @@ def test_a_run_id_is_fetched_through_the_given_lookup(lwr4: RobotModel, tmp_path
         return tmp_path / artifact
 
     robot = load_identified_robot(
-        "0123abcd", "sqlite:///x.db", build_robot=instantiate, fetch_run_artifact=fetch
+        "0123abcd", tracking_uri="sqlite:///x.db", build_robot=instantiate, fetch_run_artifact=fetch
     )
     assert calls == [("0123abcd", "identified_model.yaml", "sqlite:///x.db")]
     np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)
     with pytest.raises(FileNotFoundError, match="fetch_run_artifact"):
-        load_identified_robot("0123abcd", build_robot=instantiate)
+        load_identified_robot("0123abcd", **WITHOUT_LOOKUP)
 
 
 def test_only_robot_plugins_are_built_and_missing_files_are_named(lwr4: RobotModel, tmp_path: Path) -> None:
     _identified_run(lwr4, tmp_path, target="os.system")
     with pytest.raises(ValueError, match="not a robot plugin"):
-        load_identified_robot(str(tmp_path), build_robot=instantiate)
-    with pytest.raises(FileNotFoundError, match="missing.yaml"):
-        load_identified_robot(str(tmp_path / "missing.yaml"), build_robot=instantiate)
+        load_identified_robot(str(tmp_path), **WITHOUT_LOOKUP)
+    with pytest.raises(FileNotFoundError, match=r"missing\.yaml"):
+        load_identified_robot(str(tmp_path / "missing.yaml"), **WITHOUT_LOOKUP)
 
 
 def test_the_tracking_lookup_names_a_missing_run(tmp_path: Path) -> None:
     from lwrlab.tracking.run_artifacts import download_run_artifact
 
-    with pytest.raises(FileNotFoundError, match="identified_model.yaml for MLflow run 'feedbeef'"):
+    with pytest.raises(FileNotFoundError, match=r"identified_model\.yaml for MLflow run 'feedbeef'"):
         download_run_artifact("feedbeef", "identified_model.yaml", (tmp_path / "mlruns").as_uri())

@@ -11,12 +11,11 @@ from hydra import compose, initialize_config_dir
 
 from lwrlab.io.logs import LogError, load_log, log_frame, write_log
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from lwrlab.pipeline.identification import identify
 from lwrlab.plants.core import Measurement
-from plugins.estimators.ols import OrdinaryLeastSquares
 from plugins.plants.log import LogPlant
 from plugins.plants.simulated import SimulatedPlant
-from plugins.trajectories.multisine import MultisineMotion
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 
@@ -45,17 +44,17 @@ def test_write_then_load_is_exact(tmp_path: Path, suffix: str) -> None:
 
 def test_identifying_from_a_log_equals_identifying_in_memory(lwr4: RobotModel, tmp_path: Path) -> None:
     """simulate → write log → load log → identify gives the in-memory identification's parameters."""
-    motion = MultisineMotion(duration=3.0, harmonics=3, seed=0)
-    validation = MultisineMotion(duration=3.0, harmonics=4, seed=5)
+    motion = build("trajectory", "multisine", duration=3.0, harmonics=3, seed=0)
+    validation = build("trajectory", "multisine", duration=3.0, harmonics=4, seed=5)
     rate, processing = 200.0, {"cutoff_hz": 10.0, "trim_s": 0.2}
     simulated = SimulatedPlant(lwr4, torque_noise_std=0.1, seed=4, show_progress=False)
-    in_memory = identify(lwr4, motion, validation, simulated, OrdinaryLeastSquares(), rate, processing)
+    in_memory = identify(lwr4, motion, validation, simulated, build("estimator", "ols"), rate, processing)
     paths = [
         write_log(m, tmp_path / name)
         for m, name in ((in_memory.measurement, "id.csv"), (in_memory.validation_measurement, "val.csv"))
     ]
     plant = LogPlant(lwr4, str(paths[0]), validation_path=str(paths[1]))
-    from_log = identify(lwr4, motion, validation, plant, OrdinaryLeastSquares(), rate, processing)
+    from_log = identify(lwr4, motion, validation, plant, build("estimator", "ols"), rate, processing)
     np.testing.assert_allclose(
         from_log.identified.base_values, in_memory.identified.base_values, rtol=1e-12, atol=1e-12
     )
@@ -138,7 +137,7 @@ def test_malformed_logs_name_file_column_and_row(tmp_path: Path, edit, message: 
 
 def test_too_short_log_and_mapped_missing_column(tmp_path: Path) -> None:
     path = write_log(_measurement(n=50), tmp_path / "short.csv")
-    with pytest.raises(LogError, match="short.csv: 50 rows, too short"):
+    with pytest.raises(LogError, match=r"short\.csv: 50 rows, too short"):
         load_log(path, n_joints=2)
     with pytest.raises(LogError, match="missing column 'stamp' \\(schema column 't'"):
         load_log(path, n_joints=2, column_map={"t": "stamp"}, min_samples=10)
@@ -149,7 +148,7 @@ def test_too_short_log_and_mapped_missing_column(tmp_path: Path) -> None:
 def test_log_plant_splits_a_single_log_by_role(tmp_path: Path, lwr4: RobotModel) -> None:
     log_path = write_log(_measurement(n=1000, n_joints=7), tmp_path / "one.csv")
     plant = LogPlant(lwr4, str(log_path), validation_fraction=0.25)
-    dummy = MultisineMotion(duration=1.0).sample(lwr4, 100.0)
+    dummy = build("trajectory", "multisine", duration=1.0).sample(lwr4, 100.0)
     identification = plant.measure(dummy)
     validation = plant.measure(type(dummy)(dummy.t, dummy.q, dummy.dq, dummy.ddq, {"role": "validation"}))
     assert (len(identification.t), len(validation.t)) == (750, 250)

@@ -17,19 +17,18 @@ from hydra import compose, initialize_config_dir
 from lwrlab.io.logs import load_log, write_log
 from lwrlab.io.rosbag import write_joint_states
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from lwrlab.pipeline.identification import identify, identify_configured, write_report
 from lwrlab.plants.core import Measurement
-from plugins.estimators.ols import OrdinaryLeastSquares
 from plugins.plants.log import LogPlant
 from plugins.plants.simulated import SimulatedPlant
-from plugins.trajectories.multisine import MultisineMotion
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 REAL_LWR4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "kuka_lwr4_hw"
 NPZ_COLUMNS = "data.column_map={t: times, q: positions, dq: velocities, tau: torques}"
 needs_real_logs = pytest.mark.skipif(
     not (REAL_LWR4 / "measurements_1.npz").is_file(),
-    reason=f"real KUKA LWR4+ logs not found at {REAL_LWR4} (they live in ../shared, beside a clone, not in it)",
+    reason=f"real KUKA LWR4+ logs not found at {REAL_LWR4} (in ../shared, beside a clone, not in it)",
 )
 
 
@@ -44,7 +43,8 @@ def recorded(lwr4: RobotModel) -> dict[str, Measurement]:
         "check_a": (3.0, 3, 7),
         "check_b": (3.0, 4, 8),
     }.items():
-        motion = MultisineMotion(duration=duration, harmonics=harmonics, seed=seed).sample(lwr4, 500.0)
+        source = build("trajectory", "multisine", duration=duration, harmonics=harmonics, seed=seed)
+        motion = source.sample(lwr4, 500.0)
         measured = plant.measure(motion)
         logs[name] = Measurement(
             t=measured.t, q=measured.q, tau=measured.tau, dq=motion.dq, metadata=measured.metadata
@@ -82,13 +82,13 @@ def test_every_format_round_trips_to_the_in_memory_identification(
         def validation_measurements(self) -> list[Measurement]:
             return [recorded["check_a"]]
 
-    in_memory = identify(lwr4, None, None, InMemory(), OrdinaryLeastSquares(), processing=processing)
+    in_memory = identify(lwr4, None, None, InMemory(), build("estimator", "ols"), processing=processing)
     paths = {name: _write(recorded[name], tmp_path, name, fmt, lwr4) for name in ("fit_a", "check_a")}
     loaded = load_log(paths["fit_a"], lwr4.n_joints, joint_names=lwr4.joint_names, limits=lwr4.limits)
     np.testing.assert_allclose(loaded.q, recorded["fit_a"].q, rtol=0, atol=0)
     np.testing.assert_allclose(loaded.dq, recorded["fit_a"].dq, rtol=0, atol=0)
     plant = LogPlant(lwr4, paths=[str(paths["fit_a"])], validation_paths=[str(paths["check_a"])])
-    from_log = identify(lwr4, None, None, plant, OrdinaryLeastSquares(), processing=processing)
+    from_log = identify(lwr4, None, None, plant, build("estimator", "ols"), processing=processing)
     # ROS 2 stamps are integer nanoseconds: the same samples, times within 1 ns
     tolerance = 1e-9 if fmt in ("sqlite3", "mcap") else 1e-12
     np.testing.assert_allclose(
@@ -168,7 +168,7 @@ def test_irregular_log_is_scored_at_its_logged_samples(
         paths=[str(write_log(recorded["fit_a"], tmp_path / "fit.csv"))],
         validation_paths=[str(write_log(jittered, tmp_path / "jitter.csv"))],
     )
-    report = identify(lwr4, None, None, plant, OrdinaryLeastSquares(), processing={"cutoff_hz": "auto"})
+    report = identify(lwr4, None, None, plant, build("estimator", "ols"), processing={"cutoff_hz": "auto"})
     validation = report.validation_predictions[0]
     np.testing.assert_allclose(validation.t, jittered.t, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(validation.measured, jittered.tau)  # raw torques, never interpolated ones

@@ -10,16 +10,16 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.identification.payload import identify_payload, identify_payload_only, tool_columns
 from lwrlab.model.inertia import is_physically_consistent
 from lwrlab.model.payload import flange_to_joint_matrix, payload_in_joint_frame
+from lwrlab.pipeline.build import build
 from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.signal.processing import process
 from plugins.plants.simulated import SimulatedPlant
-from plugins.trajectories.multisine import MultisineMotion
 
 NOISELESS = {"cutoff_hz": None, "difference_accuracy": 4}
 
 
 def _data(robot, base, plant, seed: int, duration: float, processing: dict):
-    motion = MultisineMotion(duration, 6, seed=seed).sample(robot, 1000.0)
+    motion = build("trajectory", "multisine", duration=duration, seed=seed).sample(robot, 1000.0)
     measurement = plant.measure(motion)
     data = process(measurement.t, measurement.q, measurement.tau, **processing)
     w, tau = data.rows(lambda q, dq, ddq: regressor(robot, q, dq, ddq))

@@ -23,10 +23,11 @@ from lwrlab.io.artifacts import save_identified_model
 from lwrlab.io.logs import joint_columns, log_frame, write_log
 from lwrlab.model.inertia import standard_parameters
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.plants.core import Measurement
+from lwrlab.trajectory.core import Trajectory
 from plugins.plants.simulated import SimulatedPlant
-from plugins.trajectories.multisine import MultisineMotion
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 NOISELESS_PROCESSING = [
@@ -62,9 +63,13 @@ def _simulate(
     """An unloaded and ``n_loaded`` loaded measurements (each its own motion) of one simulated robot."""
     noise = {} if noisy else {"torque_noise_std": 0.0, "encoder_noise_std": 0.0}
     plant = SimulatedPlant(robot, seed=0, show_progress=False, **noise)
-    motion = lambda seed: MultisineMotion(
-        duration=seconds, harmonics=10, seed=seed, limit_fraction=0.9
-    ).sample(robot, 1000.0)
+
+    def motion(seed: int) -> Trajectory:
+        source = build(
+            "trajectory", "multisine", duration=seconds, harmonics=10, seed=seed, limit_fraction=0.9
+        )
+        return source.sample(robot, 1000.0)
+
     loaded = plant.with_tool(payload)
     return plant.measure(motion(1)), [loaded.measure(motion(100 + k)) for k in range(n_loaded)], plant
 
@@ -136,7 +141,7 @@ def test_payload_from_noisy_logs_is_within_1_percent_and_2_mm_and_recognised(
 
 @pytest.mark.parametrize("method", ["joint", "payload_only"])
 def test_noiseless_payload_is_exact(tmp_path: Path, log_robot: RobotModel, method: str) -> None:
-    """joint: from unloaded and loaded logs (eq. (7)); payload_only: the unloaded robot from an identified model."""
+    """joint: unloaded and loaded logs (eq. (7)); payload_only: the unloaded robot from its identification."""
     roller = load_tool("small_roller")
     unloaded, (loaded,), plant = _simulate(log_robot, roller, 3.0, noisy=False)
     overrides = [
@@ -244,7 +249,7 @@ def test_noiseless_drive_gains_are_exact_with_only_the_mass_known(
 
 
 def test_a_payload_on_a_joint_axis_leaves_that_gain_flagged(tmp_path: Path, log_robot: RobotModel) -> None:
-    """CoM on joint 7's axis: the known payload does not load joint 7, its gain is poorly determined and said so."""
+    """CoM on joint 7's axis: the payload does not load joint 7, its gain is poorly determined and said so."""
     on_axis = standard_parameters(2.0, np.array([0.0, 0.0, 0.1]), np.diag([0.004, 0.004, 0.002]))
     unloaded, (loaded,), _ = _simulate(log_robot, on_axis, 6.0, noisy=True)
     paths = [

@@ -8,8 +8,8 @@ import pytest
 
 from lwrlab.model.inertia import is_physically_consistent
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from plugins.plants.simulated import SimulatedPlant
-from plugins.trajectories.multisine import MultisineMotion
 
 
 def test_truth_is_a_consistent_perturbation_of_the_nominal_robot(lwr4: RobotModel) -> None:
@@ -24,7 +24,7 @@ def test_truth_is_a_consistent_perturbation_of_the_nominal_robot(lwr4: RobotMode
 
 
 def test_noiseless_playback_measures_the_true_inverse_dynamics(lwr4: RobotModel) -> None:
-    motion = MultisineMotion(duration=2.0, seed=1).sample(lwr4, 1000.0)
+    motion = build("trajectory", "multisine", duration=2.0, seed=1).sample(lwr4, 1000.0)
     plant = SimulatedPlant(lwr4, torque_noise_std=0.0, encoder_noise_std=0.0, show_progress=False)
     measurement = plant.measure(motion)
     np.testing.assert_array_equal(measurement.q, motion.q)
@@ -34,14 +34,14 @@ def test_noiseless_playback_measures_the_true_inverse_dynamics(lwr4: RobotModel)
 
 
 def test_torque_noise_has_the_configured_spread(lwr4: RobotModel) -> None:
-    motion = MultisineMotion(duration=5.0, seed=1).sample(lwr4, 1000.0)
+    motion = build("trajectory", "multisine", duration=5.0, seed=1).sample(lwr4, 1000.0)
     noisy = SimulatedPlant(lwr4, torque_noise_std=0.3, encoder_noise_std=0.0, seed=2, show_progress=False)
     residual = noisy.measure(motion).tau - noisy.truth.robot.inverse_dynamics(motion.q, motion.dq, motion.ddq)
     np.testing.assert_allclose(residual.std(axis=0), 0.3, rtol=0.05)
 
 
 def test_encoder_quantisation(lwr4: RobotModel) -> None:
-    motion = MultisineMotion(duration=1.0, seed=1).sample(lwr4, 1000.0)
+    motion = build("trajectory", "multisine", duration=1.0, seed=1).sample(lwr4, 1000.0)
     step = 1e-4
     measurement = SimulatedPlant(
         lwr4, encoder_noise_std=0.0, encoder_resolution=step, show_progress=False
@@ -51,7 +51,7 @@ def test_encoder_quantisation(lwr4: RobotModel) -> None:
 
 
 def test_closed_loop_tracks_and_obeys_the_true_dynamics(lwr4: RobotModel) -> None:
-    motion = MultisineMotion(duration=2.0, seed=4, limit_fraction=0.5).sample(lwr4, 1000.0)
+    motion = build("trajectory", "multisine", duration=2.0, seed=4, limit_fraction=0.5).sample(lwr4, 1000.0)
     plant = SimulatedPlant(
         lwr4, mode="closed_loop", torque_noise_std=0.0, encoder_noise_std=0.0, substeps=4, show_progress=False
     )
@@ -66,7 +66,10 @@ def test_closed_loop_tracks_and_obeys_the_true_dynamics(lwr4: RobotModel) -> Non
     data = truth.model.createData()
     inner = slice(10, -10)
     rnea = np.stack(
-        [pin.rnea(truth.model, data, q, v, a) for q, v, a in zip(measurement.q[inner], dq[inner], ddq[inner])]
+        [
+            pin.rnea(truth.model, data, q, v, a)
+            for q, v, a in zip(measurement.q[inner], dq[inner], ddq[inner], strict=True)
+        ]
     )
     friction = truth.friction.viscous * dq[inner] + truth.friction.coulomb * np.tanh(dq[inner] / 1e-3)
     residual = measurement.tau[inner] - rnea - friction
@@ -74,5 +77,5 @@ def test_closed_loop_tracks_and_obeys_the_true_dynamics(lwr4: RobotModel) -> Non
 
 
 def test_unknown_mode_lists_valid_ones(lwr4: RobotModel) -> None:
-    with pytest.raises(ValueError, match="playback.*closed_loop"):
+    with pytest.raises(ValueError, match=r"playback.*closed_loop"):
         SimulatedPlant(lwr4, mode="teleport")

@@ -13,8 +13,8 @@ from lwrlab.io.log_findings import Finding, LogColumns, raise_for_errors
 from lwrlab.io.logs import LogError
 from lwrlab.io.plausibility import check_plausibility
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from plugins.plants.simulated import SimulatedPlant
-from plugins.trajectories.multisine import MultisineMotion
 
 N_SAMPLES = 2000  # 2 s at 1 kHz
 CSV = Path("robot_log.csv")
@@ -45,7 +45,7 @@ def test_plausible_log_has_no_finding(lwr4, rng):
 
 def test_simulated_robot_log_has_no_finding(lwr4):
     """The simulated plant (CAD ± 10 %, sensor noise) on a motion at 80 % of the limits: no false alarm."""
-    motion = MultisineMotion(duration=4.0, seed=0).sample(lwr4, 1000.0)
+    motion = build("trajectory", "multisine", duration=4.0, seed=0).sample(lwr4, 1000.0)
     measurement = SimulatedPlant(lwr4, seed=0, show_progress=False).measure(motion)
     assert (
         check_plausibility(measurement.t, measurement.q, measurement.tau, lwr4.limits, CSV, dq=motion.dq)

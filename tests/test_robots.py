@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib.metadata
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -26,10 +27,9 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.dynamics.serial_chain import serial_chain
 from lwrlab.model.inertia import is_physically_consistent
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from lwrlab.trajectory.core import check_limits
 from plugins.robots.mdh import load_robot_yaml
-from plugins.robots.urdf import load_urdf_robot
-from plugins.trajectories.multisine import MultisineMotion
 
 REPO = Path(__file__).resolve().parents[1]
 PANDA_YAML = REPO / "conf" / "robot" / "panda.yaml"
@@ -85,7 +85,12 @@ def panda_urdf_arm(panda_urdf: Path, tmp_path_factory: pytest.TempPathFactory) -
             root.remove(element)
     path = tmp_path_factory.mktemp("urdf") / "panda_arm.urdf"
     tree.write(path)
-    return load_urdf_robot(path, acceleration_limits=PANDA_ACCELERATION, flange_frame="panda_link8")
+    return urdf_robot(path, acceleration_limits=PANDA_ACCELERATION, flange_frame="panda_link8")
+
+
+def urdf_robot(path: Path, **changes: Any) -> RobotModel:
+    """The robot of conf/robot/urdf.yaml read from the URDF at ``path``, with ``changes`` of its settings."""
+    return build("robot", "urdf", path=str(path), **changes)
 
 
 def random_states(
@@ -158,7 +163,7 @@ def test_panda_yaml_is_described_in_reference_order() -> None:
 
 
 def test_full_panda_urdf_loads_fingers_as_prismatic_joints(panda_urdf: Path) -> None:
-    robot = load_urdf_robot(panda_urdf, acceleration_limits=10.0)
+    robot = urdf_robot(panda_urdf, acceleration_limits=10.0)
     assert robot.name == "panda"
     assert robot.n_joints == robot.n_links == 9  # 7 arm joints + 2 fingers (mimic loaded as a joint)
     assert robot.link_labels == tuple(str(j) for j in range(1, 10))
@@ -176,7 +181,7 @@ def test_full_panda_urdf_loads_fingers_as_prismatic_joints(panda_urdf: Path) -> 
 
 
 def test_locked_fingers_give_the_arm_with_urdf_limits(panda_urdf: Path, panda: RobotModel) -> None:
-    robot = load_urdf_robot(panda_urdf, acceleration_limits=PANDA_ACCELERATION, locked_joints=list(FINGERS))
+    robot = urdf_robot(panda_urdf, acceleration_limits=PANDA_ACCELERATION, locked_joints=list(FINGERS))
     assert robot.n_joints == 7
     assert serial_chain(robot.model) is not None
     for key in ("position_lower", "position_upper", "velocity", "acceleration", "torque"):
@@ -234,7 +239,7 @@ def hand_in_frame7() -> pin.Inertia:
 def test_urdf_with_locked_hand_equals_mdh_yaml_plus_hand(panda_urdf: Path, panda: RobotModel) -> None:
     # With the hand: the loader merges hand and locked fingers into segment 7; adding the same hand,
     # built here from its published data, to the MDH model gives the same dynamics.
-    robot = load_urdf_robot(
+    robot = urdf_robot(
         panda_urdf, acceleration_limits=PANDA_ACCELERATION, locked_joints=dict.fromkeys(FINGERS, 0.0)
     )
     with_hand = panda.model.copy()
@@ -251,7 +256,7 @@ def test_urdf_with_locked_hand_equals_mdh_yaml_plus_hand(panda_urdf: Path, panda
 
 def test_urdf_loader_options(panda_urdf: Path) -> None:
     friction = {"coulomb": [1.0] * 7, "viscous": [0.5] * 7}
-    robot = load_urdf_robot(
+    robot = urdf_robot(
         panda_urdf,
         name="my_panda",
         acceleration_limits=PANDA_ACCELERATION,
@@ -314,7 +319,7 @@ def write_urdf(tmp_path: Path, kind: str = "revolute", limit: str = GOOD_LIMIT) 
 
 
 def test_one_joint_urdf_loads(tmp_path: Path) -> None:
-    robot = load_urdf_robot(write_urdf(tmp_path), acceleration_limits=[5.0])
+    robot = urdf_robot(write_urdf(tmp_path), acceleration_limits=[5.0])
     assert robot.n_joints == 1
     np.testing.assert_array_equal(robot.limits.torque, [10.0])
     np.testing.assert_array_equal(robot.limits.position_lower, [-1.0])
@@ -323,9 +328,9 @@ def test_one_joint_urdf_loads(tmp_path: Path) -> None:
 def test_missing_file_is_named(tmp_path: Path) -> None:
     missing = tmp_path / "nowhere.urdf"
     with pytest.raises(ValueError, match=r"nowhere\.urdf"):
-        load_urdf_robot(missing, acceleration_limits=1.0)
+        urdf_robot(missing, acceleration_limits=1.0)
     with pytest.raises(FileNotFoundError, match="does not exist"):
-        load_urdf_robot(missing, acceleration_limits=1.0)
+        urdf_robot(missing, acceleration_limits=1.0)
 
 
 @pytest.mark.parametrize(
@@ -350,7 +355,7 @@ def test_missing_file_is_named(tmp_path: Path) -> None:
 def test_missing_limits_are_refused_naming_file_and_joint(tmp_path: Path, limit: str, message: str) -> None:
     path = write_urdf(tmp_path, limit=limit)
     with pytest.raises(ValueError, match=message) as error:
-        load_urdf_robot(path, acceleration_limits=1.0)
+        urdf_robot(path, acceleration_limits=1.0)
     assert str(path) in str(error.value)
 
 
@@ -365,46 +370,46 @@ def test_missing_limits_are_refused_naming_file_and_joint(tmp_path: Path, limit:
 def test_unsupported_joints_are_refused(tmp_path: Path, kind: str, message: str) -> None:
     path = write_urdf(tmp_path, kind=kind, limit="")
     with pytest.raises(ValueError, match=message) as error:
-        load_urdf_robot(path, acceleration_limits=1.0)
+        urdf_robot(path, acceleration_limits=1.0)
     assert str(path) in str(error.value)
 
 
 def test_acceleration_limits_are_optional_for_logs_required_for_motions_and_sized(tmp_path: Path) -> None:
     path = write_urdf(tmp_path)
-    robot = load_urdf_robot(path)  # enough to identify from logs
+    robot = urdf_robot(path)  # enough to identify from logs
     assert np.all(np.isinf(robot.limits.acceleration))
-    motion = MultisineMotion(duration=2.0, harmonics=2, seed=0).sample(
-        load_urdf_robot(path, acceleration_limits=1.0), 100.0
+    motion = build("trajectory", "multisine", duration=2.0, harmonics=2, seed=0).sample(
+        urdf_robot(path, acceleration_limits=1.0), 100.0
     )
     with pytest.raises(ValueError, match=r"give robot\.acceleration_limits"):
         check_limits(motion, robot)
     with pytest.raises(ValueError, match="expected 1 values or a scalar, got 2"):
-        load_urdf_robot(path, acceleration_limits=[1.0, 2.0])
+        urdf_robot(path, acceleration_limits=[1.0, 2.0])
     with pytest.raises(ValueError, match="must be positive"):
-        load_urdf_robot(path, acceleration_limits=0.0)
+        urdf_robot(path, acceleration_limits=0.0)
 
 
 def test_unknown_locked_joint_and_flange_frame_are_refused(tmp_path: Path) -> None:
     path = write_urdf(tmp_path)
     with pytest.raises(ValueError, match="locked_joints \\['elbow'\\] are not joints"):
-        load_urdf_robot(path, acceleration_limits=1.0, locked_joints=["elbow"])
+        urdf_robot(path, acceleration_limits=1.0, locked_joints=["elbow"])
     with pytest.raises(ValueError, match="flange_frame 'tool0' is not a frame"):
-        load_urdf_robot(path, acceleration_limits=1.0, flange_frame="tool0")
+        urdf_robot(path, acceleration_limits=1.0, flange_frame="tool0")
 
 
 def test_flange_frame_is_added_once(tmp_path: Path) -> None:
     path = write_urdf(tmp_path)
-    robot = load_urdf_robot(path, acceleration_limits=1.0, flange_frame="arm")
+    robot = urdf_robot(path, acceleration_limits=1.0, flange_frame="arm")
     flange = robot.model.frames[robot.model.getFrameId("flange")]
     arm = robot.model.frames[robot.model.getFrameId("arm")]
     assert flange.parentJoint == arm.parentJoint == 1
     assert flange.placement.isApprox(arm.placement)
     # A URDF link already called "flange" is used as is, and not shadowed by another one.
     path.write_text(path.read_text().replace('"arm"', '"flange"'))
-    robot = load_urdf_robot(path, acceleration_limits=1.0, flange_frame="flange")
+    robot = urdf_robot(path, acceleration_limits=1.0, flange_frame="flange")
     assert [frame.name for frame in robot.model.frames].count("flange") == 1
     with pytest.raises(ValueError, match="already has a frame named 'flange'"):
-        load_urdf_robot(path, acceleration_limits=1.0, flange_frame="shoulder")
+        urdf_robot(path, acceleration_limits=1.0, flange_frame="shoulder")
 
 
 def test_mdh_yaml_errors_name_the_problem(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ from lwrlab.model.payload import (
     frame_change_matrix,
     payload_in_joint_frame,
 )
+from lwrlab.pipeline.build import build
 from lwrlab.pipeline.tool_library import build_tool, load_library, load_tool, tool_names
 from lwrlab.tools.library import PAPER_TOOLS
 from lwrlab.tools.model import composite_tool
@@ -87,7 +88,7 @@ def test_bad_shapes_are_refused() -> None:
         Cylinder(mass=0.1, center=[0, 0, 0], radius=0.01, length=0.1, inner_radius=0.02)
     with pytest.raises(ValueError, match="mass"):
         Box(mass=-1.0, center=[0, 0, 0], size=[0.1, 0.1, 0.1])
-    with pytest.raises(ValueError, match="unknown shape 'cone'.*valid shapes"):
+    with pytest.raises(ValueError, match=r"unknown shape 'cone'.*valid shapes"):
         composite_tool("x", "probe", 0.1, 0.01, {"tip": {"shape": "cone", "mass": 0.1, "center": [0, 0, 0]}})
 
 
@@ -147,7 +148,7 @@ def test_library_errors_name_the_valid_choices(tmp_path) -> None:
     (tmp_path / "bad.yaml").write_text(
         "_target_: lwrlab.tools.painting.paint_roller\nname: bad\nlength: 0.3\n"
     )
-    with pytest.raises(ValueError, match="bad.yaml: bad arguments"):
+    with pytest.raises(ValueError, match=r"bad\.yaml: bad arguments"):
         load_tool("bad", tmp_path)
     with pytest.raises(ValueError, match="_target_"):
         build_tool({"name": "x"})
@@ -167,7 +168,6 @@ def test_a_tool_described_part_by_part_round_trips(tmp_path) -> None:
 
 def test_tool_excitation_criterion_gradient_and_choice(lwr4, rng: np.random.Generator) -> None:
     from lwrlab.tools.excitation import ToolLogDet, select_tool_motion
-    from plugins.trajectories.multisine import MultisineMotion
 
     w = rng.normal(size=(40, 10))
     value, gradient = ToolLogDet().value_and_gradient(w)
@@ -178,9 +178,11 @@ def test_tool_excitation_criterion_gradient_and_choice(lwr4, rng: np.random.Gene
         assert (ToolLogDet().value_and_gradient(shifted)[0] - value) / step == pytest.approx(
             gradient[i, j], rel=1e-4
         )
-    motions = [MultisineMotion(2.0, 4, seed=s).sample(lwr4, 100.0) for s in range(3)]
-    still = MultisineMotion(2.0, 4, seed=0, limit_fraction=0.05).sample(
-        lwr4, 100.0
-    )  # barely moves: excites nothing
-    best, values = select_tool_motion(lwr4, [still, *motions])
+    motions = [
+        build("trajectory", "multisine", duration=2.0, harmonics=4, seed=s).sample(lwr4, 100.0)
+        for s in range(3)
+    ]
+    still = build("trajectory", "multisine", duration=2.0, harmonics=4, seed=0, limit_fraction=0.05)
+    motions.insert(0, still.sample(lwr4, 100.0))  # barely moves: excites nothing
+    best, values = select_tool_motion(lwr4, motions)
     assert best != 0 and values[0] > values.min() + 1.0

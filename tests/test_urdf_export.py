@@ -14,8 +14,8 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.io.urdf_export import export_urdf
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from lwrlab.plants.simulation import perturbed_robot
-from plugins.estimators.sdp import PhysicallyConsistentSDP
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +26,7 @@ def identified(lwr4: RobotModel) -> RobotModel:
     q, dq, ddq = random_states(lwr4, 300, np.random.default_rng(12))
     tau = truth.inverse_dynamics(q, dq, ddq) + 0.1 * np.random.default_rng(13).normal(size=q.shape)
     w = base.base_regressor(regressor(lwr4, q, dq, ddq))
-    sdp = PhysicallyConsistentSDP().fit(w, tau.ravel(), context=IdentificationContext.from_robot(lwr4, base))
+    sdp = build("estimator", "sdp").fit(w, tau.ravel(), context=IdentificationContext.from_robot(lwr4, base))
     return lwr4.with_parameters(sdp.standard_phi_)
 
 

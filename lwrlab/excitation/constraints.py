@@ -42,6 +42,8 @@ FAMILIES = ("position", "velocity", "acceleration", "torque", "ground", "self_co
 class ConstraintSettings:
     """What the exciting motion must respect besides its parameterisation's boundary conditions.
 
+    Every field is required: the ``constraints`` node of conf/trajectory/optimal.yaml gives their values.
+
     Parameters
     ----------
     limit_margin : fraction of every joint limit (position range, velocity, acceleration, torque)
@@ -57,14 +59,14 @@ class ConstraintSettings:
         touch at their joint).
     """
 
-    limit_margin: float = 0.02
-    torque: bool = True
-    z_ground: float | None = 0.05
-    ground_spheres: tuple[str, ...] = ("elbow", "wrist")
-    self_collision: bool = True
-    clearance: float = 0.0
-    distance_margin: float = 0.005
-    min_link_gap: int = 2
+    limit_margin: float
+    torque: bool
+    z_ground: float | None
+    ground_spheres: tuple[str, ...]
+    self_collision: bool
+    clearance: float
+    distance_margin: float
+    min_link_gap: int
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.limit_margin < 1.0:
@@ -73,7 +75,7 @@ class ConstraintSettings:
 
 
 def relevant_pairs(
-    robot: RobotModel, min_link_gap: int = 2, n_samples: int = 200, seed: int = 0
+    robot: RobotModel, min_link_gap: int, n_samples: int = 200, seed: int = 0
 ) -> list[tuple[int, int]]:
     """Sphere pairs worth checking: segments ≥ ``min_link_gap`` joints apart, distance not constant.
 

@@ -76,6 +76,9 @@ class WindowedSlack:
 class ExcitationProblem:
     """Criterion + constraints + parameterisation for one robot (see the module docstring).
 
+    The settings (constraints, grid, window, smoothing) are those of the ``optimal`` trajectory
+    (conf/trajectory/optimal.yaml), which builds the problem (``OptimalExcitingMotion.problem``).
+
     Parameters
     ----------
     robot : the nominal (CAD) robot: its regressor, limits, friction and collision spheres.
@@ -96,19 +99,18 @@ class ExcitationProblem:
         robot: RobotModel,
         parameterisation: LinearParameterisation,
         criterion: Criterion,
-        constraints: ConstraintSettings | None = None,
-        rate_hz: float = 100.0,
-        window_s: float = 0.5,
+        constraints: ConstraintSettings,
+        *,
+        rate_hz: float,
+        window_s: float,
+        coulomb_smoothing: float | None,
         base: BaseParameters | None = None,
-        coulomb_smoothing: float | None = 0.05,
     ) -> None:
         self.robot = robot
         self.parameterisation = parameterisation
         self.criterion = criterion
         self.coulomb_smoothing = coulomb_smoothing if "coulomb" in robot.friction_terms else None
-        self.constraint_set = ConstraintSet(
-            robot, constraints or ConstraintSettings(), self.coulomb_smoothing
-        )
+        self.constraint_set = ConstraintSet(robot, constraints, self.coulomb_smoothing)
         if self.coulomb_smoothing is not None:
             start = 10 * robot.n_links + robot.friction_terms.index("coulomb") * robot.n_joints
             self._coulomb_columns = start + np.arange(robot.n_joints)

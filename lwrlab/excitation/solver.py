@@ -133,6 +133,8 @@ class _StartRun:
 class SlsqpOptimizer:
     """Multi-start SLSQP (config group ``optimizer``).
 
+    Every setting is required: conf/optimizer/slsqp.yaml gives their values.
+
     Parameters
     ----------
     max_iterations : iterations per start.
@@ -148,13 +150,14 @@ class SlsqpOptimizer:
 
     def __init__(
         self,
-        max_iterations: int = 200,
-        tolerance: float = 1e-4,
-        n_starts: int = 1,
-        initial_amplitude: float = 0.3,
-        seed: int = 0,
-        show_progress: bool = True,
-        blas_threads: int | None = 1,
+        *,
+        max_iterations: int,
+        tolerance: float,
+        n_starts: int,
+        initial_amplitude: float,
+        seed: int,
+        show_progress: bool,
+        blas_threads: int | None,
     ) -> None:
         if n_starts < 1:
             raise ValueError(f"n_starts must be at least 1, got {n_starts}")
@@ -293,7 +296,7 @@ class SlsqpOptimizer:
 
 
 def verify_motion(
-    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float = 1000.0
+    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float
 ) -> list[FamilyReport]:
     """Worst slack of every constraint family at ``rate_hz`` against the robot's true limits.
 
@@ -307,7 +310,7 @@ def verify_motion(
 
 
 def check_motion(
-    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float = 1000.0
+    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float
 ) -> list[FamilyReport]:
     """:func:`verify_motion`, raising :class:`InfeasibleExcitationError` naming any violated constraint."""
     reports = verify_motion(robot, motion, settings, rate_hz)

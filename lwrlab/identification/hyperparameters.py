@@ -3,20 +3,21 @@
 An estimator's hyper-parameters are the keyword arguments of its ``__init__``, stored untouched
 under the same names; :class:`HyperParameters` reads them back from the signature, so
 ``sklearn.base.clone`` (where scikit-learn is installed) and :func:`clone_estimator` (always)
-build an unfitted copy with the same settings.
+build an unfitted copy with the same settings. A plugin's settings take no Python default: its
+YAML (``conf/estimator/<name>.yaml``) is the one place of their values.
 
 Examples
 --------
 >>> class Ridge(HyperParameters):
-...     def __init__(self, alpha: float = 1e-3, fit_friction: bool = True) -> None:
+...     def __init__(self, *, alpha: float, fit_friction: bool) -> None:
 ...         self.alpha = alpha
 ...         self.fit_friction = fit_friction
->>> Ridge(alpha=0.1).get_params()
+>>> Ridge(alpha=0.1, fit_friction=True).get_params()
 {'alpha': 0.1, 'fit_friction': True}
->>> Ridge().set_params(alpha=2.0)
-Ridge(alpha=2.0)
->>> clone_estimator(Ridge(alpha=0.5))
-Ridge(alpha=0.5)
+>>> Ridge(alpha=0.1, fit_friction=True).set_params(alpha=2.0)
+Ridge(alpha=2.0, fit_friction=True)
+>>> clone_estimator(Ridge(alpha=0.5, fit_friction=False))
+Ridge(alpha=0.5, fit_friction=False)
 """
 
 from __future__ import annotations
@@ -67,7 +68,8 @@ class HyperParameters:
         return self
 
     def __repr__(self) -> str:
-        """The class and the hyper-parameters that differ from their defaults."""
+        """The class and its hyper-parameters, less those left at a Python default (a method's constant:
+        settings have none)."""
         defaults = {p.name: p.default for p in inspect.signature(type(self).__init__).parameters.values()}
         changed = []
         for name, value in self.get_params(deep=False).items():

@@ -9,7 +9,7 @@ The keys, as in the robot configs (``conf/robot/<name>.yaml``) or any YAML file 
       d: [...]                              # m
       theta_offset: [...]                   # rad
       r: [...]                              # m
-    flange: [0, 0, 0.078]                   # optional: flange origin in the last frame (m)
+    flange: [0, 0, 0.078]                   # flange origin in the last frame (m); null: none
     links:                                  # one per moving segment, in its DH frame
       - mass: 2.0                           # kg
         com: [0, 0.02, 0.1]                 # m
@@ -25,14 +25,15 @@ The keys, as in the robot configs (``conf/robot/<name>.yaml``) or any YAML file 
       viscous: [...]                        # N·m·s/rad
       offset: [...]                         # N·m (optional, default 0)
     friction_terms: [coulomb, viscous]      # columns of the regressor; add offset if needed
-    rotor_inertia: [...]                    # optional: drive inertia reflected to the joint (kg·m²)
-    collision_spheres:                      # optional: self-collision spheres (lwrlab/model/collision.py)
+    rotor_inertia: [...]                    # drive inertia reflected to the joint (kg·m²); null: none
+    collision_spheres:                      # self-collision spheres (lwrlab/model/collision.py); null: none
       # link 0 = base; center in the joint frame (m)
       - {name: elbow, link: 4, center: [0, 0, 0], radius: 0.08}
 
-``build_robot`` takes these keys as arguments (what Hydra's ``instantiate`` passes through the robot
-plugin ``plugins.robots.mdh``); ``load_robot_yaml`` reads them from a file. ``build_limits`` and
-``build_friction`` serve every robot loader (the URDF plugin too).
+Every top-level key is required (null where the robot has none): the description is the one place of
+its values. ``build_robot`` takes these keys as keyword arguments (what Hydra's ``instantiate`` passes
+through the robot plugin ``plugins.robots.mdh``); ``load_robot_yaml`` reads them from a file.
+``build_limits`` and ``build_friction`` serve every robot loader (the URDF plugin too).
 
 Examples
 --------
@@ -44,6 +45,7 @@ Examples
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -90,16 +92,17 @@ def build_friction(friction: Mapping[str, Sequence[float]] | None, n: int, robot
 
 
 def build_robot(
+    *,
     name: str,
     mdh: Mapping[str, Sequence[float]],
     links: Sequence[Mapping[str, Any]],
     limits: Mapping[str, Sequence[float]],
-    friction: Mapping[str, Sequence[float]] | None = None,
-    gravity: Sequence[float] = (0.0, 0.0, -9.81),
-    friction_terms: Sequence[str] = ("coulomb", "viscous"),
-    flange: Sequence[float] | None = None,
-    rotor_inertia: Sequence[float] | None = None,
-    collision_spheres: Sequence[Mapping[str, Any]] | None = None,
+    friction: Mapping[str, Sequence[float]] | None,
+    gravity: Sequence[float],
+    friction_terms: Sequence[str],
+    flange: Sequence[float] | None,
+    rotor_inertia: Sequence[float] | None,
+    collision_spheres: Sequence[Mapping[str, Any]] | None,
     **documentation: Any,
 ) -> RobotModel:
     """Build a :class:`RobotModel` from a modified-DH description (keys in the module docstring).
@@ -111,7 +114,7 @@ def build_robot(
         alpha=np.asarray(mdh["alpha"], dtype=float),
         d=np.asarray(mdh["d"], dtype=float),
         r=np.asarray(mdh["r"], dtype=float),
-        theta_offset=np.asarray(mdh.get("theta_offset", np.zeros(len(mdh["alpha"]))), dtype=float),
+        theta_offset=np.asarray(mdh["theta_offset"], dtype=float),
     )
     n = table.n_joints
     if len(links) != n:
@@ -144,6 +147,12 @@ def build_robot(
     )
 
 
+DESCRIPTION_KEYS = tuple(
+    name for name, p in inspect.signature(build_robot).parameters.items() if p.kind is p.KEYWORD_ONLY
+)
+"""The top-level keys of a robot description: the keyword arguments of :func:`build_robot`."""
+
+
 def load_robot_yaml(path: str | Path, **overrides: Any) -> RobotModel:
     """Build a robot from a modified-DH YAML file; keyword arguments override the file's keys."""
     path = Path(path)
@@ -152,5 +161,10 @@ def load_robot_yaml(path: str | Path, **overrides: Any) -> RobotModel:
     description = read_yaml_mapping(path, "robot")
     description.pop("_target_", None)
     description.update(overrides)
-    description.setdefault("name", path.stem)
+    missing = [key for key in DESCRIPTION_KEYS if key not in description]
+    if missing:
+        raise ValueError(
+            f"robot description {path} lacks {missing}: every key of lwrlab.model.description is "
+            "required (null where the robot has none)"
+        )
     return build_robot(**description)

@@ -19,12 +19,14 @@ from lwrlab.tools.recognition import DistanceClassifier
 class Mahalanobis(DistanceClassifier):
     """Nearest library tool in the metric of the identification's covariance.
 
+    Every setting is required: conf/classifier/mahalanobis.yaml gives their values.
+
     Parameters
     ----------
     regularisation : added to Σ's diagonal, relative to its largest entry (keeps Σ invertible).
     """
 
-    def __init__(self, regularisation: float = 1e-12) -> None:
+    def __init__(self, *, regularisation: float) -> None:
         self.regularisation = regularisation
 
     def fit(self, library: ToolLibrary) -> Self:

@@ -18,13 +18,15 @@ from lwrlab.tools.recognition import DistanceClassifier
 class WhitenedNearest(DistanceClassifier):
     """Nearest library tool by the Euclidean norm of the standardised parameter difference.
 
+    Every setting is required: conf/classifier/nearest.yaml gives their values.
+
     Parameters
     ----------
     min_relative_spread : parameters whose spread over the library is below this fraction of the
         largest spread are ignored.
     """
 
-    def __init__(self, min_relative_spread: float = 1e-9) -> None:
+    def __init__(self, *, min_relative_spread: float) -> None:
         self.min_relative_spread = min_relative_spread
 
     def fit(self, library: ToolLibrary) -> Self:

@@ -22,6 +22,8 @@ SCALINGS = ("none", "std")
 class PCALookup(DistanceClassifier):
     """Nearest library tool in the space of the first ``n_components`` principal components.
 
+    Every setting is required: conf/classifier/pca_lookup.yaml gives their values.
+
     Parameters
     ----------
     n_components : N, the dimension of the PCA space (paper: 4).
@@ -36,18 +38,20 @@ class PCALookup(DistanceClassifier):
     --------
     >>> from lwrlab.pipeline.tool_library import load_library
     >>> library = load_library()
-    >>> pca = PCALookup(n_components=4).fit(library)
+    >>> pca = PCALookup(n_components=4, center=False, scaling="none", geometry_method="linear", neighbours=3)
+    >>> pca = pca.fit(library)
     >>> pca.predict(library["small_roller"].parameters).tool
     'small_roller'
     """
 
     def __init__(
         self,
-        n_components: int = 4,
-        center: bool = False,
-        scaling: str = "none",
-        geometry_method: str = "linear",
-        neighbours: int = 3,
+        *,
+        n_components: int,
+        center: bool,
+        scaling: str,
+        geometry_method: str,
+        neighbours: int,
     ) -> None:
         self.n_components = n_components
         self.center = center

@@ -30,6 +30,8 @@ from lwrlab.excitation.criteria import extreme_singular_pairs, singular_system
 class ConditionNumber:
     """``cond(W_b)`` (2-norm) of the column-scaled base regressor, as a smooth power-mean ratio by default.
 
+    Every setting is required: conf/criterion/cond.yaml gives their values.
+
     Parameters
     ----------
     sharpness : p of the power means (larger: closer to cond, less smooth); None: the exact ratio.
@@ -37,7 +39,7 @@ class ConditionNumber:
 
     name = "cond"
 
-    def __init__(self, sharpness: float | None = 32.0) -> None:
+    def __init__(self, *, sharpness: float | None) -> None:
         if sharpness is not None and sharpness <= 0:
             raise ValueError(f"sharpness must be positive (or None for the exact ratio), got {sharpness}")
         self.sharpness = sharpness

@@ -35,6 +35,8 @@ def robust_weights(u: np.ndarray, loss: str) -> np.ndarray:
 class IterativelyReweightedLeastSquares(HyperParameters, LearnedAttributes):
     """Robust base-parameter estimate by IRLS with per-joint robust scale.
 
+    Every setting is required: conf/estimator/irls.yaml gives their values.
+
     Parameters
     ----------
     n_joints : number of joints N_J (None: the ``context`` given to :meth:`fit`).
@@ -53,11 +55,12 @@ class IterativelyReweightedLeastSquares(HyperParameters, LearnedAttributes):
 
     def __init__(
         self,
-        n_joints: int | None = None,
-        loss: str = "huber",
-        tuning: float | None = None,
-        max_iter: int = 50,
-        tol: float = 1e-10,
+        *,
+        n_joints: int | None,
+        loss: str,
+        tuning: float | None,
+        max_iter: int,
+        tol: float,
     ) -> None:
         self.n_joints = n_joints
         self.loss = loss

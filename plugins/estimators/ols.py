@@ -16,19 +16,22 @@ from lwrlab.numerics.threads import dense_algebra
 class OrdinaryLeastSquares(HyperParameters, LearnedAttributes):
     """Base parameters minimising ‖τ − W·φ‖², with their covariance σ²·(WᵀW)⁻¹ and %σ.
 
+    Every setting is required: conf/estimator/ols.yaml gives their values.
+
     Parameters
     ----------
-    rcond : cut-off of small singular values of ``W`` (``numpy.linalg.lstsq``).
+    rcond : cut-off of small singular values of ``W`` (``numpy.linalg.lstsq``; None: its default,
+        machine precision × the largest dimension).
 
     Examples
     --------
     >>> W = np.random.default_rng(0).normal(size=(100, 3))
-    >>> est = OrdinaryLeastSquares().fit(W, W @ np.array([1.0, -2.0, 0.5]))
+    >>> est = OrdinaryLeastSquares(rcond=None).fit(W, W @ np.array([1.0, -2.0, 0.5]))
     >>> np.allclose(est.phi_, [1.0, -2.0, 0.5])
     True
     """
 
-    def __init__(self, rcond: float | None = None) -> None:
+    def __init__(self, *, rcond: float | None) -> None:
         self.rcond = rcond
 
     @dense_algebra()

@@ -65,9 +65,12 @@ class SolverFailure(RuntimeError):
 class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     """Standard parameters of physically consistent bodies fitting the base-parameter data.
 
+    Every setting is required: conf/estimator/sdp.yaml gives their values (in Python,
+    ``lwrlab.pipeline.build.build("estimator", "sdp", **changes)``).
+
     Parameters
     ----------
-    regularization : ``"entropic"`` (default), ``"euclidean"`` or ``"none"``.
+    regularization : ``"euclidean"``, ``"entropic"`` or ``"none"``.
     weight : weight of the regularisation (N·m per unit of divergence).
     min_eigenvalue : ε, the smallest eigenvalue asked of every pseudo-inertia (kg·m²).
     friction_nonnegative : constrain Coulomb and viscous friction to be ≥ 0.
@@ -101,15 +104,16 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
 
     def __init__(
         self,
-        regularization: str = "entropic",
-        weight: float = 1e-4,
-        min_eigenvalue: float = 0.0,
-        friction_nonnegative: bool = True,
-        mass_bounds: Sequence[float] | None = None,
-        compress: bool = True,
-        solver: str = "CLARABEL",
-        fallback_solver: str | None = "SCS",
-        solver_options: dict | None = None,
+        *,
+        regularization: str,
+        weight: float,
+        min_eigenvalue: float,
+        friction_nonnegative: bool,
+        mass_bounds: Sequence[float] | None,
+        compress: bool,
+        solver: str,
+        fallback_solver: str | None,
+        solver_options: dict | None,
     ) -> None:
         self.regularization = regularization
         self.weight = weight

@@ -21,6 +21,8 @@ from lwrlab.numerics.threads import dense_algebra
 class WeightedLeastSquares(HyperParameters, LearnedAttributes):
     """Base parameters minimising ``Σ_j ‖τ_j − W_j·φ‖² / σ_j²`` (eq. (6)), with covariance and %σ.
 
+    Every setting is required: conf/estimator/wls.yaml gives their values.
+
     Parameters
     ----------
     n_joints : number of joints N_J (None: the ``context`` given to :meth:`fit`).
@@ -37,7 +39,8 @@ class WeightedLeastSquares(HyperParameters, LearnedAttributes):
     --------
     >>> rng = np.random.default_rng(0)
     >>> W = rng.normal(size=(400, 3))
-    >>> est = WeightedLeastSquares(n_joints=2).fit(W, W @ np.array([1.0, 2.0, 3.0]))
+    >>> est = WeightedLeastSquares(n_joints=2, min_relative_std=1e-6, reweight_steps=2)
+    >>> est = est.fit(W, W @ np.array([1.0, 2.0, 3.0]))
     >>> np.allclose(est.phi_, [1.0, 2.0, 3.0])
     True
     """
@@ -45,9 +48,7 @@ class WeightedLeastSquares(HyperParameters, LearnedAttributes):
     joint_std_: np.ndarray
     weights_: np.ndarray
 
-    def __init__(
-        self, n_joints: int | None = None, min_relative_std: float = 1e-6, reweight_steps: int = 2
-    ) -> None:
+    def __init__(self, *, n_joints: int | None, min_relative_std: float, reweight_steps: int) -> None:
         self.n_joints = n_joints
         self.min_relative_std = min_relative_std
         self.reweight_steps = reweight_steps

@@ -127,20 +127,24 @@ def _add_flange(model: pin.Model, flange_frame: str, path: Path) -> None:
 
 def load_urdf_robot(
     path: str | Path,
-    name: str | None = None,
-    acceleration_limits: Sequence[float] | float | None = None,
-    friction: Mapping[str, Sequence[float]] | None = None,
-    friction_terms: Sequence[str] = ("coulomb", "viscous"),
-    gravity: Sequence[float] = (0.0, 0.0, -9.81),
-    flange_frame: str | None = None,
-    locked_joints: Sequence[str] | Mapping[str, float] = (),
+    *,
+    name: str | None,
+    acceleration_limits: Sequence[float] | float | None,
+    friction: Mapping[str, Sequence[float]] | None,
+    friction_terms: Sequence[str],
+    gravity: Sequence[float],
+    flange_frame: str | None,
+    locked_joints: Sequence[str] | Mapping[str, float],
 ) -> RobotModel:
     """Build a fixed-base :class:`RobotModel` from a URDF file.
+
+    Every argument is required: conf/robot/urdf.yaml gives their values (in Python,
+    ``lwrlab.pipeline.build.build("robot", "urdf", path=…, **changes)``).
 
     Parameters
     ----------
     path : URDF file. Meshes it references need not exist (only kinematics and inertials are read).
-    name : robot name; default the URDF's ``<robot name>``, else the file name.
+    name : robot name; None: the URDF's ``<robot name>``, else the file name.
     acceleration_limits : largest absolute joint acceleration (rad/s²), one per joint after locking,
         or one scalar for every joint. A URDF has none: without them the limits are infinite, which
         identifying from logs does not need and sampling or optimising a motion refuses.
@@ -149,7 +153,7 @@ def load_urdf_robot(
     friction_terms : friction columns of the regressor (subset of coulomb, viscous, offset).
     gravity : gravity acceleration in the base frame (m/s²).
     flange_frame : name of a URDF frame (a link or a fixed joint, e.g. ``panda_link8``) where an
-        operational frame named ``flange`` is added.
+        operational frame named ``flange`` is added, or None.
     locked_joints : joints removed from the model and merged into their parent segment, a list of
         names (locked at 0) or a mapping name → position (rad or m), e.g. the fingers of a gripper.
 

@@ -31,12 +31,16 @@ DEGREE = 5
 class BSplineMotion(LinearParameterisation):
     """Quintic B-spline through via points, at rest at both ends.
 
+    Every setting is required: conf/trajectory/bspline.yaml gives their values (the ``optimal``
+    motion's ``parameterisation`` node: ``via_point_spacing`` and ``from_file``; it passes the others).
+
     Parameters
     ----------
     duration : T_F (s), a multiple of ``via_point_spacing``.
     via_point_spacing : time between via points (s).
     coefficients : (N_P, N_J) via points (rad), or None (a bare parameterisation).
-    from_file : a motion file (``exciting_motion.yaml``) to take duration, spacing and via points from.
+    from_file : a motion file (``exciting_motion.yaml``) to take duration, spacing and via points from,
+        or None.
     """
 
     kind = "bspline"
@@ -45,10 +49,11 @@ class BSplineMotion(LinearParameterisation):
 
     def __init__(
         self,
-        duration: float = 10.0,
-        via_point_spacing: float = 1.0,
-        coefficients: Any = None,
-        from_file: str | None = None,
+        *,
+        duration: float,
+        via_point_spacing: float,
+        coefficients: Any,
+        from_file: str | None,
     ) -> None:
         if from_file is not None:
             from lwrlab.io.exciting_motion import load_motion_description

@@ -25,6 +25,9 @@ from lwrlab.trajectory.parameterisation import LinearParameterisation
 class FourierMotion(LinearParameterisation):
     """Fourier series of ``harmonics`` harmonics over the motion's duration, at rest at both ends.
 
+    Every setting is required: conf/trajectory/fourier.yaml gives their values (as the ``optimal``
+    motion's ``parameterisation``: ``harmonics``; it passes the others).
+
     Parameters
     ----------
     duration : T_F (s), also the period of the series.
@@ -34,7 +37,7 @@ class FourierMotion(LinearParameterisation):
 
     kind = "fourier"
 
-    def __init__(self, duration: float = 10.0, harmonics: int = 5, coefficients: Any = None) -> None:
+    def __init__(self, *, duration: float, harmonics: int, coefficients: Any) -> None:
         super().__init__(duration, coefficients)
         if harmonics < 1:
             raise ValueError(f"at least one harmonic is needed, got {harmonics}")

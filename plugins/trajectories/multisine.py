@@ -30,6 +30,8 @@ def _remove_component(coefficients: np.ndarray, direction: np.ndarray) -> np.nda
 class MultisineMotion:
     """Seeded periodic multi-sine motion within a fraction of the joint limits.
 
+    Every setting is required: conf/trajectory/multisine.yaml gives their values.
+
     Parameters
     ----------
     duration : motion duration T (s), also its period.
@@ -37,16 +39,17 @@ class MultisineMotion:
     seed : seed of the coefficients.
     limit_fraction : fraction (0, 1] of the position room around ``center``, of the velocity and of
         the acceleration limits the motion may reach.
-    center : start/end posture (rad per joint); default the middle of each position range.
+    center : start/end posture (rad per joint); None: the middle of each position range.
     """
 
     def __init__(
         self,
-        duration: float = 10.0,
-        harmonics: int = 5,
-        seed: int = 0,
-        limit_fraction: float = 0.8,
-        center: Sequence[float] | None = None,
+        *,
+        duration: float,
+        harmonics: int,
+        seed: int,
+        limit_fraction: float,
+        center: Sequence[float] | None,
     ) -> None:
         self.duration = duration
         self.harmonics = harmonics

@@ -32,9 +32,12 @@ log = logging.getLogger(__name__)
 class OptimalExcitingMotion:
     """Optimise (or load) the exciting motion of a robot.
 
+    Every setting is required: conf/trajectory/optimal.yaml gives their values.
+
     Parameters
     ----------
-    parameterisation : factory ``f(duration=…) -> LinearParameterisation`` (a ``_partial_`` config).
+    parameterisation : factory ``f(duration=…, coefficients=None) -> LinearParameterisation`` (a
+        ``_partial_`` config: the duration is this motion's, the coefficients what the optimiser finds).
     criterion : the criterion plugin (config group ``criterion``).
     optimizer : the solver (config group ``optimizer``), with ``solve(problem) -> ExcitationResult``.
     duration : T_F (s).
@@ -49,31 +52,36 @@ class OptimalExcitingMotion:
 
     def __init__(
         self,
+        *,
         parameterisation: Callable[..., LinearParameterisation],
         criterion: Criterion,
         optimizer: SlsqpOptimizer,
-        duration: float = 10.0,
-        constraints: Mapping[str, Any] | None = None,
-        rate_hz: float = 100.0,
-        window_s: float = 0.5,
-        coulomb_smoothing: float | None = 0.05,
-        from_file: str | None = None,
+        duration: float,
+        constraints: Mapping[str, Any],
+        rate_hz: float,
+        window_s: float,
+        coulomb_smoothing: float | None,
+        from_file: str | None,
     ) -> None:
         self.parameterisation = parameterisation
         self.criterion = criterion
         self.optimizer = optimizer
         self.duration = float(duration)
-        self.constraints = ConstraintSettings(**dict(constraints or {}))
+        self.constraints = ConstraintSettings(**dict(constraints))
         self.rate_hz = rate_hz
         self.window_s = window_s
         self.coulomb_smoothing = coulomb_smoothing
         self.from_file = from_file
 
+    def bare_parameterisation(self, duration: float) -> LinearParameterisation:
+        """The parameterisation of a ``duration`` (s) motion, without coefficients (what is optimised)."""
+        return self.parameterisation(duration=duration, coefficients=None)
+
     def problem(self, robot: RobotModel, base: BaseParameters | None = None) -> ExcitationProblem:
         """The excitation problem for ``robot`` with these settings (``base`` computed if None)."""
         return ExcitationProblem(
             robot,
-            self.parameterisation(duration=self.duration),
+            self.bare_parameterisation(self.duration),
             self.criterion,
             self.constraints,
             rate_hz=self.rate_hz,
@@ -102,7 +110,7 @@ class OptimalExcitingMotion:
         description = load_motion_description(resolve_data_path(from_file))
         provenance = description.get("provenance", {})
         made_for, criterion = provenance.get("robot"), provenance.get("criterion")
-        bare = self.parameterisation(duration=float(description["duration"]))
+        bare = self.bare_parameterisation(float(description["duration"]))
         settings = {key: description.get(key) for key in bare.settings()}
         wanted = (robot.name, self.criterion.name, self.duration, bare.kind, bare.settings())
         found = (made_for, criterion, float(description["duration"]), description["kind"], settings)
