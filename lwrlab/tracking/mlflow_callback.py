@@ -46,7 +46,7 @@ from typing import Any
 from hydra.core.utils import JobReturn
 from hydra.experimental.callback import Callback
 from mlflow.tracking import MlflowClient
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
 from lwrlab.tracking import job_state
 from lwrlab.tracking.config_params import job_params, resolved_job_config
@@ -58,6 +58,7 @@ from lwrlab.tracking.processes import (
     JobInterrupted,
     install_stop_handler,
     postpone_abort_alarm,
+    register_at_exit,
     restore_handlers,
     signal_name,
 )
@@ -172,7 +173,8 @@ class MlflowTracking(Callback):
         with self._signals_held():
             self._on_multirun_start(config)
         # A launcher that raises (a failed launch, a lost worker) skips on_multirun_end.
-        atexit.register(self._end_sweep_at_exit)
+        launcher = OmegaConf.select(config, "hydra.launcher._target_", default="")
+        register_at_exit(self._end_sweep_at_exit, str(launcher))
 
     def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
         """Close the parent run: FINISHED unless a job already marked it FAILED."""
