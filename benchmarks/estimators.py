@@ -32,14 +32,9 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.identification.compression import compress
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.numerics import threads
+from lwrlab.pipeline.build import build
 from lwrlab.plants.simulation import perturbed_robot
-from plugins.estimators.irls import IterativelyReweightedLeastSquares
-from plugins.estimators.iv import InstrumentalVariables
-from plugins.estimators.ols import OrdinaryLeastSquares
-from plugins.estimators.sdp import PhysicallyConsistentSDP
-from plugins.estimators.wls import WeightedLeastSquares
 from plugins.robots.mdh import load_robot_yaml
-from plugins.trajectories.multisine import MultisineMotion
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -80,7 +75,7 @@ def main() -> None:
     robot = load_robot_yaml(REPO / "conf" / "robot" / "kuka_lwr4.yaml")
     base = compute_base_parameters(robot)
     truth = perturbed_robot(robot, 0.1, 0.2, np.random.default_rng(0))
-    motion = MultisineMotion(duration=args.duration, harmonics=6, seed=0).sample(robot, 1000.0)
+    motion = build("trajectory", "multisine", duration=args.duration).sample(robot, 1000.0)  # seed 0
     trim = slice(200, -200)  # the default 0.2 s trimming of the processing
     q, dq, ddq = motion.q[trim], motion.dq[trim], motion.ddq[trim]
     w = base.base_regressor(regressor(robot, q, dq, ddq))
@@ -97,20 +92,22 @@ def main() -> None:
 
     t_compress, t_compress_default = both_settings(compress_limited, args.repeat)
     estimators = {
-        "ols": OrdinaryLeastSquares(),
-        "wls": WeightedLeastSquares(),
-        "irls": IterativelyReweightedLeastSquares(),
-        "iv": InstrumentalVariables(),
-        "sdp (euclidean)": PhysicallyConsistentSDP(regularization="euclidean", weight=1e-2),
-        "sdp (entropic)": PhysicallyConsistentSDP(regularization="entropic", weight=1e-4),
-        "sdp (none)": PhysicallyConsistentSDP(regularization="none"),
+        "ols": build("estimator", "ols"),
+        "wls": build("estimator", "wls"),
+        "irls": build("estimator", "irls"),
+        "iv": build("estimator", "iv"),
+        "sdp (euclidean)": build("estimator", "sdp", regularization="euclidean"),  # the YAML's weight, 1e-2
+        "sdp (entropic)": build("estimator", "sdp", regularization="entropic", weight=1e-4),
+        "sdp (none)": build("estimator", "sdp", regularization="none"),
     }
     print(
-        f"| estimator | fit (s), best of {args.repeat} | BLAS default threads (s) | default / limited | ‖β̂−β‖/‖β‖ |"
+        f"| estimator | fit (s), best of {args.repeat} | BLAS default threads (s) | default / limited "
+        "| ‖β̂−β‖/‖β‖ |"
     )
     print("|---|---:|---:|---:|---:|")
     print(
-        f"| QR compression alone | {t_compress:.4f} | {t_compress_default:.4f} | {t_compress_default / t_compress:.1f} | |"
+        f"| QR compression alone | {t_compress:.4f} | {t_compress_default:.4f} "
+        f"| {t_compress_default / t_compress:.1f} | |"
     )
     for name, estimator in estimators.items():
         seconds, default = both_settings(lambda e=estimator: e.fit(w, tau, context=context), args.repeat)
@@ -118,16 +115,15 @@ def main() -> None:
         print(f"| {name} | {seconds:.4f} | {default:.4f} | {default / seconds:.1f} | {error:.3e} |")
     compressed = best_time(lambda: estimators["sdp (euclidean)"].fit(w, tau, context=context), args.repeat)
     if not args.skip_uncompressed:
-        uncompressed_estimator = PhysicallyConsistentSDP(
-            regularization="euclidean", weight=1e-2, compress=False
-        )
+        uncompressed_estimator = build("estimator", "sdp", regularization="euclidean", compress=False)
         uncompressed = best_time(lambda: uncompressed_estimator.fit(w, tau, context=context), 1)
         difference = np.linalg.norm(
             uncompressed_estimator.phi_ - estimators["sdp (euclidean)"].phi_
         ) / np.linalg.norm(beta)
         print(f"| sdp (euclidean), uncompressed (baseline, 1 run) | {uncompressed:.3f} | |")
         print(
-            f"\nSDP: compressed {compressed:.3f} s (compression included) vs uncompressed {uncompressed:.2f} s: "
+            f"\nSDP: compressed {compressed:.3f} s (compression included) "
+            f"vs uncompressed {uncompressed:.2f} s: "
             f"{uncompressed / compressed:.0f}× faster; solutions differ by {difference:.1e} (relative to ‖β‖)"
         )
 

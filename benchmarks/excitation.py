@@ -46,10 +46,8 @@ from lwrlab.excitation.criteria import Criterion
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.excitation.solver import SlsqpOptimizer
 from lwrlab.numerics.threads import blas_threads
-from plugins.criteria.cond import ConditionNumber
-from plugins.criteria.logdet import LogDet
+from lwrlab.pipeline.build import build
 from plugins.robots.mdh import load_robot_yaml
-from plugins.trajectories.bspline import BSplineMotion
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -63,6 +61,19 @@ def median_seconds(function: Callable[[], object], repeat: int) -> float:
         function()
         times.append(time.perf_counter() - start)
     return statistics.median(times)
+
+
+def optimal_problem(robot, base, duration: float, criterion: Criterion) -> ExcitationProblem:
+    """The excitation problem of conf/trajectory/optimal.yaml (constraints, 100 Hz grid, smoothing) for a
+    ``duration`` s motion and ``criterion``."""
+    source = build("trajectory", "optimal", duration=duration, criterion=criterion, from_file=None)
+    return source.problem(robot, base)
+
+
+def quiet_optimizer(max_iterations: int | None, seed: int) -> SlsqpOptimizer:
+    """conf/optimizer/slsqp.yaml's solver with ``seed``, no progress bar, ``max_iterations`` if given."""
+    changes = {} if max_iterations is None else {"max_iterations": max_iterations}
+    return build("optimizer", "slsqp", seed=seed, show_progress=False, **changes)
 
 
 def finite_difference_gradient(problem: ExcitationProblem, x: np.ndarray, step: float = 1e-6) -> np.ndarray:
@@ -105,20 +116,18 @@ def condition_at_1khz(problem: ExcitationProblem, coefficients: np.ndarray) -> f
     return float(sigma[0] / sigma[-1])
 
 
-def compare_criteria(robot, base, duration: float, seeds: list[int], max_iterations: int) -> None:
+def compare_criteria(robot, base, duration: float, seeds: list[int], max_iterations: int | None) -> None:
     """Whole optimisations with logdet (the baseline), the smooth cond and the exact cond, same seeds."""
+    smooth = build("criterion", "cond")
     criteria: dict[str, Criterion] = {
-        "logdet": LogDet(),
-        "cond (smooth, p = 32)": ConditionNumber(),
-        "cond (exact σ_max/σ_min)": ConditionNumber(sharpness=None),
+        "logdet": build("criterion", "logdet"),
+        f"cond (smooth, p = {smooth.sharpness:g})": smooth,
+        "cond (exact σ_max/σ_min)": build("criterion", "cond", sharpness=None),
     }
     rows = {}
     for name, criterion in criteria.items():
-        problem = ExcitationProblem(robot, BSplineMotion(duration=duration), criterion, base=base)
-        results = [
-            SlsqpOptimizer(max_iterations=max_iterations, seed=seed, show_progress=False).solve(problem)
-            for seed in seeds
-        ]
+        problem = optimal_problem(robot, base, duration, criterion)
+        results = [quiet_optimizer(max_iterations, seed).solve(problem) for seed in seeds]
         rows[name] = (
             statistics.median(r.seconds for r in results),
             statistics.median(r.iterations for r in results),
@@ -147,7 +156,7 @@ def main() -> None:
     )
     parser.add_argument("--repeat", type=int, default=5, help="repetitions of each gradient timing")
     parser.add_argument("--duration", type=float, default=10.0, help="motion duration T_F (s)")
-    parser.add_argument("--max-iterations", type=int, default=200)
+    parser.add_argument("--max-iterations", type=int, help="per start (default: conf/optimizer/slsqp.yaml's)")
     parser.add_argument(
         "--skip-criteria", action="store_true", help="skip the logdet / cond comparison (section 4)"
     )
@@ -160,7 +169,7 @@ def run(args: argparse.Namespace) -> None:
     """The three measurements of the module docstring."""
     robot = load_robot_yaml(REPO / "conf" / "robot" / "kuka_lwr4.yaml")
     base = compute_base_parameters(robot)
-    problem = ExcitationProblem(robot, BSplineMotion(duration=args.duration), LogDet(), base=base)
+    problem = optimal_problem(robot, base, args.duration, build("criterion", "logdet"))
     rng = np.random.default_rng(0)
     x = problem.parameterisation.initial_coefficients(robot, rng, 0.3).ravel()
 
@@ -231,9 +240,7 @@ def run(args: argparse.Namespace) -> None:
     # 3. whole optimisations
     rows = []
     for seed in args.seeds:
-        result = SlsqpOptimizer(max_iterations=args.max_iterations, seed=seed, show_progress=False).solve(
-            problem
-        )
+        result = quiet_optimizer(args.max_iterations, seed).solve(problem)
         rows.append(result)
         print(
             f"seed {seed}: {result.seconds:.1f} s, {result.iterations} iterations, J = {result.cost:.3f}",

@@ -40,11 +40,10 @@ from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_paramet
 from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.io.logs import load_log  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
+from lwrlab.pipeline.build import build  # noqa: E402
 from lwrlab.pipeline.identification import predict_measurement  # noqa: E402
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402
-from plugins.estimators.ols import OrdinaryLeastSquares  # noqa: E402
-from plugins.estimators.wls import WeightedLeastSquares  # noqa: E402
 
 REAL_LWR4 = REPOSITORY.parent / "shared" / "data" / "kuka_lwr4_hw"
 NPZ_MAP = {"t": "times", "q": "positions", "dq": "velocities", "tau": "torques"}
@@ -144,7 +143,7 @@ def evaluate(data_set: DataSet, setting: Setting) -> dict[str, float]:
     tau = np.concatenate([b[1] for b in blocks])
     kind = setting.estimator if setting.estimator != "default" else ("ols" if data_set.recorded else "wls")
     estimator = (
-        OrdinaryLeastSquares() if kind == "ols" else WeightedLeastSquares(n_joints=robot.n_joints)
+        build("estimator", "ols") if kind == "ols" else build("estimator", "wls", n_joints=robot.n_joints)
     ).fit(w, tau)
     row = {
         "validation_%": float(
@@ -195,9 +194,7 @@ def real_lwr4() -> list[DataSet]:
     if not (REAL_LWR4 / "measurements_1.npz").is_file():
         print(f"skipping the real LWR4+ runs: not found at {REAL_LWR4}")
         return []
-    from plugins.robots.urdf import load_urdf_robot
-
-    robot = load_urdf_robot(REAL_LWR4 / "kuka_lwr4.urdf")
+    robot = build("robot", "urdf", path=str(REAL_LWR4 / "kuka_lwr4.urdf"))
     runs = {
         i: load_log(
             REAL_LWR4 / f"measurements_{i}.npz", 7, column_map=NPZ_MAP, limits=robot.limits
