@@ -85,10 +85,13 @@ def test_geometry_interpolation(rng: np.random.Generator) -> None:
         + np.linalg.lstsq(np.column_stack([features, np.ones(8)]), geometry, rcond=None)[0][3]
     )
     np.testing.assert_allclose(
-        interpolate_geometry(features, geometry, query, "linear", ridge=0.0), expected, atol=1e-10
+        interpolate_geometry(features, geometry, query, "linear", neighbours=3, ridge=0.0),
+        expected,
+        atol=1e-10,
     )
-    np.testing.assert_array_equal(interpolate_geometry(features, geometry, features[2], "idw"), geometry[2])
+    exact = interpolate_geometry(features, geometry, features[2], "idw", neighbours=3)
+    np.testing.assert_array_equal(exact, geometry[2])
     blended = interpolate_geometry(features, geometry, query, "idw", neighbours=3)
     assert np.all(blended >= geometry.min(axis=0)) and np.all(blended <= geometry.max(axis=0))
     with pytest.raises(ValueError, match="linear"):
-        interpolate_geometry(features, geometry, query, "spline")
+        interpolate_geometry(features, geometry, query, "spline", neighbours=3)

@@ -113,8 +113,8 @@ def interpolate_geometry(
     features: np.ndarray,
     geometry: np.ndarray,
     query: np.ndarray,
-    method: str = "linear",
-    neighbours: int = 3,
+    method: str,
+    neighbours: int,
     ridge: float = 1e-6,
 ) -> np.ndarray:
     """Geometry of an unknown tool from the library tools around it in a feature space.
@@ -127,7 +127,9 @@ def interpolate_geometry(
     method : ``linear``: the affine map features → geometry fitted to the whole library (least
         squares, ``ridge`` relative to the features' scale), evaluated at ``query``; it can
         extrapolate. ``idw``: inverse-distance weighting (1/d²) of the ``neighbours`` nearest tools;
-        it stays within their range, and an exact match returns that tool's geometry.
+        it stays within their range, and an exact match returns that tool's geometry. ``method`` and
+        ``neighbours`` are the classifier's settings (conf/classifier/pca_lookup.yaml); ``ridge`` a
+        numerical guard.
     """
     if method not in INTERPOLATIONS:
         raise ValueError(f"unknown geometry interpolation {method!r}; valid: {list(INTERPOLATIONS)}")

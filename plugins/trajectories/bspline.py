@@ -58,11 +58,11 @@ class BSplineMotion(LinearParameterisation):
         if from_file is not None:
             from lwrlab.io.exciting_motion import load_motion_description
 
+            # The file's motion replaces the configured one: its own duration, spacing and via points.
             description = load_motion_description(resolve_data_path(from_file), expected_kind=self.kind)
-            duration, via_point_spacing = (
-                description["duration"],
-                description.get("via_point_spacing", via_point_spacing),
-            )
+            if "via_point_spacing" not in description:
+                raise ValueError(f"{from_file}: a B-spline motion file gives its via_point_spacing (s)")
+            duration, via_point_spacing = description["duration"], description["via_point_spacing"]
             coefficients = description["coefficients"]
         super().__init__(duration, coefficients)
         if not via_point_spacing > 0:
