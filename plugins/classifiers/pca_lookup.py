@@ -38,8 +38,8 @@ class PCALookup(DistanceClassifier):
     --------
     >>> from lwrlab.pipeline.tool_library import load_library
     >>> library = load_library()
-    >>> pca = PCALookup(n_components=4, center=False, scaling="none", geometry_method="linear", neighbours=3)
-    >>> pca = pca.fit(library)
+    >>> from lwrlab.pipeline.build import build  # conf/classifier/pca_lookup.yaml's settings
+    >>> pca = build("classifier", "pca_lookup").fit(library)
     >>> pca.predict(library["small_roller"].parameters).tool
     'small_roller'
     """

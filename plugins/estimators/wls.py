@@ -39,8 +39,8 @@ class WeightedLeastSquares(HyperParameters, LearnedAttributes):
     --------
     >>> rng = np.random.default_rng(0)
     >>> W = rng.normal(size=(400, 3))
-    >>> est = WeightedLeastSquares(n_joints=2, min_relative_std=1e-6, reweight_steps=2)
-    >>> est = est.fit(W, W @ np.array([1.0, 2.0, 3.0]))
+    >>> from lwrlab.pipeline.build import build  # the shipped YAML's settings, n_joints changed
+    >>> est = build("estimator", "wls", n_joints=2).fit(W, W @ np.array([1.0, 2.0, 3.0]))
     >>> np.allclose(est.phi_, [1.0, 2.0, 3.0])
     True
     """
