@@ -160,18 +160,18 @@ def main(argv: list[str] | None = None) -> int:
     for name in names:
         if name not in SOURCES or name not in present:
             raise SystemExit(f"unknown table {name!r}: the README's generated tables are {sorted(present)}")
-    stale = []
+    stale, tables = [], {}
     for name in names:
         print(f"{name}: running (about {SOURCES[name].minutes:g} min)", flush=True)
-        table = produce(name)
-        if args.check:
-            if not same_figures(present[name], table):
-                stale.append(name)
-                print(f"{name}: the README differs from a new run:\n{table}")
-        else:
-            text = replace(text, name, table)
+        tables[name] = produce(name)
+        if args.check and not same_figures(present[name], tables[name]):
+            stale.append(name)
+            print(f"{name}: the README differs from a new run:\n{tables[name]}")
     if args.check:
         return 1 if stale else 0
+    text = README.read_text()  # again: the README may have been edited while the runs ran
+    for name, table in tables.items():
+        text = replace(text, name, table)
     README.write_text(text)
     print(f"rewrote {', '.join(names)} in {README}")
     return 0
