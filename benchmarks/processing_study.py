@@ -41,7 +41,7 @@ from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.io.logs import load_log  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
-from lwrlab.pipeline.identification import predict_measurement  # noqa: E402
+from lwrlab.pipeline.log_predictions import predict_measurement  # noqa: E402
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402
 

@@ -10,7 +10,30 @@ if TYPE_CHECKING:  # the context module builds on the model; the protocol only n
     from lwrlab.identification.context import IdentificationContext
 
 
-class Estimator(Protocol):
+class LearnedAttributes(Protocol):
+    """The learned attributes of the :class:`Estimator` protocol, declared for the type checker.
+
+    Estimators derive from it (a class that names a protocol among its bases is a regular class
+    that declares its members); it sets nothing, so an unfitted estimator has no ``*_`` attribute
+    (scikit-learn's convention) until ``fit`` stores them
+    (:func:`lwrlab.identification.least_squares.set_learned_attributes`).
+    """
+
+    phi_: np.ndarray
+    """(N_B,) estimated base parameters."""
+    covariance_: np.ndarray
+    """(N_B, N_B) their covariance."""
+    std_: np.ndarray
+    """(N_B,) standard deviations σ."""
+    relative_std_: np.ndarray
+    """(N_B,) %σ = 100·σ/|φ|."""
+    residual_std_: float
+    """Standard deviation of the torque residual (N·m)."""
+    cond_: float
+    """Condition number of the column-scaled regressor."""
+
+
+class Estimator(LearnedAttributes, Protocol):
     """An estimator plugin (config group ``estimator``), scikit-learn's protocol.
 
     Hyper-parameters are keyword arguments of ``__init__`` stored untouched, read and set by
@@ -26,6 +49,8 @@ class Estimator(Protocol):
     - ``relative_std_``: (N_B,) %σ = 100·σ/|φ| (the paper's Table II columns);
     - ``residual_std_``: (float) standard deviation of the torque residual (N·m);
     - ``cond_``: condition number of the (scaled) regressor.
+
+    Estimators declare them by deriving from :class:`LearnedAttributes`.
     """
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
@@ -43,28 +68,6 @@ class Estimator(Protocol):
     def predict(self, W: np.ndarray) -> np.ndarray:
         """Torques predicted for regressor rows ``W``."""
         ...
-
-
-class LearnedAttributes:
-    """The learned attributes of the :class:`Estimator` protocol, declared for the type checker.
-
-    Estimators derive from it; it sets nothing, so an unfitted estimator has no ``*_`` attribute
-    (scikit-learn's convention) until ``fit`` stores them
-    (:func:`lwrlab.identification.least_squares.set_learned_attributes`).
-    """
-
-    phi_: np.ndarray
-    """(N_B,) estimated base parameters."""
-    covariance_: np.ndarray
-    """(N_B, N_B) their covariance."""
-    std_: np.ndarray
-    """(N_B,) standard deviations σ."""
-    relative_std_: np.ndarray
-    """(N_B,) %σ = 100·σ/|φ|."""
-    residual_std_: float
-    """Standard deviation of the torque residual (N·m)."""
-    cond_: float
-    """Condition number of the column-scaled regressor."""
 
 
 def relative_std(phi: np.ndarray, std: np.ndarray) -> np.ndarray:

@@ -15,7 +15,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from lwrlab.pipeline.identification import format_report, identify_configured, write_report
+from lwrlab.pipeline.config_nodes import resolved_mapping
+from lwrlab.pipeline.identification import identify_configured
+from lwrlab.pipeline.identification_report import format_report, write_report
 
 log = logging.getLogger(__name__)
 
@@ -30,11 +32,9 @@ def run_paper_chain(cfg: Any, output_dir: Path, painting: PaintingStage) -> dict
     metrics (``rms_<roller>_<model>_<feedback>_<comparison>``, ``coverage_…``, ``duration_s_…``) and
     the wall time of each stage (``stage_identification_s``, ``stage_painting_s``).
     """
-    from omegaconf import OmegaConf
-
     started = time.perf_counter()
     report = identify_configured(cfg)
-    write_report(report, output_dir, OmegaConf.to_container(cfg.robot, resolve=True))
+    write_report(report, output_dir, resolved_mapping(cfg.robot, "robot"))
     print("# 1. Identification\n\n" + format_report(report) + "\n")
     identified_s = time.perf_counter() - started
 

@@ -25,9 +25,10 @@ Files of a job (``estimator_benchmark.csv``, one row), columns:
 - ``residual_std`` (N·m): torque residual σ.
 
 and ``parameter_errors.csv``: per base parameter its truth, estimate, error and relative error.
-The summary (sweep folder, :mod:`lwrlab.tracking.benchmark_tables`) has ``estimator_benchmark.csv`` (all rows), ``estimator_benchmark_summary.csv``
-and ``.md`` (mean and spread per estimator and preset), ``estimator_benchmark_parameters.csv`` (per
-parameter: mean and spread of the relative error) and ``estimator_benchmark.png``.
+The summary (sweep folder, :mod:`lwrlab.tracking.benchmark_tables`) has ``estimator_benchmark.csv``
+(all rows), ``estimator_benchmark_summary.csv`` and ``.md`` (mean and spread per estimator and
+preset), ``estimator_benchmark_parameters.csv`` (per parameter: mean and spread of the relative
+error) and ``estimator_benchmark.png``.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ import pandas as pd
 
 from lwrlab.identification.consistency import consistency_margin
 from lwrlab.identification.context import IdentificationContext
+from lwrlab.pipeline.config_nodes import processing_settings
 from lwrlab.pipeline.identification import identify
 from lwrlab.tracking.benchmark_tables import JOB_TABLE, METRICS, PARAMETER_TABLE, write_summary
 
@@ -62,7 +64,6 @@ def run_estimator_benchmark(
 ) -> dict[str, float]:
     """Task ``estimator_benchmark``: one (estimator, noise preset, seed) cell; see the module doc."""
     from hydra.utils import instantiate
-    from omegaconf import OmegaConf
 
     if noise not in noise_presets:
         raise ValueError(f"unknown noise preset {noise!r}; valid: {sorted(noise_presets)}")
@@ -80,7 +81,7 @@ def run_estimator_benchmark(
         plant=plant,
         estimator=instantiate(cfg.estimator),
         rate_hz=cfg.measurement.rate_hz,
-        processing=OmegaConf.to_container(cfg.measurement.processing, resolve=True),
+        processing=processing_settings(cfg),
     )
     context = IdentificationContext.from_robot(robot, report.base)
     dissipative = np.concatenate([context.friction_indices("coulomb"), context.friction_indices("viscous")])

@@ -32,7 +32,6 @@ def write_example_logs(
         for folder in (Path(directory), output_dir):
             write_log(measurement, folder / f"{role}.{file_format}")
         metrics[f"{role}_samples"] = float(len(measurement.t))
-        print(
-            f"{role} log: {Path(directory) / f'{role}.{file_format}'} ({len(measurement.t)} samples, {robot.n_joints} joints)"
-        )
+        written = Path(directory) / f"{role}.{file_format}"
+        print(f"{role} log: {written} ({len(measurement.t)} samples, {robot.n_joints} joints)")
     return metrics

@@ -1,13 +1,13 @@
 """Identification stage: motion → plant → processing → base-parameter estimation → cross-validation.
 
 ``identify`` is pure computation on configured objects and returns an :class:`IdentificationReport`;
-``write_report`` puts its tables, arrays and figures on disk. The tracking callback logs that
-directory to MLflow, so nothing here knows about MLflow or Hydra.
+:mod:`lwrlab.pipeline.identification_report` puts its tables, arrays and figures on disk, and
+:mod:`lwrlab.pipeline.log_predictions` predicts each measurement. The tracking callback logs the
+output directory to MLflow, so nothing here knows about MLflow or Hydra.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from dataclasses import dataclass, field, replace
@@ -20,8 +20,6 @@ import pandas as pd
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import IdentifiabilityError
-from lwrlab.figures.residuals import residuals_per_log
-from lwrlab.figures.torques import error_per_joint, torque_overlay
 from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
 from lwrlab.identification.context import IdentificationContext
@@ -32,40 +30,15 @@ from lwrlab.identification.identifiability import (
     format_prior_note,
 )
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
-from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory
-from lwrlab.io.urdf_export import export_urdf
 from lwrlab.model.robot import RobotModel
-from lwrlab.plants.core import Measurement, Plant
-from lwrlab.signal.processing import ProcessedData, process
+from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
+from lwrlab.pipeline.identification_report import format_report, write_report
+from lwrlab.pipeline.log_predictions import LogPrediction, predict_measurement, process_measurement
+from lwrlab.plants.core import Measurement, Plant, is_recorded
+from lwrlab.signal.processing import ProcessedData
 from lwrlab.trajectory.core import MotionSource, Trajectory, check_limits
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class LogPrediction:
-    """The model's torque prediction on one measurement, at its samples as logged."""
-
-    name: str
-    """The log's name (file stem), or the motion's role for simulated data."""
-    role: str
-    """``identification`` or ``validation``."""
-    t: np.ndarray
-    """(M,) times as logged (s)."""
-    measured: np.ndarray
-    """(M, N_J) measured torques as logged (N·m)."""
-    predicted: np.ndarray
-    """(M, N_J) predicted torques τ̂ = W(q, q̇, q̈)·φ̂ (N·m)."""
-    scored: np.ndarray
-    """(M,) samples inside the trimmed span, where the filtered states are free of edge transients."""
-    processing: str
-    """What the processing chose for this log (cut-off, velocity source)."""
-
-    @property
-    def relative_error(self) -> float:
-        """‖τ − τ̂‖/‖τ‖ over all joints and scored samples."""
-        measured = self.measured[self.scored]
-        return float(np.linalg.norm(measured - self.predicted[self.scored]) / np.linalg.norm(measured))
 
 
 @dataclass
@@ -146,14 +119,6 @@ def _named(measurement: Measurement, name: str, role: str) -> Measurement:
     return replace(measurement, metadata={**measurement.metadata, "name": name, "role": role})
 
 
-def _process(
-    measurement: Measurement, processing: dict[str, Any], every_sample: bool = False
-) -> ProcessedData:
-    return process(
-        measurement.t, measurement.q, measurement.tau, measurement.dq, every_sample=every_sample, **processing
-    )
-
-
 def _as_chosen(processing: dict[str, Any], data: ProcessedData) -> dict[str, Any]:
     """``processing`` with the cut-off and velocity source that ``data``'s processing chose."""
     return {
@@ -174,33 +139,27 @@ def _context(
     return IdentificationContext.from_robot(robot, base, reference)
 
 
-def predict_measurement(
+def _measurements(
     robot: RobotModel,
-    base: BaseParameters,
-    phi: np.ndarray,
-    measurement: Measurement,
-    processing: dict[str, Any],
-) -> LogPrediction:
-    """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit)."""
-    data = _process(measurement, processing, every_sample=True)
-    predicted = (base.base_regressor(regressor(robot, data.q, data.dq, data.ddq)) @ phi).reshape(
-        -1, robot.n_joints
+    motion_source: MotionSource | None,
+    validation_source: MotionSource | None,
+    plant: Plant,
+    rate_hz: float,
+) -> tuple[Trajectory | None, Trajectory | None, list[Measurement], list[Measurement]]:
+    """Exciting and validation motions (None for recorded logs) and the measurements of each."""
+    if is_recorded(plant):
+        return None, None, plant.identification_measurements(), plant.validation_measurements()
+    if motion_source is None or validation_source is None:
+        raise ValueError("a simulated identification needs an exciting motion and a validation motion")
+    motion = _sample_checked(motion_source, robot, rate_hz, "exciting motion", "excitation")
+    validation_motion = _sample_checked(
+        validation_source, robot, rate_hz, "cross-validation motion", "validation"
     )
-    t, measured = measurement.as_logged()
-    if t is not measurement.t:  # resampled log: back to the logged samples
-        predicted = np.column_stack([np.interp(t, data.t, predicted[:, j]) for j in range(robot.n_joints)])
-    span = data.row_times
-    scored = (t >= span[0] - 1e-9) & (t <= span[-1] + 1e-9)
-    cutoff = "no filter" if data.cutoff_hz is None else f"{data.cutoff_hz:.3g} Hz"
-    velocity = "logged q̇" if data.velocity.logged else "q̇ = d/dt q"
-    return LogPrediction(
-        measurement.name,
-        str(measurement.metadata.get("role", "")),
-        t,
-        measured,
-        predicted,
-        scored,
-        f"{cutoff}, {velocity}",
+    return (
+        motion,
+        validation_motion,
+        [_named(plant.measure(motion), "exciting_motion", "identification")],
+        [_named(plant.measure(validation_motion), "validation_motion", "validation")],
     )
 
 
@@ -234,34 +193,18 @@ def identify(
     processing = dict(processing or {})
     base = compute_base_parameters(robot)
     log.info("%s: %d base parameters", robot.name, base.count)
-    if getattr(plant, "recorded", False):
-        motion = validation_motion = None
-        measurements = plant.identification_measurements()
-        validation_measurements = plant.validation_measurements()
-    else:
-        if motion_source is None or validation_source is None:
-            raise ValueError("a simulated identification needs an exciting motion and a validation motion")
-        motion = _sample_checked(motion_source, robot, rate_hz, "exciting motion", "excitation")
-        validation_motion = _sample_checked(
-            validation_source, robot, rate_hz, "cross-validation motion", "validation"
-        )
-        measurements = [_named(plant.measure(motion), "exciting_motion", "identification")]
-        validation_measurements = [
-            _named(plant.measure(validation_motion), "validation_motion", "validation")
-        ]
+    motion, validation_motion, measurements, validation_measurements = _measurements(
+        robot, motion_source, validation_source, plant, rate_hz
+    )
 
-    processed = [_process(m, processing) for m in measurements]
+    processed = [process_measurement(m, processing) for m in measurements]
     rows = [
         data.rows(lambda q, dq, ddq: base.base_regressor(regressor(robot, q, dq, ddq))) for data in processed
     ]
     w_base = np.vstack([w for w, _ in rows])
     tau = np.concatenate([t for _, t in rows])
-    identifiability = assess_identifiability(
-        w_base,
-        base.names,
-        *(np.vstack([getattr(d, name)[d.index] for d in processed]) for name in ("q", "dq", "ddq")),
-        robot.limits,
-    )
+    q, dq, ddq = (np.vstack([getattr(d, name)[d.index] for d in processed]) for name in ("q", "dq", "ddq"))
+    identifiability = assess_identifiability(w_base, base.names, q, dq, ddq, robot.limits)
     has_prior = bool(getattr(estimator, "uses_prior", False))
     if identifiability.status == "rank_deficient" and not has_prior:
         raise IdentifiabilityError(
@@ -388,190 +331,13 @@ def identify(
     )
 
 
-def _data_heading(report: IdentificationReport) -> str:
-    if report.recorded:
-        return "validation logs, not used for identification"
-    duration = report.validation_motion.t[-1] - report.validation_motion.t[0]
-    return f"{duration:.0f} s motion not used for identification"
-
-
-def prediction_table(report: IdentificationReport) -> pd.DataFrame:
-    """Per measurement: role, samples, ‖τ − τ̂‖/‖τ‖ (%) and what the processing chose."""
-    return pd.DataFrame(
-        {
-            "role": [p.role for p in report.predictions],
-            "samples": [int(p.scored.sum()) for p in report.predictions],
-            "rel_error_%": [100 * p.relative_error for p in report.predictions],
-            "cut-off, velocity": [p.processing for p in report.predictions],
-        },
-        index=pd.Index([p.name for p in report.predictions], name="log"),
-    )
-
-
-def format_report(report: IdentificationReport) -> str:
-    """The tables of an identification as Markdown: base parameters, per-log errors, validation per joint."""
-    parameters = report.parameters.copy()
-    parameters["relative_std"] = parameters["relative_std"].round(3)
-    fit_names = ", ".join(p.name for p in report.predictions if p.role == "identification")
-    validation_names = ", ".join(p.name for p in report.validation_predictions)
-    lines = [
-        f"## Base parameters of {report.robot.name} ({report.base.count}), identified from {fit_names}",
-        "",
-        parameters.to_markdown(floatfmt=".5g"),
-        "",
-        "## Torque prediction per log (‖τ − τ̂‖/‖τ‖ at the logged samples)",
-        "",
-        prediction_table(report).to_markdown(floatfmt=".4g"),
-        "",
-        f"## Validation torque error per joint ({validation_names}: {_data_heading(report)})",
-        "",
-        report.validation.to_markdown(floatfmt=".4g"),
-        "",
-        f"fit ‖τ−τ̂‖/‖τ‖ {100 * report.metrics['fit_rel_error']:.3g} %, validation ‖τ−τ̂‖/‖τ‖ "
-        f"{100 * report.metrics['validation_rel_error']:.3g} % (mean over validation logs); "
-        f"mean RMS {report.metrics['rms_mean']:.4g} N·m, mean NRMS "
-        f"{report.metrics['nrms_mean']:.4g} % (RMS over the measured range), "
-        f"cond(W_b) {report.metrics['cond_W_b']:.4g}, smallest pseudo-inertia eigenvalue "
-        f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} of the reported standard set (< 0: "
-        "not a rigid body)",
-    ]
-    resampled = [
-        m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")
-    ]
-    if resampled:
-        lines.append(
-            f"NOTE: irregular time stamps in {', '.join(resampled)}: processed on a uniform grid, "
-            "scored at the logged samples"
-        )
-    lines.append(report.identifiability.summary())
-    lines += report.notes
-    if report.metrics.get("solver_fallback"):
-        lines.append(
-            "WARNING: the estimator's primary solver failed; the result comes from its fallback solver"
-        )
-    if "base_parameter_error" in report.metrics:
-        lines.append(
-            f"relative base-parameter error ‖β̂ − β‖/‖β‖ = {report.metrics['base_parameter_error']:.3g}"
-        )
-    return "\n".join(lines)
-
-
-def predicted_torque_frame(report: IdentificationReport) -> pd.DataFrame:
-    """Measured and predicted torques of every log at its logged samples.
-
-    Columns ``log, role, t, scored, tau1…N, tau_hat1…N``.
-    """
-    n = report.robot.n_joints
-    frames = []
-    for p in report.predictions:
-        frame = pd.DataFrame({"log": p.name, "role": p.role, "t": p.t, "scored": p.scored})
-        frame[[f"tau{j}" for j in range(1, n + 1)]] = p.measured
-        frame[[f"tau_hat{j}" for j in range(1, n + 1)]] = p.predicted
-        frames.append(frame)
-    return pd.concat(frames, ignore_index=True)
-
-
-RUN_TAGS_FILE = "tags.json"
-"""Tags a run carries beside its metrics: what a reader must know before trusting the numbers."""
-
-
-def run_tags(report: IdentificationReport) -> dict[str, str]:
-    """Run tags: ``identifiability`` (good, poor, rank_deficient), ``warnings`` (count), ``data``
-    (logs or simulation)."""
-    warnings = sum(
-        len(m.metadata.get("warnings", [])) for m in [*report.measurements, *report.validation_measurements]
-    )
-    return {
-        "identifiability": report.identifiability.status,
-        "warnings": str(warnings + (0 if report.identifiability.ok else 1)),
-        "data": "logs" if report.recorded else "simulation",
-    }
-
-
-def write_report(
-    report: IdentificationReport,
-    output_dir: Path,
-    robot_config: dict[str, Any],
-    motion_format: str = "parquet",
-) -> dict[str, Path]:
-    """Write tables (CSV, Markdown), predicted torques (Parquet), the identified model (YAML) and figures.
-
-    ``motion_format``: ``parquet`` (default) or ``csv`` for the 1 kHz motions played (CSV: what a
-    robot controller reads).
-    """
-    if motion_format not in ("parquet", "csv"):
-        raise ValueError(f"motion_format must be parquet or csv, got {motion_format!r}")
-    output_dir.mkdir(parents=True, exist_ok=True)
-    files: dict[str, Path] = {}
-    if (
-        not report.recorded
-    ):  # simulated: the motions played and what the sensors gave (a log holds them already)
-        files["trajectory"] = save_trajectory(report.motion, output_dir / f"exciting_motion.{motion_format}")
-        files["validation_trajectory"] = save_trajectory(
-            report.validation_motion, output_dir / f"validation_motion.{motion_format}"
-        )
-        files["measurement"] = save_measurement(report.measurement, output_dir / "measurement.npz")
-        files["validation_measurement"] = save_measurement(
-            report.validation_measurement, output_dir / "validation_measurement.npz"
-        )
-    files["identified_model"] = save_identified_model(
-        report.identified, robot_config, output_dir / "identified_model.yaml"
-    )
-    if (
-        report.metrics["min_pseudo_inertia_eigenvalue"] >= 0.0
-    ):  # URDF only for real rigid bodies (e.g. estimator=sdp)
-        identified_robot = report.robot.with_parameters(report.identified.standard_values)
-        files["urdf"] = export_urdf(
-            identified_robot, output_dir / "identified_model.urdf", f"{report.robot.name}_identified"
-        )
-    files["parameters"] = output_dir / "base_parameters.csv"
-    report.parameters.to_csv(files["parameters"])
-    files["validation"] = output_dir / "cross_validation.csv"
-    report.validation.to_csv(files["validation"])
-    files["predictions"] = output_dir / "prediction_errors.csv"
-    prediction_table(report).to_csv(files["predictions"])
-    files["predicted_torque"] = output_dir / "predicted_torque.parquet"
-    predicted_torque_frame(report).to_parquet(files["predicted_torque"], index=False)
-    files["summary"] = output_dir / "summary.md"
-    files["summary"].write_text(format_report(report) + "\n")
-    files["metrics"] = output_dir / "metrics.json"
-    files["metrics"].write_text(json.dumps(report.metrics, indent=2))
-    files["tags"] = output_dir / RUN_TAGS_FILE  # the tracking callback tags the run with these
-    files["tags"].write_text(json.dumps(run_tags(report), indent=2))
-    first = report.validation_predictions[0]
-    files["torque_overlay"] = torque_overlay(
-        report.validation_times,
-        report.validation_measured,
-        report.validation_estimated,
-        output_dir / "torque_overlay.png",
-        f"Validation ({first.name}): measured vs estimated joint torques",
-    )
-    noise = report.validation["noise_std"].to_numpy() if "noise_std" in report.validation else None
-    files["error_per_joint"] = error_per_joint(
-        report.validation["rms"].to_numpy(),
-        report.validation["nrms"].to_numpy(),
-        output_dir / "error_per_joint.png",
-        "Validation torque error per joint",
-        noise,
-    )
-    files["residuals"] = residuals_per_log(
-        [p.name for p in report.predictions],
-        [p.role for p in report.predictions],
-        [p.t for p in report.predictions],
-        [p.measured - p.predicted for p in report.predictions],
-        output_dir / "residuals_per_log.png",
-    )
-    return files
-
-
 def identify_configured(cfg: Any) -> IdentificationReport:
     """:func:`identify` with the objects ``cfg`` configures (robot, motions, plant, estimator, processing)."""
     from hydra.utils import instantiate
-    from omegaconf import OmegaConf
 
     robot = instantiate(cfg.robot)
     plant = instantiate(cfg.plant)(robot=robot)
-    recorded = getattr(plant, "recorded", False)  # logs: no motion is sampled, optimised or checked
+    recorded = is_recorded(plant)  # logs: no motion is sampled, optimised or checked
     return identify(
         robot=robot,
         motion_source=None if recorded else instantiate(cfg.trajectory),
@@ -579,16 +345,14 @@ def identify_configured(cfg: Any) -> IdentificationReport:
         plant=plant,
         estimator=instantiate(cfg.estimator),
         rate_hz=cfg.measurement.rate_hz,
-        processing=OmegaConf.to_container(cfg.measurement.processing, resolve=True),
-        statistics=OmegaConf.to_container(cfg.statistics, resolve=True) if "statistics" in cfg else None,
+        processing=processing_settings(cfg),
+        statistics=statistics_settings(cfg),
     )
 
 
 def run_identification(cfg: Any, output_dir: Path, motion_format: str = "parquet") -> dict[str, float]:
     """Task ``identification``: build the configured objects, identify, write and print the report."""
-    from omegaconf import OmegaConf
-
     report = identify_configured(cfg)
-    write_report(report, output_dir, OmegaConf.to_container(cfg.robot, resolve=True), motion_format)
+    write_report(report, output_dir, resolved_mapping(cfg.robot, "robot"), motion_format)
     print(format_report(report))
     return report.metrics

@@ -50,7 +50,8 @@ def build_tool(description: Mapping[str, Any], source: str = "tool description")
     target = description.get("_target_")
     if not isinstance(target, str) or "." not in target:
         raise ValueError(
-            f"{source}: needs `_target_: module.builder` (e.g. lwrlab.tools.painting.paint_roller), got {target!r}"
+            f"{source}: needs `_target_: module.builder` (e.g. lwrlab.tools.painting.paint_roller), "
+            f"got {target!r}"
         )
     try:
         tool = instantiate(description, _convert_="all")

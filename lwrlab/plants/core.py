@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from pathlib import Path
+from typing import Any, Protocol, TypeGuard
 
 import numpy as np
 
@@ -75,3 +76,24 @@ class Plant(Protocol):
     def truth(self) -> PlantTruth | None:
         """The true model when simulated; None for real data."""
         ...
+
+
+class RecordedPlant(Plant, Protocol):
+    """A plant that replays recorded logs: the logs are the motions, nothing is sampled or played."""
+
+    def load(self, path: str | Path, role: str) -> Measurement:
+        """One log as a measurement, tagged with its ``role`` (identification or validation)."""
+        ...
+
+    def identification_measurements(self) -> list[Measurement]:
+        """The measurements to identify from."""
+        ...
+
+    def validation_measurements(self) -> list[Measurement]:
+        """The measurements to validate on, each scored on its own."""
+        ...
+
+
+def is_recorded(plant: Plant) -> TypeGuard[RecordedPlant]:
+    """Whether ``plant`` replays recorded logs (its class says ``recorded = True``)."""
+    return bool(getattr(plant, "recorded", False))

@@ -1,0 +1,33 @@
+"""Config nodes as the plain values the stages take (a mapping of settings, checked to be one)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from lwrlab.errors import ConfigError
+
+
+def resolved_mapping(node: Any, key: str) -> dict[str, Any]:
+    """The config node ``node`` (found at ``key``) resolved into a plain ``dict``.
+
+    Raises
+    ------
+    ConfigError
+        When the node is not a mapping (a list, a value, null), naming ``key``.
+    """
+    from omegaconf import OmegaConf
+
+    container = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
+    if not isinstance(container, dict):
+        raise ConfigError(f"{key} must be a mapping of settings, got {container!r}")
+    return {str(name): value for name, value in container.items()}
+
+
+def processing_settings(cfg: Any) -> dict[str, Any]:
+    """``measurement.processing``: the keyword arguments of :func:`lwrlab.signal.processing.process`."""
+    return resolved_mapping(cfg.measurement.processing, "measurement.processing")
+
+
+def statistics_settings(cfg: Any) -> dict[str, Any] | None:
+    """The ``statistics`` group's settings (bootstrap resamples, block, confidence, seed); None without it."""
+    return resolved_mapping(cfg.statistics, "statistics") if "statistics" in cfg else None
