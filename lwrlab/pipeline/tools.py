@@ -129,17 +129,28 @@ def identify_tool(
         robot_base = grouped_least_squares(
             unloaded.w_base, unloaded.tau, row_joints(unloaded.tau.size, n) if weighted else None
         ).phi
-        return identify_payload_only(
-            loaded.w_base,
-            robot_base,
-            loaded.w_tool,
-            loaded.tau,
-            bench.flange_to_joint,
-            n,
-            weighted,
-            consistent,
-        )
+        return identify_tool_given_robot(bench, loaded, robot_base, weighted, consistent)
     raise ValueError(f"unknown tool identification method {method!r}; valid: {list(METHODS)}")
+
+
+def identify_tool_given_robot(
+    bench: ToolBench,
+    loaded: ToolData,
+    robot_base: np.ndarray,
+    weighted: bool = True,
+    consistent: bool = False,
+) -> PayloadEstimate:
+    """The tool's parameters from a loaded measurement, the robot's base parameters ``robot_base`` known."""
+    return identify_payload_only(
+        loaded.w_base,
+        robot_base,
+        loaded.w_tool,
+        loaded.tau,
+        bench.flange_to_joint,
+        bench.robot.n_joints,
+        weighted,
+        consistent,
+    )
 
 
 def _motion(source: Any, robot: RobotModel, rate_hz: float, what: str) -> Trajectory:
