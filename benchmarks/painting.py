@@ -35,13 +35,11 @@ import mujoco
 import numpy as np
 from painting_reference import (
     BRANCH,
-    DESIRED,
-    FORCE_KI,
-    JOINT_KD,
-    JOINT_KP,
+    ESTIMATOR,
     PATH,
     PERIOD,
     REPO,
+    TASK,
     WALL,
     Case,
     PerSampleLoop,
@@ -52,12 +50,12 @@ from lwrlab.control.contact_loop import ContactCase, ContactRun, simulate_contac
 from lwrlab.control.force_estimation import ExternalForceEstimator
 from lwrlab.control.joint_pd import ControlSetup
 from lwrlab.kinematics.swivel_ik import SwivelIK
-from lwrlab.model.payload import attach_payload
+from lwrlab.pipeline.build import build
+from lwrlab.pipeline.painting import path_problem
 from lwrlab.pipeline.tool_library import load_tool
-from lwrlab.planning.path_optimisation import GRADIENTS, PathProblem, WallBounds, optimise_path
+from lwrlab.planning.path_optimisation import GRADIENTS, optimise_path
 from lwrlab.plants.simulation import perturbed_robot
 from plugins.controllers.force_pi import ForcePIControl
-from plugins.controllers.position import PositionControl
 from plugins.robots.mdh import load_robot_yaml
 
 FIELDS = ("commanded", "actual", "estimated_wrench", "measured_force", "q", "q_desired", "tau")
@@ -66,33 +64,30 @@ FIELDS = ("commanded", "actual", "estimated_wrench", "measured_force", "q", "q_d
 
 def force_pi(feedback: str) -> ForcePIControl:
     """The force controller of conf/controller/force_pi.yaml with ``feedback`` (estimate | sensor)."""
-    return ForcePIControl(
-        kp=JOINT_KP,
-        kd=JOINT_KD,
-        desired_force=(DESIRED, 0, 0),
-        force_kp=(0, 0, 0),
-        force_ki=(FORCE_KI, 0, 0),
-        feedback=feedback,
-        max_displacement=0.05,
-        sensor_cutoff_hz=20.0,
-    )
+    return build("controller", "force_pi", feedback=feedback)
+
+
+def estimator(case: Case, model) -> ExternalForceEstimator:
+    """Eq. (14) on ``model`` with the painting task's ``estimator`` settings."""
+    return ExternalForceEstimator(model, case.tcp, PERIOD, **ESTIMATOR)
 
 
 def painting_cases(case: Case) -> list[ContactCase]:
     """The five runs of one path in the painting task: force PI (estimate, sensor) × (CAD model, a
-    perturbed model standing for the identified one), then the position controller (2 mm in)."""
+    perturbed model standing for the identified one), then the position controller
+    (conf/controller/position.yaml: 2 mm in)."""
     perturbed = perturbed_robot(case.model, 0.05, 0.1, np.random.default_rng(1))
     runs = [
         (model, force_pi(feedback))
         for model in (case.model, perturbed)
         for feedback in ("estimate", "sensor")
     ]
-    runs.append((case.model, PositionControl(kp=JOINT_KP, kd=JOINT_KD, offset=(-0.002, 0.0, 0.0))))
+    runs.append((case.model, build("controller", "position")))
     return [
         ContactCase(
             case.plant(),
             controller,
-            ExternalForceEstimator(model, case.tcp, PERIOD, coulomb_smoothing=0.01),
+            estimator(case, model),
             ControlSetup(model, SwivelIK(model), case.tcp, PATH.swivel, BRANCH, PERIOD),
             case.start,
         )
@@ -115,9 +110,14 @@ def after_another(case: Case) -> list[ContactRun]:
 
 def alone(case: Case) -> ContactRun:
     """One run: force PI on the estimated force, CAD model."""
-    estimator = ExternalForceEstimator(case.model, case.tcp, PERIOD, coulomb_smoothing=0.01)
     return simulate_contact(
-        case.plant(), force_pi("estimate"), estimator, case.setup(), case.reference, case.painting, case.start
+        case.plant(),
+        force_pi("estimate"),
+        estimator(case, case.model),
+        case.setup(),
+        case.reference,
+        case.painting,
+        case.start,
     )
 
 
@@ -216,21 +216,10 @@ def contact_loop_figures(seconds: float, reference_seconds: float, repeat: int) 
 def optimisation_figures(starts: tuple[float, ...], repeat: int) -> None:
     robot = load_robot_yaml(REPO / "conf" / "robot" / "kuka_lwr4.yaml")
     tool = load_tool("large_roller")
-    tcp = np.eye(4)
-    tcp[:3, 3] = tool.contact_point
-    loaded = attach_payload(robot, tool.parameters)
-    wall = WALL
-    problem = PathProblem(
-        loaded,
-        SwivelIK(loaded),
-        tcp,
-        WallBounds(wall.x, *wall.y_bounds, *wall.z_bounds),
-        tool.width,
-        n_steps=2,
-        branch=BRANCH,
-        stripe_overlap=0.01,
-    )
-    print(f"\n## Painting-path optimisation (eq. 12), large roller, N_r = 2, {len(starts)} SLSQP starts\n")
+    n_steps = TASK["n_steps"][tool.name]
+    problem = path_problem(robot, tool.parameters, tool, WALL, n_steps, TASK["path"])
+    title = f"Painting-path optimisation (eq. 12), large roller, N_r = {n_steps}, {len(starts)} SLSQP starts"
+    print(f"\n## {title}\n")
     print("| gradients | time (s) | iterations | cost |\n|---|---|---|---|")
     times, solutions = dict.fromkeys(GRADIENTS, np.inf), {}
     for _ in range(repeat):  # interleaved, as the loops
@@ -257,8 +246,8 @@ def main() -> None:
         "--starts",
         type=float,
         nargs="+",
-        default=[-1.6, -0.8],
-        help="starting swivel angles of the optimisation (rad)",
+        default=TASK["path"]["starting_swivels"],
+        help="starting swivel angles of the optimisation (rad); default: the painting task's",
     )
     parser.add_argument(
         "--repeat",

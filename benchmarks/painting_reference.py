@@ -3,7 +3,9 @@
 :func:`make_case` builds the KUKA LWR4 (``conf/robot/kuka_lwr4.yaml``) carrying the large roller in
 front of the wall of §VI.B, along the large roller's optimised path (README, Table IV);
 :class:`PerSampleLoop` is the contact loop as it was first written, everything one sample at a time,
-kept as the reference ``benchmarks/painting.py`` measures the loop against.
+kept as the reference ``benchmarks/painting.py`` measures the loop against. Every setting (wall,
+contact plant, force estimate, the force controller's gains) is the shipped YAML's
+(conf/task/painting.yaml, conf/controller/force_pi.yaml).
 """
 
 from __future__ import annotations
@@ -14,17 +16,22 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pinocchio as pin
+from omegaconf import OmegaConf
 
 from lwrlab.control.contact_loop import ContactRun
+from lwrlab.control.filters import low_pass_gain
 from lwrlab.control.force_estimation import add_tool_frame
 from lwrlab.control.joint_pd import ControlSetup
 from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build, shipped_config
+from lwrlab.pipeline.painting_runs import CONTROL_RATE_HZ, contact_plant
 from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path
 from lwrlab.plants.contact_batch import ContactPlantBatch
-from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall
+from lwrlab.plants.mujoco_contact import MujocoContactPlant, Wall
+from lwrlab.tools.model import Tool
 from plugins.robots.mdh import load_robot_yaml
 
 REPO = Path(__file__).resolve().parents[1]
@@ -32,11 +39,15 @@ PATH = PaintingPathParameters(
     duration=38.45, swivel=-1.673, z_upper=0.5355, z_lower=0.2403, y_start=0.1331, y_step=0.1835, n_steps=2
 )
 """The large roller's optimised path (identified model, README Table IV)."""
-BRANCH = Branch(1, -1, -1)
-PERIOD = 1e-3
-JOINT_KP, JOINT_KD, FORCE_KI, DESIRED = 2000.0, 60.0, 2e-3, -30.0
-WALL = Wall(x=-0.8, center_y=0.3, center_z=0.4, width=0.6, height=0.8)
-"""The wall of §VI.B (conf/task/painting.yaml)."""
+TASK = OmegaConf.to_container(shipped_config("task", "painting"), resolve=True)
+"""The painting task's settings (conf/task/painting.yaml)."""
+CONTACT, ESTIMATOR = TASK["contact"], TASK["estimator"]
+FORCE_PI = build("controller", "force_pi")
+"""The force controller of conf/controller/force_pi.yaml (estimated force fed back)."""
+BRANCH = Branch(*TASK["path"]["branch"])
+PERIOD = 1.0 / CONTROL_RATE_HZ
+WALL = Wall(**TASK["wall"])
+"""The wall of §VI.B."""
 
 
 @dataclass
@@ -45,7 +56,7 @@ class Case:
 
     truth: RobotModel
     model: RobotModel
-    tool_contact: ContactTool
+    tool: Tool
     tcp: np.ndarray
     wall: Wall
     reference: np.ndarray
@@ -53,34 +64,33 @@ class Case:
     start: np.ndarray
 
     def plant(self) -> MujocoContactPlant:
-        return MujocoContactPlant(
-            self.truth, self.tool_contact, self.wall, contact_time_constant=0.02, seed=0
-        )
+        return contact_plant(self.truth, self.tool, self.wall, CONTACT, seed=0)
 
     def setup(self) -> ControlSetup:
         return ControlSetup(self.model, SwivelIK(self.model), self.tcp, PATH.swivel, BRANCH, PERIOD)
 
 
 def make_case(seconds: float) -> Case:
-    """The CAD LWR4 + large roller (plant and controller alike), 2 s at the start point, then the path."""
+    """The CAD LWR4 + large roller (plant and controller alike), the task's approach at the start point
+    (2 s), then the path."""
     robot = load_robot_yaml(REPO / "conf" / "robot" / "kuka_lwr4.yaml")
     tool = load_tool("large_roller")
     tcp = np.eye(4)
     tcp[:3, 3] = tool.contact_point
     wall = WALL
     poses = sample_path(PATH, wall.x, 1.0 / PERIOD).poses()
-    reference = np.concatenate([np.repeat(poses[:1], 2000, axis=0), poses])[: round(seconds / PERIOD)]
+    approach = round(CONTACT["approach_s"] / PERIOD)
+    reference = np.concatenate([np.repeat(poses[:1], approach, axis=0), poses])[: round(seconds / PERIOD)]
     start = reference[0].copy()
-    start[0, 3] += 0.005  # 5 mm off the wall
-    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
+    start[0, 3] += CONTACT["standoff"]  # off the wall
     return Case(
         robot,
         attach_payload(robot, tool.parameters),
-        contact,
+        tool,
         tcp,
         wall,
         reference,
-        np.arange(len(reference)) >= 2000,
+        np.arange(len(reference)) >= approach,
         start,
     )
 
@@ -98,9 +108,11 @@ class PerSampleLoop:
         self.model, frame = add_tool_frame(case.model, case.tcp)
         self.frame, self.data = frame, self.model.createData()
         self.gravity_data = case.model.model.createData()
-        self.velocity_gain = 1.0 - np.exp(-2 * np.pi * 50.0 * PERIOD)
-        self.acceleration_gain = 1.0 - np.exp(-2 * np.pi * 10.0 * PERIOD)
-        self.wrench_gain = 1.0 - np.exp(-2 * np.pi * 20.0 * PERIOD)
+        self.kp, self.kd = (np.asarray(gains, dtype=float) for gains in (FORCE_PI.kp, FORCE_PI.kd))
+        self.force_ki = np.asarray(FORCE_PI.force_ki, dtype=float)
+        self.velocity_gain = low_pass_gain(ESTIMATOR["velocity_cutoff_hz"], PERIOD)
+        self.acceleration_gain = low_pass_gain(ESTIMATOR["acceleration_cutoff_hz"], PERIOD)
+        self.wrench_gain = low_pass_gain(ESTIMATOR["wrench_cutoff_hz"], PERIOD)
 
     def joint_reference(self, pose: np.ndarray) -> np.ndarray:
         flange = pose @ np.linalg.inv(self.case.tcp)  # inverted per call, as before
@@ -160,7 +172,7 @@ class PerSampleLoop:
             ddq = acceleration.copy()
             tau_friction = np.zeros(7)
             if "coulomb" in terms:
-                tau_friction += friction.coulomb * np.tanh(dq / 0.01)
+                tau_friction += friction.coulomb * np.tanh(dq / ESTIMATOR["coulomb_smoothing"])
             if "viscous" in terms:
                 tau_friction += friction.viscous * dq
             if "offset" in terms:
@@ -172,15 +184,16 @@ class PerSampleLoop:
             wrench = np.linalg.solve(jacobian @ jacobian.T, jacobian @ external)
             wrench_state = wrench_state + self.wrench_gain * (wrench - wrench_state)
             # eq. (15) then eq. (13), the IK of one pose per period
-            error = np.array([DESIRED, 0.0, 0.0]) - wrench_state[:3]
-            integral = np.clip(integral + np.array([FORCE_KI, 0.0, 0.0]) * error * PERIOD, -0.05, 0.05)
+            error = FORCE_PI.desired_force - wrench_state[:3]
+            bound = FORCE_PI.max_displacement
+            integral = np.clip(integral + self.force_ki * error * PERIOD, -bound, bound)
             pose = case.reference[k].copy()
-            pose[:3, 3] += np.clip(integral, -0.05, 0.05)
+            pose[:3, 3] += np.clip(integral, -bound, bound)
             q_desired = self.joint_reference(pose)
             dq_desired = (q_desired - previous_desired) / PERIOD
             previous_desired = q_desired.copy()
             gravity = pin.computeGeneralizedGravity(case.model.model, self.gravity_data, q_meas).copy()
-            tau = JOINT_KP * (q_desired - q_meas) + JOINT_KD * (dq_desired - dq) + gravity
+            tau = self.kp * (q_desired - q_meas) + self.kd * (dq_desired - dq) + gravity
             out["actual"][k], out["measured"][k], wrench_log[k] = (
                 self.plant.tcp_position,
                 force_meas,

@@ -8,21 +8,24 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from omegaconf import OmegaConf
 
 from lwrlab.control.contact_loop import ContactCase, simulate_contact, simulate_contacts
 from lwrlab.control.force_estimation import ExternalForceEstimator, ForceEstimatorBatch
 from lwrlab.control.joint_pd import ControlSetup
 from lwrlab.kinematics import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
+from lwrlab.pipeline.build import build, shipped_config
+from lwrlab.pipeline.painting_runs import contact_plant
 from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path
 from lwrlab.plants.contact_batch import ContactPlantBatch
-from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall
+from lwrlab.plants.mujoco_contact import Wall
 from lwrlab.plants.simulation import perturbed_robot
-from plugins.controllers.force_pi import ForcePIControl
-from plugins.controllers.position import PositionControl
 
-WALL = Wall(x=-0.8, center_y=0.3, center_z=0.4, width=0.6, height=0.8)
+TASK = OmegaConf.to_container(shipped_config("task", "painting"), resolve=True)
+"""The painting task's settings (conf/task/painting.yaml): wall, contact plant, force estimate."""
+WALL = Wall(**TASK["wall"])
 PATH = PaintingPathParameters(
     duration=38.45, swivel=-1.673, z_upper=0.5355, z_lower=0.2403, y_start=0.1331, y_step=0.1835, n_steps=2
 )
@@ -44,23 +47,17 @@ def painting(lwr4):
 
 
 def _plant(tool, truth, seed=0):
-    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
-    return MujocoContactPlant(
-        truth, contact, WALL, contact_time_constant=0.02, force_noise_std=0.1, seed=seed
-    )
+    """The painting task's plant with a noisy wall sensor (its noise goes through the batch too)."""
+    return contact_plant(truth, tool, WALL, {**TASK["contact"], "force_noise_std": 0.1}, seed)
+
+
+def _estimator(model, tcp, **changes):
+    return ExternalForceEstimator(model, tcp, 1e-3, **{**TASK["estimator"], **changes})
 
 
 def _force_pi(feedback):
-    return ForcePIControl(
-        kp=2000.0,
-        kd=60.0,
-        desired_force=(-30.0, 0.0, 0.0),
-        force_kp=(1e-6, 0.0, 0.0),
-        force_ki=(2e-3, 0.0, 0.0),
-        feedback=feedback,
-        max_displacement=0.05,
-        sensor_cutoff_hz=20.0,
-    )
+    """The shipped force PI with a proportional term, so that the batch's proportional path runs too."""
+    return build("controller", "force_pi", feedback=feedback, force_kp=(1e-6, 0.0, 0.0))
 
 
 class _ProtocolOnly:
@@ -86,7 +83,7 @@ def _cases(painting, controllers, models):
         ContactCase(
             _plant(tool, truth),
             controller,
-            ExternalForceEstimator(model, tcp, 1e-3, coulomb_smoothing=0.01),
+            _estimator(model, tcp),
             ControlSetup(model, SwivelIK(model), tcp, PATH.swivel, BRANCH, 1e-3),
             start,
         )
@@ -107,7 +104,7 @@ def test_batched_loop_equals_each_run_alone(painting):
         return [
             _force_pi("estimate"),
             _force_pi("sensor"),
-            PositionControl(kp=2000.0, kd=60.0, offset=(-0.002, 0.0, 0.0)),
+            build("controller", "position"),
             _ProtocolOnly(_force_pi("estimate")),
         ]
 
@@ -150,8 +147,8 @@ def test_plant_batch_steps_each_plant_as_alone(painting):
 
 def test_estimator_batch_equals_each_estimator_alone(painting, rng):
     (cad, other), tcp = painting[2], painting[3]
-    estimators = [ExternalForceEstimator(model, tcp, 1e-3) for model in (cad, other)]
-    batch = ForceEstimatorBatch([ExternalForceEstimator(model, tcp, 1e-3) for model in (cad, other)])
+    estimators = [_estimator(model, tcp) for model in (cad, other)]
+    batch = ForceEstimatorBatch([_estimator(model, tcp) for model in (cad, other)])
     q0 = np.array([[0.3, 0.8, 0.2, -1.2, 0.4, 1.0, 0.1], [0.1, 0.6, -0.2, -1.0, 0.3, 0.9, 0.0]])
     batch.reset(q0)
     for r, estimator in enumerate(estimators):
@@ -164,4 +161,4 @@ def test_estimator_batch_equals_each_estimator_alone(painting, rng):
             for value, expected in zip(stacked, estimator.update(q[r], tau[r]), strict=True):
                 np.testing.assert_allclose(value[r], expected, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match="same filters"):
-        ForceEstimatorBatch([estimators[0], ExternalForceEstimator(cad, tcp, 1e-3, wrench_cutoff_hz=5.0)])
+        ForceEstimatorBatch([estimators[0], _estimator(cad, tcp, wrench_cutoff_hz=5.0)])

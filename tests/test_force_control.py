@@ -5,17 +5,25 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from omegaconf import OmegaConf
 
 from lwrlab.control.filters import BackwardDifference, FirstOrderLowPass
 from lwrlab.control.force_estimation import ExternalForceEstimator
 from lwrlab.control.force_pi import ForcePI
-from plugins.controllers.force_pi import ForcePIControl
+from lwrlab.pipeline.build import build, shipped_config
+
+ESTIMATOR = OmegaConf.to_container(shipped_config("task", "painting").estimator)
+"""The force estimate's settings (conf/task/painting.yaml ``estimator``); each test names what it changes."""
+
+
+def _estimator(robot, tcp, **changes):
+    return ExternalForceEstimator(robot, tcp, 1e-3, **{**ESTIMATOR, **changes})
 
 
 def test_estimator_recovers_a_static_wrench_exactly(lwr4, rng):
     tcp = np.eye(4)
     tcp[:3, 3] = [0.0, 0.0, 0.3]
-    estimator = ExternalForceEstimator(lwr4, tcp, wrench_cutoff_hz=np.inf)
+    estimator = _estimator(lwr4, tcp, wrench_cutoff_hz=np.inf)
     q = np.array([0.3, 0.8, 0.2, -1.2, 0.4, 1.0, 0.1])
     wrench = rng.normal(size=6) * [20, 20, 20, 2, 2, 2]
     jacobian = estimator.jacobian(q)
@@ -30,7 +38,7 @@ def test_estimator_recovers_a_static_wrench_exactly(lwr4, rng):
 def test_estimator_removes_the_dynamics_of_a_free_motion(lwr4):
     """Free motion, exact torques: the estimate stays near zero (only the causal differences lag)."""
     tcp = np.eye(4)
-    estimator = ExternalForceEstimator(
+    estimator = _estimator(
         lwr4, tcp, velocity_cutoff_hz=np.inf, acceleration_cutoff_hz=np.inf, coulomb_smoothing=1e-9
     )
     t = np.arange(0, 1, 1e-3)
@@ -61,23 +69,14 @@ def test_filters_are_causal_and_pass_constants():
     values = [low(np.ones(2)) for _ in range(2000)]
     np.testing.assert_allclose(values[-1], 1.0, atol=1e-10)
     assert 0 < values[0][0] < 0.1
-    diff = BackwardDifference(1e-3)
+    diff = BackwardDifference(1e-3, np.inf)
     diff.reset(np.zeros(1))
     assert diff(np.array([2e-3]))[0] == pytest.approx(2.0)
 
 
 def test_force_controller_rejects_unknown_feedback():
     with pytest.raises(ValueError, match="estimate"):
-        ForcePIControl(
-            kp=1.0,
-            kd=1.0,
-            desired_force=(-30.0, 0.0, 0.0),
-            force_kp=(0.0, 0.0, 0.0),
-            force_ki=(2e-3, 0.0, 0.0),
-            feedback="camera",
-            max_displacement=0.05,
-            sensor_cutoff_hz=20.0,
-        )
+        build("controller", "force_pi", feedback="camera")
 
 
 def test_filtered_differences_equal_two_cascaded_backward_differences(rng):

@@ -4,20 +4,24 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from omegaconf import OmegaConf
 
 from lwrlab.kinematics import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
+from lwrlab.pipeline.build import shipped_config
+from lwrlab.pipeline.painting_runs import contact_plant
 from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.plants.mujoco_contact import (
     ContactTool,
-    MujocoContactPlant,
     Wall,
     mujoco_inverse_dynamics,
     mujoco_xml,
 )
 
-PAPER_WALL = Wall(x=-0.8, center_y=0.3, center_z=0.4, width=0.6, height=0.8)
-"""The wall of §VI.B (conf/task/painting.yaml); the tests press on it at x = −0.8 m."""
+TASK = OmegaConf.to_container(shipped_config("task", "painting"), resolve=True)
+"""The painting task's settings (conf/task/painting.yaml): wall, contact plant, force estimate."""
+PAPER_WALL = Wall(**TASK["wall"])
+"""The wall of §VI.B; the tests press on it at x = −0.8 m."""
 
 
 def _states(robot, rng, n=30):
@@ -28,7 +32,7 @@ def _states(robot, rng, n=30):
 def test_mujoco_and_pinocchio_inverse_dynamics_agree(lwr4, rng):
     q, dq, ddq = _states(lwr4, rng)
     np.testing.assert_allclose(
-        mujoco_inverse_dynamics(lwr4, q, dq, ddq),
+        mujoco_inverse_dynamics(lwr4, q, dq, ddq, with_armature=False),
         lwr4.inverse_dynamics(q, dq, ddq, with_friction=False),
         atol=1e-10,
     )
@@ -44,8 +48,10 @@ def test_tool_body_matches_the_payload_attached_in_pinocchio(lwr4, rng):
     import mujoco
 
     tool = load_tool("large_roller")
-    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
-    model = mujoco.MjModel.from_xml_string(mujoco_xml(lwr4, contact, None, with_armature=False))
+    radius = TASK["contact"]["contact_radius"]
+    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width, radius)
+    xml = mujoco_xml(lwr4, contact, None, timestep=1e-3, with_armature=False)
+    model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
     loaded = attach_payload(lwr4, tool.parameters)
     for q, dq, ddq in zip(*_states(lwr4, rng, 10), strict=True):
@@ -63,14 +69,18 @@ def test_rejects_non_chain_robot(lwr4):
 
     model = pin.buildSampleModelManipulator()
     with pytest.raises(ValueError, match="revolute-z"):
-        mujoco_xml(replace(lwr4, model=model, rotor_inertia=None, limits=lwr4.limits))
+        mujoco_xml(
+            replace(lwr4, model=model, rotor_inertia=None, limits=lwr4.limits),
+            timestep=1e-3,
+            with_armature=True,
+        )
 
 
 @pytest.fixture(scope="module")
 def pressing_plant(lwr4):
     tool = load_tool("large_roller")
-    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
-    plant = MujocoContactPlant(lwr4, contact, PAPER_WALL, torque_noise_std=0.0, encoder_noise_std=0.0)
+    noiseless = {**TASK["contact"], "torque_noise_std": 0.0, "encoder_noise_std": 0.0}
+    plant = contact_plant(lwr4, tool, PAPER_WALL, noiseless, seed=0)
     return plant, attach_payload(lwr4, tool.parameters), tool
 
 
@@ -86,7 +96,7 @@ def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
     pose = np.eye(4)
     pose[:3, :3] = [[0, 0, -1], [0, 1, 0], [1, 0, 0]]
     pose[:3, 3] = [-0.8 - 0.004, 0.3, 0.4]  # 4 mm into the wall
-    setup = ControlSetup(loaded, SwivelIK(loaded), tcp, -1.57, Branch(1, 1, 1))
+    setup = ControlSetup(loaded, SwivelIK(loaded), tcp, -1.57, Branch(1, 1, 1), 1e-3)
     q_ref = setup.joint_reference(pose)
     away = pose.copy()
     away[0, 3] += 0.01  # start 6 mm off the wall (the sensor is tared there)
@@ -94,7 +104,7 @@ def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
     pd = JointPDGravity(loaded, 2000.0, 60.0, 1e-3)
     sensors = plant.reset(q_start, pd.gravity(q_start))
     pd.reset(q_ref)
-    estimator = ExternalForceEstimator(loaded, tcp)
+    estimator = ExternalForceEstimator(loaded, tcp, 1e-3, **TASK["estimator"])
     estimator.reset(sensors.q)
     forces, estimates = [], []
     for _ in range(1500):
@@ -113,18 +123,10 @@ def test_plant_step_equals_plain_mujoco_steps_and_per_sample_noise(pressing_plan
     import mujoco
 
     _, loaded, tool = pressing_plant
-    lwr4_plant = pressing_plant[0]
-    contact = ContactTool(tool.parameters, tool.contact_point, tool.contact_axis, tool.width)
-    plant = MujocoContactPlant(
-        lwr4_plant.robot,
-        contact,
-        PAPER_WALL,
-        torque_noise_std=0.1,
-        encoder_noise_std=1e-5,
-        force_noise_std=0.2,
-        seed=3,
-    )
-    reference = MujocoContactPlant(lwr4_plant.robot, contact, PAPER_WALL, seed=3)
+    robot = pressing_plant[0].robot
+    noisy = {**TASK["contact"], "torque_noise_std": 0.1, "encoder_noise_std": 1e-5, "force_noise_std": 0.2}
+    plant = contact_plant(robot, tool, PAPER_WALL, noisy, seed=3)
+    reference = contact_plant(robot, tool, PAPER_WALL, TASK["contact"], seed=3)
     model, data, rng = reference.model, reference.data, np.random.default_rng(3)
     q0 = np.array([0.3, 0.8, 0.2, -1.2, 0.4, 1.0, 0.1])
     hold = loaded.inverse_dynamics(q0[None], np.zeros((1, 7)), np.zeros((1, 7)), with_friction=False)[0]
@@ -136,7 +138,7 @@ def test_plant_step_equals_plain_mujoco_steps_and_per_sample_noise(pressing_plan
     for k in range(1200):  # more than one noise block
         tau = hold + 3.0 * np.sin(np.arange(7) + k / 50.0)
         sensors = plant.step(tau)
-        for _ in range(2):
+        for _ in range(plant.substeps):
             data.qfrc_applied[:] = tau - friction(data.qvel)
             mujoco.mj_step(model, data)
         data.qfrc_applied[:] = tau - friction(data.qvel)

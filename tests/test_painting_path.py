@@ -4,14 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from omegaconf import OmegaConf
 from scipy.interpolate import BPoly
 
-from lwrlab.kinematics import Branch, SwivelIK
-from lwrlab.model.payload import attach_payload
+from lwrlab.pipeline.build import shipped_config
+from lwrlab.pipeline.painting import path_problem
 from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.planning.coverage import painted_fraction
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path, way_point_times
-from lwrlab.planning.path_optimisation import InfeasiblePath, PathProblem, WallBounds, optimise_path
+from lwrlab.planning.path_optimisation import InfeasiblePath, WallBounds, optimise_path
+from lwrlab.plants.mujoco_contact import Wall
+
+TASK = OmegaConf.to_container(shipped_config("task", "painting"), resolve=True)
+"""The painting task's settings (conf/task/painting.yaml): the wall and eq. (12)'s ``path``."""
 
 PARAMETERS = PaintingPathParameters(
     duration=30.0, swivel=0.0, z_upper=0.6, z_lower=0.2, y_start=0.1, y_step=0.2, n_steps=2
@@ -54,26 +59,17 @@ def test_coverage_of_overlapping_and_gapped_stripes():
 
 @pytest.fixture(scope="module")
 def roller_problem(lwr4):
+    """The painting task's eq. (12) for the large roller on the CAD robot, N_r = 1 (quick)."""
     tool = load_tool("large_roller")
-    robot = attach_payload(lwr4, tool.parameters)
-    tcp = np.eye(4)
-    tcp[:3, 3] = tool.contact_point
-    return PathProblem(
-        robot,
-        SwivelIK(robot),
-        tcp,
-        WallBounds(-0.8, 0.0, 0.6, 0.0, 0.8),
-        tool.width,
-        n_steps=1,
-        branch=Branch(1, -1, -1),
-    )
+    return path_problem(lwr4, tool.parameters, tool, Wall(**TASK["wall"]), 1, TASK["path"])
 
 
 def test_optimised_path_is_feasible_continuous_and_covers_its_area(roller_problem):
     solution = optimise_path(roller_problem, starting_swivels=(-1.6,))
     assert min(solution.constraints.values()) > -1e-6
     p = solution.parameters
-    assert p.y_step <= roller_problem.roller_width + 1e-9
+    assert roller_problem.stripe_overlap > 0  # neighbouring stripes overlap by at least that
+    assert p.y_step <= roller_problem.roller_width - roller_problem.stripe_overlap + 1e-9
     # the 1 kHz joint trajectory stays on one branch: no jumps, every limit met
     _, q, dq, ddq = roller_problem.joint_trajectory(p.vector(), rate_hz=1000.0)
     assert np.abs(np.diff(q, axis=0)).max() < 5e-3

@@ -31,6 +31,8 @@ class PaintingPathSettings:
     """Hz, N_S/T_C of the Σ q̈² term."""
     search_rate_hz: float
     """Hz, joint-trajectory grid during the search."""
+    torque_stride: int
+    """Search-grid samples between two torque-limit checks."""
     duration_bounds: list[float]
     """s, [low, high] bounds on T_C."""
     min_stroke: float

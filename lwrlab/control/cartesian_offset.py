@@ -32,30 +32,53 @@ FEEDBACKS = ("estimate", "sensor", "none")
 
 @dataclass(frozen=True, kw_only=True)
 class OffsetTrackingLaw:
-    """The settings of one controller: ``ΔP = offset + PI(F_d − F)`` tracked by joint PD + gravity."""
+    """The settings of one controller: ``ΔP = offset + PI(F_d − F)`` tracked by joint PD + gravity.
+
+    Every field is given by the controller plugin building the law from its YAML (conf/controller/);
+    a law without a force loop takes the constants of :meth:`without_force_loop`.
+    """
 
     kp: ArrayLike
     """Joint proportional gains (N·m/rad), one per joint or one for all."""
     kd: ArrayLike
     """Joint derivative gains (N·m·s/rad)."""
-    offset: ArrayLike = (0.0, 0.0, 0.0)
+    offset: ArrayLike
     """(3,) constant shift of the reference, base axes (m)."""
-    feedback: str = "none"
+    feedback: str
     """``estimate`` (eq. 14), ``sensor`` (the wall's sensor, low-passed) or ``none`` (no force loop)."""
-    desired_force: ArrayLike = (0.0, 0.0, 0.0)
+    desired_force: ArrayLike
     """(3,) F_d (N), force on the environment, base axes."""
-    force_kp: ArrayLike = (0.0, 0.0, 0.0)
+    force_kp: ArrayLike
     """(3,) proportional force gains (m/N)."""
-    force_ki: ArrayLike = (0.0, 0.0, 0.0)
+    force_ki: ArrayLike
     """(3,) integral force gains (m/(N·s))."""
-    max_displacement: float = 0.0
+    max_displacement: float
     """Bound on each component of the force loop's ΔP (m)."""
-    sensor_cutoff_hz: float = np.inf
+    sensor_cutoff_hz: float
     """Low-pass on the sensed force before feedback (Hz)."""
 
     def __post_init__(self) -> None:
         if self.feedback not in FEEDBACKS:
             raise ValueError(f"unknown force feedback {self.feedback!r}; valid: {list(FEEDBACKS)}")
+
+    @classmethod
+    def without_force_loop(cls, *, kp: ArrayLike, kd: ArrayLike, offset: ArrayLike) -> OffsetTrackingLaw:
+        """Pure position control: the reference shifted by ``offset``, no force loop.
+
+        The force-loop fields are constants of such a law, not settings: nothing fed back, no target,
+        zero gains and bound (the loop stays at rest), no sensor filter.
+        """
+        return cls(
+            kp=kp,
+            kd=kd,
+            offset=offset,
+            feedback="none",
+            desired_force=(0.0, 0.0, 0.0),
+            force_kp=(0.0, 0.0, 0.0),
+            force_ki=(0.0, 0.0, 0.0),
+            max_displacement=0.0,
+            sensor_cutoff_hz=np.inf,
+        )
 
 
 class OffsetTrackingBatch:

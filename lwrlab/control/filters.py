@@ -61,9 +61,15 @@ class FirstOrderLowPass:
 
 
 class BackwardDifference:
-    """First-order backward difference ``(x_k − x_{k−1})/Δt`` then a low-pass (eq. (13): q̇ from q)."""
+    """First-order backward difference ``(x_k − x_{k−1})/Δt`` then a low-pass (eq. (13): q̇ from q).
 
-    def __init__(self, period: float, cutoff_hz: float = np.inf) -> None:
+    Parameters
+    ----------
+    period : sampling period Δt (s).
+    cutoff_hz : the low-pass (Hz; ``inf``: none).
+    """
+
+    def __init__(self, period: float, cutoff_hz: float) -> None:
         self.period = period
         self.inverse_period = 1.0 / period
         self.low_pass = FirstOrderLowPass(cutoff_hz, period)
@@ -98,9 +104,7 @@ class FilteredDifferences:
     velocity_cutoff_hz, acceleration_cutoff_hz : the two low-passes (Hz; ``inf``: none).
     """
 
-    def __init__(
-        self, period: float, velocity_cutoff_hz: float = np.inf, acceleration_cutoff_hz: float = np.inf
-    ) -> None:
+    def __init__(self, period: float, velocity_cutoff_hz: float, acceleration_cutoff_hz: float) -> None:
         av, aa = low_pass_gain(velocity_cutoff_hz, period), low_pass_gain(acceleration_cutoff_hz, period)
         r = 1.0 / period
         # rows: new x, new v, new a; columns: old x, old v, old a, input x

@@ -72,6 +72,9 @@ class ExternalForceEstimator:
     wrench_cutoff_hz : low-pass on the estimated wrench (Hz).
     coulomb_smoothing : ε (rad/s) of ``FC·tanh(q̇/ε)``.
 
+    The filters and ε are the painting task's ``estimator`` settings (conf/task/painting.yaml), the
+    one place of their values.
+
     The estimator holds the model and the settings; the per-sample work is that of
     :class:`ForceEstimatorBatch`, which runs several estimators in lockstep (alone: a batch of one).
     """
@@ -80,11 +83,12 @@ class ExternalForceEstimator:
         self,
         robot: RobotModel,
         tcp_in_flange: np.ndarray,
-        period: float = 1e-3,
-        velocity_cutoff_hz: float = 50.0,
-        acceleration_cutoff_hz: float = 10.0,
-        wrench_cutoff_hz: float = 20.0,
-        coulomb_smoothing: float = 0.01,
+        period: float,
+        *,
+        velocity_cutoff_hz: float,
+        acceleration_cutoff_hz: float,
+        wrench_cutoff_hz: float,
+        coulomb_smoothing: float,
     ) -> None:
         self.robot = robot
         self.model, self.frame_id = add_tool_frame(robot, tcp_in_flange)

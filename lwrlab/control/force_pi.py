@@ -19,7 +19,7 @@ class ForcePI:
         there (anti-windup).
     """
 
-    def __init__(self, desired_force, kp, ki, period: float, max_displacement=0.05) -> None:
+    def __init__(self, desired_force, kp, ki, period: float, max_displacement) -> None:
         self.desired_force = np.array(desired_force, dtype=float)
         if self.desired_force.shape[-1:] != (3,) or self.desired_force.ndim > 2:
             raise ValueError(f"desired force of shape (3,) or (R, 3), got {self.desired_force.shape}")

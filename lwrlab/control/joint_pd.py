@@ -30,7 +30,7 @@ class ControlSetup:
     """Swivel angle φ of the painting path (rad)."""
     branch: Branch
     """IK branch of the painting path."""
-    period: float = 1e-3
+    period: float
     """Control period (s)."""
 
     @cached_property

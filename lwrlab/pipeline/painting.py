@@ -82,7 +82,7 @@ class PaintingSettings:
     """Force fed back (``estimate`` | ``sensor``) by a controller with force feedback."""
     wall: Wall
     path: Mapping[str, Any]
-    """Eq. (12): rate_hz, search_rate_hz, duration_bounds, min_stroke, singularity_margin,
+    """Eq. (12): rate_hz, search_rate_hz, torque_stride, duration_bounds, min_stroke, singularity_margin,
     stripe_overlap, branch, starting_swivels."""
     contact: Mapping[str, Any]
     """The MuJoCo plant and the run's timing (see :func:`simulate_painting`)."""
@@ -121,6 +121,38 @@ class PaintingReport:
         return pd.DataFrame([plan.summary(name) for name, plan in self.plans.items()])
 
 
+def path_problem(
+    robot: RobotModel,
+    tool_parameters: np.ndarray,
+    recognised: Tool,
+    wall: Wall,
+    n_steps: int,
+    path: Mapping[str, Any],
+) -> PathProblem:
+    """Eq. (12) for ``robot`` carrying a roller of inertia ``tool_parameters`` (10, flange frame) and of
+    the geometry of ``recognised`` (w_L, contact point), painting ``wall`` in ``n_steps`` steps (N_r).
+
+    ``path``: the painting task's ``path`` settings (conf/task/painting.yaml; ``starting_swivels`` is
+    :func:`optimise_path`'s).
+    """
+    return PathProblem(
+        attach_payload(robot, tool_parameters),
+        SwivelIK(robot),
+        tcp_transform(recognised),
+        WallBounds(wall.x, *wall.y_bounds, *wall.z_bounds),
+        roller_width=recognised.width,
+        n_steps=n_steps,
+        branch=Branch(*path["branch"]),
+        rate_hz=float(path["rate_hz"]),
+        search_rate_hz=float(path["search_rate_hz"]),
+        torque_stride=int(path["torque_stride"]),
+        duration_bounds=tuple(path["duration_bounds"]),
+        min_stroke=float(path["min_stroke"]),
+        singularity_margin=float(path["singularity_margin"]),
+        stripe_overlap=float(path["stripe_overlap"]),
+    )
+
+
 def plan_roller(
     tool: Tool,
     estimate_parameters: np.ndarray,
@@ -129,26 +161,15 @@ def plan_roller(
     settings: PaintingSettings,
 ) -> RollerPlan:
     """The painting path (eq. 12) of ``tool``, recognised as ``recognised``, on ``identified_robot``."""
-    path, wall = settings.path, settings.wall
     if tool.name not in settings.n_steps:
         raise ConfigError(f"task.n_steps has no entry for roller {tool.name!r}: {dict(settings.n_steps)}")
-    problem = PathProblem(
-        attach_payload(identified_robot, estimate_parameters),
-        SwivelIK(identified_robot),
-        tcp_transform(recognised),
-        WallBounds(wall.x, *wall.y_bounds, *wall.z_bounds),
-        roller_width=recognised.width,
-        n_steps=int(settings.n_steps[tool.name]),
-        branch=Branch(*path["branch"]),
-        rate_hz=float(path["rate_hz"]),
-        search_rate_hz=float(path["search_rate_hz"]),
-        duration_bounds=tuple(path["duration_bounds"]),
-        min_stroke=float(path["min_stroke"]),
-        singularity_margin=float(path["singularity_margin"]),
-        stripe_overlap=float(path["stripe_overlap"]),
+    n_steps = int(settings.n_steps[tool.name])
+    problem = path_problem(
+        identified_robot, estimate_parameters, recognised, settings.wall, n_steps, settings.path
     )
     started = time.perf_counter()
-    solution = optimise_path(problem, starting_swivels=tuple(path["starting_swivels"]), progress=True)
+    starts = tuple(settings.path["starting_swivels"])
+    solution = optimise_path(problem, starting_swivels=starts, progress=True)
     return RollerPlan(tool, recognised, estimate_parameters, solution, time.perf_counter() - started)
 
 
@@ -319,4 +340,12 @@ def run_painting(
     return {key: float(value) for key, value in report.metrics.items()}
 
 
-__all__ = ["COMPARISONS", "PaintingReport", "PaintingSettings", "paint", "paint_configured", "run_painting"]
+__all__ = [
+    "COMPARISONS",
+    "PaintingReport",
+    "PaintingSettings",
+    "paint",
+    "paint_configured",
+    "path_problem",
+    "run_painting",
+]

@@ -129,6 +129,36 @@ def reference_poses(
     return reference, painting
 
 
+def contact_plant(
+    truth: RobotModel, tool: Tool, wall: Wall, contact: Mapping[str, Any], seed: int
+) -> MujocoContactPlant:
+    """The MuJoCo plant of the true robot carrying ``tool`` against ``wall``, at the control rate.
+
+    ``contact``: the painting task's ``contact`` settings (conf/task/painting.yaml): the plant's
+    ``substeps``, ``friction``, ``contact_time_constant``, ``contact_radius`` and noise levels.
+    ``seed``: the seed of the sensor noise.
+    """
+    return MujocoContactPlant(
+        truth,
+        ContactTool(
+            tool.parameters,
+            tool.contact_point,
+            tool.contact_axis,
+            tool.width,
+            float(contact["contact_radius"]),
+        ),
+        wall,
+        control_period=1.0 / CONTROL_RATE_HZ,
+        substeps=int(contact["substeps"]),
+        torque_noise_std=contact["torque_noise_std"],
+        encoder_noise_std=float(contact["encoder_noise_std"]),
+        force_noise_std=float(contact["force_noise_std"]),
+        friction=float(contact["friction"]),
+        contact_time_constant=float(contact["contact_time_constant"]),
+        seed=seed,
+    )
+
+
 def simulate_painting(
     plan: RollerPlan,
     truth: RobotModel,
@@ -145,16 +175,9 @@ def simulate_painting(
     advances them all each period (:func:`~lwrlab.control.contact_loop.simulate_contacts`), each
     equal to that run simulated alone. ``contact`` (conf/task/painting.yaml ``contact``):
     ``approach_s``, ``standoff``, ``duration_scale``, ``max_duration`` (the runs' timing) and the
-    plant's ``substeps``, ``friction``, ``contact_time_constant``, ``contact_radius`` and noise levels.
+    plant's settings (:func:`contact_plant`); ``estimator_settings``: the task's ``estimator``.
     """
     period = 1.0 / CONTROL_RATE_HZ
-    tool = ContactTool(
-        plan.tool.parameters,
-        plan.tool.contact_point,
-        plan.tool.contact_axis,
-        plan.tool.width,
-        float(contact["contact_radius"]),
-    )
     tcp = tcp_transform(plan.recognised)
     max_duration = contact["max_duration"]
     reference, painting = reference_poses(
@@ -169,19 +192,7 @@ def simulate_painting(
     start[0, 3] += float(contact["standoff"])  # start off the wall; the force loop brings the roller on it
     cases = [
         ContactCase(
-            MujocoContactPlant(
-                truth,
-                tool,
-                wall,
-                control_period=period,
-                substeps=int(contact["substeps"]),
-                torque_noise_std=contact["torque_noise_std"],
-                encoder_noise_std=float(contact["encoder_noise_std"]),
-                force_noise_std=float(contact["force_noise_std"]),
-                friction=float(contact["friction"]),
-                contact_time_constant=float(contact["contact_time_constant"]),
-                seed=seed,
-            ),
+            contact_plant(truth, plan.tool, wall, contact, seed),
             controller,
             ExternalForceEstimator(model, tcp, period, **estimator_settings),
             ControlSetup(model, SwivelIK(model), tcp, plan.path.parameters.swivel, plan.path.branch, period),

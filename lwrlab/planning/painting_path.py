@@ -43,7 +43,7 @@ class PaintingPathParameters:
     """Y_0, horizontal position of the first stroke (m)."""
     y_step: float
     """ΔY, horizontal step between strokes (m)."""
-    n_steps: int = 2
+    n_steps: int
     """N_r, number of horizontal steps (N_r + 1 vertical strokes)."""
 
     @classmethod

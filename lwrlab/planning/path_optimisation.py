@@ -4,8 +4,8 @@ Search ``x = [T_C, φ, Z_u, Z_l, Y_0, ΔY]`` minimising
 
     T_C + w_s·Σ_j Σ_k (q̈_jk^igm)² + 1 / ((Z_u − Z_l)·ΔY)                               (eq. 12)
 
-(q̈ of the inverse-geometric joint trajectory sampled at ``rate_hz``, 100 Hz by default: the sum
-scales with the rate, so the rate is part of the problem's definition; ``w_s`` = 1 is the paper's
+(q̈ of the inverse-geometric joint trajectory sampled at ``rate_hz``, the painting task's 100 Hz: the
+sum scales with the rate, so the rate is part of the problem's definition; ``w_s`` = 1 is the paper's
 cost) subject to, along the whole trajectory and for every joint, the position, velocity,
 acceleration and torque limits (torques by inverse dynamics of the robot *with its tool*, friction
 included), the wall bounds (the roller, of width w_L, stays on the wall), Z_l ≤ Z_u, ΔY ≤ w_L (no
@@ -26,7 +26,7 @@ max/min (a subgradient).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import KW_ONLY, dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import minimize
@@ -43,10 +43,10 @@ from lwrlab.planning.painting_path import (
 )
 from lwrlab.planning.path_gradients import TrajectoryDerivatives
 
-DEFAULT_BRANCH = Branch(1, 1, 1)
-"""The IK branch of a :class:`PathProblem` not given one: sin q2, sin q4, sin q6 all positive."""
 GRADIENTS = ("analytic", "finite_differences")
 """How :func:`optimise_path` gets its gradients: analytic, or SLSQP's own finite differences."""
+PAPER_SMOOTHNESS_WEIGHT = 1.0
+"""w_s of eq. (12) as the paper writes it: the three terms summed unweighted."""
 
 
 class InfeasiblePath(ValueError):
@@ -81,10 +81,18 @@ class PathProblem:
         is computed as ``rate_hz·∫ q̈² dt`` on the search grid.
     search_rate_hz : sampling rate of the joint trajectory during the search (Hz); the solution is
         checked again at 1 kHz by the caller. The paths are slow (segments of seconds), 10 Hz resolves them.
+    torque_stride : torques are checked every ``torque_stride`` samples of the search grid (they stay
+        far from their limits on these slow paths).
     duration_bounds : bounds on T_C (s).
     min_stroke : smallest Z_u − Z_l (m).
     singularity_margin : smallest |sin q2|, |sin q4|, |sin q6| along the path.
-    smoothness_weight : w_s.
+    stripe_overlap : least overlap of two neighbouring stripes (m): ΔY ≤ w_L − overlap (the paper's
+        ΔY ≤ w_L leaves no gap on the planned path; the overlap absorbs the tracking error in contact).
+    smoothness_weight, rotation : constants, not settings: the paper's w_s (eq. 12) and the tool's
+        orientation on a wall facing +x (:data:`~lwrlab.planning.painting_path.TOOL_ORIENTATION`).
+
+    The settings from ``n_steps`` on are keyword-only, without defaults: the painting task's
+    ``n_steps`` and ``path`` (conf/task/painting.yaml) hold their values.
     """
 
     robot: RobotModel
@@ -92,20 +100,17 @@ class PathProblem:
     tcp_in_flange: np.ndarray
     wall: WallBounds
     roller_width: float
-    n_steps: int = 2
-    branch: Branch = DEFAULT_BRANCH
-    rate_hz: float = 100.0
-    search_rate_hz: float = 10.0
-    torque_stride: int = 4
-    """Torques are checked every ``torque_stride`` samples of the search grid (they are far from
-    their limits on these slow paths; the 1 kHz check of the result covers every sample)."""
-    duration_bounds: tuple[float, float] = (10.0, 120.0)
-    min_stroke: float = 0.1
-    singularity_margin: float = 0.1
-    smoothness_weight: float = 1.0
-    stripe_overlap: float = 0.0
-    """Least overlap of two neighbouring stripes (m): ΔY ≤ w_L − overlap. The paper's ΔY ≤ w_L
-    leaves no gap on the planned path; the overlap absorbs the lateral tracking error in contact."""
+    _: KW_ONLY
+    n_steps: int
+    branch: Branch
+    rate_hz: float
+    search_rate_hz: float
+    torque_stride: int
+    duration_bounds: tuple[float, float]
+    min_stroke: float
+    singularity_margin: float
+    stripe_overlap: float
+    smoothness_weight: float = PAPER_SMOOTHNESS_WEIGHT
     rotation: np.ndarray = field(default_factory=lambda: TOOL_ORIENTATION.copy())
     _memo: tuple | None = field(default=None, init=False, repr=False)
     _derivative_memo: tuple | None = field(default=None, init=False, repr=False)
@@ -305,7 +310,8 @@ class PathSolution:
 
 def optimise_path(
     problem: PathProblem,
-    starting_swivels: Sequence[float] = (-2.0, -1.0, 1.0, 2.0),
+    *,
+    starting_swivels: Sequence[float],
     branches: Sequence[Branch] | None = None,
     tolerance: float = 1e-6,
     progress: bool = False,
@@ -316,11 +322,11 @@ def optimise_path(
     Parameters
     ----------
     problem : the problem (its ``branch`` is used when ``branches`` is None).
-    starting_swivels : initial φ of the starts (rad).
-    branches : IK branches to try, each with every start.
-    tolerance : SLSQP's ``ftol``.
+    starting_swivels : initial φ of the starts (rad): the painting task's ``path.starting_swivels``.
+    branches : IK branches to try, each with every start; None: the problem's own.
+    tolerance : SLSQP's ``ftol``, a constant of the method (the costs are O(10–100)).
     progress : show a progress bar over the starts.
-    gradients : ``analytic`` (default) or ``finite_differences`` (SLSQP's own, 7 evaluations each;
+    gradients : ``analytic`` (the method) or ``finite_differences`` (SLSQP's own, 7 evaluations each;
         kept as the reference the benchmark and the tests compare with).
 
     Raises

@@ -34,6 +34,15 @@ from numpy.typing import ArrayLike
 from lwrlab.model.inertia import mass_com_inertia
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.contact_batch import ContactPlantBatch, ContactSensors
+from lwrlab.plants.simulation import COULOMB_SMOOTHING
+
+# Constants of the contact model; its settings (friction, time constant) are the painting task's.
+CONTACT_DAMPING_RATIO = 1.0
+"""Damping ratio of MuJoCo's soft contact (``solref``'s second value): critically damped, no bounce."""
+CONTACT_IMPEDANCE = (0.95, 0.99, 0.001)
+"""MuJoCo ``solimp`` (impedance at zero and full penetration, its width in m): a stiff contact."""
+TORSIONAL_ROLLING_FRICTION = "0.005 0.0001"
+"""MuJoCo's torsional and rolling friction of the geoms (no part in a ``condim="3"`` contact)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -80,8 +89,8 @@ class ContactTool:
     """Unit direction of the contact line (a roller's axis)."""
     width: float
     """Length of the contact line (m)."""
-    contact_radius: float = 0.025
-    """Radius of the capsule modelling the roller cover (m)."""
+    contact_radius: float
+    """Radius of the capsule modelling the roller cover (m): the painting task's ``contact_radius``."""
 
 
 def _vector(values: ArrayLike) -> str:
@@ -118,11 +127,11 @@ def mujoco_xml(
     robot: RobotModel,
     tool: ContactTool | None = None,
     wall: Wall | None = None,
-    timestep: float = 5e-4,
-    friction: float = 0.1,
-    solref: tuple[float, float] = (0.01, 1.0),
-    solimp: tuple[float, float, float] = (0.95, 0.99, 0.001),
-    with_armature: bool = True,
+    *,
+    timestep: float,
+    with_armature: bool,
+    friction: float | None = None,
+    contact_time_constant: float | None = None,
 ) -> str:
     """MJCF text of ``robot`` (+ ``tool`` on the flange, + ``wall``), from its Pinocchio model.
 
@@ -132,10 +141,14 @@ def mujoco_xml(
     tool : the tool fixed to the flange, or None.
     wall : the wall with its force sensor, or None.
     timestep : MuJoCo integration step (s).
-    friction : sliding friction coefficient between tool and wall (a wet roller slides easily).
-    solref, solimp : MuJoCo soft-contact parameters (time constant s, damping ratio; impedance).
     with_armature : put the robot's ``rotor_inertia`` on the joints.
+    friction : sliding friction coefficient between tool and wall (a wet roller slides easily).
+    contact_time_constant : time constant of MuJoCo's soft contact (``solref``, s).
+        The contact's two settings (the painting task's ``contact``) are required with a wall and
+        may be left out without one (nothing to touch: MuJoCo's own contact defaults then apply).
     """
+    if wall is not None and (friction is None or contact_time_constant is None):
+        raise ValueError("a wall needs the contact's friction and contact_time_constant")
     model = robot.model
     gravity = robot.gravity
     armature = (
@@ -174,23 +187,31 @@ def mujoco_xml(
             "</body>"
         )
         sensor_xml = '<sensor><force name="wall_force" site="wall_sensor"/></sensor>'
+    contact_xml = ""
+    if friction is not None and contact_time_constant is not None:
+        solref = (contact_time_constant, CONTACT_DAMPING_RATIO)
+        contact_xml = (
+            f'<default><geom friction="{friction:.17g} {TORSIONAL_ROLLING_FRICTION}" '
+            f'solref="{_vector(solref)}" solimp="{_vector(CONTACT_IMPEDANCE)}" condim="3"/></default>'
+        )
     return (
         f'<mujoco model="{robot.name}">'
         f'<option timestep="{timestep:.17g}" gravity="{_vector(gravity)}" integrator="Euler">'
         '<flag contact="enable"/></option>'
-        f'<default><geom friction="{friction:.17g} 0.005 0.0001" solref="{_vector(solref)}" '
-        f'solimp="{_vector(solimp)}" condim="3"/></default>'
+        f"{contact_xml}"
         f"<worldbody>{wall_xml}{''.join(bodies)}{''.join(closing)}</worldbody>"
         f"{sensor_xml}</mujoco>"
     )
 
 
 def mujoco_inverse_dynamics(
-    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, with_armature: bool = False
+    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, *, with_armature: bool
 ) -> np.ndarray:
     """Joint torques (N·m, (N, N_J)) by MuJoCo's ``mj_inverse`` on the model of :func:`mujoco_xml`
     (no friction); with the rotor inertia when ``with_armature``."""
-    mj_model = mujoco.MjModel.from_xml_string(mujoco_xml(robot, with_armature=with_armature))
+    # mj_inverse integrates nothing: the model's time step plays no part in its torques
+    xml = mujoco_xml(robot, timestep=1e-3, with_armature=with_armature)
+    mj_model = mujoco.MjModel.from_xml_string(xml)
     mj_data = mujoco.MjData(mj_model)
     q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
     tau = np.empty_like(q)
@@ -215,8 +236,13 @@ class MujocoContactPlant:
     encoder_noise_std : encoder noise σ_q (rad).
     force_noise_std : wall force-sensor noise (N).
     friction : tool–wall sliding friction coefficient.
-    coulomb_smoothing : ε of the smoothed Coulomb friction ``FC·tanh(q̇/ε)`` (rad/s).
+    contact_time_constant : time constant of MuJoCo's soft contact (s): the cover's compliance.
     seed : seed of the sensor noise.
+
+    The settings are the painting task's ``contact`` (conf/task/painting.yaml), the one place of
+    their values; :func:`lwrlab.pipeline.painting_runs.contact_plant` builds the plant from them.
+    The joint friction's Coulomb term is smoothed with the plants' constant
+    :data:`~lwrlab.plants.simulation.COULOMB_SMOOTHING`.
     """
 
     def __init__(
@@ -224,15 +250,15 @@ class MujocoContactPlant:
         robot: RobotModel,
         tool: ContactTool,
         wall: Wall,
-        control_period: float = 1e-3,
-        substeps: int = 2,
-        torque_noise_std: float | np.ndarray = 0.1,
-        encoder_noise_std: float = 1.7e-5,
-        force_noise_std: float = 0.0,
-        friction: float = 0.1,
-        contact_time_constant: float = 0.01,
-        coulomb_smoothing: float = 1e-3,
-        seed: int = 0,
+        *,
+        control_period: float,
+        substeps: int,
+        torque_noise_std: float | np.ndarray,
+        encoder_noise_std: float,
+        force_noise_std: float,
+        friction: float,
+        contact_time_constant: float,
+        seed: int,
     ) -> None:
         self.robot, self.tool, self.wall = robot, tool, wall
         self.control_period, self.substeps = control_period, substeps
@@ -242,15 +268,17 @@ class MujocoContactPlant:
                 tool,
                 wall,
                 timestep=control_period / substeps,
+                with_armature=True,
                 friction=friction,
-                solref=(contact_time_constant, 1.0),
+                contact_time_constant=contact_time_constant,
             )
         )
         self.data = mujoco.MjData(self.model)
         self.torque_noise_std = np.broadcast_to(np.asarray(torque_noise_std, dtype=float), (robot.n_joints,))
         self.encoder_noise_std = encoder_noise_std
         self.force_noise_std = force_noise_std
-        self.coulomb_smoothing = coulomb_smoothing
+        self.coulomb_smoothing = COULOMB_SMOOTHING
+        """ε of the true Coulomb friction ``FC·tanh(q̇/ε)`` (rad/s)."""
         self.armature = (
             np.zeros(robot.n_joints)
             if robot.rotor_inertia is None

@@ -12,6 +12,12 @@ from lwrlab.model.inertia import perturb_consistent
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.core import Trajectory
 
+COULOMB_SMOOTHING = 1e-3
+"""ε (rad/s) of the simulated plants' true Coulomb friction ``FC·tanh(q̇/ε)``: a constant of the
+simulation, not a setting — a regularisation so that the integration does not chatter at a stop,
+far below the velocities of any motion (the force estimate's own ε, a model choice, is the painting
+task's ``estimator.coulomb_smoothing``)."""
+
 
 def perturbed_robot(
     robot: RobotModel, relative_spread: float, friction_spread: float, rng: np.random.Generator
@@ -41,8 +47,7 @@ def track_closed_loop(
     trajectory: Trajectory,
     kp: np.ndarray,
     kd: np.ndarray,
-    substeps: int = 4,
-    coulomb_smoothing: float = 1e-3,
+    substeps: int,
     progress: Iterable[int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Simulate joint PD + gravity compensation tracking ``trajectory`` (eq. (13) of the paper).
@@ -53,7 +58,7 @@ def track_closed_loop(
     (``plant_robot.rotor_inertia``) moves with the joints, so the commanded torque accelerates
     ``M(q) + diag(I_a)``, while the joint-torque sensor, on the link side of the drive, reads
     ``τ − I_a·q̈``: what the link dynamics (and the regressor) account for. Coulomb friction is smoothed as
-    ``FC·tanh(q̇/ε)`` with ε = ``coulomb_smoothing`` (rad/s) so the integration does not chatter.
+    ``FC·tanh(q̇/ε)`` with ε = :data:`COULOMB_SMOOTHING` so the integration does not chatter.
 
     Returns the true positions (rad), velocities (rad/s) and link-side joint torques (N·m) at the
     trajectory's sample times.
@@ -81,7 +86,7 @@ def track_closed_loop(
         q_out[k], dq_out[k] = q, dq
         for step in range(substeps):
             tau_friction = (
-                friction.viscous * dq + friction.coulomb * np.tanh(dq / coulomb_smoothing) + friction.offset
+                friction.viscous * dq + friction.coulomb * np.tanh(dq / COULOMB_SMOOTHING) + friction.offset
             )
             ddq = pin.aba(model, data, q, dq, tau - tau_friction)
             if step == 0:

@@ -64,6 +64,7 @@ class ForcePIControl(OffsetTrackingController):
         return OffsetTrackingLaw(
             kp=self.kp,
             kd=self.kd,
+            offset=(0.0, 0.0, 0.0),  # a constant of the method: the force loop alone moves the reference
             feedback=self.feedback,
             desired_force=self.desired_force,
             force_kp=self.force_kp,

@@ -44,4 +44,4 @@ class PositionControl(OffsetTrackingController):
 
     def law(self) -> OffsetTrackingLaw:
         """Eq. (13) tracking the shifted path, no force loop."""
-        return OffsetTrackingLaw(kp=self.kp, kd=self.kd, offset=self.offset)
+        return OffsetTrackingLaw.without_force_loop(kp=self.kp, kd=self.kd, offset=self.offset)
