@@ -18,7 +18,8 @@ from lwrlab.excitation.solver import InfeasibleExcitationError, SlsqpOptimizer, 
 from lwrlab.io.exciting_motion import load_motion_description
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.excitation import knee_duration, recommended_duration, regressor_condition
+from lwrlab.pipeline.duration_study import knee_duration, recommended_duration
+from lwrlab.pipeline.excitation import regressor_condition
 from plugins.criteria.logdet import LogDet
 from plugins.trajectories.fourier import FourierMotion
 from plugins.trajectories.optimal import OptimalExcitingMotion

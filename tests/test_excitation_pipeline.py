@@ -12,7 +12,8 @@ from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 from test_end_to_end import only_run, run_lwrlab
 
-from lwrlab.pipeline.excitation import run_criteria_comparison, run_duration_study
+from lwrlab.pipeline.criteria_comparison import run_criteria_comparison
+from lwrlab.pipeline.duration_study import run_duration_study
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 SMALL = ["optimizer.max_iterations=40", "optimizer.show_progress=false", "plant.show_progress=false"]
