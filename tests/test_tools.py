@@ -186,3 +186,20 @@ def test_tool_excitation_criterion_gradient_and_choice(lwr4, rng: np.random.Gene
     motions.insert(0, still.sample(lwr4, 100.0))  # barely moves: excites nothing
     best, values = select_tool_motion(lwr4, motions)
     assert best != 0 and values[0] > values.min() + 1.0
+
+
+def test_tool_motion_candidates_start_at_the_yaml_seed_and_need_one(lwr4) -> None:
+    """The loaded-motion candidates are seeded from the motion node's own ``seed``; a node without
+    one is refused (no silent seed 0)."""
+    from functools import partial
+
+    from lwrlab.errors import ConfigError
+    from lwrlab.pipeline.tools import tool_motion
+    from plugins.trajectories.multisine import MultisineMotion
+
+    settings = build("trajectory", "multisine", duration=2.0, harmonics=3)
+    node = {name: getattr(settings, name) for name in ("duration", "harmonics", "limit_fraction", "center")}
+    _, table = tool_motion(partial(MultisineMotion, **node, seed=7), 2, lwr4, 100.0)
+    assert table["seed"].tolist() == [7, 8]
+    with pytest.raises(ConfigError, match="seed"):
+        tool_motion(partial(MultisineMotion, **node), 2, lwr4, 100.0)

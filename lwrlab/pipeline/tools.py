@@ -168,7 +168,10 @@ def tool_motion(
     ``seed`` is the first candidate's). Returns the motion and a table of every candidate's seed and
     criterion value.
     """
-    first_seed = int(getattr(source, "keywords", {}).get("seed", 0))
+    keywords = getattr(source, "keywords", {})
+    if "seed" not in keywords:  # the first candidate's seed is the YAML's, never a silent 0
+        raise ConfigError("`task.tool_motion` gives no `seed`: the first candidate's seed (e.g. `seed: 100`)")
+    first_seed = int(keywords["seed"])
     candidates = [
         _motion(source(seed=first_seed + k), robot, rate_hz, "tool motion") for k in range(int(count))
     ]
