@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 from lwrlab.io.logs import LogError, load_log
@@ -64,22 +65,25 @@ class LogPlant:
         self.paths = _as_list(path, paths)
         if not self.paths:
             raise LogError(
-                "plant=log needs the identification log(s): set data.paths=[log.csv, …] (or data.path=log.csv)"
+                "plant=log needs the identification log(s): set data.paths=[log.csv, …] "
+                "(or data.path=log.csv)"
             )
         self.validation_paths = _as_list(validation_path, validation_paths)
         self.validation_fraction = validation_fraction
-        self._options = {
-            "n_joints": robot.n_joints,
-            "column_map": dict(column_map or {}),
-            "time_unit": time_unit,
-            "position_unit": position_unit,
-            "drive_gains": None if drive_gains is None else list(drive_gains),
-            "rate_hz": rate_hz,
-            "min_samples": min_samples,
-            "joint_names": robot.joint_names,
-            "topic": topic,
-            "limits": robot.limits,
-        }
+        self.min_samples = min_samples
+        self._read_log = partial(
+            load_log,
+            n_joints=robot.n_joints,
+            column_map=dict(column_map or {}),
+            time_unit=time_unit,
+            position_unit=position_unit,
+            drive_gains=None if drive_gains is None else list(drive_gains),
+            rate_hz=rate_hz,
+            min_samples=min_samples,
+            joint_names=robot.joint_names,
+            topic=topic,
+            limits=robot.limits,
+        )
         self._loaded: dict[Path, Measurement] = {}
 
     @property
@@ -93,19 +97,23 @@ class LogPlant:
         return self.paths[0]
 
     def load(self, path: str | Path, role: str) -> Measurement:
-        """One log as a measurement, tagged with its ``role`` (identification or validation); each file is read once."""
+        """One log as a measurement, tagged with its ``role`` (identification or validation).
+
+        Each file is read once.
+        """
         key = Path(path)
         if key not in self._loaded:
-            self._loaded[key] = load_log(key, **self._options).to_measurement()
+            self._loaded[key] = self._read_log(key).to_measurement()
         measurement = self._loaded[key]
         return replace(measurement, metadata={**measurement.metadata, "role": role})
 
     def _split(self, whole: Measurement, validation: bool) -> Measurement:
         n = len(whole.t)
-        split = int(round(n * (1.0 - self.validation_fraction)))
-        if min(split, n - split) < self._options["min_samples"]:
+        split = round(n * (1.0 - self.validation_fraction))
+        if min(split, n - split) < self.min_samples:
             raise LogError(
-                f"{whole.metadata['path']}: {n} samples cannot be split into identification and validation parts; give data.validation_paths"
+                f"{whole.metadata['path']}: {n} samples cannot be split into identification and validation "
+                "parts; give data.validation_paths"
             )
         part = slice(split, None) if validation else slice(None, split)
         t = whole.t[part]
@@ -114,6 +122,7 @@ class LogPlant:
             keep = (whole.logged_t >= t[0]) & (whole.logged_t <= t[-1])
             logged = {"logged_t": whole.logged_t[keep], "logged_tau": whole.logged_tau[keep]}
         name = f"{whole.name}_{'tail' if validation else 'head'}"
+        share = self.validation_fraction if validation else 1 - self.validation_fraction
         return replace(
             whole,
             t=t,
@@ -125,7 +134,7 @@ class LogPlant:
                 **whole.metadata,
                 "name": name,
                 "role": "validation" if validation else "identification",
-                "part": f"{'last' if validation else 'first'} {100 * (self.validation_fraction if validation else 1 - self.validation_fraction):.0f} %",
+                "part": f"{'last' if validation else 'first'} {100 * share:.0f} %",
             },
         )
 
