@@ -20,7 +20,7 @@ from lwrlab.control.force_estimation import ExternalForceEstimator
 from lwrlab.control.joint_pd import ControlSetup
 from lwrlab.kinematics.swivel_ik import SwivelIK
 from lwrlab.model.robot import RobotModel
-from lwrlab.planning.coverage import painted_fraction
+from lwrlab.planning.coverage import GRID_CELL, painted_fraction
 from lwrlab.planning.painting_path import sample_path
 from lwrlab.planning.path_optimisation import PathSolution
 from lwrlab.plants.mujoco_contact import ContactTool, MujocoContactPlant, Wall
@@ -32,6 +32,8 @@ COMPARISONS = (("estimated", "measured"), ("estimated", "desired"), ("measured",
 CONTROL_RATE_HZ = 1000.0
 """The controller's rate (Hz): the paper's 1 kHz loop."""
 
+EDGE = round(0.01 / GRID_CELL)
+"""Coverage-grid columns (1 cm) on each side of the painted area left out of its worst interior column."""
 IN_CONTACT_N = -1.0
 """Wall-sensor normal force (N) below which the roller counts as pressing (paints)."""
 
@@ -272,7 +274,7 @@ def score_run(
         "coverage": coverage,
         # a gap between two stripes would leave an interior column (a vertical band)
         # unpainted; the outer 1 cm on each side follows the path's lateral tracking error
-        "worst_interior_column_coverage": float(painted.mean(axis=0)[5:-5].min()),
+        "worst_interior_column_coverage": float(painted.mean(axis=0)[EDGE:-EDGE].min()),
         "worst_row_coverage": float(painted.mean(axis=1).min()),
         "tracking_rms_m": float(np.sqrt(np.mean(np.sum(offset**2, axis=1)))),
         "mean_measured_N": float(forces["measured"].mean()),
