@@ -40,8 +40,8 @@ from lwrlab.identification.least_squares import grouped_least_squares
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES
 from lwrlab.pipeline.config_nodes import processing_settings
 from lwrlab.pipeline.log_rows import log_rows, read_logs
+from lwrlab.pipeline.tool_bench import ToolBench, ToolData
 from lwrlab.pipeline.tool_library import load_tool
-from lwrlab.pipeline.tools import ToolBench, ToolData
 from lwrlab.tools.model import Tool
 
 log = logging.getLogger(__name__)

@@ -18,7 +18,7 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import ConfigError
 from lwrlab.identification.payload import tool_columns
 from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.tools import ToolBench, ToolData
+from lwrlab.pipeline.tool_bench import ToolBench, ToolData
 from lwrlab.plants.core import Measurement, RecordedPlant, is_recorded
 from lwrlab.signal.processing import process
 

@@ -24,7 +24,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol, cast
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -34,6 +34,7 @@ from lwrlab.errors import ConfigError
 from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.config_nodes import processing_settings
 from lwrlab.pipeline.identification import IdentificationReport
 from lwrlab.pipeline.painting_runs import (
     COMPARISONS,
@@ -43,9 +44,8 @@ from lwrlab.pipeline.painting_runs import (
     simulate_painting,
     tcp_transform,
 )
-from lwrlab.pipeline.tools import ToolBench, identify_tool
+from lwrlab.pipeline.tool_bench import ToolBench, ToolPlant, identify_tool
 from lwrlab.planning.path_optimisation import PathProblem, WallBounds, optimise_path
-from lwrlab.plants.core import Plant, PlantTruth
 from lwrlab.plants.mujoco_contact import Wall
 from lwrlab.tools.library import ToolLibrary
 from lwrlab.tools.model import Tool
@@ -53,19 +53,6 @@ from lwrlab.tools.recognition import ToolClassifier
 from lwrlab.trajectory.core import MotionSource, Trajectory
 
 log = logging.getLogger(__name__)
-
-
-class ToolPlant(Plant, Protocol):
-    """A simulated plant that carries a tool on demand: the painting's truth comes from it."""
-
-    @property
-    def truth(self) -> PlantTruth:
-        """The true model (the painting plant's robot)."""
-        ...
-
-    def with_tool(self, tool: Tool | None) -> ToolPlant:
-        """The same robot carrying ``tool`` (None: unloaded)."""
-        ...
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -266,7 +253,6 @@ def paint_configured(
     from functools import partial
 
     from hydra.utils import instantiate
-    from omegaconf import OmegaConf
 
     from lwrlab.pipeline.identification import identify_configured
     from lwrlab.pipeline.tool_library import load_library
@@ -281,7 +267,7 @@ def paint_configured(
         "identified %s: cross-validation mean RMS %.3f N·m", robot.name, identification.metrics["rms_mean"]
     )
     library = load_library(None)
-    processing = cast(dict[str, Any], OmegaConf.to_container(cfg.measurement.processing, resolve=True))
+    processing = processing_settings(cfg)
     return paint(
         settings,
         identification=identification,

@@ -30,8 +30,8 @@ from lwrlab.io.artifacts import identified_model_path, load_identified_model
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
 from lwrlab.pipeline.config_nodes import processing_settings
 from lwrlab.pipeline.log_rows import log_rows, read_logs
+from lwrlab.pipeline.tool_bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.pipeline.tool_library import load_library, load_tool
-from lwrlab.pipeline.tools import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.tools.model import Tool
 from lwrlab.tools.recognition import Recognition, ToolClassifier
 

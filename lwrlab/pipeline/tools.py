@@ -1,11 +1,11 @@
-"""Tool stages: identify a tool's parameters by eq. (7) and recognise it (Table III); benchmark recognition.
+"""Tool tasks: identify each tool by eq. (7) and recognise it (Table III); benchmark the recognition.
 
-Both stages run the same chain for every tool: the simulated robot executes an exciting motion
+Both tasks run the same chain for every tool: the simulated robot executes an exciting motion
 unloaded and a tool motion carrying the tool, the measurements are processed as in §III.E, the
-tool's 10 parameters are identified (:mod:`lwrlab.identification.payload`) and a classifier picks
-the library tool they belong to (:mod:`lwrlab.tools.recognition`). The functions that compute
-return plain values; ``run_*`` build the objects from the config and write the tables and figures
-(the tracking callback logs the folder to MLflow).
+tool's 10 parameters are identified (:mod:`lwrlab.pipeline.tool_bench`, the computation) and a
+classifier picks the library tool they belong to (:mod:`lwrlab.tools.recognition`). ``run_*``
+build the objects from the config, run the chain and write the tables and figures (the tracking
+callback logs the folder to MLflow).
 """
 
 from __future__ import annotations
@@ -23,169 +23,27 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
-from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import ConfigError
 from lwrlab.figures.tools import confusion_matrices, relative_std_bars
-from lwrlab.identification.context import row_joints
-from lwrlab.identification.least_squares import grouped_least_squares
-from lwrlab.identification.payload import (
-    PayloadEstimate,
-    identify_payload,
-    identify_payload_only,
-    tool_columns,
-)
+from lwrlab.identification.payload import PayloadEstimate
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES
-from lwrlab.model.payload import flange_placement, frame_change_matrix
-from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.config_nodes import processing_settings
+from lwrlab.pipeline.tool_bench import (
+    ToolBench,
+    ToolData,
+    ToolPlant,
+    checked_motion,
+    identify_tool,
+    tool_motion,
+)
 from lwrlab.pipeline.tool_library import load_library
-from lwrlab.plants.core import Plant
 from lwrlab.reference import paper_results
-from lwrlab.signal.processing import process
-from lwrlab.tools.excitation import select_tool_motion
 from lwrlab.tools.library import PAPER_TOOLS, ToolLibrary
 from lwrlab.tools.model import GEOMETRY_NAMES, Tool
 from lwrlab.tools.recognition import Recognition, ToolClassifier
-from lwrlab.trajectory.core import Trajectory, check_limits
+from lwrlab.trajectory.core import Trajectory
 
 log = logging.getLogger(__name__)
-
-METHODS = ("joint", "payload_only")
-"""``joint``: eq. (7), robot and tool together; ``payload_only``: the robot first (unloaded motion), then the tool."""
-
-
-@dataclass(frozen=True)
-class ToolData:
-    """One processed measurement as eq. (7) uses it (rows sample-major)."""
-
-    w_base: np.ndarray
-    """(rows, N_B) base regressor of the robot."""
-    w_tool: np.ndarray
-    """(rows, 10) columns of the flange-carrying segment (its joint frame)."""
-    tau: np.ndarray
-    """(rows,) processed joint torques (N·m)."""
-
-
-@dataclass(frozen=True)
-class ToolBench:
-    """What every tool identification on one robot shares."""
-
-    robot: RobotModel
-    base: BaseParameters
-    flange_to_joint: np.ndarray
-    """T with ``φ_joint = T·φ_flange`` (10×10)."""
-    tool_joint: int
-    """The joint carrying the flange (1-based)."""
-    processing: dict[str, Any]
-
-    @classmethod
-    def for_robot(cls, robot: RobotModel, processing: dict[str, Any] | None = None) -> ToolBench:
-        joint, placement = flange_placement(robot)
-        return cls(
-            robot,
-            compute_base_parameters(robot),
-            frame_change_matrix(placement.rotation, placement.translation),
-            joint,
-            dict(processing or {}),
-        )
-
-    def data(self, plant: Plant, motion: Trajectory) -> ToolData:
-        """Execute ``motion`` on ``plant`` and build the regressors from the processed measurement."""
-        measurement = plant.measure(motion)
-        processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **self.processing)
-        w, tau = processed.rows(lambda q, dq, ddq: regressor(self.robot, q, dq, ddq))
-        return ToolData(
-            self.base.base_regressor(w), w[:, tool_columns(self.robot.n_links, self.tool_joint)], tau
-        )
-
-    def truth_in_joint_frame(self, tool: Tool) -> np.ndarray:
-        """The tool's true parameters in the flange-carrying joint's frame (Table III's frame)."""
-        return self.flange_to_joint @ tool.parameters
-
-
-def identify_tool(
-    bench: ToolBench,
-    unloaded: ToolData,
-    loaded: ToolData,
-    method: str = "joint",
-    weighted: bool = True,
-    consistent: bool = False,
-) -> PayloadEstimate:
-    """The tool's parameters from an unloaded and a loaded measurement, by ``method`` (see :data:`METHODS`)."""
-    n = bench.robot.n_joints
-    if method == "joint":
-        return identify_payload(
-            unloaded.w_base,
-            unloaded.tau,
-            loaded.w_base,
-            loaded.w_tool,
-            loaded.tau,
-            bench.flange_to_joint,
-            n,
-            weighted,
-            consistent,
-        )
-    if method == "payload_only":
-        robot_base = grouped_least_squares(
-            unloaded.w_base, unloaded.tau, row_joints(unloaded.tau.size, n) if weighted else None
-        ).phi
-        return identify_tool_given_robot(bench, loaded, robot_base, weighted, consistent)
-    raise ValueError(f"unknown tool identification method {method!r}; valid: {list(METHODS)}")
-
-
-def identify_tool_given_robot(
-    bench: ToolBench,
-    loaded: ToolData,
-    robot_base: np.ndarray,
-    weighted: bool = True,
-    consistent: bool = False,
-) -> PayloadEstimate:
-    """The tool's parameters from a loaded measurement, the robot's base parameters ``robot_base`` known."""
-    return identify_payload_only(
-        loaded.w_base,
-        robot_base,
-        loaded.w_tool,
-        loaded.tau,
-        bench.flange_to_joint,
-        bench.robot.n_joints,
-        weighted,
-        consistent,
-    )
-
-
-def _motion(source: Any, robot: RobotModel, rate_hz: float, what: str) -> Trajectory:
-    motion = source.sample(robot, rate_hz)
-    check_limits(motion, robot, torque=robot.inverse_dynamics(motion.q, motion.dq, motion.ddq), what=what)
-    return motion
-
-
-def tool_motion(
-    source: Callable[..., Any], count: int, robot: RobotModel, rate_hz: float
-) -> tuple[Trajectory, pd.DataFrame]:
-    """The loaded motion: the best of ``count`` seeded motions by the tool criterion.
-
-    ``source`` builds a motion source from a ``seed`` keyword (a partial motion plugin whose own
-    ``seed`` is the first candidate's). Returns the motion and a table of every candidate's seed and
-    criterion value.
-    """
-    keywords = getattr(source, "keywords", {})
-    if "seed" not in keywords:  # the first candidate's seed is the YAML's, never a silent 0
-        raise ConfigError("`task.tool_motion` gives no `seed`: the first candidate's seed (e.g. `seed: 100`)")
-    first_seed = int(keywords["seed"])
-    candidates = [
-        _motion(source(seed=first_seed + k), robot, rate_hz, "tool motion") for k in range(int(count))
-    ]
-    best, values = select_tool_motion(robot, candidates)
-    table = pd.DataFrame(
-        {"seed": first_seed + np.arange(count), "tool_logdet": values, "chosen": np.arange(count) == best}
-    )
-    log.info(
-        "tool motion: seed %d of %d candidates (tool log-det criterion %.3f)",
-        first_seed + best,
-        count,
-        values[best],
-    )
-    return candidates[best], table
 
 
 def _required_motion(source: Callable[..., Any] | None) -> Callable[..., Any]:
@@ -196,29 +54,56 @@ def _required_motion(source: Callable[..., Any] | None) -> Callable[..., Any]:
     return source
 
 
+@dataclass(frozen=True)
+class ToolStage:
+    """What both tool tasks need, built from the config."""
+
+    bench: ToolBench
+    plant_for: Callable[[int], ToolPlant]
+    """The unloaded simulated plant drawn with a seed."""
+    unloaded_motion: Trajectory
+    loaded_motion: Trajectory
+    candidates: pd.DataFrame
+    """The tool-motion candidates' seeds and tool criterion (:func:`tool_motion`)."""
+    library: ToolLibrary
+
+    def identify(
+        self, plant: ToolPlant, unloaded: ToolData, tool: Tool, method: str, weighted: bool, consistent: bool
+    ) -> PayloadEstimate:
+        """``tool``'s parameters: ``plant`` carries it on the loaded motion; ``unloaded``: rows without."""
+        loaded = self.bench.data(plant.with_tool(tool), self.loaded_motion)
+        return identify_tool(self.bench, unloaded, loaded, method, weighted, consistent)
+
+
 def _setup(
     cfg: Any, library_names: Sequence[str] | None, motion_source: Callable[..., Any], candidates: int
-) -> tuple[RobotModel, ToolBench, Any, Trajectory, Trajectory, pd.DataFrame, ToolLibrary]:
-    """Robot, bench, unloaded plant factory, unloaded and tool motions, library: what both stages need."""
+) -> ToolStage:
+    """Bench, unloaded plant factory, unloaded and tool motions, library: what both tasks need."""
     from hydra.utils import instantiate
-    from omegaconf import OmegaConf
 
     if getattr(getattr(instantiate(cfg.plant), "func", None), "recorded", False):  # a plant that replays logs
         raise ConfigError(
-            "the simulated tool stages (Table III, recognition benchmark) attach tools to a simulated robot; "
-            "for a payload in recorded logs use task=payload plant=log 'task.unloaded_paths=[…]' 'task.loaded_paths=[…]'"
+            "the simulated tool stages (Table III, recognition benchmark) attach tools to a simulated "
+            "robot; for a payload in recorded logs use task=payload plant=log "
+            "'task.unloaded_paths=[…]' 'task.loaded_paths=[…]'"
         )
     robot = instantiate(cfg.robot)
     rate = float(cfg.measurement.rate_hz)
-    bench = ToolBench.for_robot(robot, OmegaConf.to_container(cfg.measurement.processing, resolve=True))
-    unloaded_motion = _motion(instantiate(cfg.trajectory), robot, rate, "exciting motion (unloaded)")
+    unloaded_motion = checked_motion(instantiate(cfg.trajectory), robot, rate, "exciting motion (unloaded)")
     loaded_motion, candidate_table = tool_motion(motion_source, candidates, robot, rate)
-    library = load_library(list(library_names) if library_names else None)
 
-    def plant_for(seed: int) -> Any:
-        return instantiate(cfg.plant, seed=seed, tool=None, show_progress=False)(robot=robot)
+    def plant_for(seed: int) -> ToolPlant:
+        plant: ToolPlant = instantiate(cfg.plant, seed=seed, tool=None, show_progress=False)(robot=robot)
+        return plant
 
-    return robot, bench, plant_for, unloaded_motion, loaded_motion, candidate_table, library
+    return ToolStage(
+        ToolBench.for_robot(robot, processing_settings(cfg)),
+        plant_for,
+        unloaded_motion,
+        loaded_motion,
+        candidate_table,
+        load_library(list(library_names) if library_names else None),
+    )
 
 
 # --- Table III -------------------------------------------------------------------------------------
@@ -276,19 +161,18 @@ def run_table3_tools(
     from hydra.utils import instantiate
 
     output_dir.mkdir(parents=True, exist_ok=True)
-    robot, bench, plant_for, unloaded_motion, loaded_motion, candidates, library = _setup(
-        cfg, library, _required_motion(tool_motion), tool_motion_candidates
-    )
-    classifier: ToolClassifier = instantiate(cfg.classifier).fit(library)
-    plant = plant_for(int(cfg.seed))
-    unloaded = bench.data(plant, unloaded_motion)
-    tables, recognitions, metrics = [], [], {}
+    stage = _setup(cfg, library, _required_motion(tool_motion), tool_motion_candidates)
+    bench = stage.bench
+    classifier: ToolClassifier = instantiate(cfg.classifier).fit(stage.library)
+    plant = stage.plant_for(int(cfg.seed))
+    unloaded = bench.data(plant, stage.unloaded_motion)
+    tables: list[pd.DataFrame] = []
+    recognitions: list[dict[str, Any]] = []
+    metrics: dict[str, float] = {}
     for name in tqdm(list(tools), desc="tools", leave=False):
-        tool = library[name] if name in library.names else load_library([name]).tools[0]
+        tool = stage.library[name] if name in stage.library.names else load_library([name]).tools[0]
         start = time.perf_counter()
-        estimate = identify_tool(
-            bench, unloaded, bench.data(plant.with_tool(tool), loaded_motion), method, weighted, consistent
-        )
+        estimate = stage.identify(plant, unloaded, tool, method, weighted, consistent)
         seconds = time.perf_counter() - start
         recognition: Recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
         mass_error = 100.0 * (estimate.phi[0] / tool.mass - 1.0)
@@ -318,7 +202,7 @@ def run_table3_tools(
     summary = pd.DataFrame(recognitions)
     table.to_csv(output_dir / "table3_tools.csv", index=False)
     summary.to_csv(output_dir / "tool_recognition.csv", index=False)
-    candidates.to_csv(output_dir / "tool_motion.csv", index=False)
+    stage.candidates.to_csv(output_dir / "tool_motion.csv", index=False)
     series = {f"{name} (lwrlab)": table.loc[table.tool == name, "relative_std"].to_numpy() for name in tools}
     series |= {
         f"{name} (paper)": table.loc[table.tool == name, "paper_relative_std"].to_numpy()
@@ -382,9 +266,8 @@ def run_tool_recognition_benchmark(
     error %), ``confusion_matrix.png`` and ``summary.md``.
     """
     output_dir.mkdir(parents=True, exist_ok=True)
-    _, bench, plant_for, unloaded_motion, loaded_motion, _, tools = _setup(
-        cfg, library, _required_motion(tool_motion), tool_motion_candidates
-    )
+    stage = _setup(cfg, library, _required_motion(tool_motion), tool_motion_candidates)
+    bench, tools = stage.bench, stage.library
     held_out = {
         (name, tool.name): copy.deepcopy(classifier).fit(tools.without(tool.name))
         for name, classifier in classifiers.items()
@@ -392,22 +275,16 @@ def run_tool_recognition_benchmark(
         if hasattr(classifier, "estimate_geometry")
     }
     classifiers = {name: copy.deepcopy(classifier).fit(tools) for name, classifier in classifiers.items()}
-    library = tools
-    trials, geometry, identification = [], [], []
+    trials: list[dict[str, Any]] = []
+    geometry: list[dict[str, Any]] = []
+    identification: list[dict[str, Any]] = []
     seeds = range(int(cfg.seed), int(cfg.seed) + int(n_seeds))
-    progress = tqdm(total=len(seeds) * len(library), desc="identify and recognise", leave=False)
+    progress = tqdm(total=len(seeds) * len(tools), desc="identify and recognise", leave=False)
     for seed in seeds:
-        plant = plant_for(seed)
-        unloaded = bench.data(plant, unloaded_motion)
-        for tool in library:
-            estimate = identify_tool(
-                bench,
-                unloaded,
-                bench.data(plant.with_tool(tool), loaded_motion),
-                method,
-                weighted,
-                consistent,
-            )
+        plant = stage.plant_for(seed)
+        unloaded = bench.data(plant, stage.unloaded_motion)
+        for tool in tools:
+            estimate = stage.identify(plant, unloaded, tool, method, weighted, consistent)
             phi, covariance = estimate.phi_flange, estimate.covariance_flange
             identification.append(
                 {"seed": seed, "tool": tool.name, "mass_error_pct": 100.0 * (phi[0] / tool.mass - 1.0)}
@@ -450,26 +327,25 @@ def run_tool_recognition_benchmark(
     correct = trials_table[trials_table.correct].groupby("classifier", sort=False)["confidence"]
     accuracy["mean_confidence"], accuracy["min_confidence_correct"] = correct.mean(), correct.min()
     matrices = {
-        name: _confusion(trials_table[trials_table.classifier == name], library.names) for name in classifiers
+        name: _confusion(trials_table[trials_table.classifier == name], tools.names) for name in classifiers
     }
-    confusion_matrices(
-        library.names, matrices, accuracy["accuracy"].to_dict(), output_dir / "confusion_matrix.png"
-    )
+    accuracy_by_classifier = {str(name): float(value) for name, value in accuracy["accuracy"].items()}
+    confusion_matrices(tools.names, matrices, accuracy_by_classifier, output_dir / "confusion_matrix.png")
     trials_table.to_csv(output_dir / "tool_recognition_trials.csv", index=False)
     accuracy.to_csv(output_dir / "tool_recognition_accuracy.csv")
     geometry_table.to_csv(output_dir / "geometry_interpolation.csv", index=False)
     identification_table.to_csv(output_dir / "tool_identification.csv", index=False)
-    metrics = {f"accuracy_{name}": float(value) for name, value in accuracy["accuracy"].items()}
+    metrics = {f"accuracy_{name}": value for name, value in accuracy_by_classifier.items()}
     metrics["max_abs_mass_error_pct"] = float(identification_table["mass_error_pct"].abs().max())
     geometry_summary = pd.DataFrame()
     if not geometry_table.empty:
         errors = geometry_table.groupby("classifier", sort=False)[[f"{g}_error_mm" for g in GEOMETRY_NAMES]]
-        geometry_summary = errors.agg(lambda e: float(np.sqrt(np.mean(e**2)))).add_suffix("_rms")
-        for name, row in geometry_summary.iterrows():
-            metrics |= {f"heldout_{column}_{name}": float(value) for column, value in row.items()}
+        geometry_summary = errors.agg(_rms).add_suffix("_rms")
+        for classifier_name, row in geometry_summary.iterrows():
+            metrics |= {f"heldout_{column}_{classifier_name}": float(value) for column, value in row.items()}
     text = "\n".join(
         [
-            f"## Tool recognition over {len(library)} tools × {len(seeds)} noise seeds",
+            f"## Tool recognition over {len(tools)} tools × {len(seeds)} noise seeds",
             "",
             accuracy.to_markdown(floatfmt=".4g"),
             "",
@@ -490,6 +366,10 @@ def run_tool_recognition_benchmark(
     (output_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
     print(text)
     return metrics
+
+
+def _rms(errors: pd.Series) -> float:
+    return float(np.sqrt(np.mean(errors**2)))
 
 
 def _confusion(trials: pd.DataFrame, names: tuple[str, ...]) -> np.ndarray:
