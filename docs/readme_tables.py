@@ -16,7 +16,9 @@ slow test suite runs it on Table II.
 from __future__ import annotations
 
 import argparse
+import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -41,6 +43,8 @@ class Source:
     """The markdown table, from the last command's output and the folder."""
     minutes: float
     """About how long it takes on 2 cores."""
+    figures: tuple[tuple[str, str], ...] = ()
+    """(glob in the run folder, path in the repository) of figures the README shows beside the table."""
 
 
 def _report_table(heading: str) -> Callable[[str, Path], str]:
@@ -94,6 +98,7 @@ SOURCES = {
         (("lwrlab", "-m", "experiment=estimator_benchmark", "hydra/launcher=parallel"),),
         _file_table("outputs/multiruns/*/*/estimator_benchmark_summary.md"),
         10.0,
+        (("outputs/multiruns/*/*/estimator_benchmark.png", "docs/figures/estimator_benchmark.png"),),
     ),
 }
 """Every generated README table, by the name in its marker."""
@@ -113,14 +118,23 @@ def produce(name: str) -> str:
     with tempfile.TemporaryDirectory(prefix=f"readme-{name}-") as tmp:
         folder = Path(tmp)
         output = ""
+        # The folder's own store, whatever store the caller's environment points MLflow at.
+        environment = {k: v for k, v in os.environ.items() if not k.startswith("MLFLOW_")}
         for command in source.commands:
             program = str(BIN / command[0])
             done = subprocess.run(
-                [program, *command[1:]], cwd=folder, capture_output=True, text=True, check=False
+                [program, *command[1:]],
+                cwd=folder,
+                env=environment,
+                capture_output=True,
+                text=True,
+                check=False,
             )
             if done.returncode != 0:
                 raise SystemExit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr[-3000:]}")
             output = done.stdout
+        for pattern, destination in source.figures:
+            shutil.copyfile(max(folder.glob(pattern)), REPOSITORY / destination)
         return source.table(output, folder)
 
 
