@@ -35,6 +35,26 @@ def _text(values: np.ndarray | tuple[float, ...]) -> str:
     return " ".join(_number(v) for v in values)
 
 
+def inertial_element(phi: np.ndarray) -> ET.Element:
+    """URDF ``<inertial>`` of the standard parameters ``phi`` (10,): origin at the centre of mass,
+    axes of the link frame, inertia about the centre of mass (kg·m²)."""
+    mass, com, inertia = mass_com_inertia(phi)
+    inertial = ET.Element("inertial")
+    ET.SubElement(inertial, "origin", xyz=_text(com), rpy="0 0 0")
+    ET.SubElement(inertial, "mass", value=_number(mass))
+    ET.SubElement(
+        inertial,
+        "inertia",
+        ixx=_number(inertia[0, 0]),
+        ixy=_number(inertia[0, 1]),
+        ixz=_number(inertia[0, 2]),
+        iyy=_number(inertia[1, 1]),
+        iyz=_number(inertia[1, 2]),
+        izz=_number(inertia[2, 2]),
+    )
+    return inertial
+
+
 def _joint_axis(joint: pin.JointModel) -> tuple[float, ...]:
     name = joint.shortname()
     if name in _AXES:
@@ -53,22 +73,8 @@ def robot_urdf(robot: RobotModel, name: str | None = None) -> str:
     if np.any(robot.friction.offset != 0.0) and "offset" in robot.friction_terms:
         log.warning("%s: torque offsets FO have no URDF field and are not exported", robot.name)
     for j in range(1, model.njoints):
-        phi = from_pin_inertia(model.inertias[j])
-        mass, com, inertia = mass_com_inertia(phi)
         link = ET.SubElement(root, "link", name=links[j])
-        inertial = ET.SubElement(link, "inertial")
-        ET.SubElement(inertial, "origin", xyz=_text(com), rpy="0 0 0")
-        ET.SubElement(inertial, "mass", value=_number(mass))
-        ET.SubElement(
-            inertial,
-            "inertia",
-            ixx=_number(inertia[0, 0]),
-            ixy=_number(inertia[0, 1]),
-            ixz=_number(inertia[0, 2]),
-            iyy=_number(inertia[1, 1]),
-            iyz=_number(inertia[1, 2]),
-            izz=_number(inertia[2, 2]),
-        )
+        link.append(inertial_element(from_pin_inertia(model.inertias[j])))
         k = j - 1
         joint = ET.SubElement(root, "joint", name=model.names[j], type="revolute")
         placement = model.jointPlacements[j]

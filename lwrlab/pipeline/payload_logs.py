@@ -27,6 +27,7 @@ from lwrlab.errors import ConfigError
 from lwrlab.identification.core import relative_std
 from lwrlab.identification.payload import PayloadEstimate
 from lwrlab.io.artifacts import identified_model_path, load_identified_model
+from lwrlab.io.urdf_export import inertial_element
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
 from lwrlab.pipeline.config_nodes import processing_settings
 from lwrlab.pipeline.log_rows import log_rows, read_logs
@@ -96,21 +97,7 @@ def inertial_snippet(phi_flange: np.ndarray) -> str:
 
     Origin at the centre of mass, axes of the flange; inertia about the centre of mass (kg·m²).
     """
-    mass, com, inertia = mass_com_inertia(np.asarray(phi_flange, dtype=float))
-    number = lambda value: repr(float(value))  # noqa: E731 - shortest text that reads back the same double
-    inertial = ET.Element("inertial")
-    ET.SubElement(inertial, "origin", xyz=" ".join(number(c) for c in com), rpy="0 0 0")
-    ET.SubElement(inertial, "mass", value=number(mass))
-    ET.SubElement(
-        inertial,
-        "inertia",
-        ixx=number(inertia[0, 0]),
-        ixy=number(inertia[0, 1]),
-        ixz=number(inertia[0, 2]),
-        iyy=number(inertia[1, 1]),
-        iyz=number(inertia[1, 2]),
-        izz=number(inertia[2, 2]),
-    )
+    inertial = inertial_element(np.asarray(phi_flange, dtype=float))
     ET.indent(inertial)
     text = ET.tostring(inertial, encoding="unicode")
     if not is_physically_consistent(phi_flange):
