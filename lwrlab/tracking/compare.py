@@ -273,8 +273,8 @@ def _experiment_of_parent(client: MlflowClient, parent_run_id: str) -> tuple[str
     return experiment.experiment_id, experiment.name
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``lwrlab compare ...``; returns the process exit status."""
+def build_parser() -> argparse.ArgumentParser:
+    """The command line of ``lwrlab compare`` (the README's commands are parsed with it in the tests)."""
     parser = argparse.ArgumentParser(prog="lwrlab compare", description=__doc__.split("\n\n")[0])
     parser.add_argument(
         "--tracking-uri",
@@ -306,6 +306,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--output", type=Path, default=None, help="output folder (default: outputs/compare/<name>_<time>)"
     )
     parser.add_argument("--no-log", action="store_true", help="do not log the comparison as an MLflow run")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``lwrlab compare ...``; returns the process exit status."""
+    parser = build_parser()
     arguments = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 

@@ -331,8 +331,8 @@ def parse_pairs(values: Sequence[str], what: str) -> dict[str, str]:
     return pairs
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``lwrlab report ...``; returns the process exit status."""
+def build_parser() -> argparse.ArgumentParser:
+    """The command line of ``lwrlab report`` (the README's commands are parsed with it in the tests)."""
     parser = argparse.ArgumentParser(prog="lwrlab report", description=__doc__.split("\n\n")[0])
     parser.add_argument(
         "--tracking-uri",
@@ -356,6 +356,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--output", type=Path, default=None, help="output folder (default: outputs/reports/<time>)"
     )
     parser.add_argument("--no-log", action="store_true", help="do not log the report as an MLflow run")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``lwrlab report ...``; returns the process exit status."""
+    parser = build_parser()
     arguments = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 

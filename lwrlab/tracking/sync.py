@@ -177,8 +177,8 @@ def sync_offline_runs(
     return synced
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``lwrlab sync [FOLDER ...] [--tracking-uri URI]``; returns the process exit status."""
+def build_parser() -> argparse.ArgumentParser:
+    """The command line of ``lwrlab sync`` (the README's commands are parsed with it in the tests)."""
     parser = argparse.ArgumentParser(prog="lwrlab sync", description=__doc__.split("\n\n")[0])
     parser.add_argument(
         "folders", nargs="*", type=Path, default=[Path("outputs")], help="where to look (default: outputs)"
@@ -195,6 +195,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"(default: {DEFAULT_ARTIFACT_LOCATION} for SQLite stores)",
     )
     parser.add_argument("--no-artifacts", action="store_true", help="upload params, tags and metrics only")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``lwrlab sync [FOLDER ...] [--tracking-uri URI]``; returns the process exit status."""
+    parser = build_parser()
     arguments = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     uri = absolute_tracking_uri(arguments.tracking_uri, Path.cwd())
