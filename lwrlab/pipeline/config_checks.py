@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from lwrlab.errors import ConfigError
+from lwrlab.pipeline.config_nodes import plain
 
 _MISSING = object()
 VELOCITY_SOURCES = ("auto", "logged", "differentiated")
@@ -232,14 +233,6 @@ _COPY = re.compile(r"^\$\{([\w.]+)\}$")
 """A value that is another key's value (``${seed}``)."""
 
 
-def _plain(value: Any) -> Any:
-    from omegaconf import DictConfig, ListConfig, OmegaConf
-
-    return (
-        OmegaConf.to_container(value, resolve=True) if isinstance(value, DictConfig | ListConfig) else value
-    )
-
-
 def _copied_from(cfg: Any, key: str) -> str | None:
     """The key whose value ``key`` copies (``plant.seed: ${seed}`` → ``seed``), else None."""
     from omegaconf import OmegaConf
@@ -288,7 +281,7 @@ def violations(cfg: Any, rules: Iterable[Rule] = RULES) -> list[str]:
         value = OmegaConf.select(cfg, each.key, default=_MISSING, throw_on_missing=False)
         if value is _MISSING or OmegaConf.is_missing(cfg, each.key):
             continue
-        value = _plain(value)
+        value = plain(value)
         if not each.accepts(value, cfg):
             problems.append(f"{each.key}={value!r}: must be {each.expected(cfg)}")
     return problems

@@ -7,6 +7,13 @@ from typing import Any
 from lwrlab.errors import ConfigError
 
 
+def plain(value: Any) -> Any:
+    """``value`` with any config node in it resolved into plain dicts and lists."""
+    from omegaconf import OmegaConf
+
+    return OmegaConf.to_container(value, resolve=True) if OmegaConf.is_config(value) else value
+
+
 def resolved_mapping(node: Any, key: str) -> dict[str, Any]:
     """The config node ``node`` (found at ``key``) resolved into a plain ``dict``.
 
@@ -15,9 +22,7 @@ def resolved_mapping(node: Any, key: str) -> dict[str, Any]:
     ConfigError
         When the node is not a mapping (a list, a value, null), naming ``key``.
     """
-    from omegaconf import OmegaConf
-
-    container = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
+    container = plain(node)
     if not isinstance(container, dict):
         raise ConfigError(f"{key} must be a mapping of settings, got {container!r}")
     return {str(name): value for name, value in container.items()}
