@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import logging
-import os
 import re
 import shlex
 from collections.abc import Sequence
@@ -47,9 +46,14 @@ from lwrlab.tracking.derived_runs import derived_key, log_derived_run
 from lwrlab.tracking.naming import HEADLINE_METRICS, PER_JOINT_RMS, is_timing_metric
 from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.redaction import Redactor
-from lwrlab.tracking.report import DEFAULT_TRACKING_URI, parse_pairs, select_runs, selection_filter
+from lwrlab.tracking.report import parse_pairs, select_runs, selection_filter
 from lwrlab.tracking.run_groups import PARAM_PREFIX, swept_parameters
-from lwrlab.tracking.store import absolute_tracking_uri, retry_locked, sqlite_database_path
+from lwrlab.tracking.store import (
+    absolute_tracking_uri,
+    add_tracking_uri_option,
+    retry_locked,
+    sqlite_database_path,
+)
 
 log = logging.getLogger(__name__)
 
@@ -276,11 +280,7 @@ def _experiment_of_parent(client: MlflowClient, parent_run_id: str) -> tuple[str
 def build_parser() -> argparse.ArgumentParser:
     """The command line of ``lwrlab compare`` (the README's commands are parsed with it in the tests)."""
     parser = argparse.ArgumentParser(prog="lwrlab compare", description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "--tracking-uri",
-        default=os.environ.get("MLFLOW_TRACKING_URI", DEFAULT_TRACKING_URI),
-        help=f"MLflow store (default: $MLFLOW_TRACKING_URI, else {DEFAULT_TRACKING_URI})",
-    )
+    add_tracking_uri_option(parser)
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--experiment", help="experiment name")
     source.add_argument("--parent", metavar="RUN_ID", help="a sweep's parent run: compare its nested runs")

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import logging
-import os
 import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -40,11 +39,10 @@ from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.run_groups import short_name, swept_parameters, value_summary
 from lwrlab.tracking.run_queries import search_runs_table
-from lwrlab.tracking.store import absolute_tracking_uri, retry_locked
+from lwrlab.tracking.store import absolute_tracking_uri, add_tracking_uri_option, retry_locked
 
 log = logging.getLogger(__name__)
 
-DEFAULT_TRACKING_URI = "sqlite:///outputs/mlflow.db"
 REPORT_EXPERIMENT = "reports"  # where older versions logged reports: left out of "all experiments"
 # Columns of the artifacts that say which run a row came from, not what it compares.
 _PROVENANCE_COLUMNS = frozenset({"run_id", "experiment", "seed"})
@@ -334,11 +332,7 @@ def parse_pairs(values: Sequence[str], what: str) -> dict[str, str]:
 def build_parser() -> argparse.ArgumentParser:
     """The command line of ``lwrlab report`` (the README's commands are parsed with it in the tests)."""
     parser = argparse.ArgumentParser(prog="lwrlab report", description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "--tracking-uri",
-        default=os.environ.get("MLFLOW_TRACKING_URI", DEFAULT_TRACKING_URI),
-        help=f"MLflow store (default: $MLFLOW_TRACKING_URI, else {DEFAULT_TRACKING_URI})",
-    )
+    add_tracking_uri_option(parser)
     parser.add_argument("--experiment", action="append", help="experiment name (repeatable; default: all)")
     parser.add_argument(
         "--tag", action="append", default=[], metavar="KEY=VALUE", help="keep runs with this tag"

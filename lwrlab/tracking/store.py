@@ -18,6 +18,7 @@ folder to the folder a command was started in, so that every process of a sweep 
 
 from __future__ import annotations
 
+import argparse
 import logging
 import os
 import random
@@ -36,6 +37,20 @@ except ImportError:  # pragma: no cover
     fcntl = None  # type: ignore[assignment]
 
 log = logging.getLogger(__name__)
+
+DEFAULT_TRACKING_URI = "sqlite:///outputs/mlflow.db"
+"""The store the subcommands read when neither ``--tracking-uri`` nor ``$MLFLOW_TRACKING_URI`` says
+(the one ``conf/tracking/sqlite.yaml`` writes jobs into)."""
+
+
+def add_tracking_uri_option(parser: argparse.ArgumentParser, what: str = "MLflow store") -> None:
+    """``--tracking-uri`` of the ``lwrlab`` subcommands: ``$MLFLOW_TRACKING_URI``, else the default store."""
+    parser.add_argument(
+        "--tracking-uri",
+        default=os.environ.get("MLFLOW_TRACKING_URI", DEFAULT_TRACKING_URI),
+        help=f"{what} (default: $MLFLOW_TRACKING_URI, else {DEFAULT_TRACKING_URI})",
+    )
+
 
 Result = TypeVar("Result")
 

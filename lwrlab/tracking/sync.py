@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -33,13 +32,13 @@ from lwrlab.tracking.settings import TrackingSettings
 from lwrlab.tracking.store import (
     absolute_artifact_location,
     absolute_tracking_uri,
+    add_tracking_uri_option,
     prepare_sqlite_store,
     retry_locked,
 )
 
 log = logging.getLogger(__name__)
 
-DEFAULT_TRACKING_URI = "sqlite:///outputs/mlflow.db"
 DEFAULT_ARTIFACT_LOCATION = "outputs/mlartifacts"
 RECORD_TAG = "offline_record_id"
 
@@ -183,11 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "folders", nargs="*", type=Path, default=[Path("outputs")], help="where to look (default: outputs)"
     )
-    parser.add_argument(
-        "--tracking-uri",
-        default=os.environ.get("MLFLOW_TRACKING_URI", DEFAULT_TRACKING_URI),
-        help=f"store to upload into (default: $MLFLOW_TRACKING_URI, else {DEFAULT_TRACKING_URI})",
-    )
+    add_tracking_uri_option(parser, "store to upload into")
     parser.add_argument(
         "--artifact-location",
         default=None,
