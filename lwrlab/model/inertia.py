@@ -35,6 +35,23 @@ def inertia_matrix(phi: np.ndarray) -> np.ndarray:
     return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
 
 
+def packed_parameters(mass: float, first_moment: np.ndarray, inertia_origin: np.ndarray) -> np.ndarray:
+    """Standard parameters from mass (kg), first moment m·c (kg·m) and the 3×3 inertia about the frame
+    origin (kg·m²): the inverse of reading ``phi[0]``, ``phi[1:4]`` and :func:`inertia_matrix`."""
+    return np.array(
+        [
+            mass,
+            *first_moment,
+            inertia_origin[0, 0],
+            inertia_origin[1, 1],
+            inertia_origin[2, 2],
+            inertia_origin[0, 1],
+            inertia_origin[0, 2],
+            inertia_origin[1, 2],
+        ]
+    )
+
+
 def standard_parameters(mass: float, com: np.ndarray, inertia_com: np.ndarray) -> np.ndarray:
     """Standard parameters from mass (kg), centre of mass (m) and inertia about the CoM (kg·m², 3×3).
 
@@ -49,18 +66,7 @@ def standard_parameters(mass: float, com: np.ndarray, inertia_com: np.ndarray) -
     com = np.asarray(com, dtype=float)
     inertia_com = np.asarray(inertia_com, dtype=float)
     inertia_origin = inertia_com + mass * (com @ com * np.eye(3) - np.outer(com, com))
-    return np.array(
-        [
-            mass,
-            *(mass * com),
-            inertia_origin[0, 0],
-            inertia_origin[1, 1],
-            inertia_origin[2, 2],
-            inertia_origin[0, 1],
-            inertia_origin[0, 2],
-            inertia_origin[1, 2],
-        ]
-    )
+    return packed_parameters(mass, mass * com, inertia_origin)
 
 
 def mass_com_inertia(phi: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -96,18 +102,7 @@ def from_pseudo_inertia(j: np.ndarray) -> np.ndarray:
     """Standard parameters from a pseudo-inertia matrix (inverse of :func:`pseudo_inertia`)."""
     sigma = j[:3, :3]
     inertia = np.trace(sigma) * np.eye(3) - sigma
-    return np.array(
-        [
-            j[3, 3],
-            *j[:3, 3],
-            inertia[0, 0],
-            inertia[1, 1],
-            inertia[2, 2],
-            inertia[0, 1],
-            inertia[0, 2],
-            inertia[1, 2],
-        ]
-    )
+    return packed_parameters(j[3, 3], j[:3, 3], inertia)
 
 
 def min_pseudo_inertia_eigenvalue(phi: np.ndarray) -> float:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from lwrlab.model.inertia import inertia_matrix
+from lwrlab.model.inertia import inertia_matrix, packed_parameters
 from lwrlab.model.robot import RobotModel
 
 FLANGE_FRAME = "flange"
@@ -49,18 +49,7 @@ def change_frame(phi: np.ndarray, rotation: np.ndarray, translation: np.ndarray)
         - np.outer(p, first_moment)
         - np.outer(first_moment, p)
     )
-    return np.array(
-        [
-            mass,
-            *(first_moment + mass * p),
-            inertia[0, 0],
-            inertia[1, 1],
-            inertia[2, 2],
-            inertia[0, 1],
-            inertia[0, 2],
-            inertia[1, 2],
-        ]
-    )
+    return packed_parameters(mass, first_moment + mass * p, inertia)
 
 
 def frame_change_matrix(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
