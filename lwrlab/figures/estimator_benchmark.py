@@ -7,16 +7,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from lwrlab.figures.backend import pyplot
+from lwrlab.figures.backend import subplots
 
 
 def benchmark_figure(rows: pd.DataFrame, path: Path) -> Path:
     """Box plots of the relative base-parameter error and of the fit CPU time per estimator, one
     group per noise preset (log scales)."""
-    plt = pyplot()
     presets = sorted(rows["preset"].unique())
     estimators = sorted(rows["estimator"].unique())
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axes = subplots(1, 2, figsize=(11, 4.2))
     width = 0.8 / len(presets)
     for i, preset in enumerate(presets):
         subset = rows[rows["preset"] == preset]
@@ -42,5 +41,4 @@ def benchmark_figure(rows: pd.DataFrame, path: Path) -> Path:
     fig.suptitle(f"Monte-Carlo estimator benchmark ({rows['seed'].nunique()} seeds per cell)")
     fig.tight_layout()
     fig.savefig(path, dpi=150)
-    plt.close(fig)
     return path

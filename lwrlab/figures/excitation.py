@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from lwrlab.figures.backend import pyplot
+from lwrlab.figures.backend import subplots
 from lwrlab.figures.decimation import envelope
 
 
@@ -18,8 +18,7 @@ def motion_figure(
     t: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, torque: np.ndarray, path: Path, title: str
 ) -> Path:
     """Joint positions, velocities, accelerations and CAD torques over time, one panel each (like Fig. 9)."""
-    plt = pyplot()
-    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    fig, axes = subplots(4, 1, figsize=(8, 9), sharex=True)
     for ax, values, label in zip(
         axes, (q, dq, ddq, torque), ("q [rad]", "q̇ [rad/s]", "q̈ [rad/s²]", "Γ (CAD) [N·m]"), strict=True
     ):
@@ -33,7 +32,6 @@ def motion_figure(
     axes[-1].set_xlabel("time [s]")
     fig.tight_layout(rect=(0, 0.03, 1, 1))
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 
@@ -47,9 +45,8 @@ def duration_figure(
     shows each one's cost rescaled to [0, 1] over the durations, and (b) each one's successive
     differences over its total decrease, with the knee threshold ``fraction``.
     """
-    plt = pyplot()
     criteria = list(dict.fromkeys(costs["criterion"]))
-    fig, (ax_cost, ax_diff) = plt.subplots(1, 2, figsize=(11, 4))
+    fig, (ax_cost, ax_diff) = subplots(1, 2, figsize=(11, 4))
     for i, criterion in enumerate(criteria):
         rows = costs[costs["criterion"] == criterion].sort_values("duration_s")
         color = f"C{i}"
@@ -74,7 +71,6 @@ def duration_figure(
         ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 
@@ -84,14 +80,13 @@ def criteria_figure(summary: pd.DataFrame, path: Path) -> Path:
     ``summary``: columns criterion, joint, rms_mean, rms_std, nrms_mean, nrms_std, and optionally
     model_rms_mean, model_rms_std (a third panel).
     """
-    plt = pyplot()
     criteria = list(dict.fromkeys(summary["criterion"]))
     joints = np.sort(summary["joint"].unique())
     width = 0.8 / len(criteria)
     panels = [
         (m, u) for m, u in (("rms", "N·m"), ("nrms", "%"), ("model_rms", "N·m")) if f"{m}_mean" in summary
     ]
-    fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 3.8))
+    fig, axes = subplots(1, len(panels), figsize=(6 * len(panels), 3.8))
     for ax, (metric, unit) in zip(np.atleast_1d(axes), panels, strict=True):
         for i, criterion in enumerate(criteria):
             rows = summary[summary["criterion"] == criterion].set_index("joint").loc[joints]
@@ -113,5 +108,4 @@ def criteria_figure(summary: pd.DataFrame, path: Path) -> Path:
     fig.suptitle("Cross-validation torque error per joint (mean ± std over seeds)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path

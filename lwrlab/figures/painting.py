@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lwrlab.figures.backend import pyplot
+from lwrlab.figures.backend import subplots
 
 
 def path_on_wall(
@@ -17,11 +17,12 @@ def path_on_wall(
 
     ``desired``, ``actual``: (N, 3) positions (m); ``wall``: (y_min, y_max, z_min, z_max) (m).
     """
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(4.5, 5.0))
+    from matplotlib.patches import Rectangle
+
+    fig, ax = subplots(figsize=(4.5, 5.0))
     y_min, y_max, z_min, z_max = wall
     ax.add_patch(
-        plt.Rectangle(
+        Rectangle(
             (y_min, z_min),
             y_max - y_min,
             z_max - z_min,
@@ -41,7 +42,6 @@ def path_on_wall(
     ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
     fig.savefig(path, dpi=150)
-    plt.close(fig)
     return path
 
 
@@ -57,8 +57,7 @@ def normal_force(
     ``panels``: panel title → {"estimated": (N,), "measured": (N,)} (N); ``desired`` (N), None for a
     controller without a force target (no line drawn).
     """
-    plt = pyplot()
-    fig, axes = plt.subplots(len(panels), 1, figsize=(7.0, 2.4 * len(panels)), sharex=True, squeeze=False)
+    fig, axes = subplots(len(panels), 1, figsize=(7.0, 2.4 * len(panels)), sharex=True, squeeze=False)
     for ax, (name, series) in zip(axes[:, 0], panels.items(), strict=True):
         ax.plot(t, series["measured"], color="tab:blue", lw=0.8, label="measured (wall sensor)")
         ax.plot(t, series["estimated"], color="tab:red", lw=0.8, label="estimated (eq. 14)")
@@ -72,5 +71,4 @@ def normal_force(
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=150)
-    plt.close(fig)
     return path

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from lwrlab.figures.backend import pyplot
+from lwrlab.figures.backend import subplots
 
 
 @dataclass
@@ -108,13 +108,12 @@ def table2_base_parameters(frame: pd.DataFrame, paper: Mapping[str, Any], output
 
 def fig5_duration(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path) -> ReportPart:
     """Criterion value of the optimised motion vs its duration, one curve per criterion (mean ± std)."""
-    plt = pyplot()
     _require(frame, "fig5_duration.csv", ["criterion", "duration_s", "cost"])
     stats = frame.groupby(["criterion", "duration_s"])["cost"].agg(["mean", "std", "count"]).reset_index()
     pivot = frame.groupby(["duration_s", "criterion"])["cost"].apply(_mean_std).unstack("criterion")
     # One panel per criterion: their values differ in sign and scale (cond > 1, log-det < 0).
     criteria = list(stats["criterion"].unique())
-    fig, axes = plt.subplots(1, len(criteria), figsize=(3.4 * len(criteria), 3.2), sharex=True, squeeze=False)
+    fig, axes = subplots(1, len(criteria), figsize=(3.4 * len(criteria), 3.2), sharex=True, squeeze=False)
     chosen = paper.get("setup", {}).get("duration_study", {}).get("chosen_s")
     for ax, criterion in zip(axes[0], criteria, strict=True):
         rows = stats[stats["criterion"] == criterion]
@@ -133,7 +132,6 @@ def fig5_duration(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
     fig.tight_layout()
     figure = output_dir / "fig5_duration.png"
     fig.savefig(figure, dpi=130)
-    plt.close(fig)
     markdown = "\n".join(
         [
             f"Criterion value (mean ± std over {_runs_line(frame)}) per duration:",
@@ -151,7 +149,6 @@ def fig5_duration(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
 
 def fig6_criteria(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Path) -> ReportPart:
     """Cross-validation RMS/NRMS per joint per criterion, mean and spread over seeds."""
-    plt = pyplot()
     _require(frame, "fig6_criteria.csv", ["criterion", "joint", "rms", "nrms"])
     if "seed" not in frame.columns:
         frame = frame.assign(seed=0)
@@ -182,7 +179,7 @@ def fig6_criteria(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
     criteria = list(stats["criterion"].unique())
     joints = np.sort(stats["joint"].unique())
     width = 0.8 / max(len(criteria), 1)
-    fig, (ax_rms, ax_nrms) = plt.subplots(1, 2, figsize=(10, 3.6))
+    fig, (ax_rms, ax_nrms) = subplots(1, 2, figsize=(10, 3.6))
     for k, criterion in enumerate(criteria):
         rows = stats[stats["criterion"] == criterion].set_index("joint").reindex(joints)
         offset = (k - (len(criteria) - 1) / 2) * width
@@ -204,7 +201,6 @@ def fig6_criteria(frame: pd.DataFrame, paper: Mapping[str, Any], output_dir: Pat
     fig.tight_layout()
     figure = output_dir / "fig6_criteria.png"
     fig.savefig(figure, dpi=130)
-    plt.close(fig)
     markdown = "\n".join(
         [
             f"Mean over joints, spread over seeds ({_runs_line(frame)}), next to the paper's mean RMS:",

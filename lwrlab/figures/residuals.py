@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lwrlab.figures.backend import pyplot
+from lwrlab.figures.backend import set_margins, subplots
 from lwrlab.figures.decimation import envelope
 
 
@@ -19,9 +19,8 @@ def residuals_per_log(
     path: Path,
 ) -> Path:
     """One row of panels per log: the residual τ − τ̂ of every joint over time (N·m), and its RMS per joint."""
-    plt = pyplot()
     count = len(names)
-    fig, axes = plt.subplots(
+    fig, axes = subplots(
         count, 2, figsize=(10, 2.4 * count + 0.6), squeeze=False, gridspec_kw={"width_ratios": [3, 1]}
     )
     for row, (name, role, t, residual) in enumerate(zip(names, roles, times, residuals, strict=True)):
@@ -37,7 +36,6 @@ def residuals_per_log(
     axes[0, 0].legend(loc="upper right", ncol=min(7, residuals[0].shape[1]), fontsize=7)
     axes[-1, 0].set_xlabel("time from the log's start [s]")
     axes[-1, 1].set_xlabel("joint")
-    fig.tight_layout()
+    set_margins(fig, left=0.85, right=0.15, top=0.3, bottom=0.5, hspace=0.4, wspace=0.22)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path

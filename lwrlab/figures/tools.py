@@ -7,15 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
-from lwrlab.figures.backend import pyplot
+from lwrlab.figures.backend import subplots
 
 
 def relative_std_bars(
     parameters: Sequence[str], series: Mapping[str, np.ndarray], path: Path, title: str
 ) -> Path:
     """%σ of each tool parameter (log scale), one group of bars per parameter, one colour per series."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 3.5))
+    fig, ax = subplots(figsize=(8, 3.5))
     width = 0.8 / max(1, len(series))
     x = np.arange(len(parameters))
     for i, (label, values) in enumerate(series.items()):
@@ -28,7 +27,6 @@ def relative_std_bars(
     ax.legend(fontsize=8, ncol=2)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 
@@ -36,9 +34,8 @@ def confusion_matrices(
     names: Sequence[str], matrices: Mapping[str, np.ndarray], accuracies: Mapping[str, float], path: Path
 ) -> Path:
     """One confusion matrix per classifier (rows: true tool, columns: recognised tool, share of trials)."""
-    plt = pyplot()
     n = len(matrices)
-    fig, axes = plt.subplots(1, n, figsize=(4.2 * n + 0.8, 4.6), squeeze=False)
+    fig, axes = subplots(1, n, figsize=(4.2 * n + 0.8, 4.6), squeeze=False)
     for ax, (label, matrix) in zip(axes[0], matrices.items(), strict=True):
         shares = matrix / np.maximum(matrix.sum(axis=1, keepdims=True), 1)
         image = ax.imshow(shares, cmap="Blues", vmin=0, vmax=1)
@@ -59,5 +56,4 @@ def confusion_matrices(
     axes[0][0].set_ylabel("true tool")
     fig.colorbar(image, ax=axes[0].tolist(), shrink=0.7, label="share of trials")
     fig.savefig(path, dpi=120, bbox_inches="tight")
-    plt.close(fig)
     return path

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lwrlab.figures.backend import pyplot
+from lwrlab.figures.backend import set_margins, subplots
 from lwrlab.figures.decimation import envelope
 
 
@@ -14,9 +14,8 @@ def torque_overlay(
     t: np.ndarray, measured: np.ndarray, estimated: np.ndarray, path: Path, title: str
 ) -> Path:
     """Measured vs estimated torque of every joint over time, one panel per joint."""
-    plt = pyplot()
     n = measured.shape[1]
-    fig, axes = plt.subplots(n, 1, figsize=(8, 1.5 * n + 1), sharex=True)
+    fig, axes = subplots(n, 1, figsize=(8, 1.5 * n + 1), sharex=True)
     for j, ax in enumerate(np.atleast_1d(axes)):
         ax.plot(*envelope(t, measured[:, j]), color="0.6", lw=0.8, label="measured")
         ax.plot(*envelope(t, estimated[:, j]), color="C3", lw=1.0, label="estimated")
@@ -25,9 +24,8 @@ def torque_overlay(
     axes[0].legend(loc="upper right", ncol=2, fontsize=8)
     axes[0].set_title(title)
     axes[-1].set_xlabel("time [s]")
-    fig.tight_layout()
+    set_margins(fig, left=0.9, right=0.15, top=0.35, bottom=0.5, hspace=0.18)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 
@@ -35,9 +33,8 @@ def error_per_joint(
     rms: np.ndarray, nrms: np.ndarray, path: Path, title: str, noise_std: np.ndarray | None = None
 ) -> Path:
     """Bar charts of RMS (N·m) and NRMS (%) per joint, with the torque-noise floor if known."""
-    plt = pyplot()
     joints = np.arange(1, rms.shape[0] + 1)
-    fig, (ax_rms, ax_nrms) = plt.subplots(1, 2, figsize=(9, 3.2))
+    fig, (ax_rms, ax_nrms) = subplots(1, 2, figsize=(9, 3.2))
     ax_rms.bar(joints, rms, color="C0")
     if noise_std is not None:
         ax_rms.step(
@@ -55,9 +52,8 @@ def error_per_joint(
     for ax in (ax_rms, ax_nrms):
         ax.grid(axis="y", alpha=0.3)
     fig.suptitle(title)
-    fig.tight_layout()
+    set_margins(fig, left=0.75, right=0.15, top=0.45, bottom=0.5, wspace=0.3)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 
@@ -73,11 +69,10 @@ def rms_per_joint_by_group(
     labels
         One label per group (``estimator=wls``).
     """
-    plt = pyplot()
     groups, joints = mean.shape
     positions = np.arange(1, joints + 1)
     width = 0.8 / max(groups, 1)
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.1 * joints + 0.3 * groups), 3.6))
+    fig, ax = subplots(figsize=(max(6.0, 1.1 * joints + 0.3 * groups), 3.6))
     for index in range(groups):
         offset = (index - (groups - 1) / 2) * width
         ax.bar(
@@ -94,5 +89,4 @@ def rms_per_joint_by_group(
     ax.legend(fontsize=8, ncol=min(groups, 4))
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
