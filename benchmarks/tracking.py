@@ -67,7 +67,12 @@ def hook_seconds(job_dir: Path, root: Path, uri: str, repeats: int) -> list[floa
     job_config = OmegaConf.load(job_dir / ".hydra" / "config.yaml")
     metrics = json.loads((job_dir / "metrics.json").read_text())
     callback = MlflowTracking(
-        tracking_uri=uri, experiment="benchmark", artifact_location=str(root / "hook_artifacts")
+        tracking_uri=uri,
+        experiment="benchmark",
+        artifact_location=str(root / "hook_artifacts"),
+        log_artifacts=True,
+        resume=True,
+        companion=False,  # the hooks alone, in this process
     )
     times = []
     for index in range(repeats):

@@ -216,8 +216,8 @@ def test_settings_are_re_read_from_each_job_config(tmp_path: Path) -> None:
         "experiment": "${experiment_name}",
         "artifact_location": "outputs/mlartifacts",
     }
-    callback = MlflowTracking(tracking_uri="sqlite:///outputs/mlflow.db", experiment="primary_name")
-    settings = callback.settings_for(_job_config(tmp_path, node))
+    callback = MlflowTracking("sqlite:///outputs/mlflow.db", "primary_name", None, True, True, True)
+    settings = callback.in_process().settings_for(_job_config(tmp_path, node))
     assert settings.experiment == "swept_name"
     assert settings.tracking_uri == f"sqlite:///{tmp_path.resolve()}/outputs/mlflow.db"
     assert settings.artifact_location == str(tmp_path.resolve() / "outputs" / "mlartifacts")
@@ -230,7 +230,8 @@ def test_unreachable_server_warns_once_and_keeps_the_job_result(
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     uri = f"http://127.0.0.1:{port}"
-    callback = MlflowTracking(tracking_uri=uri, experiment="unreachable")
+    # Hooks called without on_run_start (no companion): the callback logs from this process.
+    callback = MlflowTracking(uri, "unreachable", None, True, True, True)
     config = _job_config(
         tmp_path, {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": "x"}
     )

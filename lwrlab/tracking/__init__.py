@@ -16,11 +16,11 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from lwrlab.tracking.mlflow_callback import MlflowTracking
+    from lwrlab.tracking.callback import MlflowTracking
     from lwrlab.tracking.run_queries import runs_table
 
 _MODULE_OF = {
-    "MlflowTracking": "lwrlab.tracking.mlflow_callback",
+    "MlflowTracking": "lwrlab.tracking.callback",
     "runs_table": "lwrlab.tracking.run_queries",
 }
 __all__ = ["MlflowTracking", "runs_table"]

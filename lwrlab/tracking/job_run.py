@@ -31,6 +31,7 @@ from mlflow.tracking import MlflowClient
 from omegaconf import DictConfig, OmegaConf
 
 from lwrlab.tracking import job_state, offline
+from lwrlab.tracking.companion_link import ForwardedError
 from lwrlab.tracking.config_params import numeric_metrics, task_overrides, truncate
 from lwrlab.tracking.connection import ensure_experiment
 from lwrlab.tracking.finalise import end_killed, finalise_stale_runs
@@ -154,7 +155,8 @@ class JobRun:
         if job_return.status == JobStatus.COMPLETED:
             metrics = numeric_metrics(recorded if recorded is not None else job_return.return_value)
         status = _STATUS_OF_JOB.get(job_return.status, "KILLED")
-        summary = self.redactor.redact(truncate(f"{type(error).__name__}: {error}", ERROR_TAG_MAX_LENGTH))
+        error_type = error.type_name if isinstance(error, ForwardedError) else type(error).__name__
+        summary = self.redactor.redact(truncate(f"{error_type}: {error}", ERROR_TAG_MAX_LENGTH))
         if self.skipped:
             job_state.reset()
             return

@@ -1,8 +1,9 @@
-"""MLflow tracking of Hydra jobs, as a Hydra callback: params, tags, metrics, artifacts and status.
+"""MLflow tracking of Hydra jobs from the process that runs the hooks: params, tags, metrics, status.
 
 The numeric core never imports mlflow. A job only returns its metrics and writes its artifacts into the
-Hydra job output directory; this callback, enabled by the ``tracking`` config group, turns each Hydra
-job into one MLflow run:
+Hydra job output directory; :class:`InProcessTracking` turns each Hydra job into one MLflow run. The
+callback the ``tracking`` config group names, :class:`~lwrlab.tracking.callback.MlflowTracking`,
+runs it in the job's process for sweeps and in a companion process for a single run:
 
 * ``on_job_start``: experiment (created if missing, as a model-development experiment with a
   description of the headline metrics), run named by what differs (``wls · seed=1``), the flattened
@@ -71,51 +72,14 @@ from lwrlab.tracking.sweep_stop import end_sweep_at_exit, end_sweep_killed, term
 log = logging.getLogger(__name__)
 
 
-class MlflowTracking(Callback):
-    """Hydra callback that logs every Hydra job as an MLflow run.
+class InProcessTracking(Callback):
+    """Logs every Hydra job as an MLflow run from the process that runs the hooks.
 
-    Parameters
-    ----------
-    tracking_uri
-        MLflow tracking URI: ``sqlite:///path/mlflow.db`` (a relative path is taken from the directory
-        Hydra was started in; the folder is created), ``http://host:5000``, ``postgresql://…``.
-    experiment
-        MLflow experiment name; the experiment is created when missing.
-    artifact_location
-        Root folder (or URI) for the artifacts of experiments this callback creates: each new
-        experiment stores its runs under ``<artifact_location>/<experiment>``. ``None`` leaves the
-        choice to the store (for a server: its ``--artifacts-destination``).
-    log_artifacts
-        Upload the job output directory (``.hydra/`` configs, CSV, PNG, npz, log) as run artifacts.
-    resume
-        In a multirun, skip a job whose resolved config (``config_hash`` tag) already has a FINISHED
-        run in the experiment: the job returns that run's metrics and logs nothing. Failed runs of
-        the same config are run again (the old run gets tag ``retried_by``), and a re-launched sweep
-        reuses its parent run.
+    :class:`~lwrlab.tracking.callback.MlflowTracking` (the callback named in the configs) uses it
+    directly in sweeps, and from its companion process (:mod:`lwrlab.tracking.companion`) for a
+    single run.
 
-    Notes
-    -----
-    Hydra instantiates callbacks once, from the primary config, before any job runs. The values of
-    this callback's own config node are therefore re-read from each job's config in
-    ``on_job_start`` (:func:`~lwrlab.tracking.settings.job_settings`), so that a sweep over
-    ``experiment_name`` or over experiment presets logs each job in its own experiment.
-
-    Secrets (values of keys such as ``db.auth_token`` or ``client_secret``, URI passwords, secret
-    environment values) are redacted from every param, tag, run name, warning and text artifact; the
-    job's own output folder keeps the config as typed. When the store is unreachable the job still
-    runs; its run is kept in ``mlflow_offline_run.json`` for ``lwrlab sync``.
-
-    Examples
-    --------
-    In a config (``conf/tracking/sqlite.yaml``)::
-
-        # @package _global_
-        hydra:
-          callbacks:
-            mlflow:
-              _target_: lwrlab.tracking.MlflowTracking
-              tracking_uri: ${tracking.uri}
-              experiment: ${experiment_name}
+    The parameters are :class:`~lwrlab.tracking.callback.MlflowTracking`'s but ``companion``.
     """
 
     def __init__(
@@ -187,19 +151,44 @@ class MlflowTracking(Callback):
         """Start the job's run (params, tags, run id file) or skip a finished job; catch stop signals."""
         self._install_stop_handler()
         with self._signals_held():
-            self._on_job_start(config)
+            self.start_job(config)
 
     def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs: Any) -> None:
         """Log metrics and artifacts, then end the run with the job's status."""
         with self._signals_held():
-            self._on_job_end(config, job_return)
+            self.end_job(config, job_return)
         if self._sweep_pid != os.getpid():  # a sweep's launching process keeps its handler to the end
             self._restore_stop_handler()
 
     def settings_for(self, config: DictConfig) -> TrackingSettings:
         """This callback's settings as ``config`` resolves them (see :func:`.settings.job_settings`)."""
+        from lwrlab.tracking.callback import MlflowTracking  # the class the configs name
+
         values = {field: getattr(self, field) for field in SETTING_FIELDS}
-        return job_settings(config, values, type(self))
+        return job_settings(config, values, MlflowTracking)
+
+    # -- one job's run, for the hooks above and for the companion process -------------------
+
+    def start_job(self, config: DictConfig, started_ms: int | None = None) -> None:
+        """Start the job's run (params, provenance tags, run id file), or skip an already finished job.
+
+        ``started_ms``: when the job started (epoch ms), if not now. If the store cannot be reached,
+        everything is kept in the output folder for ``lwrlab sync``. Never raises for the store.
+        """
+        self._on_job_start(config, started_ms)
+
+    def end_job(self, config: DictConfig, job_return: JobReturn) -> None:
+        """Log metrics and artifacts, then end the run with the job's status. Never raises for the store."""
+        self._on_job_end(config, job_return)
+
+    def end_job_killed(self, reason: str) -> None:
+        """End the running job's run KILLED (``reason``: a signal's name), with its outputs uploaded."""
+        if self._job is None:
+            return
+        try:
+            self._job.end_killed(reason)
+        except Exception as error:  # broad: whatever the store does, the stop must go on
+            self._warn(f"ending the run after {reason}", error)
 
     # -- stop signals -----------------------------------------------------------------------
 
@@ -316,13 +305,11 @@ class MlflowTracking(Callback):
         finally:
             self._parent_run_id = None
 
-    def _on_job_start(self, config: DictConfig) -> None:
-        """Start the job's run (params, provenance tags, run id file), or skip an already finished job.
-
-        If the store cannot be reached, everything is kept in the output folder for ``lwrlab sync``.
-        """
+    def _on_job_start(self, config: DictConfig, started_ms: int | None) -> None:
         job_state.reset()
         job = JobRun(Path(str(config.hydra.runtime.output_dir)), self._redactor, self._warn, self._guarded)
+        if started_ms is not None:
+            job.start_ms = started_ms
         self._job = job
         try:
             settings = self.settings_for(config)
@@ -382,4 +369,4 @@ class MlflowTracking(Callback):
             log.debug("MLflow tracking failed while %s (%s)", action, message)
 
 
-__all__ = ["MlflowTracking"]
+__all__ = ["InProcessTracking"]

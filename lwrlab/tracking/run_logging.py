@@ -28,6 +28,7 @@ from mlflow.entities import Metric, Param
 from mlflow.tracking import MlflowClient
 from mlflow.utils import validation as mlflow_limits
 
+from lwrlab.tracking.companion_link import ForwardedError
 from lwrlab.tracking.redaction import Redactor, redacted_folder
 from lwrlab.tracking.store import retry_locked
 
@@ -105,7 +106,12 @@ def log_job_tags(client: MlflowClient, run_id: str, output_dir: Path, redactor: 
 
 def write_error_file(output_dir: Path, error: object) -> None:
     """Write a failed job's traceback (or the value it failed with) into ``error.txt``; never raises."""
-    text = "".join(traceback.format_exception(error)) if isinstance(error, BaseException) else f"{error!r}\n"
+    if isinstance(error, ForwardedError):  # from the job's process, through the companion
+        text = error.traceback_text
+    elif isinstance(error, BaseException):
+        text = "".join(traceback.format_exception(error))
+    else:
+        text = f"{error!r}\n"
     try:
         output_dir.mkdir(parents=True, exist_ok=True)
         (output_dir / ERROR_FILE).write_text(text, encoding="utf-8")

@@ -8,12 +8,15 @@ is the real tracking config of the project::
 Two ways to keep a job busy, so that a test stops it mid-job (both outside the config, so that a
 resumed sweep has the same hash): ``TOY_SLEEP_S`` sleeps that long; ``TOY_HOLD_DIR`` announces the
 job in that folder (``started-<pid>-<random>``, holding its overrides, written once its CSV is) and
-waits until the test creates ``release`` there.
+waits until the test creates ``release`` there. ``TOY_REPORT_PROCESS`` makes the job write which
+process ran it (``job_process.json``).
 """
 
 from __future__ import annotations
 
+import json
 import os
+import sys
 import time
 import uuid
 from pathlib import Path
@@ -26,6 +29,8 @@ import lwrlab.conf  # noqa: F401  (registers the schemas of lwrlab's tracking co
 
 RELEASE_FILE = "release"
 """Created by a test in ``TOY_HOLD_DIR`` to let the held jobs go on."""
+PROCESS_FILE = "job_process.json"
+"""Written when ``TOY_REPORT_PROCESS`` is set: the job's pid and whether its process imported mlflow."""
 
 
 def hold(folder: Path, overrides: list[str]) -> None:
@@ -49,6 +54,9 @@ def main(cfg: DictConfig) -> dict[str, object]:
     time.sleep(float(os.environ.get("TOY_SLEEP_S", "0")))
     if os.environ.get("TOY_HOLD_DIR"):
         hold(Path(os.environ["TOY_HOLD_DIR"]), list(HydraConfig.get().overrides.task))
+    if os.environ.get("TOY_REPORT_PROCESS"):  # which process ran the job, and whether it imported MLflow
+        report = {"pid": os.getpid(), "imported_mlflow": "mlflow" in sys.modules}
+        (output_dir / PROCESS_FILE).write_text(json.dumps(report), encoding="utf-8")
     if cfg.fail:
         raise RuntimeError(f"toy failure requested with x={cfg.x}")
     # A failure from outside the config (a crashed node, a full disk): the same config succeeds later.
