@@ -41,6 +41,9 @@ def test_base_parameter_count_is_the_structural_rank(lwr4: RobotModel) -> None:
     np.testing.assert_allclose(
         w @ phi, base.base_regressor(w) @ base.base_values(phi), atol=1e-8 * np.abs(w @ phi).max()
     )
+    # Torques from base values straight from the full regressor: the same as through W_b.
+    phi_b = base.base_values(phi)
+    np.testing.assert_allclose(base.torques(w, phi_b), base.base_regressor(w) @ phi_b, rtol=1e-12, atol=1e-12)
 
 
 def test_cad_links_are_consistent_and_weigh_what_kuka_says(lwr4: RobotModel) -> None:

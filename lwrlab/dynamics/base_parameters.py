@@ -57,6 +57,12 @@ class BaseParameters:
         """``W_b``: the base columns of a full regressor (stacked or per sample)."""
         return full_regressor[..., self.columns]
 
+    def torques(self, full_regressor: np.ndarray, base_values: np.ndarray) -> np.ndarray:
+        """``W_b·φ_B`` from a full regressor, without copying its base columns out (one product)."""
+        scattered = np.zeros(full_regressor.shape[-1])
+        scattered[self.columns] = base_values
+        return full_regressor @ scattered
+
     def base_values(self, standard: np.ndarray) -> np.ndarray:
         """``φ_B = K·φ`` for a standard parameter vector."""
         return self.regrouping @ standard

@@ -102,8 +102,8 @@ def read_frame(
     if suffix in (".parquet", ".pq"):
         return pd.read_parquet(path), mapping
     if suffix in (".csv", ".txt"):
-        try:  # strings: we report bad cells ourselves
-            return pd.read_csv(path, dtype=str, keep_default_na=False), mapping
+        try:  # numbers parsed in C; a column with a bad cell stays text, and its reader reports the cell
+            return pd.read_csv(path, keep_default_na=False), mapping
         except pd.errors.EmptyDataError as error:
             raise LogError(f"{path}: empty file, no header row and no samples") from error
     raise LogError(f"{path}: unknown log format {path.suffix!r}; formats: {', '.join(FORMATS)}")

@@ -131,9 +131,10 @@ def _numeric_column(frame: pd.DataFrame, name: str, schema_name: str, path: Path
         mapped = f" (schema column {schema_name!r}, mapped by column_map)" if name != schema_name else ""
         raise LogError(f"{path}: missing column {name!r}{mapped}; the file has {list(frame.columns)}")
     raw = frame[name]
-    values = pd.to_numeric(raw.str.strip() if raw.dtype == object else raw, errors="coerce").to_numpy(
-        dtype=float
-    )
+    if pd.api.types.is_numeric_dtype(raw):
+        values = raw.to_numpy(dtype=float)
+    else:  # text: a column with a cell that is no number (CSV), or strings (Parquet, npz)
+        values = pd.to_numeric(raw.astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
     bad = ~np.isfinite(values)
     if bad.any():
         row = int(np.argmax(bad))

@@ -65,9 +65,7 @@ def predict_measurement(
 ) -> LogPrediction:
     """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit)."""
     data = process_measurement(measurement, processing, every_sample=True)
-    predicted = (base.base_regressor(regressor(robot, data.q, data.dq, data.ddq)) @ phi).reshape(
-        -1, robot.n_joints
-    )
+    predicted = base.torques(regressor(robot, data.q, data.dq, data.ddq), phi).reshape(-1, robot.n_joints)
     t, measured = measurement.as_logged()
     if t is not measurement.t:  # resampled log: back to the logged samples
         predicted = np.column_stack([np.interp(t, data.t, predicted[:, j]) for j in range(robot.n_joints)])
