@@ -25,10 +25,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.signal
 
 from lwrlab.errors import ConfigError
 from lwrlab.signal.velocity import VelocityChoice, choose_velocity
+from lwrlab.signal.zero_phase import butterworth_sos, sosfiltfilt
 
 CUTOFF_PER_MOTION_FREQUENCY = 15.0
 """Auto cut-off = this × the motion's frequency (Gautier: a filter at least ten times faster than the
@@ -133,11 +133,11 @@ def lowpass(x: np.ndarray, rate_hz: float, cutoff_hz: float, order: int) -> np.n
     """Zero-phase Butterworth low-pass along axis 0 (second-order sections, forward-backward)."""
     if not 0.0 < cutoff_hz < rate_hz / 2:
         raise ValueError(f"cut-off {cutoff_hz} Hz must lie in (0, {rate_hz / 2}) Hz (Nyquist)")
-    sos = scipy.signal.butter(order, cutoff_hz, fs=rate_hz, output="sos")
+    sos = butterworth_sos(order, cutoff_hz, rate_hz)
     # Odd extension over ~3 filter time constants (scipy's default is a few samples): the edge
     # transient of a smooth signal then stays below the noise instead of bending its derivatives.
     padlen = min(x.shape[0] - 1, int(3 * rate_hz / cutoff_hz))
-    return scipy.signal.sosfiltfilt(sos, x, axis=0, padtype="odd", padlen=padlen)
+    return sosfiltfilt(sos, x, padlen)
 
 
 def central_difference(x: np.ndarray, dt: float, accuracy: int = 2) -> np.ndarray:
