@@ -21,6 +21,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from lwrlab.errors import UserError
+from lwrlab.numerics.threads import limit_process_blas_threads
 from lwrlab.pipeline.config_checks import check_config
 from lwrlab.resources import CONFIG_SEARCH_PATH
 from lwrlab.tracking import job_state
@@ -94,8 +95,10 @@ def main() -> Any:
     """``lwrlab report|compare|sync ...`` (see their ``--help``), otherwise the Hydra app.
 
     A stop signal (SIGINT, SIGTERM) ends the process with the shell's status for it (130, 143) after
-    the tracking callback has ended the runs KILLED.
+    the tracking callback has ended the runs KILLED. BLAS runs one thread unless the environment
+    says otherwise (:func:`~lwrlab.numerics.threads.limit_process_blas_threads`).
     """
+    limit_process_blas_threads()  # before anything imports numpy
     if len(sys.argv) > 1 and sys.argv[1] in SUBCOMMANDS:
         command = importlib.import_module(SUBCOMMANDS[sys.argv[1]])
         sys.exit(command.main(sys.argv[2:]))

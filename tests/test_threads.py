@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from threadpoolctl import ThreadpoolController, threadpool_limits
@@ -67,3 +72,32 @@ def test_lab_algebra_runs_single_threaded(two_threads: None, monkeypatch: pytest
     rng = np.random.default_rng(0)
     least_squares.weighted_least_squares(rng.normal(size=(50, 3)), rng.normal(size=50))
     assert seen == [{1}]
+
+
+_REPORT_BLAS = """
+import json, sys
+from lwrlab.numerics.threads import limit_process_blas_threads
+limited = limit_process_blas_threads()
+import numpy, scipy.linalg
+from threadpoolctl import threadpool_info
+counts = sorted({pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"})
+print(json.dumps([limited, counts, limit_process_blas_threads()]))
+"""
+
+
+def _blas_of_a_new_process(env: dict[str, str]) -> list[object]:
+    environment = {k: v for k, v in os.environ.items() if k not in threads.BLAS_THREAD_VARIABLES}
+    completed = subprocess.run(
+        [sys.executable, "-c", _REPORT_BLAS],
+        env={**environment, **env},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return json.loads(completed.stdout)
+
+
+def test_a_job_process_loads_blas_with_one_thread_unless_the_user_says_otherwise() -> None:
+    assert _blas_of_a_new_process({}) == [True, [threads.PROCESS_BLAS_THREADS], False]  # too late once loaded
+    if (os.cpu_count() or 1) >= 2:
+        assert _blas_of_a_new_process({"OPENBLAS_NUM_THREADS": "2"}) == [True, [2], False]

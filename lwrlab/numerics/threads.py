@@ -28,6 +28,7 @@ library scan of ``threadpoolctl.threadpool_limits`` costs ~0.7 ms per call, this
 from __future__ import annotations
 
 import functools
+import os
 from collections.abc import Iterator
 from contextlib import AbstractContextManager, contextmanager
 from typing import Protocol
@@ -89,3 +90,33 @@ def dense_algebra() -> Iterator[None]:
     """
     with blas_threads(DENSE_ALGEBRA_THREADS):
         yield
+
+
+PROCESS_BLAS_THREADS = 1
+"""BLAS threads of an ``lwrlab`` job's process, set before numpy loads OpenBLAS.
+
+The blocks above limit the factorisations; the remaining BLAS calls of a job (regressor products,
+predictions, the filters' banded solves) are short, and after each one OpenBLAS's idle threads
+spin-wait for more work: on two cores they take the core that the tracking companion or a parallel
+worker needs. Measured on ``task=identification`` from a 10 s log, tracking on, 2 cores (3 runs
+each, alternating): 3.3–3.5 s wall and 4.9–5.0 s CPU with one thread, 4.1–4.9 s and 5.9–6.8 s
+with OpenBLAS's default of one per core."""
+
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+"""The variables the BLAS libraries numpy and scipy ship with read when they load."""
+
+
+def limit_process_blas_threads() -> bool:
+    """Make BLAS load with :data:`PROCESS_BLAS_THREADS` threads, unless the environment says otherwise.
+
+    Only possible before numpy is imported (returns whether it was): the libraries read the
+    variables once, when they load. A user's own ``OPENBLAS_NUM_THREADS`` wins; child processes
+    (launcher workers) inherit the choice.
+    """
+    import sys
+
+    if "numpy" in sys.modules:
+        return False
+    for variable in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(variable, str(PROCESS_BLAS_THREADS))
+    return True
