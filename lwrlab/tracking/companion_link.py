@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import os
 import queue
 import socket
 import subprocess
@@ -77,6 +78,11 @@ def forwarded_job_return(job_return: JobReturn) -> JobReturn:
     return JobReturn(status=job_return.status, _return_value=value)
 
 
+def _absolute(path: list[str]) -> list[str]:
+    """``sys.path`` with its relative entries ('' is the current folder) made absolute, for a child."""
+    return [os.path.abspath(entry or os.curdir) for entry in path]
+
+
 def _emit(record: logging.LogRecord) -> None:
     logger = logging.getLogger(record.name)
     if logger.isEnabledFor(record.levelno):
@@ -108,7 +114,7 @@ class CompanionLink:
                 "from lwrlab.tracking.companion import main; sys.exit(main(int(sys.argv[2])))"
             )
             process = subprocess.Popen(
-                [sys.executable, "-c", bootstrap, json.dumps(sys.path), str(theirs.fileno())],
+                [sys.executable, "-c", bootstrap, json.dumps(_absolute(sys.path)), str(theirs.fileno())],
                 pass_fds=(theirs.fileno(),),
                 stdin=subprocess.DEVNULL,
                 start_new_session=True,
