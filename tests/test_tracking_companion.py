@@ -8,17 +8,22 @@ the companion's log lines reach the job's log file, and a job's process that die
 from __future__ import annotations
 
 import json
+import os
 import pickle
 import signal
 import subprocess
 import time
 from pathlib import Path
 
+import pytest
+from hydra.core.utils import JobReturn, JobStatus
 from mlflow.tracking import MlflowClient
+from omegaconf import OmegaConf
 from tracking_apps import TOY_APP, run_app, runs_of, start_app, wait_for_files
 
+from lwrlab.tracking import MlflowTracking
 from lwrlab.tracking.companion import GONE_REASON
-from lwrlab.tracking.companion_link import ForwardedError
+from lwrlab.tracking.companion_link import CompanionLink, ForwardedError
 from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
 from lwrlab.tracking.processes import descendant_pids, process_alive, wait_until
 from lwrlab.tracking.run_logging import RUN_ID_FILE
@@ -120,3 +125,36 @@ def test_a_sigterm_during_the_job_ends_the_run_killed_and_the_companion(tmp_path
     assert wait_until(lambda: not process_alive(companion), timeout_s=30)
     (run,) = runs_of(f"sqlite:///{tmp_path / 'mlflow.db'}", "sigterm_companion")
     assert run.info.status == "KILLED" and "SIGTERM" in run.data.tags[KILLED_BY_TAG]
+
+
+def test_a_companion_that_cannot_start_leaves_the_run_to_the_job_process(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    def cannot_start(cls: type, settings: object) -> None:
+        raise OSError("no processes left")
+
+    monkeypatch.setattr(CompanionLink, "start", classmethod(cannot_start))
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    node = {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": "fallback"}
+    config = OmegaConf.create(
+        {
+            "seed": 1,
+            "hydra": {
+                "callbacks": {"mlflow": node},
+                "runtime": {"cwd": str(tmp_path), "output_dir": str(tmp_path / "job")},
+                "job": {"name": "unit", "override_dirname": "", "num": 0},
+                "overrides": {"task": []},
+                "mode": "RUN",
+            },
+        }
+    )
+    (tmp_path / "job").mkdir()
+    callback = MlflowTracking(uri, "fallback", None, True, True, True)
+    callback.on_run_start(config)
+    callback.on_job_start(config)
+    callback.on_job_end(config, JobReturn(status=JobStatus.COMPLETED, _return_value={"rms": 0.5}))
+    callback.on_run_end(config)
+    assert "did not start (OSError: no processes left)" in caplog.text
+    (run,) = runs_of(uri, "fallback")
+    assert run.info.status == "FINISHED" and run.data.metrics == {"rms": 0.5}
+    assert run.data.tags["pid"] == str(os.getpid())

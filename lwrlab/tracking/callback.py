@@ -138,7 +138,7 @@ class MlflowTracking(Callback):
         }
         try:
             self._link = CompanionLink.start(settings)
-        except (OSError, CompanionGone) as error:
+        except (OSError, ValueError, CompanionGone) as error:  # ValueError: no fd passing (Windows)
             log.warning(
                 "the tracking companion did not start (%s: %s); logging from the job's process",
                 type(error).__name__,
