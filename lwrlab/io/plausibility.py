@@ -27,19 +27,22 @@ check                  severity  when
 ``constant_torque``    warning   a torque column that never changes (stuck sensor, filled default)
 =====================  ========  ================================================================
 
-Rows are 0-based indices into the arrays given; call the checks before resampling, so that they
-are the file's data rows (for CSV the message adds the line of the file). Nothing here prints.
+The checks of the whole file (``absurd_value``, ``sampling_period``) are here; those of each joint's
+column on its own are in :mod:`lwrlab.io.joint_signal_checks`. Rows are 0-based indices into the
+arrays given; call the checks before resampling, so that they are the file's data rows (for CSV the
+message adds the line of the file). Nothing here prints.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
+from lwrlab.io.joint_signal_checks import position_findings, torque_findings, velocity_findings
 from lwrlab.io.log_findings import SEVERITIES, Finding, LogColumns
 from lwrlab.io.logs import POSITION_UNITS, TIME_UNITS, joint_columns, row_location
 from lwrlab.model.robot import MotionLimits
@@ -76,13 +79,6 @@ class PlausibilityThresholds:
     """s: longest plausible median sampling period (2 Hz; identification needs tens of Hz)."""
     absurd: tuple[tuple[str, float], ...] = (("t", 1e12), ("q", 1e4), ("dq", 1e5), ("tau", 1e7))
     """Largest magnitude with any physical meaning: s, rad, rad/s, N·m."""
-
-
-def _sound_columns(
-    values: np.ndarray, names: Sequence[str], skip: set[str]
-) -> Iterator[tuple[int, str, np.ndarray]]:
-    """``(joint index, column name, values)`` of the columns not already reported as corrupt."""
-    return ((j, name, values[:, j]) for j, name in enumerate(names) if name not in skip)
 
 
 def _absurd(path: Path, column: str, values: np.ndarray, bound: float, unit: str) -> Finding | None:
@@ -137,173 +133,6 @@ def _period_findings(
             f"(expected {thresholds.min_period:g} to {thresholds.max_period:g} s); {hint}",
         )
     ]
-
-
-def _position_findings(
-    path: Path,
-    q: np.ndarray,
-    names: Sequence[str],
-    limits: LogLimits | None,
-    position_unit: str,
-    thresholds: PlausibilityThresholds,
-    skip: set[str],
-) -> list[Finding]:
-    findings: list[Finding] = []
-    sound = q[:, [j for j, name in enumerate(names) if name not in skip]]
-    if not sound.size:
-        return findings
-    degrees_like = position_unit == "rad" and bool(np.max(np.abs(sound)) > thresholds.degrees_above)
-    for j, name, column in _sound_columns(q, names, skip):
-        if not np.any(column):
-            findings.append(
-                Finding(
-                    "warning",
-                    str(path),
-                    name,
-                    "zero_position",
-                    f"joint {j + 1} position is zero in every row: encoder not recorded?",
-                )
-            )
-        elif np.ptp(column) < thresholds.still_range:
-            findings.append(
-                Finding(
-                    "warning",
-                    str(path),
-                    name,
-                    "still_joint",
-                    f"joint {j + 1} never moves (range {np.ptp(column):.2g} rad): "
-                    "its friction cannot be identified from this log",
-                )
-            )
-        if limits is None:
-            continue
-        lower, upper = float(limits.position_lower[j]), float(limits.position_upper[j])
-        below, above = lower - column.min(), column.max() - upper
-        excess = max(below, above)
-        if excess <= 0:
-            continue
-        row = int(np.argmin(column)) if below >= above else int(np.argmax(column))
-        side = f"lower limit {lower:.4g}" if below >= above else f"upper limit {upper:.4g}"
-        hint = (
-            f"; values up to {np.max(np.abs(sound)):.4g} look like degrees: set data.position_unit=deg"
-            if degrees_like
-            else ""
-        )
-        severity = "error" if excess > thresholds.position_tolerance or degrees_like else "warning"
-        findings.append(
-            Finding(
-                severity,
-                str(path),
-                name,
-                "position_limit",
-                f"joint {j + 1} position {column[row]:.4g} rad ({row_location(path, row)}) "
-                f"is beyond its {side} rad "
-                f"by {excess:.3g} rad ({np.degrees(excess):.3g}°){hint}",
-            )
-        )
-    largest_range = float(np.max(np.ptp(sound, axis=0)))
-    if position_unit == "deg" and largest_range < np.radians(2 * np.pi):  # raw values span less than 2π
-        findings.append(
-            Finding(
-                "warning",
-                str(path),
-                None,
-                "position_unit",
-                f"with data.position_unit=deg no joint moves more than {np.degrees(largest_range):.3g}°: "
-                f"are the positions in radians? (then data.position_unit=rad)",
-            )
-        )
-    return findings
-
-
-def _peak_over_limit(values: np.ndarray, limit: float) -> tuple[int, float]:
-    row = int(np.argmax(np.abs(values)))
-    return row, float(np.abs(values[row]) / limit) if limit > 0 else float("inf")
-
-
-def _torque_findings(
-    path: Path,
-    tau: np.ndarray,
-    names: Sequence[str],
-    limits: LogLimits | None,
-    from_current: bool,
-    thresholds: PlausibilityThresholds,
-    skip: set[str],
-) -> list[Finding]:
-    findings = []
-    units_hint = (
-        "check data.drive_gains (N·m/A at the joint: torque constant × gear ratio)"
-        if from_current
-        else "motor currents or another unit? Torques are N·m at the joint; "
-        "for currents give current1… columns and data.drive_gains"
-    )
-    for j, name, column in _sound_columns(tau, names, skip):
-        if not np.any(column):
-            findings.append(
-                Finding(
-                    "error",
-                    str(path),
-                    name,
-                    "zero_torque",
-                    f"joint {j + 1} torque is zero in every row: the torque sensor was not recorded?",
-                )
-            )
-            continue
-        if np.ptp(column) == 0:
-            findings.append(
-                Finding(
-                    "warning",
-                    str(path),
-                    name,
-                    "constant_torque",
-                    f"joint {j + 1} torque is {column[0]:.6g} N·m in every row: "
-                    "a stuck sensor or a filled-in default?",
-                )
-            )
-        if limits is None:
-            continue
-        limit = float(limits.torque[j])
-        row, ratio = _peak_over_limit(column, limit)
-        if ratio > thresholds.torque_warning_factor:
-            far = ratio > thresholds.torque_error_factor
-            findings.append(
-                Finding(
-                    "error" if far else "warning",
-                    str(path),
-                    name,
-                    "torque_limit",
-                    f"joint {j + 1} torque {column[row]:.4g} N·m ({row_location(path, row)}) "
-                    f"is {ratio:.3g}× its limit {limit:.4g} N·m" + (f": {units_hint}" if far else ""),
-                )
-            )
-    return findings
-
-
-def _velocity_findings(
-    path: Path,
-    dq: np.ndarray,
-    names: Sequence[str],
-    limits: LogLimits,
-    thresholds: PlausibilityThresholds,
-    skip: set[str],
-) -> list[Finding]:
-    findings = []
-    for j, name, column in _sound_columns(dq, names, skip):
-        limit = float(limits.velocity[j])
-        row, ratio = _peak_over_limit(column, limit)
-        if ratio > thresholds.velocity_error_factor:
-            findings.append(
-                Finding(
-                    "error",
-                    str(path),
-                    name,
-                    "velocity_limit",
-                    f"joint {j + 1} velocity {column[row]:.4g} rad/s ({row_location(path, row)}) "
-                    f"is {ratio:.3g}× its limit {limit:.4g} rad/s: "
-                    "degrees per second? (data.position_unit applies to velocities too)",
-                )
-            )
-    return findings
 
 
 def check_plausibility(
@@ -394,12 +223,12 @@ def check_plausibility(
 
     if columns.t not in corrupt:
         findings += _period_findings(path, t, columns.t, time_unit, thresholds)
-    findings += _position_findings(path, clean(q), columns.q, limits, position_unit, thresholds, corrupt)
-    findings += _torque_findings(
+    findings += position_findings(path, clean(q), columns.q, limits, position_unit, thresholds, corrupt)
+    findings += torque_findings(
         path, clean(tau), columns.tau, limits, columns.torque_from_current, thresholds, corrupt
     )
     if dq is not None and limits is not None:
-        findings += _velocity_findings(
+        findings += velocity_findings(
             path,
             clean(np.asarray(dq, dtype=float)),
             columns.dq or joint_columns("dq", n_joints),
