@@ -12,7 +12,8 @@ from lwrlab.pipeline.painting import path_problem
 from lwrlab.pipeline.tool_library import load_tool
 from lwrlab.planning.coverage import painted_fraction
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path, way_point_times
-from lwrlab.planning.path_optimisation import InfeasiblePath, WallBounds, optimise_path
+from lwrlab.planning.path_optimisation import InfeasiblePath, optimise_path
+from lwrlab.planning.path_problem import WallBounds
 from lwrlab.plants.mujoco_contact import Wall
 
 TASK = OmegaConf.to_container(shipped_config("task", "painting"), resolve=True)

@@ -45,7 +45,8 @@ from lwrlab.pipeline.painting_runs import (
     tcp_transform,
 )
 from lwrlab.pipeline.tool_bench import ToolBench, ToolPlant, identify_tool
-from lwrlab.planning.path_optimisation import PathProblem, WallBounds, optimise_path
+from lwrlab.planning.path_optimisation import optimise_path
+from lwrlab.planning.path_problem import PathProblem, WallBounds
 from lwrlab.plants.mujoco_contact import Wall
 from lwrlab.tools.library import ToolLibrary
 from lwrlab.tools.model import Tool

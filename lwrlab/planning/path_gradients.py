@@ -5,7 +5,7 @@ The path's positions are differentiated in the way points and their times
 (:mod:`lwrlab.kinematics.swivel_ik_derivatives`), q̇ and q̈ through the same differences as the
 trajectory, and the torques by Pinocchio's RNEA derivatives at the samples where a limit is
 closest. A max/min over the path is differentiated at its arg max/min (a subgradient). The
-functions take the :class:`~lwrlab.planning.path_optimisation.PathProblem`, whose
+functions take the :class:`~lwrlab.planning.path_problem.PathProblem`, whose
 ``cost_gradient``, ``constraint_jacobian`` and ``trajectory_derivatives`` call them; the tests
 check each against finite differences.
 """
@@ -23,7 +23,7 @@ from lwrlab.planning.painting_path import sample_path_derivatives
 
 if TYPE_CHECKING:  # the problem's module calls this one
     from lwrlab.model.robot import RobotModel
-    from lwrlab.planning.path_optimisation import PathProblem
+    from lwrlab.planning.path_problem import PathProblem
 
 
 @dataclass(frozen=True)
