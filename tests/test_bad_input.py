@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 from hydra.errors import CompactHydraException, ConfigCompositionException
 
 from lwrlab.cli import run
@@ -30,7 +30,6 @@ from lwrlab.plants.core import Measurement
 from plugins.plants.simulated import SimulatedPlant
 
 REPOSITORY = Path(__file__).resolve().parents[1]
-CONF = REPOSITORY / "conf"
 
 
 @pytest.fixture(scope="module")
@@ -284,8 +283,7 @@ def _run_case(case: Case, clean: Measurement, tmp_path: Path) -> None:
         else:
             frame.to_csv(path, index=False, float_format="%.17g")
         overrides.append(f"data.path={path}")
-    with initialize_config_dir(config_dir=str(CONF), version_base=None):
-        cfg = compose("config", overrides=overrides)
+    cfg = compose_config(*overrides)
     run(cfg, tmp_path / "run")
 
 
@@ -320,10 +318,7 @@ def test_a_rank_deficient_fit_fails_naming_what_the_data_cannot_determine(
     frame["q6"] = 0.0  # two joints still: structurally unidentifiable columns, noiseless positions
     path = tmp_path / "still.csv"
     frame.to_csv(path, index=False, float_format="%.17g")
-    with initialize_config_dir(config_dir=str(CONF), version_base=None):
-        cfg = compose(
-            "config", overrides=[*LOG, f"data.path={path}", "robot.friction_terms=[coulomb,viscous]"]
-        )
+    cfg = compose_config(*LOG, f"data.path={path}", "robot.friction_terms=[coulomb,viscous]")
     with pytest.raises(IdentifiabilityError, match="rank") as error:
         run(cfg, tmp_path / "run")
     assert "FC5" in str(error.value) and "estimator=sdp" in str(error.value)

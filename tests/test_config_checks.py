@@ -12,20 +12,13 @@ import typing
 from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 from hydra.errors import ConfigCompositionException
 from omegaconf import OmegaConf
 
 from lwrlab.config import SCHEMAS
 from lwrlab.errors import ConfigError
 from lwrlab.pipeline.config_checks import RULES, check_config, violations
-
-CONF = Path(__file__).resolve().parents[1] / "conf"
-
-
-def _compose(*overrides: str):
-    with initialize_config_dir(config_dir=str(CONF), version_base=None):
-        return compose("config", overrides=list(overrides))
 
 
 @pytest.mark.parametrize(
@@ -89,7 +82,7 @@ def _compose(*overrides: str):
 def test_a_value_out_of_range_fails_at_the_start_naming_its_key(
     overrides: tuple[str, ...], fragment: str
 ) -> None:
-    cfg = _compose(*overrides)
+    cfg = compose_config(*overrides)
     with pytest.raises(ConfigError, match="invalid settings") as error:
         check_config(cfg)
     assert fragment in str(error.value)
@@ -121,7 +114,7 @@ def test_a_wrong_type_or_unknown_key_fails_when_composed_naming_it(
     overrides: tuple[str, ...], key: str
 ) -> None:
     with pytest.raises(ConfigCompositionException) as error:
-        _compose(*overrides)
+        compose_config(*overrides)
     message = f"{error.value}\n{error.value.__cause__}"
     assert f"full_key: {key}" in message or f"'{key}'" in message, message
 
@@ -149,7 +142,7 @@ def test_a_null_setting_takes_a_list_or_mapping_from_the_command_line(
     overrides: tuple[str, ...], key: str, value: object
 ) -> None:
     """The README's commands give logs, maps and gains this way: typed nulls must still take them."""
-    found = OmegaConf.select(_compose(*overrides), key)
+    found = OmegaConf.select(compose_config(*overrides), key)
     assert (OmegaConf.to_container(found) if OmegaConf.is_config(found) else found) == value
 
 
@@ -166,22 +159,24 @@ def test_a_misspelt_key_in_a_preset_fails_when_composed(tmp_path: Path) -> None:
         )
     )
     with pytest.raises(ConfigCompositionException) as error:
-        _compose(f"hydra.searchpath=[file://{tmp_path}]", "experiment=mine")
+        compose_config(f"hydra.searchpath=[file://{tmp_path}]", "experiment=mine")
     assert "measurement.processing.cut_off_hz" in str(error.value)
     assert "ProcessingSettings" in str(error.value)
 
 
 def test_a_value_copied_from_a_checked_key_is_reported_once_where_it_is_written() -> None:
-    assert violations(_compose("task=identification", "statistics=block_bootstrap", "seed=-1")) == [
+    assert violations(compose_config("task=identification", "statistics=block_bootstrap", "seed=-1")) == [
         "seed=-1: must be an integer ≥ 0"
     ]
-    found = violations(_compose("plant=log", "data.paths=[a.csv]", "data.velocity=encoder"))
+    found = violations(compose_config("plant=log", "data.paths=[a.csv]", "data.velocity=encoder"))
     assert found == ["data.velocity='encoder': must be one of ['auto', 'logged', 'differentiated']"]
 
 
 def test_log_settings_are_checked_only_with_the_log_plant() -> None:
     found = violations(
-        _compose("plant=log", "data.paths=[a.csv]", "data.time_unit=minutes", "data.validation_fraction=1.5")
+        compose_config(
+            "plant=log", "data.paths=[a.csv]", "data.time_unit=minutes", "data.validation_fraction=1.5"
+        )
     )
     assert sorted(found) == sorted(
         [
@@ -190,13 +185,14 @@ def test_log_settings_are_checked_only_with_the_log_plant() -> None:
         ]
     )
     # a simulated job has no data.* keys: nothing to check there, nothing reported
-    assert violations(_compose("task=identification")) == []
+    assert violations(compose_config("task=identification")) == []
 
 
 def test_the_nyquist_rule_leaves_logs_to_the_processing() -> None:
     """A log's rate is the file's: a cut-off above the simulated sensors' Nyquist may suit it."""
     assert (
-        violations(_compose("plant=log", "data.paths=[a.csv]", "measurement.processing.cutoff_hz=600")) == []
+        violations(compose_config("plant=log", "data.paths=[a.csv]", "measurement.processing.cutoff_hz=600"))
+        == []
     )
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import CONF, compose_config
 from hydra.errors import ConfigCompositionException, InstantiationException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, ListConfig, OmegaConf
@@ -29,7 +29,6 @@ from lwrlab.pipeline.config_checks import violations
 from lwrlab.signal.processing import process
 from lwrlab.tools.library import ToolLibrary
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 GROUPS = (
     "classifier",
     "controller",
@@ -76,11 +75,6 @@ def required_overrides(group: str, option: str, inputs: Inputs) -> list[str]:
         ("plant", "log"): ["data.paths=[identification.csv]"],  # read when measured, not when built
     }
     return needs.get((group, option), [])
-
-
-def compose_config(*overrides: str, hydra_node: bool = False) -> DictConfig:
-    with initialize_config_dir(config_dir=str(CONF), version_base=None):
-        return compose("config", overrides=list(overrides), return_hydra_config=hydra_node)
 
 
 # --- how the pipeline builds each node, and what the built object must offer --------------------------

@@ -1,4 +1,4 @@
-"""Criterion plugins: gradients against central differences, invariants, and a criterion from outside lwrlab."""
+"""Criterion plugins: gradients against central differences, invariants, a criterion from outside lwrlab."""
 
 from __future__ import annotations
 
@@ -7,18 +7,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import CONF, compose_config
 from hydra.utils import instantiate
 
 from lwrlab.excitation.criteria import Criterion
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 CRITERIA = sorted(p.stem for p in (CONF / "criterion").glob("*.yaml"))
 
 
 def build(name: str) -> Criterion:
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose(config_name="config", overrides=[f"criterion={name}"])
+    cfg = compose_config(f"criterion={name}")
     return instantiate(cfg.criterion)
 
 
@@ -91,7 +89,7 @@ def test_rank_deficient_regressor_is_refused(name: str, rng: np.random.Generator
 
 
 def test_a_criterion_from_outside_the_package(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, lwr4) -> None:
-    """A user adds a criterion with a module and a YAML in their own directory, found through hydra.searchpath."""
+    """A user adds a criterion (a module and a YAML in their own directory), found by hydra.searchpath."""
     (tmp_path / "my_criteria.py").write_text(
         textwrap.dedent(
             '''
@@ -115,19 +113,15 @@ def test_a_criterion_from_outside_the_package(tmp_path: Path, monkeypatch: pytes
         "_target_: my_criteria.InverseTrace\nweight: 2.0\n"
     )
     monkeypatch.syspath_prepend(str(tmp_path))
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose(
-            config_name="config",
-            overrides=[
-                f"hydra.searchpath=[file://{tmp_path / 'conf'}]",
-                "criterion=inverse_trace",
-                "trajectory=optimal",
-                "trajectory.duration=2.0",
-            ],
-        )
+    cfg = compose_config(
+        f"hydra.searchpath=[file://{tmp_path / 'conf'}]",
+        "criterion=inverse_trace",
+        "trajectory=optimal",
+        "trajectory.duration=2.0",
+    )
     criterion = instantiate(cfg.criterion)
     assert criterion.name == "inverse_trace" and criterion.weight == 2.0
-    # the optimal-motion plugin picks it up through ${criterion}, and the problem's gradient chain works with it
+    # the optimal-motion plugin picks it up through ${criterion}; the problem's gradient chain works with it
     source = instantiate(cfg.trajectory)
     assert source.criterion.name == "inverse_trace"
     problem = source.problem(lwr4)

@@ -7,12 +7,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 
 from lwrlab.pipeline.estimator_benchmark import run_estimator_benchmark
 from lwrlab.tracking.benchmark_tables import METRICS, collect, write_summary
-
-CONF = Path(__file__).resolve().parents[1] / "conf"
 
 
 def _job(tmp_path: Path, estimator: str, noise: str, seed: int) -> dict[str, float]:
@@ -26,8 +24,7 @@ def _job(tmp_path: Path, estimator: str, noise: str, seed: int) -> dict[str, flo
         "measurement.rate_hz=200",
         "plant.show_progress=false",
     ]
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
+    cfg = compose_config(*overrides)
     return run_estimator_benchmark(
         cfg, tmp_path / f"{estimator}-{noise}-{seed}", cfg.task.noise, cfg.task.noise_presets
     )
@@ -37,7 +34,7 @@ def test_benchmark_jobs_and_summary(tmp_path: Path) -> None:
     for estimator in ("ols", "sdp"):
         metrics = _job(tmp_path, estimator, "high_torque", 0)
         assert set(metrics) == set(METRICS)
-    rows, parameters = collect(tmp_path)
+    rows, _ = collect(tmp_path)
     assert list(rows["estimator"]) == ["OrdinaryLeastSquares", "PhysicallyConsistentSDP"]
     sdp = rows.iloc[1]
     assert sdp["consistency_margin"] > -1e-9 and sdp["min_pseudo_inertia_eigenvalue"] >= -1e-12

@@ -8,20 +8,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 from hydra.utils import instantiate
+from omegaconf import DictConfig
 from test_end_to_end import only_run, run_lwrlab
 
 from lwrlab.pipeline.criteria_comparison import run_criteria_comparison
 from lwrlab.pipeline.duration_study import run_duration_study
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 SMALL = ["optimizer.max_iterations=40", "optimizer.show_progress=false", "plant.show_progress=false"]
 
 
-def composed(*overrides: str):
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        return compose(config_name="config", overrides=[*SMALL, *overrides])
+def composed(*overrides: str) -> DictConfig:
+    """The config with ``overrides``, its optimiser shortened and quiet (``SMALL``)."""
+    return compose_config(*SMALL, *overrides)
 
 
 def test_duration_study_writes_fig5_table_and_knee(tmp_path: Path) -> None:

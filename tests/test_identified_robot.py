@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from hydra import compose, initialize_config_dir
+from composing import CONF, compose_config
 from hydra.utils import instantiate
 
 from lwrlab.identification.identified import IdentifiedModel
@@ -15,7 +15,6 @@ from lwrlab.io.artifacts import save_identified_model
 from lwrlab.model.robot import RobotModel
 from plugins.robots.identified import load_identified_robot
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 WITHOUT_LOOKUP = {"tracking_uri": None, "build_robot": instantiate, "fetch_run_artifact": None}
 """The plugin's edges, with no way to look a run up: a file or folder must be given."""
 
@@ -41,8 +40,7 @@ def _identified_run(
 
 def test_the_config_rebuilds_the_identified_robot_from_a_run_folder(lwr4: RobotModel, tmp_path: Path) -> None:
     standard = _identified_run(lwr4, tmp_path / "run")
-    with initialize_config_dir(config_dir=str(CONF), version_base=None):
-        cfg = compose("config", overrides=["robot=identified", f"robot.source={tmp_path / 'run'}"])
+    cfg = compose_config("robot=identified", f"robot.source={tmp_path / 'run'}")
     robot = instantiate(cfg.robot)
     assert robot.name == "kuka_lwr4_identified"
     np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)

@@ -11,18 +11,15 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_dir
-from tracking_apps import REPO_CONF, TOY_APP, jobs_and_parents, run_app, runs_of
+from composing import compose_config
+from tracking_apps import TOY_APP, jobs_and_parents, run_app, runs_of
 
 RAY_MISSING = importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is None
 SUBMITIT_MISSING = importlib.util.find_spec("hydra_plugins.hydra_submitit_launcher") is None
 
 
 def _launcher(option: str) -> dict:
-    with initialize_config_dir(config_dir=str(REPO_CONF), version_base="1.3"):
-        config = compose(
-            config_name="config", overrides=[f"hydra/launcher={option}"], return_hydra_config=True
-        )
+    config = compose_config(f"hydra/launcher={option}", hydra_node=True)
     return dict(config.hydra.launcher)
 
 
@@ -38,10 +35,7 @@ def test_slurm_launcher_config_composes() -> None:
 
 
 def test_optuna_preset_composes_with_the_search_space() -> None:
-    with initialize_config_dir(config_dir=str(REPO_CONF), version_base="1.3"):
-        config = compose(
-            config_name="config", overrides=["experiment=tune_processing"], return_hydra_config=True
-        )
+    config = compose_config("experiment=tune_processing", hydra_node=True)
     assert config.hydra.sweeper._target_.endswith("OptunaSweeper")
     assert set(config.hydra.sweeper.params) == {
         "measurement.processing.cutoff_hz",

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 
 from lwrlab.io.logs import LogError, load_log, log_frame, write_log
 from lwrlab.model.robot import RobotModel
@@ -16,8 +16,6 @@ from lwrlab.pipeline.identification import identify
 from lwrlab.plants.core import Measurement
 from plugins.plants.log import LogPlant
 from plugins.plants.simulated import SimulatedPlant
-
-CONF = Path(__file__).resolve().parents[1] / "conf"
 
 
 def _measurement(n: int = 200, n_joints: int = 2) -> Measurement:
@@ -156,7 +154,6 @@ def test_log_plant_splits_a_single_log_by_role(tmp_path: Path, lwr4: RobotModel)
 
 
 def test_plant_log_data_path_composes(tmp_path: Path) -> None:
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=["plant=log", f"data.path={tmp_path / 'x.csv'}"])
+    cfg = compose_config("plant=log", f"data.path={tmp_path / 'x.csv'}")
     assert cfg.plant._target_ == "plugins.plants.log.LogPlant"
     assert cfg.plant.path == str(tmp_path / "x.csv")

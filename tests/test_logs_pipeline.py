@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
+from omegaconf import DictConfig
 
 from lwrlab.io.logs import load_log, write_log
 from lwrlab.io.rosbag import write_joint_states
@@ -24,7 +25,6 @@ from lwrlab.plants.core import Measurement
 from plugins.plants.log import LogPlant
 from plugins.plants.simulated import SimulatedPlant
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 REAL_LWR4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "kuka_lwr4_hw"
 NPZ_COLUMNS = "data.column_map={t: times, q: positions, dq: velocities, tau: torques}"
 needs_real_logs = pytest.mark.skipif(
@@ -107,9 +107,9 @@ def test_every_format_round_trips_to_the_in_memory_identification(
     assert fit_prediction.processing.endswith("logged q̇") == ("velocity: logged" in from_log.notes[0])
 
 
-def _compose(*overrides: str):
-    with initialize_config_dir(config_dir=str(CONF), version_base=None):
-        return compose("config", overrides=["task=identification", "plant=log", *overrides])
+def _compose(*overrides: str) -> DictConfig:
+    """An identification from logs (``plant=log``), with ``overrides``."""
+    return compose_config("task=identification", "plant=log", *overrides)
 
 
 def test_several_logs_each_scored_with_what_a_user_takes_away(

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import CONF, compose_config
 from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
@@ -22,7 +22,6 @@ from lwrlab.planning.painting_path import PaintingPathParameters
 from lwrlab.planning.path_optimisation import PathSolution
 from lwrlab.plants.mujoco_contact import Wall
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 # one roller, 4 s identification motions, one SLSQP start, 2 s approach + 1.5 s of painting, two cases
 SHORT = [
     "experiment=paper_table4_force",
@@ -113,8 +112,7 @@ def test_wall_is_built_from_the_task_yaml_and_has_no_face_defaults():
 
 @pytest.mark.slow
 def test_painting_preset_writes_table4_and_presses_with_30_newtons(tmp_path: Path) -> None:
-    with initialize_config_dir(str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=SHORT)
+    cfg = compose_config(*SHORT)
     metrics = instantiate(cfg.task)(cfg, tmp_path)
     table = pd.read_csv(tmp_path / "table4_force.csv")
     assert list(table.columns) == ["roller", "model", "feedback", "comparison", "rms", "rms_over_mean_pct"]
@@ -134,8 +132,7 @@ def test_painting_preset_writes_table4_and_presses_with_30_newtons(tmp_path: Pat
 def test_position_controller_is_scored_without_a_desired_force(tmp_path: Path) -> None:
     """controller=position declares no force loop and no target: one run per model, no */desired rows."""
     overrides = [*SHORT, "controller=position", "task.comparison_controller=null"]
-    with initialize_config_dir(str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
+    cfg = compose_config(*overrides)
     metrics = instantiate(cfg.task)(cfg, tmp_path)
     table = pd.read_csv(tmp_path / "table4_force.csv")
     assert set(zip(table.model, table.feedback, table.comparison, strict=True)) == {

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 from hydra.utils import instantiate
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters
@@ -29,7 +29,6 @@ from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
 from plugins.plants.simulated import SimulatedPlant
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 NOISELESS_PROCESSING = [
     "measurement.processing.cutoff_hz=null",
     "measurement.processing.difference_accuracy=4",
@@ -41,20 +40,15 @@ HEAVY_PAYLOAD = standard_parameters(2.0, np.array([0.05, 0.0, 0.1]), np.diag([0.
 """A 2 kg payload whose centre of mass lies off every joint axis (flange frame)."""
 
 
-def _compose(overrides: list[str]):
-    with initialize_config_dir(str(CONF), version_base="1.3"):
-        return compose("config", overrides=overrides)
-
-
 def _run(overrides: list[str], output_dir: Path) -> dict[str, float]:
-    cfg = _compose(overrides)
+    cfg = compose_config(*overrides)
     return instantiate(cfg.task)(cfg, output_dir)
 
 
 @pytest.fixture(scope="module")
 def log_robot() -> RobotModel:
     """The robot as ``plant=log`` configures it (offset friction included)."""
-    return instantiate(_compose(["plant=log"]).robot)
+    return instantiate(compose_config("plant=log").robot)
 
 
 def _simulate(
@@ -219,7 +213,7 @@ def test_drive_gains_from_noisy_current_logs_within_1_percent_and_ready_to_paste
     document = yaml.safe_load((tmp_path / "run" / "drive_gains.yaml").read_text())
     np.testing.assert_allclose(document["drive_gains"], GAINS, rtol=0.01)
     # the printed line reads the current logs as torques in a later run
-    cfg = _compose(["plant=log", f"data.paths={_logs(paths[1:])}", document["override"]])
+    cfg = compose_config("plant=log", f"data.paths={_logs(paths[1:])}", document["override"])
     reread = instantiate(cfg.plant)(robot=log_robot).load(paths[1], "identification")
     np.testing.assert_allclose(reread.tau, loaded.tau / GAINS * np.array(document["drive_gains"]), rtol=1e-7)
 

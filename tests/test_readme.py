@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 from hydra.utils import instantiate
 
 from lwrlab.cli import SUBCOMMANDS
@@ -30,7 +30,6 @@ from lwrlab.pipeline.config_checks import violations
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-CONF = ROOT / "conf"
 
 AS_IS = {
     "make test": "CI runs it (.ci/run)",
@@ -161,8 +160,7 @@ def test_readme_command_is_exercised(command: str, tmp_path: Path) -> None:
     estimators = importlib.import_module("plugins.estimators")
     estimators.__path__.append(str(tmp_path / "plugins" / "estimators"))
     try:
-        with initialize_config_dir(config_dir=str(CONF), version_base=None):
-            cfg = compose("config", overrides=overrides)
+        cfg = compose_config(*overrides)
         assert violations(cfg) == [], command
         if "criterion=inverse_trace" in overrides:
             criterion = instantiate(cfg.criterion)

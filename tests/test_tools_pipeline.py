@@ -7,10 +7,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 from hydra.utils import instantiate
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 SHORT = [
     "trajectory.duration=4",
     "task.tool_motion.duration=4",
@@ -20,8 +19,7 @@ SHORT = [
 
 
 def _run(overrides: list[str], output_dir: Path) -> dict[str, float]:
-    with initialize_config_dir(str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
+    cfg = compose_config(*overrides)
     return instantiate(cfg.task)(cfg, output_dir)
 
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_dir
+from composing import compose_config
 from mlflow.tracking import MlflowClient
 from omegaconf import OmegaConf
-from tracking_apps import REPO_CONF, TOY_APP, jobs_and_parents, run_app, runs_of
+from tracking_apps import TOY_APP, jobs_and_parents, run_app, runs_of
 
 from lwrlab.tracking.config_params import plugin_choices
 from lwrlab.tracking.mlflow_callback import InProcessTracking
@@ -81,8 +81,7 @@ def test_plugin_choices_are_params_under_their_group_names() -> None:
     ],
 )
 def test_one_experiment_per_task_or_preset_unless_named(overrides: list[str], experiment: str) -> None:
-    with initialize_config_dir(config_dir=str(REPO_CONF), version_base="1.3"):
-        config = compose(config_name="config", overrides=overrides, return_hydra_config=True)
+    config = compose_config(*overrides, hydra_node=True)
     callback = InProcessTracking("sqlite:///x.db", "${experiment_name}", None, True, True)
     assert callback.settings_for(config).experiment == experiment
 
