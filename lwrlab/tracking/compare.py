@@ -46,8 +46,8 @@ from lwrlab.tracking.derived_runs import derived_key, log_derived_run
 from lwrlab.tracking.naming import HEADLINE_METRICS, PER_JOINT_RMS, is_timing_metric
 from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.redaction import Redactor
-from lwrlab.tracking.report import parse_pairs, select_runs, selection_filter
 from lwrlab.tracking.run_groups import PARAM_PREFIX, swept_parameters
+from lwrlab.tracking.run_selection import parse_pairs, select_runs, selection_filter
 from lwrlab.tracking.store import (
     absolute_tracking_uri,
     add_tracking_uri_option,

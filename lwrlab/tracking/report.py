@@ -1,12 +1,13 @@
 """``lwrlab report``: the paper's tables and figures rebuilt from runs logged in MLflow.
 
 Selects the FINISHED job runs of one or more experiments (``search_runs`` → pandas, filtered by
-tags and params), downloads their table artifacts (``base_parameters.csv``, ``fig5_duration.csv``,
-``fig6_criteria.csv``, ``table3_tools.csv``, ``table4_force.csv``), and writes Table II, Fig. 5,
-Fig. 6, Table III and Table IV as Markdown, CSV and PNG into a folder under ``outputs/reports/``, which
-is then logged once as a run of the source experiment. An artifact kind that no selected run has is
-skipped with a note; so is a table that would pool runs differing in a parameter (an estimator, a
-noise level) that the table does not itself tell apart: the note names the parameter and its values.
+tags and params: :mod:`lwrlab.tracking.run_selection`), downloads their table artifacts
+(``base_parameters.csv``, ``fig5_duration.csv``, ``fig6_criteria.csv``, ``table3_tools.csv``,
+``table4_force.csv``), and writes Table II, Fig. 5, Fig. 6, Table III and Table IV as Markdown, CSV
+and PNG into a folder under ``outputs/reports/``, which is then logged once as a run of the source
+experiment. An artifact kind that no selected run has is skipped with a note; so is a table that
+would pool runs differing in a parameter (an estimator, a noise level) that the table does not itself
+tell apart: the note names the parameter and its values.
 Works on a SQLite store and on a tracking server alike. Artifacts are read as CSV: nothing executes.
 
 Examples
@@ -38,12 +39,11 @@ from lwrlab.tracking.derived_runs import derived_key, log_derived_run
 from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.run_groups import short_name, swept_parameters, value_summary
-from lwrlab.tracking.run_queries import search_runs_table
+from lwrlab.tracking.run_selection import parse_pairs, select_runs, selection_filter
 from lwrlab.tracking.store import absolute_tracking_uri, add_tracking_uri_option, retry_locked
 
 log = logging.getLogger(__name__)
 
-REPORT_EXPERIMENT = "reports"  # where older versions logged reports: left out of "all experiments"
 # Columns of the artifacts that say which run a row came from, not what it compares.
 _PROVENANCE_COLUMNS = frozenset({"run_id", "experiment", "seed"})
 
@@ -59,58 +59,6 @@ class Report:
     """Kind → why it is not in the report."""
     run_id: str | None = None
     """The report run, if logged."""
-
-
-def _quoted(value: str) -> str:
-    return "'" + value.replace("'", "\\'") + "'"
-
-
-def selection_filter(
-    tags: Mapping[str, str] | None = None, params: Mapping[str, str] | None = None, extra: str = ""
-) -> str:
-    """An MLflow filter string for FINISHED job runs with the given tags and params.
-
-    Examples
-    --------
-    >>> for clause in selection_filter({"seed": "1"}, {"plant.torque_noise_std": "0.1"}).split(" and "):
-    ...     print(clause)
-    attributes.status = 'FINISHED'
-    tags.run_kind = 'job'
-    tags.`seed` = '1'
-    params.`plant.torque_noise_std` = '0.1'
-    """
-    clauses = ["attributes.status = 'FINISHED'", f"tags.{RUN_KIND_TAG} = 'job'"]
-    clauses += [f"tags.`{key}` = {_quoted(str(value))}" for key, value in (tags or {}).items()]
-    clauses += [f"params.`{key}` = {_quoted(str(value))}" for key, value in (params or {}).items()]
-    if extra.strip():
-        clauses.append(extra.strip())
-    return " and ".join(clauses)
-
-
-def select_runs(tracking_uri: str, experiments: Sequence[str] | None, filter_string: str) -> pd.DataFrame:
-    """Runs of ``experiments`` (all but the reports experiment if ``None``) matching ``filter_string``.
-
-    Returns the ``mlflow.search_runs`` table plus an ``experiment`` column (the experiment name).
-    """
-    client = MlflowClient(tracking_uri=tracking_uri)
-    known = {
-        experiment.name: experiment.experiment_id for experiment in retry_locked(client.search_experiments)
-    }
-    names = [name for name in known if name != REPORT_EXPERIMENT] if not experiments else list(experiments)
-    missing = [name for name in names if name not in known]
-    if missing:
-        raise ValueError(
-            f"no experiment named {missing} in {Redactor().redact(tracking_uri)}; "
-            f"experiments: {sorted(known)}"
-        )
-    if not names:
-        return pd.DataFrame()
-    table = search_runs_table(tracking_uri, [known[name] for name in names], filter_string)
-    if table.empty:
-        return table
-    id_to_name = {value: key for key, value in known.items()}
-    table.insert(1, "experiment", table["experiment_id"].map(id_to_name))
-    return table
 
 
 def artifact_names(client: MlflowClient, runs: pd.DataFrame) -> dict[str, set[str]]:
@@ -318,17 +266,6 @@ def log_report(
     )
 
 
-def parse_pairs(values: Sequence[str], what: str) -> dict[str, str]:
-    """``["a=1", "b=x"]`` → ``{"a": "1", "b": "x"}``; a value without ``=`` exits naming ``--what``."""
-    pairs = {}
-    for value in values:
-        key, separator, text = value.partition("=")
-        if not separator:
-            raise SystemExit(f"--{what} expects key=value, got {value!r}")
-        pairs[key] = text
-    return pairs
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The command line of ``lwrlab report`` (the README's commands are parsed with it in the tests)."""
     parser = argparse.ArgumentParser(prog="lwrlab report", description=__doc__.split("\n\n")[0])
@@ -396,9 +333,6 @@ __all__ = [
     "collect_artifact",
     "log_report",
     "main",
-    "parse_pairs",
     "pooling_refusal",
-    "select_runs",
-    "selection_filter",
     "unseparated_parameters",
 ]
