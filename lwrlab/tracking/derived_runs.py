@@ -22,6 +22,7 @@ from typing import Any
 
 from mlflow.tracking import MlflowClient
 
+from lwrlab.tracking.run_queries import run_with_tag
 from lwrlab.tracking.store import retry_locked
 
 DERIVED_KEY_TAG = "derived_key"
@@ -54,11 +55,9 @@ def log_derived_run(
     tuple[str, bool]
         The run id, and whether it was logged now (``False``: an identical one was logged before).
     """
-    found = retry_locked(
-        client.search_runs, [experiment_id], filter_string=f"tags.{DERIVED_KEY_TAG} = '{key}'", max_results=1
-    )
-    if found:
-        return found[0].info.run_id, False
+    found = run_with_tag(client, experiment_id, DERIVED_KEY_TAG, key)
+    if found is not None:
+        return found.info.run_id, False
     all_tags = {**tags, DERIVED_KEY_TAG: key}
     if parent_run_id is not None:
         all_tags["mlflow.parentRunId"] = parent_run_id

@@ -2,6 +2,8 @@
 
 * :func:`runs_table` and :func:`search_runs_table`: runs of an experiment as pandas, oldest first;
 * :func:`previous_sweep_run`: the parent run of an earlier launch of the same sweep (same identity);
+* :func:`sweep_run_of_folder`: the parent run of the sweep launched into a folder (``lwrlab sync``);
+* :func:`run_with_tag`: the run holding a unique tag (a synced offline record, a derived run's key);
 * :func:`resume_lookup`: a job's FINISHED run of the same config (skip the job), or its failed ones
   (linked to the new run as ``retried_by``);
 * :func:`earlier_attempts`: RUNNING runs of this very job, left by a worker the launcher lost;
@@ -111,6 +113,24 @@ def previous_sweep_run(client: MlflowClient, experiment_id: str, identity: str) 
     return runs[0] if runs else None
 
 
+def sweep_run_of_folder(client: MlflowClient, experiment_id: str, sweep_dir: str) -> Run | None:
+    """The newest parent run of a sweep launched into ``sweep_dir`` (``hydra_sweep_dir`` tag), if any."""
+    runs = runs_tagged(client, experiment_id, "hydra_sweep_dir", sweep_dir, "sweep", 1)
+    return runs[0] if runs else None
+
+
+def run_with_tag(client: MlflowClient, experiment_id: str, tag: str, value: str) -> Run | None:
+    """The newest run of any kind with ``tags.<tag> = value``, if any: the run an identity tag names."""
+    runs = retry_locked(
+        client.search_runs,
+        [experiment_id],
+        filter_string=f"tags.{tag} = '{value}'",
+        order_by=["attributes.start_time DESC"],
+        max_results=1,
+    )
+    return runs[0] if runs else None
+
+
 @dataclass
 class ResumeLookup:
     """What the store knows of a job's config."""
@@ -159,8 +179,10 @@ __all__ = [
     "experiment_ids",
     "previous_sweep_run",
     "resume_lookup",
+    "run_with_tag",
     "runs_table",
     "runs_tagged",
     "search_runs_table",
     "sweep_is_stopping",
+    "sweep_run_of_folder",
 ]

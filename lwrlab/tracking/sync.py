@@ -28,6 +28,7 @@ from lwrlab.tracking.connection import ensure_experiment
 from lwrlab.tracking.provenance import PARENT_RUN_TAG, RUN_KIND_TAG
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.run_logging import RUN_ID_FILE, log_metrics, log_output_folder, log_params
+from lwrlab.tracking.run_queries import run_with_tag, sweep_run_of_folder
 from lwrlab.tracking.settings import TrackingSettings
 from lwrlab.tracking.store import (
     absolute_artifact_location,
@@ -66,14 +67,9 @@ class Syncer:
             return None
         key = (experiment_id, sweep_dir)
         if key not in self._parents:
-            existing = retry_locked(
-                self.client.search_runs,
-                [experiment_id],
-                filter_string=f"tags.hydra_sweep_dir = '{sweep_dir}' and tags.{RUN_KIND_TAG} = 'sweep'",
-                max_results=1,
-            )
-            if existing:
-                self._parents[key] = existing[0].info.run_id
+            existing = sweep_run_of_folder(self.client, experiment_id, sweep_dir)
+            if existing is not None:
+                self._parents[key] = existing.info.run_id
             else:
                 overrides = record.get("sweep_overrides", "")
                 run = retry_locked(
@@ -92,13 +88,8 @@ class Syncer:
         return self._parents[key]
 
     def _already_synced(self, experiment_id: str, record_id: str) -> str | None:
-        runs = retry_locked(
-            self.client.search_runs,
-            [experiment_id],
-            filter_string=f"tags.{RECORD_TAG} = '{record_id}'",
-            max_results=1,
-        )
-        return runs[0].info.run_id if runs else None
+        run = run_with_tag(self.client, experiment_id, RECORD_TAG, record_id)
+        return run.info.run_id if run is not None else None
 
     def sync(self, path: Path) -> str:
         """Upload one record; returns the run id (an existing one if it was uploaded before)."""
