@@ -21,7 +21,8 @@ from pathlib import Path
 from mlflow.entities import Run
 from mlflow.tracking import MlflowClient
 
-from lwrlab.tracking.processes import HOSTNAME_TAG, PID_TAG, postpone_abort_alarm, process_alive
+from lwrlab.tracking.processes import postpone_abort_alarm, process_alive
+from lwrlab.tracking.provenance import HOSTNAME_TAG, PID_TAG
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.store import retry_locked
 

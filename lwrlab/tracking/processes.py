@@ -1,10 +1,10 @@
-"""Processes of a job or a sweep: who runs it (pid, host), whether it still lives, its workers, signals.
+"""Processes of a job or a sweep: whether one still lives, its workers, the signals that stop it.
 
-Used by the tracking callback so that every stop ends runs in a final state: a run records the pid
-and host of the process that runs it; a stop signal (SIGINT, SIGTERM) becomes a
-:class:`JobInterrupted` exception after the callback has finalised its runs; a sweep's launching
-process terminates its worker processes (joblib's loky workers, a local Ray instance) so that none
-outlives it; a resumed sweep finalises runs whose process no longer exists; a Ray process stopped by
+Used by the tracking callback so that every stop ends runs in a final state: a stop signal (SIGINT,
+SIGTERM) becomes a :class:`JobInterrupted` exception after the callback has finalised its runs; a
+sweep's launching process terminates its worker processes (joblib's loky workers, a local Ray
+instance) so that none outlives it; a resumed sweep finalises runs whose process no longer exists
+(the ``pid`` and ``hostname`` tags of :mod:`lwrlab.tracking.provenance`); a Ray process stopped by
 SIGTERM gets time to end its runs before Ray's crash handler aborts it.
 
 Examples
@@ -12,8 +12,6 @@ Examples
 >>> import os
 >>> process_alive(os.getpid())
 True
->>> sorted(process_tags())
-['hostname', 'pid']
 """
 
 from __future__ import annotations
@@ -22,7 +20,6 @@ import atexit
 import contextlib
 import os
 import signal
-import socket
 import sys
 import time
 from collections.abc import Callable, Iterable
@@ -30,8 +27,6 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-PID_TAG = "pid"
-HOSTNAME_TAG = "hostname"
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
 EXIT_STATUS_OFFSET = 128  # a process ended by signal N exits with 128 + N (shell convention)
 FINALISE_DEADLINE_S = 60
@@ -61,11 +56,6 @@ def signal_name(signum: int) -> str:
         return signal.Signals(signum).name
     except ValueError:
         return f"signal {signum}"
-
-
-def process_tags() -> dict[str, str]:
-    """Tags naming the process that runs a run: ``pid`` and ``hostname``."""
-    return {PID_TAG: str(os.getpid()), HOSTNAME_TAG: socket.gethostname()}
 
 
 def process_alive(pid: int) -> bool:
@@ -249,14 +239,11 @@ def restore_handlers(previous: dict[int, Handler] | None) -> None:
 
 __all__ = [
     "FINALISE_DEADLINE_S",
-    "HOSTNAME_TAG",
-    "PID_TAG",
     "JobInterrupted",
     "descendant_pids",
     "install_stop_handler",
     "postpone_abort_alarm",
     "process_alive",
-    "process_tags",
     "register_at_exit",
     "restore_handlers",
     "send_signal",

@@ -1,13 +1,17 @@
-"""Where a run came from: git commit and dirty state, library versions, user, and a job's own tags.
+"""Where a run came from: git commit and dirty state, library versions, user, process, and a job's tags.
 
 :func:`provenance_tags` says which code ran (``git_commit``, ``git_dirty``, ``lwrlab_version``, …);
-:func:`job_tags` adds what identifies one Hydra job: its overrides, config hash, seed, output folder,
-process and host (``pid``, ``hostname``, from :mod:`lwrlab.tracking.processes`) and its sweep.
+:func:`process_tags` says which process runs the run (``pid``, ``hostname``: how
+:mod:`lwrlab.tracking.finalise` tells a run left RUNNING by a dead process from one still running);
+:func:`job_tags` adds what identifies one Hydra job: its overrides, config hash, seed, output folder
+and its sweep.
 
 Examples
 --------
 >>> sorted(provenance_tags(Path("/")))[:3]  # doctest: +SKIP
 ['hydra_version', 'lwrlab_version', 'mlflow.user']
+>>> sorted(process_tags())
+['hostname', 'pid']
 """
 
 from __future__ import annotations
@@ -15,7 +19,9 @@ from __future__ import annotations
 import functools
 import getpass
 import logging
+import os
 import platform
+import socket
 import subprocess
 from collections.abc import Iterable, Mapping
 from importlib import metadata
@@ -27,7 +33,6 @@ from omegaconf import DictConfig, OmegaConf
 
 import lwrlab
 from lwrlab.tracking.config_params import TAG_VALUE_MAX_LENGTH, config_hash, task_overrides, truncate
-from lwrlab.tracking.processes import process_tags
 from lwrlab.tracking.settings import is_sweep_job, original_cwd
 
 log = logging.getLogger(__name__)
@@ -36,6 +41,10 @@ RUN_KIND_TAG = "run_kind"
 """``job``, ``sweep``, ``compare`` or ``report``: filter with ``runs_table(..., "tags.run_kind = 'job'")``."""
 PARENT_RUN_TAG = "mlflow.parentRunId"
 """Nests a run under another (a sweep's job under the sweep) in the MLflow UI."""
+PID_TAG = "pid"
+"""The id of the process that runs the run (with ``hostname``: whether that process still lives)."""
+HOSTNAME_TAG = "hostname"
+"""The machine of that process."""
 GIT_TIMEOUT_S = 5
 
 
@@ -84,6 +93,11 @@ def provenance_tags(cwd: Path) -> dict[str, str]:
     return tags
 
 
+def process_tags() -> dict[str, str]:
+    """Tags naming the process that runs a run: ``pid`` and ``hostname``."""
+    return {PID_TAG: str(os.getpid()), HOSTNAME_TAG: socket.gethostname()}
+
+
 def job_tags(config: DictConfig, job_config: Mapping[str, Any], parent_run_id: str | None) -> dict[str, str]:
     """The tags of a job's run: what it computes (overrides, config hash, seed), where and which code ran.
 
@@ -115,4 +129,12 @@ def job_tags(config: DictConfig, job_config: Mapping[str, Any], parent_run_id: s
     return tags
 
 
-__all__ = ["PARENT_RUN_TAG", "RUN_KIND_TAG", "job_tags", "provenance_tags"]
+__all__ = [
+    "HOSTNAME_TAG",
+    "PARENT_RUN_TAG",
+    "PID_TAG",
+    "RUN_KIND_TAG",
+    "job_tags",
+    "process_tags",
+    "provenance_tags",
+]

@@ -26,8 +26,7 @@ from lwrlab.tracking.config_params import (
 )
 from lwrlab.tracking.finalise import KILLED_BY_TAG
 from lwrlab.tracking.naming import NAME_SEPARATOR, job_run_name, swept_keys
-from lwrlab.tracking.processes import process_tags
-from lwrlab.tracking.provenance import RUN_KIND_TAG, provenance_tags
+from lwrlab.tracking.provenance import RUN_KIND_TAG, process_tags, provenance_tags
 from lwrlab.tracking.redaction import Redactor, redacted_folder
 from lwrlab.tracking.run_queries import previous_sweep_run
 from lwrlab.tracking.settings import original_cwd

@@ -26,15 +26,13 @@ from omegaconf import DictConfig
 
 from lwrlab.tracking.finalise import KILLED_BY_TAG, end_killed, finalise_children, running_runs
 from lwrlab.tracking.processes import (
-    HOSTNAME_TAG,
-    PID_TAG,
     process_alive,
     send_signal,
     terminate_processes,
     wait_until,
     worker_pids,
 )
-from lwrlab.tracking.provenance import PARENT_RUN_TAG
+from lwrlab.tracking.provenance import HOSTNAME_TAG, PARENT_RUN_TAG, PID_TAG
 from lwrlab.tracking.redaction import Redactor
 from lwrlab.tracking.run_queries import earlier_attempts, experiment_ids
 from lwrlab.tracking.store import retry_locked
