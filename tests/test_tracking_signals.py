@@ -32,7 +32,10 @@ from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
 from lwrlab.tracking.processes import descendant_pids, process_alive, wait_until
 from lwrlab.tracking.run_logging import RUN_ID_FILE
 
-# A real identification job that runs ~10 s on one core (a 30 s motion), so a signal finds it busy.
+# The paper's whole chain (identification, tool, painting in MuJoCo): ~10 s on one core, of which
+# the run's start takes ~3 s (MLflow loads in the tracking companion), so a signal finds it busy.
+CHAIN_JOB = ["task=paper_chain", "plant.show_progress=false"]
+# A real identification job that runs ~3.5 s on one core (a 30 s motion), for the sweep's jobs.
 LONG_JOB = [
     "task=identification",
     "trajectory=multisine",
@@ -109,7 +112,7 @@ def test_a_stopped_lwrlab_job_ends_killed_with_exit_status_128_plus_signal(
     tmp_path: Path, signum: int
 ) -> None:
     process = start_app(
-        None, "experiment_name=stop_job", f"hydra.run.dir={tmp_path / 'run'}", *LONG_JOB, store=tmp_path
+        None, "experiment_name=stop_job", f"hydra.run.dir={tmp_path / 'run'}", *CHAIN_JOB, store=tmp_path
     )
     wait_for_runs(tmp_path / "run", 1, process)
     time.sleep(1.0)
