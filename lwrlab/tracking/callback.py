@@ -118,10 +118,18 @@ class MlflowTracking(Callback):
         if self._in_process is None:
             from lwrlab.tracking.mlflow_callback import InProcessTracking
 
-            self._in_process = InProcessTracking(
-                self.tracking_uri, self.experiment, self.artifact_location, self.log_artifacts, self.resume
-            )
+            self._in_process = InProcessTracking(**self.logging_settings())
         return self._in_process
+
+    def logging_settings(self) -> dict[str, Any]:
+        """The settings the logging itself takes (all but ``companion``), in this process or the companion."""
+        return {
+            "tracking_uri": self.tracking_uri,
+            "experiment": self.experiment,
+            "artifact_location": self.artifact_location,
+            "log_artifacts": self.log_artifacts,
+            "resume": self.resume,
+        }
 
     # -- Hydra hooks ------------------------------------------------------------------------
 
@@ -129,15 +137,8 @@ class MlflowTracking(Callback):
         """A single run: start the companion now, so that MLflow is ready when the job is done."""
         if not self.companion:
             return
-        settings = {
-            "tracking_uri": self.tracking_uri,
-            "experiment": self.experiment,
-            "artifact_location": self.artifact_location,
-            "log_artifacts": self.log_artifacts,
-            "resume": self.resume,
-        }
         try:
-            self._link = CompanionLink.start(settings)
+            self._link = CompanionLink.start(self.logging_settings())
         except (OSError, ValueError, CompanionGone) as error:  # ValueError: no fd passing (Windows)
             log.warning(
                 "the tracking companion did not start (%s: %s); logging from the job's process",

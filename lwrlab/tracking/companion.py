@@ -13,11 +13,11 @@ the companion ends the run KILLED itself and exits.
 from __future__ import annotations
 
 import logging
-import os
 import signal
-import sys
 from multiprocessing.connection import Connection
-from typing import Any
+from typing import Any, NoReturn
+
+from lwrlab.tracking.processes import exit_at_once
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +94,7 @@ def serve(connection: Connection) -> int:
             connection.send(("done",))
 
 
-def main(fd: int) -> int:
+def main(fd: int) -> NoReturn:
     """Entry point: serve the job's process on the socket ``fd``, then exit at once.
 
     The run is ended by then; exiting without the interpreter's shutdown (MLflow's and SQLAlchemy's
@@ -104,10 +104,7 @@ def main(fd: int) -> int:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     with Connection(fd) as connection:
         status = serve(connection)
-    logging.shutdown()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(status)
+    exit_at_once(status)
 
 
 __all__ = ["GONE_REASON", "ForwardingHandler", "main", "serve"]

@@ -111,7 +111,7 @@ class CompanionLink:
         with ours, theirs:
             bootstrap = (
                 "import json, sys; sys.path[:] = json.loads(sys.argv[1]); "
-                "from lwrlab.tracking.companion import main; sys.exit(main(int(sys.argv[2])))"
+                "from lwrlab.tracking.companion import main; main(int(sys.argv[2]))"
             )
             process = subprocess.Popen(
                 [sys.executable, "-c", bootstrap, json.dumps(_absolute(sys.path)), str(theirs.fileno())],

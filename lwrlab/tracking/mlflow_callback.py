@@ -39,7 +39,6 @@ import logging
 import multiprocessing
 import os
 import socket
-import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -57,6 +56,7 @@ from lwrlab.tracking.job_run import JobRun
 from lwrlab.tracking.naming import job_run_name
 from lwrlab.tracking.processes import (
     JobInterrupted,
+    exit_at_once,
     install_stop_handler,
     postpone_abort_alarm,
     register_at_exit,
@@ -86,9 +86,9 @@ class InProcessTracking(Callback):
         self,
         tracking_uri: str,
         experiment: str,
-        artifact_location: str | None = None,
-        log_artifacts: bool = True,
-        resume: bool = True,
+        artifact_location: str | None,
+        log_artifacts: bool,
+        resume: bool,
     ) -> None:
         self.tracking_uri = tracking_uri
         self.experiment = experiment
@@ -167,29 +167,6 @@ class InProcessTracking(Callback):
         values = {field: getattr(self, field) for field in SETTING_FIELDS}
         return job_settings(config, values, MlflowTracking)
 
-    # -- one job's run, for the hooks above and for the companion process -------------------
-
-    def start_job(self, config: DictConfig, started_ms: int | None = None) -> None:
-        """Start the job's run (params, provenance tags, run id file), or skip an already finished job.
-
-        ``started_ms``: when the job started (epoch ms), if not now. If the store cannot be reached,
-        everything is kept in the output folder for ``lwrlab sync``. Never raises for the store.
-        """
-        self._on_job_start(config, started_ms)
-
-    def end_job(self, config: DictConfig, job_return: JobReturn) -> None:
-        """Log metrics and artifacts, then end the run with the job's status. Never raises for the store."""
-        self._on_job_end(config, job_return)
-
-    def end_job_killed(self, reason: str) -> None:
-        """End the running job's run KILLED (``reason``: a signal's name), with its outputs uploaded."""
-        if self._job is None:
-            return
-        try:
-            self._job.end_killed(reason)
-        except Exception as error:  # broad: whatever the store does, the stop must go on
-            self._warn(f"ending the run after {reason}", error)
-
     # -- stop signals -----------------------------------------------------------------------
 
     def _install_stop_handler(self) -> None:
@@ -245,10 +222,7 @@ class InProcessTracking(Callback):
             # A pool worker would catch the exception and take the sweep's next job; ending the
             # process makes the launcher stop handing out jobs (its pool is broken). A Ray worker
             # raises instead: Ray would retry a task whose worker died.
-            logging.shutdown()
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(JobInterrupted(signum).exit_status)
+            exit_at_once(JobInterrupted(signum).exit_status)
         raise JobInterrupted(signum)
 
     def _end_sweep_killed(self, reason: str) -> None:
@@ -305,7 +279,14 @@ class InProcessTracking(Callback):
         finally:
             self._parent_run_id = None
 
-    def _on_job_start(self, config: DictConfig, started_ms: int | None) -> None:
+    # -- one job's run, for the job hooks and for the companion process ----------------------
+
+    def start_job(self, config: DictConfig, started_ms: int | None = None) -> None:
+        """Start the job's run (params, provenance tags, run id file), or skip an already finished job.
+
+        ``started_ms``: when the job started (epoch ms), if not now. If the store cannot be reached,
+        everything is kept in the output folder for ``lwrlab sync``. Never raises for the store.
+        """
         job_state.reset()
         job = JobRun(Path(str(config.hydra.runtime.output_dir)), self._redactor, self._warn, self._guarded)
         if started_ms is not None:
@@ -333,13 +314,22 @@ class InProcessTracking(Callback):
         except Exception as error:  # broad: see above
             self._warn("logging the params", error)
 
-    def _on_job_end(self, config: DictConfig, job_return: JobReturn) -> None:
-        """Log metrics and artifacts, then end the run with the job's status."""
+    def end_job(self, config: DictConfig, job_return: JobReturn) -> None:
+        """Log metrics and artifacts, then end the run with the job's status. Never raises for the store."""
         # Without on_job_start in this process, a fresh JobRun still writes error.txt, and logs nothing.
         job = self._job or JobRun(
             Path(str(config.hydra.runtime.output_dir)), self._redactor, self._warn, self._guarded
         )
         job.end(job_return, config, self._parent_run_id)
+
+    def end_job_killed(self, reason: str) -> None:
+        """End the running job's run KILLED (``reason``: a signal's name), with its outputs uploaded."""
+        if self._job is None:
+            return
+        try:
+            self._job.end_killed(reason)
+        except Exception as error:  # broad: whatever the store does, the stop must go on
+            self._warn(f"ending the run after {reason}", error)
 
     # -- internals --------------------------------------------------------------------------
 

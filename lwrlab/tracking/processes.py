@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import logging
 import os
 import signal
 import sys
@@ -25,7 +26,7 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, NoReturn
 
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
 EXIT_STATUS_OFFSET = 128  # a process ended by signal N exits with 128 + N (shell convention)
@@ -214,6 +215,15 @@ def register_at_exit(hook: Callable[[], object], launcher_target: str) -> None:
 Handler = Callable[[int, FrameType | None], Any] | int | None
 
 
+def exit_at_once(status: int) -> NoReturn:
+    """End this process with ``status`` after flushing its logs and streams, skipping the interpreter's
+    shutdown (exit hooks, module teardown): for a process whose work is done or must not go on."""
+    logging.shutdown()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
+
+
 def install_stop_handler(handler: Callable[[int, FrameType | None], Any]) -> dict[int, Handler] | None:
     """Make ``handler`` the handler of SIGINT and SIGTERM; returns the previous handlers to restore.
 
@@ -241,6 +251,7 @@ __all__ = [
     "FINALISE_DEADLINE_S",
     "JobInterrupted",
     "descendant_pids",
+    "exit_at_once",
     "install_stop_handler",
     "postpone_abort_alarm",
     "process_alive",
