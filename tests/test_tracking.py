@@ -18,7 +18,8 @@ import pytest
 from hydra.core.utils import JobReturn, JobStatus
 from mlflow.entities import Run
 from mlflow.tracking import MlflowClient
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import OmegaConf
+from tracking_apps import unit_job_config
 
 from lwrlab.tracking import MlflowTracking, runs_table
 from lwrlab.tracking.config_params import PARAM_VALUE_MAX_LENGTH, config_hash, flatten_config, numeric_metrics
@@ -190,24 +191,7 @@ def test_tracking_none_runs_the_job_without_a_run(run_toy_app: ToyAppRunner, tmp
 # -- the callback in process ------------------------------------------------------------------
 
 
-def _job_config(tmp_path: Path, callback_node: dict[str, object]) -> DictConfig:
-    """The parts of a Hydra job config the callback reads."""
-    return OmegaConf.create(
-        {
-            "experiment_name": "swept_name",
-            "seed": 3,
-            "hydra": {
-                "callbacks": {"mlflow": callback_node},
-                "runtime": {"cwd": str(tmp_path), "output_dir": str(tmp_path / "job")},
-                "job": {"name": "unit", "override_dirname": "", "num": 0},
-                "overrides": {"task": []},
-                "mode": "RUN",
-            },
-        }
-    )
-
-
-def test_settings_are_re_read_from_each_job_config(tmp_path: Path) -> None:
+def test_settings_are_re_read_from_eachunit_job_config(tmp_path: Path) -> None:
     # Hydra builds callbacks once from the primary config; a sweep over experiment_name must
     # still send each job to its own experiment, and relative stores stay at the launch folder.
     node = {
@@ -217,7 +201,7 @@ def test_settings_are_re_read_from_each_job_config(tmp_path: Path) -> None:
         "artifact_location": "outputs/mlartifacts",
     }
     callback = MlflowTracking("sqlite:///outputs/mlflow.db", "primary_name", None, True, True, True)
-    settings = callback.in_process().settings_for(_job_config(tmp_path, node))
+    settings = callback.in_process().settings_for(unit_job_config(tmp_path, node))
     assert settings.experiment == "swept_name"
     assert settings.tracking_uri == f"sqlite:///{tmp_path.resolve()}/outputs/mlflow.db"
     assert settings.artifact_location == str(tmp_path.resolve() / "outputs" / "mlartifacts")
@@ -232,7 +216,7 @@ def test_unreachable_server_warns_once_and_keeps_the_job_result(
     uri = f"http://127.0.0.1:{port}"
     # Hooks called without on_run_start (no companion): the callback logs from this process.
     callback = MlflowTracking(uri, "unreachable", None, True, True, True)
-    config = _job_config(
+    config = unit_job_config(
         tmp_path, {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": "x"}
     )
     (tmp_path / "job").mkdir()

@@ -18,8 +18,7 @@ from pathlib import Path
 import pytest
 from hydra.core.utils import JobReturn, JobStatus
 from mlflow.tracking import MlflowClient
-from omegaconf import OmegaConf
-from tracking_apps import TOY_APP, run_app, runs_of, start_app, wait_for_files
+from tracking_apps import TOY_APP, run_app, runs_of, start_app, unit_job_config, wait_for_files
 
 from lwrlab.tracking import MlflowTracking
 from lwrlab.tracking.companion import GONE_REASON
@@ -136,18 +135,7 @@ def test_a_companion_that_cannot_start_leaves_the_run_to_the_job_process(
     monkeypatch.setattr(CompanionLink, "start", classmethod(cannot_start))
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     node = {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": "fallback"}
-    config = OmegaConf.create(
-        {
-            "seed": 1,
-            "hydra": {
-                "callbacks": {"mlflow": node},
-                "runtime": {"cwd": str(tmp_path), "output_dir": str(tmp_path / "job")},
-                "job": {"name": "unit", "override_dirname": "", "num": 0},
-                "overrides": {"task": []},
-                "mode": "RUN",
-            },
-        }
-    )
+    config = unit_job_config(tmp_path, node)
     (tmp_path / "job").mkdir()
     callback = MlflowTracking(uri, "fallback", None, True, True, True)
     callback.on_run_start(config)

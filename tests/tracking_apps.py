@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 from mlflow.entities import Run
 from mlflow.tracking import MlflowClient
+from omegaconf import DictConfig, OmegaConf
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 REPO_CONF = REPO_ROOT / "conf"
@@ -161,3 +162,20 @@ def all_logged_text(tracking_uri: str, run: Run, download_dir: Path) -> str:
         if path.is_file():
             parts.append(path.read_bytes().decode("utf-8", errors="replace"))
     return "\n".join(parts)
+
+
+def unit_job_config(tmp_path: Path, callback_node: dict[str, object]) -> DictConfig:
+    """The parts of a single run's Hydra job config the tracking callback reads (its output: tmp_path/job)."""
+    return OmegaConf.create(
+        {
+            "experiment_name": "swept_name",
+            "seed": 3,
+            "hydra": {
+                "callbacks": {"mlflow": callback_node},
+                "runtime": {"cwd": str(tmp_path), "output_dir": str(tmp_path / "job")},
+                "job": {"name": "unit", "override_dirname": "", "num": 0},
+                "overrides": {"task": []},
+                "mode": "RUN",
+            },
+        }
+    )
