@@ -21,6 +21,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from lwrlab.errors import UserError
+from lwrlab.garbage_collection import freeze_heap_at_exit, relax_garbage_collection
 from lwrlab.numerics.threads import limit_process_blas_threads
 from lwrlab.pipeline.config_checks import check_config
 from lwrlab.resources import CONFIG_SEARCH_PATH
@@ -96,9 +97,13 @@ def main() -> Any:
 
     A stop signal (SIGINT, SIGTERM) ends the process with the shell's status for it (130, 143) after
     the tracking callback has ended the runs KILLED. BLAS runs one thread unless the environment
-    says otherwise (:func:`~lwrlab.numerics.threads.limit_process_blas_threads`).
+    says otherwise (:func:`~lwrlab.numerics.threads.limit_process_blas_threads`), and the garbage
+    collector runs less often, and not over the whole heap again at exit
+    (:mod:`lwrlab.garbage_collection`).
     """
     limit_process_blas_threads()  # before anything imports numpy
+    relax_garbage_collection()
+    freeze_heap_at_exit()
     if len(sys.argv) > 1 and sys.argv[1] in SUBCOMMANDS:
         command = importlib.import_module(SUBCOMMANDS[sys.argv[1]])
         sys.exit(command.main(sys.argv[2:]))

@@ -14,7 +14,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.hyperparameters import clone_estimator
@@ -64,6 +63,8 @@ def block_bootstrap(
     context : the identification context of the rows, passed to every refit with its
         row-aligned data (the reference regressor) resampled like the rows.
     """
+    from tqdm.auto import tqdm  # here: an identification without the bootstrap does not load it
+
     tau = np.asarray(tau, dtype=float).ravel()
     n_samples = W.shape[0] // n_joints
     block_samples = int(min(max(1, block_samples), n_samples))
