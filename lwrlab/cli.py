@@ -25,7 +25,7 @@ from lwrlab.garbage_collection import freeze_heap_at_exit, relax_garbage_collect
 from lwrlab.numerics.threads import limit_process_blas_threads
 from lwrlab.pipeline.config_checks import check_config
 from lwrlab.resources import CONFIG_SEARCH_PATH
-from lwrlab.tracking import job_state
+from lwrlab.tracking import early_companion, job_state
 from lwrlab.tracking.processes import JobInterrupted
 
 log = logging.getLogger("lwrlab")
@@ -107,6 +107,8 @@ def main() -> Any:
     if len(sys.argv) > 1 and sys.argv[1] in SUBCOMMANDS:
         command = importlib.import_module(SUBCOMMANDS[sys.argv[1]])
         sys.exit(command.main(sys.argv[2:]))
+    if early_companion.may_log_a_single_run(sys.argv[1:]):
+        early_companion.launch()  # MLflow loads while Hydra composes the config
     try:
         return hydra_app()
     except JobInterrupted as stop:

@@ -12,15 +12,17 @@ import os
 import pickle
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
 import pytest
 from hydra.core.utils import JobReturn, JobStatus
+from mlflow.entities import Run
 from mlflow.tracking import MlflowClient
 from tracking_apps import TOY_APP, run_app, runs_of, start_app, unit_job_config, wait_for_files
 
-from lwrlab.tracking import MlflowTracking
+from lwrlab.tracking import MlflowTracking, early_companion
 from lwrlab.tracking.companion import GONE_REASON
 from lwrlab.tracking.companion_link import CompanionLink, ForwardedError
 from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
@@ -126,6 +128,21 @@ def test_a_sigterm_during_the_job_ends_the_run_killed_and_the_companion(tmp_path
     assert run.info.status == "KILLED" and "SIGTERM" in run.data.tags[KILLED_BY_TAG]
 
 
+def _log_a_unit_run(tmp_path: Path, experiment: str) -> Run:
+    """Log one job that returns ``{"rms": 0.5}`` through the callback's hooks (companion on); its run."""
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    node = {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": experiment}
+    config = unit_job_config(tmp_path, node)
+    (tmp_path / "job").mkdir()
+    callback = MlflowTracking(uri, experiment, None, True, True, True)
+    callback.on_run_start(config)
+    callback.on_job_start(config)
+    callback.on_job_end(config, JobReturn(status=JobStatus.COMPLETED, _return_value={"rms": 0.5}))
+    callback.on_run_end(config)
+    (run,) = runs_of(uri, experiment)
+    return run
+
+
 def test_a_companion_that_cannot_start_leaves_the_run_to_the_job_process(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
@@ -133,16 +150,88 @@ def test_a_companion_that_cannot_start_leaves_the_run_to_the_job_process(
         raise OSError("no processes left")
 
     monkeypatch.setattr(CompanionLink, "start", classmethod(cannot_start))
-    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
-    node = {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": "fallback"}
-    config = unit_job_config(tmp_path, node)
-    (tmp_path / "job").mkdir()
-    callback = MlflowTracking(uri, "fallback", None, True, True, True)
-    callback.on_run_start(config)
-    callback.on_job_start(config)
-    callback.on_job_end(config, JobReturn(status=JobStatus.COMPLETED, _return_value={"rms": 0.5}))
-    callback.on_run_end(config)
+    run = _log_a_unit_run(tmp_path, "fallback")
     assert "did not start (OSError: no processes left)" in caplog.text
-    (run,) = runs_of(uri, "fallback")
     assert run.info.status == "FINISHED" and run.data.metrics == {"rms": 0.5}
     assert run.data.tags["pid"] == str(os.getpid())
+
+
+def _launched_links(monkeypatch: pytest.MonkeyPatch) -> list[CompanionLink]:
+    """The companions CompanionLink.launch starts from now on, in order."""
+    launched: list[CompanionLink] = []
+    launch = CompanionLink.launch.__func__  # type: ignore[attr-defined]
+
+    def recording(cls: type[CompanionLink]) -> CompanionLink:
+        launched.append(launch(cls))
+        return launched[-1]
+
+    monkeypatch.setattr(CompanionLink, "launch", classmethod(recording))
+    return launched
+
+
+def test_the_single_run_adopts_the_companion_launched_before_hydra_composed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    def cannot_start(cls: type, settings: object) -> None:
+        raise OSError("a second companion was started")
+
+    launched = _launched_links(monkeypatch)
+    early_companion.launch()  # as lwrlab does, before the callback exists
+    monkeypatch.setattr(CompanionLink, "start", classmethod(cannot_start))
+    run = _log_a_unit_run(tmp_path, "early")
+    assert "did not start" not in caplog.text and early_companion.take() is None
+    assert run.info.status == "FINISHED" and run.data.metrics == {"rms": 0.5}
+    (companion,) = launched
+    assert run.data.tags["pid"] == str(companion.process.pid) and companion.process.returncode == 0
+
+
+def test_an_early_companion_is_ended_when_the_run_logs_from_the_job_process(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    launched = _launched_links(monkeypatch)
+    early_companion.launch()
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    callback = MlflowTracking(uri, "off", None, True, True, False)  # companion: false in the config
+    callback.on_run_start(unit_job_config(tmp_path, {}))
+    (companion,) = launched
+    assert companion.process.returncode == -signal.SIGKILL and early_companion.take() is None
+    assert not (tmp_path / "mlflow.db").exists()  # it touched no store
+
+
+def test_an_unconfigured_companion_exits_quietly_when_closed_or_left() -> None:
+    closed = CompanionLink.launch()
+    closed.close()
+    assert closed.process.returncode == 0
+
+    left = subprocess.run(  # a job's process that ends before its callback configured the companion
+        [
+            sys.executable,
+            "-c",
+            "import os; from lwrlab.tracking.companion_link import CompanionLink; "
+            "print(CompanionLink.launch().process.pid, flush=True); os._exit(0)",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    companion = int(left.stdout)
+    assert wait_until(lambda: not process_alive(companion), timeout_s=60), "the companion outlived its job"
+
+
+@pytest.mark.parametrize(
+    ("command_line", "may"),
+    [
+        (["task=identification", "plant=log", "data.path=a.csv"], True),
+        ([], True),
+        (["-m", "seed=1,2"], False),
+        (["--multirun", "seed=1,2"], False),
+        (["--cfg", "job"], False),
+        (["tracking=none"], False),
+        (["hydra.callbacks.mlflow.companion=false"], False),
+        (["tracking=server"], True),
+    ],
+)
+def test_lwrlab_launches_a_companion_early_only_for_a_single_tracked_run(
+    command_line: list[str], may: bool
+) -> None:
+    assert early_companion.may_log_a_single_run(command_line) is may

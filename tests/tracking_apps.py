@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from hydra.conf import HydraConf
 from mlflow.entities import Run
 from mlflow.tracking import MlflowClient
 from omegaconf import DictConfig, OmegaConf
@@ -165,17 +166,20 @@ def all_logged_text(tracking_uri: str, run: Run, download_dir: Path) -> str:
 
 
 def unit_job_config(tmp_path: Path, callback_node: dict[str, object]) -> DictConfig:
-    """The parts of a single run's Hydra job config the tracking callback reads (its output: tmp_path/job)."""
-    return OmegaConf.create(
+    """The parts of a single run's Hydra job config the tracking callback reads (its output: tmp_path/job).
+
+    The ``hydra`` node has Hydra's own type, as in a composed config (the companion sets it as the
+    job's ``HydraConfig``, which checks that).
+    """
+    config = OmegaConf.create({"experiment_name": "swept_name", "seed": 3})
+    config.hydra = OmegaConf.merge(
+        OmegaConf.structured(HydraConf),
         {
-            "experiment_name": "swept_name",
-            "seed": 3,
-            "hydra": {
-                "callbacks": {"mlflow": callback_node},
-                "runtime": {"cwd": str(tmp_path), "output_dir": str(tmp_path / "job")},
-                "job": {"name": "unit", "override_dirname": "", "num": 0},
-                "overrides": {"task": []},
-                "mode": "RUN",
-            },
-        }
+            "callbacks": {"mlflow": callback_node},
+            "runtime": {"cwd": str(tmp_path), "output_dir": str(tmp_path / "job")},
+            "job": {"name": "unit", "override_dirname": "", "num": 0},
+            "overrides": {"task": []},
+            "mode": "RUN",
+        },
     )
+    return config

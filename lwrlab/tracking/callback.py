@@ -2,7 +2,8 @@
 
 Importing MLflow and opening a store takes about two seconds, longer than an identification from a
 log. For a single run (``lwrlab task=…``), :class:`MlflowTracking` therefore logs from a companion
-process (:mod:`lwrlab.tracking.companion`) started when the run starts: it imports MLflow and starts
+process (:mod:`lwrlab.tracking.companion`), launched by ``lwrlab`` before Hydra composes the config
+(:mod:`lwrlab.tracking.early_companion`) or else when the run starts: it imports MLflow and starts
 the run on another core while the job computes, and the job's process never imports MLflow. The job
 waits for the companion at its end, so that its run is complete in the store when ``lwrlab``
 returns. Sweeps, whose jobs run in launcher workers (joblib, Ray, Slurm), are logged from the
@@ -23,7 +24,7 @@ from hydra.core.utils import JobReturn
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig
 
-from lwrlab.tracking import job_state
+from lwrlab.tracking import early_companion, job_state
 from lwrlab.tracking.companion_link import CompanionGone, CompanionLink
 from lwrlab.tracking.processes import JobInterrupted, install_stop_handler, restore_handlers, signal_name
 
@@ -134,11 +135,18 @@ class MlflowTracking(Callback):
     # -- Hydra hooks ------------------------------------------------------------------------
 
     def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
-        """A single run: start the companion now, so that MLflow is ready when the job is done."""
+        """A single run: configure the companion ``lwrlab`` launched, or start one now."""
+        early = early_companion.take()
         if not self.companion:
+            if early is not None:
+                early.discard()
             return
         try:
-            self._link = CompanionLink.start(self.logging_settings())
+            if early is None:
+                self._link = CompanionLink.start(self.logging_settings())
+            else:
+                early.configure(self.logging_settings())
+                self._link = early
         except (OSError, ValueError, CompanionGone) as error:  # ValueError: no fd passing (Windows)
             log.warning(
                 "the tracking companion did not start (%s: %s); logging from the job's process",
@@ -152,6 +160,7 @@ class MlflowTracking(Callback):
             self._link = None
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        early_companion.discard()  # a preset that sweeps: its jobs log from the launcher's processes
         self.in_process().on_multirun_start(config, **kwargs)
 
     def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:

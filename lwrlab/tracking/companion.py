@@ -17,6 +17,7 @@ import signal
 from multiprocessing.connection import Connection
 from typing import Any, NoReturn
 
+from lwrlab.garbage_collection import relax_garbage_collection
 from lwrlab.tracking.processes import exit_at_once
 
 log = logging.getLogger(__name__)
@@ -43,28 +44,34 @@ class ForwardingHandler(logging.Handler):
             self.handleError(record)
 
 
-def _forward_logs(connection: Connection, levels: dict[str, int]) -> None:
+def _forward_logs(connection: Connection) -> None:
     root = logging.getLogger()
     for handler in list(root.handlers):
         root.removeHandler(handler)
     root.addHandler(ForwardingHandler(connection))
-    for name, level in levels.items():
-        logging.getLogger(name or None).setLevel(level)
 
 
 def serve(connection: Connection) -> int:
     """Handle the job's messages until ``close`` or until the job's process ends; the exit status."""
-    kind, settings, levels = connection.recv()
-    assert kind == "settings", kind
-    _forward_logs(connection, levels)
+    _forward_logs(connection)  # from the start: warnings of the imports reach the job too
 
-    # The slow part, on the other core while the job computes.
+    # The slow part, on the other core while the job composes its config and computes.
     from hydra.core.hydra_config import HydraConfig
     from hydra.core.utils import setup_globals
 
     from lwrlab.tracking import job_state
     from lwrlab.tracking.mlflow_callback import InProcessTracking
 
+    try:
+        first: tuple[Any, ...] = connection.recv()
+    except (EOFError, OSError):  # launched early for a job that logs no single run
+        return 0
+    if first[0] == "close":
+        return 0
+    kind, settings, levels = first
+    assert kind == "settings", kind
+    for name, level in levels.items():
+        logging.getLogger(name or None).setLevel(level)
     setup_globals()  # Hydra's resolvers (${hydra:...}) for the job's config
     tracking = InProcessTracking(**settings)
     while True:
@@ -102,6 +109,7 @@ def main(fd: int) -> NoReturn:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    relax_garbage_collection()  # MLflow's imports
     with Connection(fd) as connection:
         status = serve(connection)
     exit_at_once(status)

@@ -100,12 +100,12 @@ class CompanionLink:
         threading.Thread(target=self._read, name="tracking-companion-reader", daemon=True).start()
 
     @classmethod
-    def start(cls, settings: Mapping[str, Any]) -> CompanionLink:
-        """Start a companion that logs with ``settings`` (the tracking callback's constructor values).
+    def launch(cls) -> CompanionLink:
+        """Start a companion, which imports MLflow at once and then waits for :meth:`configure`.
 
         It imports modules from this process's ``sys.path``, in its own session (a Ctrl-C reaches the
         job, which tells the companion), and inherits stdout and stderr. Raises ``OSError`` if it
-        cannot be started.
+        cannot be started. A companion that is closed before it was configured exits quietly.
         """
         ours, theirs = socket.socketpair()
         with ours, theirs:
@@ -119,9 +119,18 @@ class CompanionLink:
                 stdin=subprocess.DEVNULL,
                 start_new_session=True,
             )
-            link = cls(process, Connection(ours.detach()))
-        link.send(("settings", dict(settings), logger_levels()))
+            return cls(process, Connection(ours.detach()))
+
+    @classmethod
+    def start(cls, settings: Mapping[str, Any]) -> CompanionLink:
+        """Start a companion that logs with ``settings`` (the tracking callback's constructor values)."""
+        link = cls.launch()
+        link.configure(settings)
         return link
+
+    def configure(self, settings: Mapping[str, Any]) -> None:
+        """Tell the companion how to log (the tracking callback's constructor values) and at which levels."""
+        self.send(("settings", dict(settings), logger_levels()))
 
     def send(self, message: tuple[Any, ...]) -> None:
         """Send ``message``; raises :class:`CompanionGone` if the companion has ended."""
@@ -148,6 +157,12 @@ class CompanionLink:
     def stop(self, reason: str) -> None:
         """Wait until the companion has ended the run KILLED (``reason``: the signal's name)."""
         self.request(("stop", reason))
+
+    def discard(self) -> None:
+        """End a companion that has no run (never configured, or its job started none) at once."""
+        self.process.kill()
+        self.process.wait()
+        self._connection.close()
 
     def close(self) -> None:
         """Let the companion exit and wait for it (a bounded time: its run is already logged)."""
