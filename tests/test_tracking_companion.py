@@ -228,6 +228,7 @@ def test_an_unconfigured_companion_exits_quietly_when_closed_or_left() -> None:
         (["--cfg", "job"], False),
         (["tracking=none"], False),
         (["hydra.callbacks.mlflow.companion=false"], False),
+        (["hydra.mode=MULTIRUN", "seed=1,2"], False),
         (["tracking=server"], True),
     ],
 )

@@ -18,7 +18,7 @@ from lwrlab.tracking.companion_link import CompanionLink
 
 log = logging.getLogger(__name__)
 
-_NO_SINGLE_RUN = ("tracking=none", "hydra.callbacks.mlflow.companion=false")
+_NO_SINGLE_RUN = ("tracking=none", "hydra.callbacks.mlflow.companion=false", "hydra.mode=MULTIRUN")
 """Overrides after which no companion logs the job."""
 
 _launched: CompanionLink | None = None
@@ -27,8 +27,8 @@ _launched: CompanionLink | None = None
 def may_log_a_single_run(overrides: Sequence[str]) -> bool:
     """Whether a command line (without the program) may run one job logged by a companion.
 
-    Not with a Hydra flag (``-m``, ``--cfg``, ``--help``, …) nor with an override that turns
-    tracking or the companion off. Presets that sweep are only known once composed.
+    Not with a Hydra flag (``-m``, ``--cfg``, ``--help``, …) nor with an override that sweeps or
+    turns tracking or the companion off. Presets that sweep are only known once composed.
 
     Examples
     --------
