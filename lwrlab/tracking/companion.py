@@ -1,7 +1,8 @@
 """The tracking companion: a process that logs one single run's job to MLflow while the job computes.
 
-Started by :class:`~lwrlab.tracking.companion_link.CompanionLink` (see there for the messages). It
-imports MLflow and opens the store on the machine's other core while the job's process imports its
+Started by :class:`~lwrlab.tracking.companion_link.CompanionLink` (see there for the messages),
+usually before Hydra composes the job's config. It imports MLflow at once, then opens the store
+named by the settings on the machine's other core while the job's process composes, imports its
 numerics and computes, then does what :class:`~lwrlab.tracking.mlflow_callback.InProcessTracking`
 does in a job's own process: the run started with params and tags, then metrics, outputs and status.
 

@@ -3,8 +3,10 @@
 :class:`CompanionLink` starts :mod:`lwrlab.tracking.companion` as a child process and talks to it
 over a socket pair with pickled messages (``multiprocessing.connection`` framing):
 
-* to the companion: ``("settings", settings, levels)`` once, ``("job_start", config, started_ms)``,
-  ``("job_end", config, job_return, recorded_metrics)``, ``("stop", reason)``, ``("close",)``;
+* to the companion: ``("settings", settings, levels)`` once (it imports MLflow before it reads
+  them: :meth:`CompanionLink.launch` may start it before the job knows its settings),
+  ``("job_start", config, started_ms)``, ``("job_end", config, job_return, recorded_metrics)``,
+  ``("stop", reason)``, ``("close",)`` (before the settings: exit, having logged nothing);
 * from it: ``("log", record)`` for each log record (re-emitted here, so that its warnings reach the
   job's console and log file) and ``("done",)`` after a ``job_end`` or a ``stop``.
 
