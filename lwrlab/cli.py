@@ -20,6 +20,7 @@ from hydra.errors import CompactHydraException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
+import lwrlab.conf  # noqa: F401  (registers the schemas: Hydra's --info defaults looks them up first)
 from lwrlab.errors import UserError
 from lwrlab.garbage_collection import freeze_heap_at_exit, relax_garbage_collection
 from lwrlab.numerics.threads import limit_process_blas_threads
