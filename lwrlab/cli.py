@@ -31,6 +31,9 @@ from lwrlab.tracking.processes import JobInterrupted
 
 log = logging.getLogger("lwrlab")
 
+VERSIONED_DISTRIBUTIONS = ("hydra-core", "pin", "numpy", "scipy", "cvxpy", "mlflow", "mujoco")
+"""The libraries whose versions ``lwrlab --version`` names (what a bug report needs)."""
+
 SUBCOMMANDS = {
     "report": "lwrlab.tracking.report",
     "compare": "lwrlab.tracking.compare",
@@ -93,6 +96,28 @@ def hydra_app(cfg: DictConfig) -> dict[str, float] | float:
     return float(metrics[objective])
 
 
+def version_text() -> str:
+    """``lwrlab <version> (Python <version>; <library> <version>, …)``, read without importing them.
+
+    Examples
+    --------
+    >>> version_text().startswith("lwrlab ") and "hydra-core " in version_text()
+    True
+    """
+    import platform
+    from importlib.metadata import PackageNotFoundError, version
+
+    from lwrlab import __version__
+
+    found = []
+    for distribution in VERSIONED_DISTRIBUTIONS:
+        try:
+            found.append(f"{distribution} {version(distribution)}")
+        except PackageNotFoundError:
+            found.append(f"{distribution} missing")
+    return f"lwrlab {__version__} (Python {platform.python_version()}; {', '.join(found)})"
+
+
 def main() -> Any:
     """``lwrlab report|compare|sync ...`` (see their ``--help``), otherwise the Hydra app.
 
@@ -108,6 +133,9 @@ def main() -> Any:
     if len(sys.argv) > 1 and sys.argv[1] in SUBCOMMANDS:
         command = importlib.import_module(SUBCOMMANDS[sys.argv[1]])
         sys.exit(command.main(sys.argv[2:]))
+    if "--version" in sys.argv[1:]:  # Hydra's own flag would name Hydra's version alone
+        print(version_text())
+        sys.exit(0)
     if early_companion.may_log_a_single_run(sys.argv[1:]):
         early_companion.launch()  # MLflow loads while Hydra composes the config
     try:

@@ -9,8 +9,6 @@ schemas, the rules of lwrlab/pipeline/config_checks.py and the plugins' signatur
 from __future__ import annotations
 
 import inspect
-import subprocess
-import sys
 import textwrap
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -249,16 +247,3 @@ def test_a_user_option_without_a_schema_stays_open(tmp_path: Path, inputs: Input
     cfg = compose_config(searchpath, "plant=mine", hydra_node=True)
     check_composed(cfg, inputs, ["plant"])
     assert OmegaConf.get_type(cfg.plant) is dict
-
-
-@pytest.mark.parametrize("info", ["defaults", "defaults-tree"])
-def test_hydra_lists_the_defaults_of_the_command_line(info: str) -> None:
-    """``lwrlab … --info defaults`` finds the schemas the YAML files link (registered before Hydra starts)."""
-    shown = subprocess.run(
-        [sys.executable, "-m", "lwrlab.cli", "task=identification", "--info", info],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert shown.returncode == 0, shown.stderr[-2000:]
-    assert "schema/root/config" in shown.stdout and "task/identification" in shown.stdout
