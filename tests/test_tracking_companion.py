@@ -128,6 +128,15 @@ def test_a_sigterm_during_the_job_ends_the_run_killed_and_the_companion(tmp_path
     assert run.info.status == "KILLED" and "SIGTERM" in run.data.tags[KILLED_BY_TAG]
 
 
+def _fail_to_start_companions(monkeypatch: pytest.MonkeyPatch, reason: str) -> None:
+    """From now on, CompanionLink.start raises ``OSError(reason)``, as when no process can be started."""
+
+    def cannot_start(cls: type, settings: object) -> None:
+        raise OSError(reason)
+
+    monkeypatch.setattr(CompanionLink, "start", classmethod(cannot_start))
+
+
 def _log_a_unit_run(tmp_path: Path, experiment: str) -> Run:
     """Log one job that returns ``{"rms": 0.5}`` through the callback's hooks (companion on); its run."""
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
@@ -146,10 +155,7 @@ def _log_a_unit_run(tmp_path: Path, experiment: str) -> Run:
 def test_a_companion_that_cannot_start_leaves_the_run_to_the_job_process(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
-    def cannot_start(cls: type, settings: object) -> None:
-        raise OSError("no processes left")
-
-    monkeypatch.setattr(CompanionLink, "start", classmethod(cannot_start))
+    _fail_to_start_companions(monkeypatch, "no processes left")
     run = _log_a_unit_run(tmp_path, "fallback")
     assert "did not start (OSError: no processes left)" in caplog.text
     assert run.info.status == "FINISHED" and run.data.metrics == {"rms": 0.5}
@@ -172,12 +178,9 @@ def _launched_links(monkeypatch: pytest.MonkeyPatch) -> list[CompanionLink]:
 def test_the_single_run_adopts_the_companion_launched_before_hydra_composed(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
-    def cannot_start(cls: type, settings: object) -> None:
-        raise OSError("a second companion was started")
-
     launched = _launched_links(monkeypatch)
     early_companion.launch()  # as lwrlab does, before the callback exists
-    monkeypatch.setattr(CompanionLink, "start", classmethod(cannot_start))
+    _fail_to_start_companions(monkeypatch, "a second companion was started")
     run = _log_a_unit_run(tmp_path, "early")
     assert "did not start" not in caplog.text and early_companion.take() is None
     assert run.info.status == "FINISHED" and run.data.metrics == {"rms": 0.5}
