@@ -12,7 +12,7 @@ import pinocchio as pin
 import pytest
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters
-from lwrlab.excitation.constraints import relevant_pairs, sphere_centres
+from lwrlab.excitation.collision_scene import CollisionScene
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.excitation.solver import InfeasibleExcitationError, SlsqpOptimizer, verify_motion
 from lwrlab.io.exciting_motion import load_motion_description
@@ -100,7 +100,7 @@ def test_every_constraint_family_has_an_exact_jacobian(lwr_problem: ExcitationPr
         "velocity",
         "acceleration",
         "torque",
-        "ground",
+        "world",
         "self_collision",
     ]
     analytic = lwr_problem.constraint_jacobian(x)
@@ -134,7 +134,8 @@ def test_sphere_centres_agree_with_pinocchio(
 ) -> None:
     robot: RobotModel = request.getfixturevalue(robot_name)
     q = rng.uniform(robot.limits.position_lower, robot.limits.position_upper, size=(4, robot.n_joints))
-    centres = sphere_centres(robot, q, robot.collision_spheres)
+    scene = lwr_scene(robot)
+    centres = scene.sphere_centres(scene.poses(q))
     data = robot.model.createData()
     for k in range(4):
         pin.forwardKinematics(robot.model, data, q[k])
@@ -143,11 +144,17 @@ def test_sphere_centres_agree_with_pinocchio(
             np.testing.assert_allclose(centres[s, k], pose.act(sphere.center), atol=1e-12)
 
 
+def lwr_scene(robot: RobotModel) -> CollisionScene:
+    """The collision scene of a robot described by spheres, with the shipped settings."""
+    return optimal().constraints.scene(robot)
+
+
 def test_relevant_pairs_skip_neighbours_and_rigid_pairs(lwr4: RobotModel) -> None:
     min_link_gap = optimal().constraints.min_link_gap
     assert min_link_gap == 2
-    pairs = relevant_pairs(lwr4, min_link_gap)
-    names = {(lwr4.collision_spheres[a].name, lwr4.collision_spheres[b].name) for a, b in pairs}
+    scene = lwr_scene(lwr4)
+    pairs = scene.self_pairs
+    names = {(scene.bodies[a], scene.bodies[b]) for a, b in pairs}
     assert ("base", "shoulder") not in names and (
         "elbow",
         "wrist",
@@ -174,9 +181,11 @@ def test_short_optimisation_is_feasible_and_improves_the_criterion(lwr4: RobotMo
 
 def test_infeasible_problem_names_the_violated_constraint(lwr4: RobotModel, lwr_base) -> None:
     """The wrist cannot stay above a floor at 1.5 m: the error says so, with a time."""
-    problem = optimal(constraints={"z_ground": 1.5}).problem(lwr4, lwr_base)
+    constraints = {"world": {"mounting_surface": {"height": 1.5}}}
+    problem = optimal(constraints=constraints).problem(lwr4, lwr_base)
     with pytest.raises(
-        InfeasibleExcitationError, match=r"ground constraint (elbow|wrist) violated by .* m at t = "
+        InfeasibleExcitationError,
+        match=r"world constraint (elbow|wrist)–mounting surface violated by .* m at t = ",
     ):
         quiet_optimizer(8).solve(problem)
 
@@ -194,7 +203,7 @@ def test_shipped_motion_is_feasible_at_1khz_and_better_conditioned_than_the_mult
         "velocity",
         "acceleration",
         "torque",
-        "ground",
+        "world",
         "self_collision",
     }
     assert all(not r.violated for r in reports), [r for r in reports if r.violated]

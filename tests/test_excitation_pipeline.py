@@ -30,7 +30,7 @@ def test_duration_study_writes_fig5_table_and_knee(tmp_path: Path) -> None:
         "task.durations=[1,2]",
         "~task.criteria.cond",
         "~task.criteria.hadamard",
-        "optimizer.max_iterations=25",
+        "optimizer.max_iterations=40",
     )
     stage = instantiate(cfg.task)
     assert set(stage.keywords["criteria"]) == {"logdet"}

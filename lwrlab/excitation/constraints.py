@@ -1,6 +1,6 @@
 """The constraints of the excitation problem, eq. (10)–(11), vectorised over the samples.
 
-Each *family* (position, velocity, acceleration, torque, ground, self_collision) gives, for every
+Each *family* (position, velocity, acceleration, torque, world, self_collision) gives, for every
 sample at once, a matrix of slacks ``s[k, c] ≥ 0`` when satisfied, in physical units (rad, rad/s,
 rad/s², N·m, m), and the derivative of the slack of chosen (sample, column) pairs with respect to
 q, q̇, q̈ at that sample. The problem (:mod:`lwrlab.excitation.problem`) divides slacks by a scale per
@@ -10,149 +10,129 @@ construction of the parameterisations and are not constraints here.
 
 * position, velocity, acceleration: ``x⁺_j·(1 − margin) ∓ x_j``, two columns per joint;
 * torque: ``Γ⁺_j·(1 − margin) ∓ Γ_j`` with Γ the CAD model's inverse dynamics with friction;
-* ground: ``z_c − r − z_ground − margin`` for the centre c and radius r of each sphere named in
-  ``ground_spheres`` (the elbow and the wrist);
-* self_collision: ``‖c_a − c_b‖ − r_a − r_b − clearance − margin`` for every relevant pair of spheres.
+* world: ``d − clearance − margin`` for each (body, world object) pair of the collision scene (the
+  mounting surface, obstacles, the URDF's fixed links), d the distance of the body's enclosing
+  spheres to the object;
+* self_collision: ``d − clearance − margin`` for each body pair of the scene, d the smallest gap
+  between their spheres (:mod:`lwrlab.excitation.collision_scene`).
 
 The margins keep the 100 Hz optimum feasible between its samples; the final check of a motion
-(:func:`lwrlab.excitation.solver.verify_motion`) sets them to zero.
+(:func:`lwrlab.excitation.solver.verify_motion`) sets them to zero, and
+:mod:`lwrlab.excitation.collision_check` checks the exact geometry at every sample.
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
-from itertools import combinations
-from typing import ClassVar
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 import numpy as np
 import pinocchio as pin
 
-from lwrlab.dynamics.base_parameters import random_states
-from lwrlab.kinematics.forward import joint_frame_poses
-from lwrlab.model.collision import CollisionSphere
+from lwrlab.excitation.collision_scene import CollisionScene, build_scene
+from lwrlab.excitation.sphere_distances import SphereDistances
 from lwrlab.model.robot import RobotModel
+from lwrlab.model.world import WorldObject, build_world
 
 log = logging.getLogger(__name__)
 
-FAMILIES = ("position", "velocity", "acceleration", "torque", "ground", "self_collision")
+FAMILIES = ("position", "velocity", "acceleration", "torque", "world", "self_collision")
 
 
 @dataclass(frozen=True)
 class ConstraintSettings:
     """What the exciting motion must respect besides its parameterisation's boundary conditions.
 
-    Every field is required: the ``constraints`` node of conf/trajectory/optimal.yaml gives their values.
+    Every field but ``world`` is required: the ``constraints`` node of conf/trajectory/optimal.yaml
+    gives their values.
 
     Parameters
     ----------
     limit_margin : fraction of every joint limit (position range, velocity, acceleration, torque)
         kept free: the optimisation samples at 100 Hz, the robot plays 1 kHz.
     torque : constrain the CAD model's joint torques (with friction) to the torque limits.
-    z_ground : height (m, base frame) of the virtual floor the ground spheres stay above.
-    ground_spheres : names of the robot's collision spheres kept above the floor (elbow, wrist).
-    self_collision : keep relevant pairs of collision spheres apart.
-    clearance : extra distance (m) between sphere surfaces.
-    distance_margin : distance (m) kept free on top of the ground and self-collision constraints
-        during the optimisation (what ``limit_margin`` is to the limits).
-    min_link_gap : spheres on segments fewer joints apart than this are never checked (neighbours
-        touch at their joint).
+    world : ``{mounting_surface: {height, normal} | null, obstacles: [...]}``
+        (:mod:`lwrlab.model.world`); the robot's bodies stay ``clearance`` away from them.
+    ground_spheres : for a robot described by hand-written collision spheres only: the spheres kept
+        off the world (null: all).
+    self_collision : keep the robot's bodies apart.
+    clearance : distance (m) kept between bodies, and between bodies and the world, by the
+        optimiser and by the exact check (a padding of the geometry).
+    distance_margin : distance (m) kept free on top of the clearance during the optimisation (what
+        ``limit_margin`` is to the limits).
+    min_link_gap : for hand-written spheres: spheres on segments fewer joints apart are never checked.
+    pair_samples : random configurations that choose the pairs to check (always in contact: never
+        checked; never near: left to the exact check).
     """
 
     limit_margin: float
     torque: bool
-    z_ground: float | None
-    ground_spheres: tuple[str, ...]
+    ground_spheres: tuple[str, ...] | None
     self_collision: bool
     clearance: float
     distance_margin: float
     min_link_gap: int
+    world: Mapping[str, Any] = field(default_factory=lambda: {"mounting_surface": {"height": 0.0}})
+    pair_samples: int = 300
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.limit_margin < 1.0:
             raise ValueError(f"limit_margin must be in [0, 1), got {self.limit_margin}")
-        object.__setattr__(self, "ground_spheres", tuple(self.ground_spheres))
+        if self.clearance < 0 or self.distance_margin < 0:
+            raise ValueError("clearance and distance_margin must be ≥ 0")
+        if self.ground_spheres is not None:
+            object.__setattr__(self, "ground_spheres", tuple(self.ground_spheres))
+        unknown = set(self.world or {}) - {"mounting_surface", "obstacles"}
+        if unknown:
+            raise ValueError(
+                f"trajectory.constraints.world: unknown keys {sorted(unknown)} (mounting_surface, obstacles)"
+            )
 
+    def scene(self, robot: RobotModel) -> CollisionScene:
+        """The collision scene of ``robot`` with these settings (built once per robot and settings)."""
+        return build_scene(
+            robot,
+            self.world_objects(),
+            ground_spheres=self.ground_spheres,
+            min_link_gap=self.min_link_gap,
+            clearance=self.clearance,
+            self_collision=self.self_collision,
+            n_samples=self.pair_samples,
+        )
 
-def relevant_pairs(
-    robot: RobotModel, min_link_gap: int, n_samples: int = 200, seed: int = 0
-) -> list[tuple[int, int]]:
-    """Sphere pairs worth checking: segments ≥ ``min_link_gap`` joints apart, distance not constant.
-
-    A pair whose distance never changes (both centres on the axis chain between them, e.g. the
-    shoulder and the elbow) is rigid: no motion can bring it closer, so it is not a constraint.
-    """
-    spheres = robot.collision_spheres
-    q, _, _ = random_states(robot, n_samples, np.random.default_rng(seed))
-    centres = sphere_centres(robot, q, spheres)
-    pairs = []
-    for a, b in combinations(range(len(spheres)), 2):
-        if abs(spheres[a].link - spheres[b].link) < min_link_gap:
-            continue
-        distance = np.linalg.norm(centres[a] - centres[b], axis=1)
-        if np.ptp(distance) > 1e-9:
-            pairs.append((a, b))
-    return pairs
-
-
-def sphere_centres(
-    robot: RobotModel, q: np.ndarray, spheres: tuple[CollisionSphere, ...], poses: np.ndarray | None = None
-) -> np.ndarray:
-    """(n_spheres, N, 3) centres in the base frame (m) at joint positions q (N, N_J)."""
-    poses = joint_frame_poses(robot, q) if poses is None else poses
-    out = np.empty((len(spheres), q.shape[0], 3))
-    for s, sphere in enumerate(spheres):
-        if sphere.link == 0:
-            out[s] = sphere.center
-        else:
-            pose = poses[sphere.link - 1]
-            out[s] = pose[:, :3, :3] @ sphere.center + pose[:, :3, 3]
-    return out
-
-
-def _point_jacobian(poses: np.ndarray, link: int, point: np.ndarray, n_joints: int) -> np.ndarray:
-    """(N, 3, N_J) ∂point/∂q for points (N, 3) fixed to segment ``link``: ``z_l × (p − o_l)``, l ≤ link."""
-    jac = np.zeros((point.shape[0], 3, n_joints))
-    if link:
-        frames = np.asarray(poses[:link])  # (link, N, 4, 4)
-        axis, lever = frames[..., :3, 2], point - frames[..., :3, 3]  # (link, N, 3): one cross for all joints
-        jac[:, :, :link] = np.cross(axis, lever).transpose(1, 2, 0)
-    return jac
+    def world_objects(self) -> tuple[WorldObject, ...]:
+        """The mounting surface and obstacles of ``world``."""
+        world = dict(self.world or {})
+        obstacles: Sequence[Mapping[str, Any]] = world.get("obstacles") or ()
+        return build_world(world.get("mounting_surface"), obstacles)
 
 
 class ConstraintSet:
     """The constraint families of one robot and settings: slacks on samples, and their derivatives."""
 
     def __init__(
-        self, robot: RobotModel, settings: ConstraintSettings, coulomb_smoothing: float | None = None
+        self,
+        robot: RobotModel,
+        settings: ConstraintSettings,
+        coulomb_smoothing: float | None = None,
+        scene: CollisionScene | None = None,
     ) -> None:
         self.robot = robot
         self.settings = settings
         self.coulomb_smoothing = coulomb_smoothing
         """ε (rad/s) of the ``tanh(q̇/ε)`` that stands for ``sign(q̇)`` in the torques whose derivatives are
         asked (None: the exact sign, whose derivative is zero)."""
-        spheres = robot.collision_spheres
-        names = [s.name for s in spheres]
-        self.ground_indices: list[int] = []
-        if settings.z_ground is not None and settings.ground_spheres and not names:
-            # a robot described without collision geometry (a plain URDF): nothing to keep off the floor
+        self.scene: CollisionScene = scene if scene is not None else settings.scene(robot)
+        if not self.scene.spheres:
             log.warning(
-                "%s has no collision spheres: "
-                "the exciting motion is not kept above the floor or free of self-collision",
+                "%s has no collision model (no <collision> geometry, no collision spheres): the exciting "
+                "motion is not kept clear of itself or of the world",
                 robot.name,
             )
-        elif settings.z_ground is not None and settings.ground_spheres:
-            unknown = [name for name in settings.ground_spheres if name not in names]
-            if unknown:
-                raise ValueError(
-                    f"ground_spheres {unknown} are not collision spheres of {robot.name}; "
-                    f"its spheres: {names} "
-                    "(add a collision_spheres block to the robot config, or set z_ground: null)"
-                )
-            self.ground_indices = [names.index(name) for name in settings.ground_spheres]
-        self.pairs = (
-            relevant_pairs(robot, settings.min_link_gap) if settings.self_collision and spheres else []
-        )
+        self.distances = SphereDistances(self.scene)
+        self.distances.use_hulls = True
         lim = robot.limits
         keep = 1.0 - settings.limit_margin
         middle = 0.5 * (lim.position_lower + lim.position_upper)
@@ -170,9 +150,9 @@ class ConstraintSet:
         active = ["position", "velocity", "acceleration"]
         if self.settings.torque:
             active.append("torque")
-        if self.ground_indices:
-            active.append("ground")
-        if self.pairs:
+        if self.scene.world_pairs:
+            active.append("world")
+        if self.scene.self_pairs:
             active.append("self_collision")
         return active
 
@@ -181,10 +161,10 @@ class ConstraintSet:
         n = self.robot.n_joints
         if family in ("position", "velocity", "acceleration", "torque"):
             return [f"joint {j + 1} {side}" for side in ("lower", "upper") for j in range(n)]
-        spheres = self.robot.collision_spheres
-        if family == "ground":
-            return [spheres[i].name for i in self.ground_indices]
-        return [f"{spheres[a].name}–{spheres[b].name}" for a, b in self.pairs]
+        return [self.scene.pair_label(family, pair) for pair in self._pairs(family)]
+
+    def _pairs(self, family: str) -> tuple[tuple[int, int], ...]:
+        return self.scene.world_pairs if family == "world" else self.scene.self_pairs
 
     def scales(self, family: str) -> np.ndarray:
         """Per-column scale dividing the slacks (the limit, or 1 m for distances), so all are O(1)."""
@@ -204,14 +184,19 @@ class ConstraintSet:
         "velocity": "rad/s",
         "acceleration": "rad/s²",
         "torque": "N·m",
-        "ground": "m",
+        "world": "m",
         "self_collision": "m",
     }
 
     # --- values ---------------------------------------------------------------------------------
 
     def slacks(
-        self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, torque: np.ndarray | None = None
+        self,
+        q: np.ndarray,
+        dq: np.ndarray,
+        ddq: np.ndarray,
+        torque: np.ndarray | None = None,
+        collisions: bool = True,
     ) -> dict[str, np.ndarray]:
         """Slack of every family at every sample, (N, columns) each, in physical units (≥ 0: satisfied).
 
@@ -227,24 +212,14 @@ class ConstraintSet:
         if self.settings.torque:
             torque = self.robot.inverse_dynamics(q, dq, ddq) if torque is None else torque
             out["torque"] = np.hstack([keep * lim.torque + torque, keep * lim.torque - torque])
-        if self.ground_indices or self.pairs:
-            centres = sphere_centres(self.robot, q, self.robot.collision_spheres)
-            radii = np.array([s.radius for s in self.robot.collision_spheres])
-            if self.ground_indices:
-                g = self.ground_indices
-                out["ground"] = (
-                    (centres[g, :, 2] - radii[g, None]).T
-                    - self.settings.z_ground
-                    - self.settings.distance_margin
-                )
-            if self.pairs:
-                a, b = np.array(self.pairs).T
-                distance = np.linalg.norm(centres[a] - centres[b], axis=2)
-                out["self_collision"] = (
-                    (distance - radii[a, None] - radii[b, None]).T
-                    - self.settings.clearance
-                    - self.settings.distance_margin
-                )
+        if collisions and (self.scene.world_pairs or self.scene.self_pairs):
+            poses = self.scene.poses(q)
+            offset = self.settings.clearance + self.settings.distance_margin
+            for family in ("world", "self_collision"):
+                pairs = self._pairs(family)
+                if pairs:
+                    kind = "world" if family == "world" else "self"
+                    out[family] = self.distances._distances(kind, pairs, poses, q)[0] - offset
         return out
 
     # --- derivatives ----------------------------------------------------------------------------
@@ -275,30 +250,9 @@ class ConstraintSet:
             )
         if family == "torque":
             return self._torque_derivatives(q, dq, ddq, samples, columns)
-        unique, inverse = np.unique(samples, return_inverse=True)
-        poses = joint_frame_poses(self.robot, q[unique])
-        spheres = self.robot.collision_spheres
-        centres = sphere_centres(self.robot, q[unique], spheres, poses)
-        rows = np.arange(m)
-        if family == "ground":
-            dz = zeros.copy()
-            for c, index in enumerate(self.ground_indices):
-                jac = _point_jacobian(poses, spheres[index].link, centres[index], n)  # (U, 3, N_J)
-                chosen = columns == c
-                dz[chosen] = jac[inverse[chosen], 2]
-            return dz, zeros, zeros
-        dd = zeros.copy()
-        for c, (a, b) in enumerate(self.pairs):
-            chosen = rows[columns == c]
-            if not chosen.size:
-                continue
-            at = inverse[chosen]
-            ja = _point_jacobian(poses[:, at], spheres[a].link, centres[a][at], n)
-            jb = _point_jacobian(poses[:, at], spheres[b].link, centres[b][at], n)
-            gap = centres[a][at] - centres[b][at]
-            normal = gap / np.linalg.norm(gap, axis=1, keepdims=True)
-            dd[chosen] = np.einsum("mi,mij->mj", normal, ja - jb)
-        return dd, zeros, zeros
+        kind = "world" if family == "world" else "self"
+        d_q = self.distances.derivatives(kind, self._pairs(family), q, samples, columns)
+        return d_q, zeros, zeros
 
     def _torque_derivatives(
         self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, samples: np.ndarray, columns: np.ndarray

@@ -150,6 +150,36 @@ class ExcitationProblem:
             for j in range(self.robot.n_joints)
         ]
 
+    # --- starting points ------------------------------------------------------------------------
+
+    @property
+    def middle_pose(self) -> np.ndarray:
+        """(N_J,) the middle of every joint's position range (rad)."""
+        return 0.5 * (self.robot.limits.position_lower + self.robot.limits.position_upper)
+
+    def still_motion(self, pose: np.ndarray) -> np.ndarray:
+        """The flat coefficients of the motion that stays at ``pose`` (least squares on the grid: exact
+        for parameterisations that can stand still)."""
+        b = self.bases[0]
+        target = np.broadcast_to(np.asarray(pose, dtype=float), (len(self.times), self.robot.n_joints))
+        return np.linalg.lstsq(b, target, rcond=None)[0].ravel()
+
+    def safe_pose(self, n_candidates: int = 500, seed: int = 0) -> np.ndarray:
+        """The random pose (within the position bounds) farthest from violating any constraint at rest:
+        the largest smallest scaled slack over every family, distances in metres."""
+        rng = np.random.default_rng(seed)
+        low, high = self.constraint_set.position_bounds
+        poses = np.vstack(
+            [self.middle_pose, rng.uniform(low, high, size=(n_candidates, self.robot.n_joints))]
+        )
+        still = np.zeros_like(poses)
+        slacks = self.constraint_set.slacks(poses, still, still)
+        worst = np.min(
+            [np.min(slack / self.constraint_set.scales(family), axis=1) for family, slack in slacks.items()],
+            axis=0,
+        )
+        return poses[int(np.argmax(worst))]
+
     # --- evaluation -----------------------------------------------------------------------------
 
     def _evaluate(self, x: np.ndarray) -> _Evaluation:

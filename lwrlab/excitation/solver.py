@@ -17,6 +17,8 @@ import numpy as np
 from scipy.optimize import OptimizeResult, minimize
 from tqdm.auto import tqdm
 
+from lwrlab.errors import InfeasibleProblemError
+from lwrlab.excitation.collision_check import CollisionCheck, check_collisions
 from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.model.robot import RobotModel
@@ -32,8 +34,13 @@ ACTIVE_TOLERANCE = 1e-4
 """A scaled constraint with less slack than this counts as active."""
 
 
-class InfeasibleExcitationError(RuntimeError):
+class InfeasibleExcitationError(InfeasibleProblemError, RuntimeError):
     """No start of the optimiser satisfied every constraint; the message names the violated ones."""
+
+
+class RejectedMotionError(InfeasibleExcitationError):
+    """A motion failed its final check (limits, torques, contacts at the playing rate); the message
+    says which constraint, where, when and by how much."""
 
 
 @dataclass(frozen=True)
@@ -143,6 +150,8 @@ class SlsqpOptimizer:
     initial_amplitude : fraction of each half position range the random starting motions span.
     seed : seed of the starting motions.
     show_progress : show a progress bar.
+    scale_objective : divide the criterion by its largest gradient entry at each start, so that SLSQP's
+        first step (the gradient itself) is of the size of the motion.
     blas_threads : BLAS threads while solving (None: leave as is). The matrices are small (about
         7000×57): one thread is faster than several, and much faster on a loaded machine, where
         BLAS threads wait for each other (``benchmarks/threads.py``, :mod:`lwrlab.numerics.threads`).
@@ -158,6 +167,7 @@ class SlsqpOptimizer:
         seed: int,
         show_progress: bool,
         blas_threads: int | None,
+        scale_objective: bool,
     ) -> None:
         if n_starts < 1:
             raise ValueError(f"n_starts must be at least 1, got {n_starts}")
@@ -168,15 +178,37 @@ class SlsqpOptimizer:
         self.seed = seed
         self.show_progress = show_progress
         self.blas_threads = blas_threads
+        self.scale_objective = scale_objective
 
     def _start(self, problem: ExcitationProblem, rng: np.random.Generator) -> np.ndarray:
-        """A random start whose regressor has full rank (the criterion must be defined there)."""
+        """A random start whose regressor has full rank (the criterion must be defined there).
+
+        The random motion around the middle of the joint ranges is used as it is when it satisfies
+        the constraints; otherwise (a robot whose middle pose touches the table, ranges of ±2π that
+        make the random motion too fast) it is moved to the safest of random poses
+        (:meth:`ExcitationProblem.safe_pose`) and its deviation from a still motion halved until it
+        satisfies them: SLSQP rarely recovers from a start deep in collision.
+        """
         for _ in range(20):
             x = problem.parameterisation.initial_coefficients(
                 problem.robot, rng, self.initial_amplitude
             ).ravel()
-            if np.isfinite(problem.objective(x)):
+            if not np.isfinite(problem.objective(x)):
+                continue
+            if problem.constraint_values(x).min() >= -FEASIBILITY_TOLERANCE:
                 return x
+            still_middle = problem.still_motion(problem.middle_pose)
+            still_safe = problem.still_motion(problem.safe_pose())
+            deviation = x - still_middle
+            candidate = x
+            for scale in 0.5 ** np.arange(8):
+                candidate = still_safe + scale * deviation
+                if not np.isfinite(problem.objective(candidate)):
+                    break
+                if problem.constraint_values(candidate).min() >= -FEASIBILITY_TOLERANCE:
+                    return candidate
+            if np.isfinite(problem.objective(candidate)):
+                return candidate
         raise InfeasibleExcitationError(
             f"no random start excites every base parameter of {problem.robot.name}: "
             f"the motion is too short ({problem.parameterisation.duration} s) "
@@ -245,11 +277,24 @@ class SlsqpOptimizer:
         """One SLSQP run from ``x0``, counting the criterion evaluations and keeping the best feasible
         iterate: a start stopped by the iteration limit still counts."""
         run = _StartRun()
+        # SLSQP's first step is the gradient itself (its Hessian estimate starts as the identity): a
+        # criterion whose gradient is in the hundreds jumps far outside every constraint and may never
+        # come back. Dividing the criterion by its gradient's largest entry at the start makes that
+        # step of the size of the motion; the optimum is the same, and so is the accuracy goal on the
+        # criterion (ftol is divided too).
+        scale = (
+            max(1.0, float(np.max(np.abs(problem.objective_gradient(x0))))) if self.scale_objective else 1.0
+        )
 
         def objective(x: np.ndarray) -> float:
             run.evaluations += 1
-            return problem.objective(x)
+            return problem.objective(x) / scale
 
+        def gradient(x: np.ndarray) -> np.ndarray:
+            return problem.objective_gradient(x) / scale
+
+        if problem.constraint_values(x0).min() >= -FEASIBILITY_TOLERANCE:  # a feasible start counts too
+            run.best_feasible_cost, run.best_feasible = problem.objective(x0), x0.copy()
         with tqdm(
             total=self.max_iterations, desc=label, unit="it", disable=not self.show_progress, leave=False
         ) as bar:
@@ -265,7 +310,7 @@ class SlsqpOptimizer:
             run.result = minimize(
                 objective,
                 x0,
-                jac=problem.objective_gradient,
+                jac=gradient,
                 method="SLSQP",
                 bounds=problem.bounds(),
                 constraints=[vector_inequality(problem.constraint_values, problem.constraint_jacobian)],
@@ -295,28 +340,82 @@ class SlsqpOptimizer:
         ]
 
 
-def verify_motion(
+@dataclass(frozen=True)
+class MotionCheck:
+    """The final check of a motion: the worst slack of every family, and its exact collision check."""
+
+    reports: list[FamilyReport]
+    collisions: CollisionCheck | None
+    """The exact check of contacts (None: the robot has no collision model)."""
+
+    @property
+    def passed(self) -> bool:
+        return not any(r.violated for r in self.reports)
+
+    def describe(self) -> str:
+        """The violated families, one line each, then every pair in contact."""
+        lines = [describe_violations(self.reports)]
+        if self.collisions is not None and self.collisions.contacts:
+            lines.append(self.collisions.describe())
+        return "\n  ".join(line for line in lines if line)
+
+
+def _collision_reports(check: CollisionCheck) -> list[FamilyReport]:
+    """The world and self-collision families from the exact check: the closest approach minus the
+    clearance, where and when."""
+    reports = []
+    for family, kind in (("world", "world"), ("self_collision", "self")):
+        closest = check.closest(kind)
+        if closest is None:
+            continue
+        reports.append(
+            FamilyReport(
+                family,
+                closest.distance - closest.clearance,
+                "m",
+                f"{closest.body_a}–{closest.body_b}",
+                closest.t,
+            )
+        )
+    return reports
+
+
+def check_motion_at(
     robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float
-) -> list[FamilyReport]:
-    """Worst slack of every constraint family at ``rate_hz`` against the robot's true limits.
+) -> MotionCheck:
+    """Every constraint at ``rate_hz`` against the robot's true limits and its exact geometry.
 
     The check a robot needs before playing the motion: no margin, the exact Coulomb ``sign(q̇)`` in
-    the torques (Pinocchio's RNEA plus friction), every sample of the resampled motion.
+    the torques (Pinocchio's RNEA plus friction), every sample of the resampled motion; contacts with
+    itself and the world by :func:`~lwrlab.excitation.collision_check.check_collisions` on the
+    robot's own geometry (its collision meshes and primitives, or its hand-written spheres).
     """
     exact = ConstraintSet(robot, replace(settings, limit_margin=0.0, distance_margin=0.0))
     t = motion.times(rate_hz)
     q, dq, ddq = motion.evaluate(t)
-    return family_reports(exact, t, exact.slacks(q, dq, ddq))
+    reports = family_reports(exact, t, exact.slacks(q, dq, ddq, collisions=False))
+    collisions = None
+    if exact.scene.checked_self_pairs or exact.scene.checked_world_pairs:
+        collisions = check_collisions(exact.scene, t, q, settings.clearance)
+        reports += _collision_reports(collisions)
+    return MotionCheck(reports, collisions)
+
+
+def verify_motion(
+    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float
+) -> list[FamilyReport]:
+    """Worst slack of every constraint family at ``rate_hz`` (:func:`check_motion_at`)."""
+    return check_motion_at(robot, motion, settings, rate_hz).reports
 
 
 def check_motion(
     robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float
 ) -> list[FamilyReport]:
-    """:func:`verify_motion`, raising :class:`InfeasibleExcitationError` naming any violated constraint."""
-    reports = verify_motion(robot, motion, settings, rate_hz)
-    if any(r.violated for r in reports):
-        raise InfeasibleExcitationError(
+    """:func:`check_motion_at`, raising :class:`RejectedMotionError` naming any violated constraint."""
+    check = check_motion_at(robot, motion, settings, rate_hz)
+    if not check.passed:
+        raise RejectedMotionError(
             f"the exciting motion violates constraints of {robot.name} at {rate_hz:g} Hz:\n  "
-            + describe_violations(reports)
+            + check.describe()
         )
-    return reports
+    return check.reports

@@ -27,6 +27,12 @@ class CollisionSphere:
     """(3,) centre in the segment's joint frame (m)."""
     radius: float
     """Radius (m)."""
+    body: str = ""
+    """The body it stands in for (a URDF link); empty: the sphere is a body of its own."""
+
+    def __post_init__(self) -> None:
+        if not self.body:
+            object.__setattr__(self, "body", self.name)
 
 
 def build_collision_spheres(

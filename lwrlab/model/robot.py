@@ -9,6 +9,7 @@ import numpy as np
 import pinocchio as pin
 
 from lwrlab.model.collision import CollisionSphere
+from lwrlab.model.collision_geometry import CollisionSource
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, from_pin_inertia, to_pin_inertia
 
 FRICTION_TERMS: dict[str, str] = {"coulomb": "FC", "viscous": "FV", "offset": "FO"}
@@ -111,6 +112,9 @@ class RobotModel:
     collision_spheres: tuple[CollisionSphere, ...] = ()
     """Spheres fixed to the segments, the coarse self-collision model used by the excitation
     optimiser (:mod:`lwrlab.model.collision`); empty if the robot config gives none."""
+    collision_source: CollisionSource | None = None
+    """Where the robot's exact collision geometry comes from (its URDF's ``<collision>`` elements and
+    SRDF), loaded when a motion is optimised or checked; None: the collision spheres are the model."""
 
     def __post_init__(self) -> None:
         unknown = set(self.friction_terms) - set(FRICTION_TERMS)

@@ -12,6 +12,12 @@ the locked subtrees are merged into their parent segment at the given positions
 
 Only fixed-base trees of one-degree-of-freedom joints with ``nq == nv`` are supported (revolute and
 prismatic, aligned or not); floating, planar, spherical and continuous joints are refused.
+
+The URDF's ``<collision>`` geometry (meshes found through ``package_dirs`` and ``ROS_PACKAGE_PATH``)
+and an SRDF's disabled pairs are what exciting motions are kept clear of
+(:mod:`lwrlab.model.collision_geometry`); they are read when a motion is optimised or checked, so
+identifying from logs needs neither. Acceleration limits, which a URDF lacks, come from
+``acceleration_limits`` or a MoveIt ``joint_limits.yaml``.
 """
 
 from __future__ import annotations
@@ -22,6 +28,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.io.yaml_files import read_yaml_mapping
+from lwrlab.model.collision_geometry import CollisionSource
 from lwrlab.model.description import build_friction
 from lwrlab.model.robot import JointLimits, RobotModel
 
@@ -108,6 +116,23 @@ def _acceleration_limits(
     return values
 
 
+def _moveit_limits(path: Path, names: Sequence[str], urdf: Path) -> dict[str, np.ndarray]:
+    """Velocity and acceleration limits of a MoveIt ``joint_limits.yaml`` (``has_*_limits: true`` only),
+    NaN where a joint has none."""
+    if not path.is_file():
+        raise ValueError(f"{urdf}: joint_limits file {path} does not exist")
+    joints = read_yaml_mapping(path, "joint limits").get("joint_limits")
+    if not isinstance(joints, dict):
+        raise ValueError(f"{path}: no `joint_limits:` mapping (MoveIt's joint_limits.yaml format)")
+    out = {key: np.full(len(names), np.nan) for key in ("velocity", "acceleration")}
+    for i, name in enumerate(names):
+        entry = joints.get(name) or {}
+        for key in out:
+            if entry.get(f"has_{key}_limits") and entry.get(f"max_{key}") is not None:
+                out[key][i] = float(entry[f"max_{key}"])
+    return out
+
+
 def _add_flange(model: pin.Model, flange_frame: str, path: Path) -> None:
     """Add an operational frame named ``flange`` at the URDF frame ``flange_frame``."""
     if not model.existFrame(flange_frame):
@@ -135,6 +160,11 @@ def load_urdf_robot(
     gravity: Sequence[float],
     flange_frame: str | None,
     locked_joints: Sequence[str] | Mapping[str, float],
+    package_dirs: Sequence[str],
+    srdf: str | None,
+    joint_limits: str | None,
+    collision_geometry: bool,
+    missing_meshes: str,
 ) -> RobotModel:
     """Build a fixed-base :class:`RobotModel` from a URDF file.
 
@@ -156,6 +186,15 @@ def load_urdf_robot(
         operational frame named ``flange`` is added, or None.
     locked_joints : joints removed from the model and merged into their parent segment, a list of
         names (locked at 0) or a mapping name → position (rad or m), e.g. the fingers of a gripper.
+    package_dirs : folders holding the ROS packages that ``package://NAME/…`` mesh names refer to
+        (``DIR/NAME/``), searched before ``ROS_PACKAGE_PATH``.
+    srdf : a MoveIt SRDF whose ``disable_collisions`` pairs are never checked, or None.
+    joint_limits : a MoveIt ``joint_limits.yaml``: its ``max_acceleration`` (where
+        ``has_acceleration_limits``) gives the acceleration limits ``acceleration_limits`` leaves
+        unset, its ``max_velocity`` lowers the URDF's velocity limits.
+    collision_geometry : keep exciting motions clear of the URDF's ``<collision>`` geometry (read
+        when a motion is optimised or checked); False: no collision model.
+    missing_meshes : ``error`` or ``drop`` (leave out, with a warning) collision meshes not found.
 
     Returns
     -------
@@ -188,17 +227,41 @@ def load_urdf_robot(
         _add_flange(model, flange_frame, path)
     n = model.nv
     robot_name = name or model.name or path.stem
+    velocity = np.array(model.velocityLimit, dtype=float)
+    acceleration = _acceleration_limits(acceleration_limits, n, path)
+    if joint_limits is not None:
+        moveit = _moveit_limits(Path(joint_limits), list(model.names)[1:], path)
+        velocity = np.fmin(velocity, moveit["velocity"])  # NaN (no MoveIt limit) keeps the URDF's
+        if acceleration_limits is None:
+            acceleration = np.where(np.isnan(moveit["acceleration"]), np.inf, moveit["acceleration"])
     limits = JointLimits(
         position_lower=np.array(model.lowerPositionLimit, dtype=float),
         position_upper=np.array(model.upperPositionLimit, dtype=float),
-        velocity=np.array(model.velocityLimit, dtype=float),
-        acceleration=_acceleration_limits(acceleration_limits, n, path),
+        velocity=velocity,
+        acceleration=acceleration,
         torque=np.array(model.effortLimit, dtype=float),
     )
+    if missing_meshes not in ("error", "drop"):
+        raise ValueError(f"{path}: missing_meshes must be error or drop, got {missing_meshes!r}")
+    source = None
+    if collision_geometry:
+        locked = (
+            dict(locked_joints) if isinstance(locked_joints, Mapping) else {j: 0.0 for j in locked_joints}
+        )
+        source = CollisionSource(
+            urdf=path,
+            package_dirs=tuple(Path(d) for d in package_dirs),
+            srdf=None if srdf is None else Path(srdf),
+            missing_meshes="drop" if missing_meshes == "drop" else "error",
+            locked_joints=tuple((k, float(v)) for k, v in locked.items()),
+        )
+        if source.srdf is not None and not source.srdf.is_file():
+            raise ValueError(f"{path}: srdf file {source.srdf} does not exist")
     return RobotModel(
         name=robot_name,
         model=model,
         limits=limits,
         friction=build_friction(friction, n, robot_name),
         friction_terms=tuple(friction_terms),
+        collision_source=source,
     )

@@ -1,0 +1,355 @@
+"""What the exciting motion must not touch: the robot's bodies, their sphere stand-ins, and the world.
+
+A :class:`CollisionScene` gathers, for one robot and one set of settings:
+
+* **bodies**: the robot's URDF links with ``<collision>`` geometry (when the robot has a
+  :class:`~lwrlab.model.collision_geometry.CollisionSource`), each covered by enclosing spheres
+  (:mod:`lwrlab.model.enclosing_spheres`); or, for a robot described by hand-written
+  ``collision_spheres`` only, each sphere a body of its own;
+* **world**: the mounting surface and the configured obstacles
+  (:mod:`lwrlab.model.world`), plus the URDF's own fixed links (joint 0: a table, a stand, the base)
+  — primitives as world objects, meshes as bodies fixed to the base;
+* **pairs**: the body pairs and (body, world object) pairs that are checked. Never checked: bodies
+  on the same joint (rigidly attached), bodies on neighbouring joints (adjacent, as MoveIt counts
+  them: a fixed link is adjacent to whatever its parent is adjacent to), pairs an SRDF disables, and
+  pairs found in contact in (almost) every random configuration (MoveIt's "always"). The optimiser
+  also leaves out pairs never near each other in random configurations (MoveIt's "never"); the
+  exact check of the final motion still checks them.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from lwrlab.dynamics.base_parameters import random_states
+from lwrlab.kinematics.tree import JointAxis, joint_axes, joint_poses
+from lwrlab.model.collision import CollisionSphere
+from lwrlab.model.collision_geometry import CollisionShape, RobotGeometry, load_robot_geometry
+from lwrlab.model.enclosing_spheres import enclosing_spheres
+from lwrlab.model.robot import RobotModel
+from lwrlab.model.world import WorldObject
+
+log = logging.getLogger(__name__)
+
+ALWAYS_IN_CONTACT = 0.95
+"""A pair in contact in at least this fraction of random configurations is never checked (MoveIt)."""
+NEVER_NEAR = 0.05
+"""The optimiser leaves out pairs whose spheres stay this far (m) beyond the clearance in every sample."""
+HULL_FRACTION = 0.2
+"""Pairs whose spheres come that near in at least this fraction of the samples are measured between
+convex hulls by the optimiser (the spheres' overshoot would make them look in contact)."""
+
+
+@dataclass(frozen=True)
+class CollisionScene:
+    """Bodies, their spheres, the world and the pairs to check (module docstring)."""
+
+    robot: RobotModel
+    bodies: tuple[str, ...]
+    """Body names: URDF links, or hand-written sphere names."""
+    body_joints: np.ndarray
+    """(B,) the joint moving each body (0: fixed to the base)."""
+    spheres: tuple[CollisionSphere, ...]
+    """Enclosing spheres; ``link`` is the joint moving them, ``body`` their body."""
+    sphere_bodies: np.ndarray
+    """(S,) body index of each sphere."""
+    world: tuple[WorldObject, ...]
+    self_pairs: tuple[tuple[int, int], ...]
+    """Body pairs the optimiser keeps apart."""
+    world_pairs: tuple[tuple[int, int], ...]
+    """(body, world object) pairs the optimiser keeps apart."""
+    checked_self_pairs: tuple[tuple[int, int], ...]
+    """Body pairs the exact check checks (a superset of ``self_pairs``)."""
+    checked_world_pairs: tuple[tuple[int, int], ...]
+    geometry: RobotGeometry | None = None
+    """The exact geometry (None: the hand-written spheres are the robot's collision model)."""
+    notes: tuple[str, ...] = field(default_factory=tuple)
+    """What was left out and why, for the report."""
+    axes: tuple[JointAxis, ...] = field(default_factory=tuple)
+    hull_pairs: frozenset[tuple[str, tuple[int, int]]] = frozenset()
+    """(family, pair) whose spheres come within the clearance in many random configurations: the
+    optimiser measures them between convex hulls (:mod:`lwrlab.excitation.sphere_distances`)."""
+
+    @property
+    def radii(self) -> np.ndarray:
+        return np.array([s.radius for s in self.spheres])
+
+    def sphere_centres(self, poses: np.ndarray) -> np.ndarray:
+        """(S, N, 3) sphere centres (m, base frame) from joint poses (N_J, N, 4, 4)."""
+        n = poses.shape[1]
+        out = np.empty((len(self.spheres), n, 3))
+        for s, sphere in enumerate(self.spheres):
+            if sphere.link == 0:
+                out[s] = sphere.center
+            else:
+                pose = poses[sphere.link - 1]
+                out[s] = pose[:, :3, :3] @ sphere.center + pose[:, :3, 3]
+        return out
+
+    def poses(self, q: np.ndarray) -> np.ndarray:
+        """(N_J, N, 4, 4) joint poses at q (N, N_J)."""
+        return joint_poses(self.robot.model, q, self.axes)
+
+    def pair_label(self, family: str, pair: tuple[int, int]) -> str:
+        a, b = pair
+        return f"{self.bodies[a]}–{self.world[b].name if family == 'world' else self.bodies[b]}"
+
+
+def _fitted_spheres(geometry: RobotGeometry, links: list[str]) -> list[CollisionSphere]:
+    spheres = []
+    for link in links:
+        shapes = geometry.shapes_of(link)
+        round_shapes = [s for s in shapes if s.sphere_radius is not None]
+        spheres += [
+            CollisionSphere(
+                f"{link}#{s.name}", s.joint, s.placement[:3, 3].copy(), float(s.sphere_radius), link
+            )
+            for s in round_shapes
+            if s.sphere_radius is not None
+        ]
+        others = [s for s in shapes if s.sphere_radius is None]
+        if not others:
+            continue
+        vertices = np.vstack([s.vertices_in_joint_frame() for s in others])
+        offsets = np.cumsum([0] + [len(s.vertices) for s in others[:-1]])
+        faces = np.vstack([s.faces + o for s, o in zip(others, offsets, strict=True)])
+        centres, radii = enclosing_spheres(vertices, faces)
+        spheres += [
+            CollisionSphere(f"{link}#{i}", others[0].joint, c, float(r), link)
+            for i, (c, r) in enumerate(zip(centres, radii, strict=True))
+        ]
+    return spheres
+
+
+def _world_from_shapes(shapes: tuple[CollisionShape, ...]) -> list[WorldObject]:
+    """Primitive shapes fixed to the base (a table, a stand) as world objects."""
+    objects = []
+    for shape in shapes:
+        kind = type(shape.geometry).__name__
+        vertices = shape.vertices_in_joint_frame()
+        common = {
+            "pose": shape.placement,
+            "geometry": shape.geometry,
+            "vertices": vertices,
+            "faces": shape.faces,
+        }
+        if kind == "Box":
+            objects.append(WorldObject(shape.link, "box", size=np.asarray(shape.geometry.halfSide), **common))
+        elif kind == "Sphere":
+            objects.append(
+                WorldObject(shape.link, "sphere", size=np.array([shape.geometry.radius]), **common)
+            )
+        elif kind == "Cylinder":
+            size = np.array([shape.geometry.radius, shape.geometry.halfLength])
+            objects.append(WorldObject(shape.link, "cylinder", size=size, **common))
+    names = [o.name for o in objects]
+    return [
+        WorldObject(**{**o.__dict__, "name": f"{o.name} ({i})" if names.count(o.name) > 1 else o.name})
+        for i, o in enumerate(objects)
+    ]
+
+
+def _adjacent(robot: RobotModel, a: int, b: int) -> bool:
+    """Bodies on the same joint or on a joint and its parent (MoveIt's adjacency, fixed links merged)."""
+    parents = robot.model.parents
+    return a == b or parents[b] == a or parents[a] == b
+
+
+_CACHE: dict[tuple[int, str], CollisionScene] = {}
+"""Scenes already built, by robot and settings: loading and fitting the geometry and sampling the
+pairs costs a second; the optimiser, the grid check and the 1 kHz check share one scene."""
+
+
+def build_scene(
+    robot: RobotModel,
+    world: tuple[WorldObject, ...],
+    **settings: Any,
+) -> CollisionScene:
+    """:func:`build_scene_uncached`, once per robot object and settings."""
+    key = (
+        id(robot),
+        repr(
+            (sorted(settings.items()), [(w.name, w.shape, w.pose.tobytes(), w.size.tobytes()) for w in world])
+        ),
+    )
+    scene = _CACHE.get(key)
+    if scene is None or scene.robot is not robot:
+        scene = build_scene_uncached(robot, world, **settings)
+        if len(_CACHE) >= 8:
+            _CACHE.pop(next(iter(_CACHE)))
+        _CACHE[key] = scene
+    return scene
+
+
+def build_scene_uncached(
+    robot: RobotModel,
+    world: tuple[WorldObject, ...],
+    *,
+    ground_spheres: tuple[str, ...] | None,
+    min_link_gap: int,
+    clearance: float,
+    self_collision: bool,
+    n_samples: int = 500,
+    seed: int = 0,
+) -> CollisionScene:
+    """The collision scene of ``robot`` in ``world`` (module docstring).
+
+    ``ground_spheres`` and ``min_link_gap`` serve robots described by hand-written spheres only:
+    the spheres kept off the world (None: all but those on the base and joint 1) and the least joint
+    gap between spheres kept apart.
+    """
+    geometry = None
+    world_objects = list(world)
+    notes: list[str] = []
+    axes = joint_axes(robot.model)
+    if robot.collision_source is not None:
+        geometry = load_robot_geometry(robot.collision_source, robot.model)
+        fixed_primitives = tuple(
+            s
+            for s in geometry.shapes
+            if s.joint == 0 and type(s.geometry).__name__ in ("Box", "Sphere", "Cylinder")
+        )
+        world_objects += _world_from_shapes(fixed_primitives)
+        links = [
+            link
+            for link in geometry.links
+            if any(s not in fixed_primitives for s in geometry.shapes_of(link))
+        ]
+        spheres = _fitted_spheres(geometry, links)
+        bodies = tuple(dict.fromkeys(s.body for s in spheres))
+        body_joints = np.array([geometry.link_joint(b) for b in bodies])
+    else:
+        spheres = list(robot.collision_spheres)
+        unknown = [n for n in ground_spheres or () if n not in {s.name for s in spheres}]
+        if spheres and unknown:
+            raise ValueError(
+                f"ground_spheres {unknown} are not collision spheres of {robot.name}; its spheres: "
+                f"{[s.name for s in spheres]} (set trajectory.constraints.ground_spheres to some of them, "
+                "or null for all)"
+            )
+        bodies = tuple(s.body for s in spheres)
+        body_joints = np.array([s.link for s in spheres], dtype=int)
+    sphere_bodies = np.array([bodies.index(s.body) for s in spheres], dtype=int)
+
+    # candidate pairs
+    candidates_self: list[tuple[int, int]] = []
+    for a in range(len(bodies)):
+        for b in range(a + 1, len(bodies)):
+            ja, jb = int(body_joints[a]), int(body_joints[b])
+            if ja == 0 and jb == 0:
+                continue
+            if geometry is not None:
+                if _adjacent(robot, ja, jb):
+                    continue
+                if frozenset((bodies[a], bodies[b])) in geometry.disabled_pairs:
+                    continue
+            elif abs(ja - jb) < min_link_gap:
+                continue
+            candidates_self.append((a, b))
+    if not self_collision:
+        candidates_self = []
+    fixed_world_names = {o.name for o in world_objects[len(world) :]}
+    candidates_world: list[tuple[int, int]] = []
+    for a in range(len(bodies)):
+        ja = int(body_joints[a])
+        if ja == 0:
+            continue
+        if geometry is None and ground_spheres is not None and bodies[a] not in ground_spheres:
+            continue
+        for w, obj in enumerate(world_objects):
+            if obj.name in fixed_world_names and robot.model.parents[ja] == 0:
+                continue  # the URDF's fixed links are adjacent to the first moving link
+            candidates_world.append((a, w))
+
+    scene = CollisionScene(
+        robot, bodies, body_joints, tuple(spheres), sphere_bodies, tuple(world_objects),
+        tuple(candidates_self), tuple(candidates_world), tuple(candidates_self), tuple(candidates_world),
+        geometry, (), axes,
+    )  # fmt: skip
+    if not spheres or (not candidates_self and not candidates_world):
+        return scene
+    return _prune_by_sampling(scene, clearance, n_samples, seed, notes, {w.name for w in world})
+
+
+def _prune_by_sampling(
+    scene: CollisionScene,
+    clearance: float,
+    n_samples: int,
+    seed: int,
+    notes: list[str],
+    configured_world: set[str],
+) -> CollisionScene:
+    """Drop pairs (almost) always in contact, and, for the optimiser, pairs never near.
+
+    A configured world object (the mounting surface, an obstacle) always in contact with a body is
+    dropped only when no motion changes their distance (a base link standing on the surface); else
+    the user's world leaves no room and the optimiser must say so."""
+    from lwrlab.excitation.sphere_distances import SphereDistances
+
+    q, _, _ = random_states(scene.robot, n_samples, np.random.default_rng(seed))
+    distances = SphereDistances(scene)
+    poses = scene.poses(q)
+    self_d = distances.self_distances(scene.checked_self_pairs, poses)[0]  # (N, pairs)
+    world_d = distances.world_distances(scene.checked_world_pairs, poses)[0]
+    kept: dict[str, list[tuple[int, int]]] = {"self": [], "world": [], "self_opt": [], "world_opt": []}
+    hulls: set[tuple[str, tuple[int, int]]] = set()
+    for family, pairs, values in (
+        ("self", scene.checked_self_pairs, self_d),
+        ("world", scene.checked_world_pairs, world_d),
+    ):
+        for c, pair in enumerate(pairs):
+            column = values[:, c]
+            rigid = np.ptp(column) < 1e-9  # no motion changes it (e.g. a link turning about the vertical)
+            if rigid and scene.geometry is None:
+                continue
+            contact = (
+                distances.exact_contact_fraction(family, pair, poses, column, clearance)
+                if scene.geometry is not None
+                else float(np.mean(column < clearance))
+            )
+            label = scene.pair_label(family, pair)
+            configured = family == "world" and scene.world[pair[1]].name in configured_world
+            if contact >= ALWAYS_IN_CONTACT and (not configured or rigid):
+                # the robot's own structure (or a link standing on the mounting surface): not a motion's doing
+                notes.append(
+                    f"{label}: in contact in {100 * contact:.0f} % of random configurations, not checked"
+                )
+                continue
+            kept[family].append(pair)
+            if scene.geometry is None or (not rigid and column.min() < clearance + NEVER_NEAR):
+                kept[f"{family}_opt"].append(pair)
+                if scene.geometry is not None and np.mean(column < clearance + NEVER_NEAR) >= HULL_FRACTION:
+                    hulls.add((family, pair))
+    return CollisionScene(
+        scene.robot, scene.bodies, scene.body_joints, scene.spheres, scene.sphere_bodies, scene.world,
+        tuple(kept["self_opt"]), tuple(kept["world_opt"]), tuple(kept["self"]), tuple(kept["world"]),
+        scene.geometry, tuple(notes), scene.axes, frozenset(hulls),
+    )  # fmt: skip
+
+
+def posed_meshes(scene: CollisionScene, q: np.ndarray) -> list[tuple[str, np.ndarray, np.ndarray, bool]]:
+    """(name, vertices (V, 3) in the base frame, faces (F, 3), is_world) of every body and world object at
+    one configuration q (N_J,): the robot's meshes (or its spheres), for pictures."""
+    from lwrlab.model.collision_geometry import _sphere_mesh
+
+    poses = scene.poses(np.atleast_2d(q))[:, 0]
+    out = []
+    for b, name in enumerate(scene.bodies):
+        joint = int(scene.body_joints[b])
+        pose = np.eye(4) if joint == 0 else poses[joint - 1]
+        if scene.geometry is not None:
+            shapes = scene.geometry.shapes_of(name)
+            vertices = np.vstack([s.vertices_in_joint_frame() for s in shapes])
+            offsets = np.cumsum([0] + [len(s.vertices) for s in shapes[:-1]])
+            faces = np.vstack([s.faces + o for s, o in zip(shapes, offsets, strict=True)])
+        else:
+            sphere = scene.spheres[int(np.flatnonzero(scene.sphere_bodies == b)[0])]
+            vertices, faces = _sphere_mesh(sphere.radius, 12)
+            vertices = vertices + sphere.center
+        out.append((name, vertices @ pose[:3, :3].T + pose[:3, 3], faces, joint == 0))
+    out += [(w.name, w.vertices, w.faces, True) for w in scene.world if w.shape != "plane"]
+    return out

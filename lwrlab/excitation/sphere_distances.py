@@ -1,0 +1,346 @@
+"""Distances between the bodies of a :class:`~lwrlab.excitation.collision_scene.CollisionScene`, by
+their enclosing spheres, for many configurations at once, with their derivatives.
+
+* a body pair's distance is the smallest gap ``‖c_i − c_j‖ − r_i − r_j`` over their sphere pairs;
+* a (body, world object) distance is the smallest ``sdf(c_i) − r_i`` over the body's spheres (plane,
+  box, sphere, cylinder: exact signed distances), or the smallest gap to a mesh object's spheres.
+
+Since the spheres contain the bodies, these distances are lower bounds of the true ones. Columns are
+padded to the largest number of sphere pairs and the samples processed in chunks, so memory stays
+bounded on a 1 kHz motion.
+
+Spheres overshoot a link's surface by a centimetre or two: too much for links that are always close
+(a wrist next to the forearm, an upper arm next to the base), where the spheres would overlap in
+most configurations although the links rarely touch. With the robot's geometry at hand and
+``use_hulls`` set (the optimiser), the scene's ``hull_pairs`` are therefore measured between the
+convex hulls of the two bodies instead (coal's GJK, a few µs a sample; a hull contains its body, so
+this is a lower bound too, and a continuous one), and a body against a plane by the exact height of
+its hull's lowest vertex, for every sample at once.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from lwrlab.kinematics.tree import point_jacobians
+
+if TYPE_CHECKING:
+    from lwrlab.excitation.collision_check import ExactGeometry
+    from lwrlab.excitation.collision_scene import CollisionScene
+
+CHUNK = 2000
+"""Samples per chunk."""
+
+
+class SphereDistances:
+    """Body–body and body–world distances of a scene by its spheres (module docstring)."""
+
+    def __init__(self, scene: CollisionScene) -> None:
+        self.scene = scene
+        self.radii = scene.radii
+        n_robot = len(scene.spheres)
+        # spheres of mesh world objects, appended after the robot's (fixed in the base frame)
+        fixed_centres: list[np.ndarray] = []
+        fixed_radii: list[np.ndarray] = []
+        self._world_spheres: dict[int, np.ndarray] = {}
+        for w, obj in enumerate(scene.world):
+            if obj.shape == "mesh" and obj.spheres is not None:
+                start = n_robot + int(sum(len(r) for r in fixed_radii))
+                self._world_spheres[w] = np.arange(start, start + len(obj.spheres[1]))
+                fixed_centres.append(obj.spheres[0])
+                fixed_radii.append(obj.spheres[1])
+        self.fixed_centres = np.vstack(fixed_centres) if fixed_centres else np.zeros((0, 3))
+        self.all_radii = np.concatenate([self.radii, *fixed_radii])
+        self._body_spheres = [np.flatnonzero(scene.sphere_bodies == b) for b in range(len(scene.bodies))]
+        self._exact: ExactGeometry | None = None
+        self.use_hulls = False
+        """Measure the scene's hull pairs and plane pairs on convex hulls (module docstring)."""
+        self._hull_geometry: dict[
+            frozenset[Any], tuple[Any, Any, dict[tuple[str, tuple[int, int]], int]]
+        ] = {}
+        self._pin_data: Any = None
+
+    # --- layout ---------------------------------------------------------------------------------
+
+    def _sphere_pairs(self, family: str, pairs: tuple[tuple[int, int], ...]) -> tuple[np.ndarray, np.ndarray]:
+        """Padded sphere index arrays (C, P) of the pairs (−1: padding); world columns against an
+        analytic object have −1 as second sphere."""
+        lists = []
+        for a, b in pairs:
+            first = self._body_spheres[a]
+            absent = np.array([-1])  # an analytic world object: no sphere on its side
+            second = self._body_spheres[b] if family == "self" else self._world_spheres.get(b, absent)
+            ia, ib = np.meshgrid(first, second, indexing="ij")
+            lists.append((ia.ravel(), ib.ravel()))
+        width = max((len(x) for x, _ in lists), default=1)
+        first_idx = np.full((len(lists), width), -1)
+        second_idx = np.full((len(lists), width), -1)
+        for c, (x, y) in enumerate(lists):
+            first_idx[c, : len(x)], second_idx[c, : len(y)] = x, y
+        return first_idx, second_idx
+
+    def _centres(self, poses: np.ndarray) -> np.ndarray:
+        """(S_all, N, 3): the robot's sphere centres then the fixed world spheres."""
+        robot = self.scene.sphere_centres(poses)
+        fixed = np.broadcast_to(self.fixed_centres[:, None, :], (len(self.fixed_centres), poses.shape[1], 3))
+        return np.concatenate([robot, fixed], axis=0)
+
+    # --- values ---------------------------------------------------------------------------------
+
+    def self_distances(
+        self, pairs: tuple[tuple[int, int], ...], poses: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Smallest sphere gap (N, C) of each body pair (m) and the padded column index reaching it."""
+        return self._distances("self", pairs, poses)
+
+    def world_distances(
+        self, pairs: tuple[tuple[int, int], ...], poses: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Smallest distance (N, C) of each (body, world object) pair (m) and where it is reached."""
+        return self._distances("world", pairs, poses)
+
+    def _distances(
+        self,
+        family: str,
+        pairs: tuple[tuple[int, int], ...],
+        poses: np.ndarray,
+        q: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Smallest distance (N, C) of each pair and where it is reached (a padded sphere pair, −1 for
+        a hull distance, −2 for a plane height); ``q`` (N, N_J) is needed when ``use_hulls``."""
+        n = poses.shape[1]
+        if not pairs:
+            return np.zeros((n, 0)), np.zeros((n, 0), dtype=int)
+        first, second = self._sphere_pairs(family, pairs)
+        values = np.empty((n, len(pairs)))
+        where = np.empty((n, len(pairs)), dtype=int)
+        for start in range(0, n, CHUNK):
+            chunk = slice(start, min(n, start + CHUNK))
+            centres = self._centres(poses[:, chunk])
+            gaps = self._gaps(family, pairs, first, second, centres)  # (C, P, n_chunk)
+            where[chunk] = np.argmin(gaps, axis=1).T
+            values[chunk] = np.min(gaps, axis=1).T
+        if self.use_hulls and self.scene.geometry is not None:
+            self._refine(family, pairs, poses, values, where, q)
+        return values, where
+
+    # --- refinement by convex hulls -------------------------------------------------------------
+
+    def _exact_geometry(self) -> ExactGeometry:
+        from lwrlab.excitation.collision_check import ExactGeometry
+
+        if self._exact is None:
+            self._exact = ExactGeometry(self.scene)
+        return self._exact
+
+    def _hull(self, body: int) -> object:
+        return self._exact_geometry().convex(body)
+
+    def _hull_model(
+        self, keys: frozenset[tuple[str, tuple[int, int]]] | None = None
+    ) -> tuple[Any, Any, dict[tuple[str, tuple[int, int]], int]]:
+        """A Pinocchio geometry model of the bodies' convex hulls and the world objects, with one
+        collision pair per (family, pair) of ``keys`` (default: the scene's hull pairs): Pinocchio
+        computes all their distances in C++ per configuration."""
+        keys = self.scene.hull_pairs if keys is None else keys
+        if keys not in self._hull_geometry:
+            model = self.scene.robot.model
+            geometry_model = pin.GeometryModel()
+            index: dict[tuple[str, int], int] = {}
+
+            def add(key: tuple[str, int], joint: int, placement: np.ndarray, geometry: Any) -> int:
+                if key not in index:
+                    obj = pin.GeometryObject(f"{key[0]}{key[1]}", joint, pin.SE3(placement), geometry)
+                    index[key] = geometry_model.addGeometryObject(obj)
+                return index[key]
+
+            pair_index = {}
+            for family, (a, b) in sorted(keys):
+                first = add(("body", a), int(self.scene.body_joints[a]), np.eye(4), self._hull(a))
+                if family == "self":
+                    second = add(("body", b), int(self.scene.body_joints[b]), np.eye(4), self._hull(b))
+                else:
+                    obj = self.scene.world[b]
+                    if obj.shape == "plane":
+                        continue
+                    second = add(("world", b), 0, obj.pose, obj.geometry)
+                geometry_model.addCollisionPair(pin.CollisionPair(first, second))
+                pair_index[(family, (a, b))] = len(geometry_model.collisionPairs) - 1
+            geometry_data = geometry_model.createData()
+            for request in geometry_data.distanceRequests:
+                request.enable_signed_distance = True
+                request.gjk_tolerance = 1e-9  # smooth enough for finite differences and line searches
+            self._hull_geometry[keys] = (geometry_model, geometry_data, pair_index)
+            self._pin_data = model.createData()
+        return self._hull_geometry[keys]
+
+    def hull_distances(
+        self,
+        q: np.ndarray,
+        with_points: bool = False,
+        keys: frozenset[tuple[str, tuple[int, int]]] | None = None,
+    ) -> dict[tuple[str, tuple[int, int]], tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Signed distances (N,) between the convex hulls of every hull pair (or of ``keys``) at
+        configurations q (N, N_J), with the nearest points (N, 3) on each (base frame) when asked."""
+        geometry_model, geometry_data, pair_index = self._hull_model(keys)
+        model, data = self.scene.robot.model, self._pin_data
+        n = q.shape[0]
+        out = {key: (np.empty(n), np.empty((n, 3)), np.empty((n, 3))) for key in pair_index}
+        for k in range(n):
+            pin.computeDistances(model, data, geometry_model, geometry_data, q[k])
+            results = geometry_data.distanceResults
+            for key, i in pair_index.items():
+                result = results[i]
+                out[key][0][k] = result.min_distance
+                if with_points:
+                    out[key][1][k] = result.getNearestPoint1()
+                    out[key][2][k] = result.getNearestPoint2()
+        return out
+
+    def _plane_heights(self, body: int, plane_index: int, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact height (N,) of a body's hull above a plane at every sample, and the lowest vertex (N, 3)."""
+        plane = self.scene.world[plane_index]
+        hull = self._exact_geometry().hull[body]
+        joint = int(self.scene.body_joints[body])
+        pose = poses[joint - 1]
+        normal, origin = plane.pose[:3, 2], plane.pose[:3, 3]
+        heights = (pose[:, :3, :3].transpose(0, 2, 1) @ normal) @ hull.T  # (N, V): (Rᵀn)·v
+        heights += ((pose[:, :3, 3] - origin) @ normal)[:, None]
+        lowest = heights.argmin(axis=1)
+        rows = np.arange(len(lowest))
+        points = np.einsum("nij,nj->ni", pose[:, :3, :3], hull[lowest]) + pose[:, :3, 3]
+        return heights[rows, lowest], points
+
+    def _refine(
+        self,
+        family: str,
+        pairs: tuple[tuple[int, int], ...],
+        poses: np.ndarray,
+        values: np.ndarray,
+        where: np.ndarray,
+        q: np.ndarray | None,
+    ) -> None:
+        """Replace the columns of hull pairs and plane pairs in ``values`` (N, C) by hull distances
+        (``where`` −1) and exact plane heights (``where`` −2)."""
+        hulls = None
+        for c, pair in enumerate(pairs):
+            if family == "world" and self.scene.world[pair[1]].shape == "plane":
+                values[:, c] = self._plane_heights(pair[0], pair[1], poses)[0]
+                where[:, c] = -2
+            elif (family, pair) in self.scene.hull_pairs:
+                if q is None:
+                    raise ValueError("hull distances need the configurations q")
+                hulls = self.hull_distances(q) if hulls is None else hulls
+                values[:, c] = hulls[(family, pair)][0]
+                where[:, c] = -1
+
+    def _gaps(
+        self,
+        family: str,
+        pairs: tuple[tuple[int, int], ...],
+        first: np.ndarray,
+        second: np.ndarray,
+        centres: np.ndarray,
+    ) -> np.ndarray:
+        """(C, P, N) gaps of every padded sphere pair (inf on padding)."""
+        gaps = np.full((*first.shape, centres.shape[1]), np.inf)
+        valid = first >= 0
+        c_a = centres[np.where(valid, first, 0)]  # (C, P, N, 3)
+        sphere_pair = valid & (second >= 0)
+        if sphere_pair.any():
+            c_b = centres[np.where(sphere_pair, second, 0)]
+            gap = (
+                np.linalg.norm(c_a - c_b, axis=-1)
+                - self.all_radii[np.where(valid, first, 0)][..., None]
+                - self.all_radii[np.where(sphere_pair, second, 0)][..., None]
+            )
+            gaps = np.where(sphere_pair[..., None], gap, gaps)
+        if family == "world":
+            for c, (_, w) in enumerate(pairs):
+                obj = self.scene.world[w]
+                if obj.shape == "mesh":
+                    continue
+                row = first[c][valid[c]]
+                points = c_a[c, : len(row)].reshape(-1, 3)
+                distance = obj.signed_distance(points)[0].reshape(len(row), -1)
+                gaps[c, : len(row)] = distance - self.all_radii[row][:, None]
+        return gaps
+
+    # --- derivatives ----------------------------------------------------------------------------
+
+    def derivatives(
+        self,
+        family: str,
+        pairs: tuple[tuple[int, int], ...],
+        q: np.ndarray,
+        samples: np.ndarray,
+        columns: np.ndarray,
+    ) -> np.ndarray:
+        """∂distance/∂q (m, N_J) of the (sample, column) entries, at what reaches the smallest distance
+        (a sphere pair, the hulls' nearest points, the lowest hull vertex): the gradient of the minimum
+        where it is unique. Entries are grouped by column, each column evaluated at its samples only."""
+        scene, model = self.scene, self.scene.robot.model
+        out = np.zeros((len(samples), scene.robot.n_joints))
+        sphere_joints = np.array([s.link for s in scene.spheres] + [0] * len(self.fixed_centres), dtype=int)
+        exact = self.use_hulls and scene.geometry is not None
+        for c in np.unique(columns):
+            rows = np.flatnonzero(columns == c)
+            pair = pairs[c]
+            at = samples[rows]
+            poses = scene.poses(q[at])
+            joint_a = np.full(len(rows), scene.body_joints[pair[0]])
+            if exact and family == "world" and scene.world[pair[1]].shape == "plane":
+                _, point = self._plane_heights(pair[0], pair[1], poses)
+                jac = point_jacobians(model, poses, joint_a, point, scene.axes)
+                out[rows] = np.einsum("i,mij->mj", scene.world[pair[1]].pose[:3, 2], jac)
+                continue
+            if exact and (family, pair) in scene.hull_pairs:
+                d, point_a, point_b = self.hull_distances(q[at], with_points=True)[(family, pair)]
+                jac = point_jacobians(model, poses, joint_a, point_a, scene.axes)
+                if family == "self":
+                    joint_b = np.full(len(rows), scene.body_joints[pair[1]])
+                    jac = jac - point_jacobians(model, poses, joint_b, point_b, scene.axes)
+                gap = point_a - point_b
+                normal = (
+                    np.sign(d)[:, None] * gap / np.maximum(np.linalg.norm(gap, axis=1, keepdims=True), 1e-12)
+                )
+                out[rows] = np.einsum("mi,mij->mj", normal, jac)
+                continue
+            first, second = self._sphere_pairs(family, (pair,))
+            centres = self._centres(poses)  # (S_all, m, 3)
+            gaps = self._gaps(family, (pair,), first, second, centres)[0]  # (P, m)
+            chosen = np.argmin(gaps, axis=0)
+            a, b = first[0, chosen], second[0, chosen]
+            m = np.arange(len(rows))
+            point_a = centres[a, m]
+            jac_a = point_jacobians(model, poses, sphere_joints[a], point_a, scene.axes)
+            if b[0] >= 0:  # a sphere on the other side (a body, or a mesh object's)
+                point_b = centres[b, m]
+                jac = jac_a - point_jacobians(model, poses, sphere_joints[b], point_b, scene.axes)
+                gap = point_a - point_b
+                normal = gap / np.maximum(np.linalg.norm(gap, axis=1, keepdims=True), 1e-12)
+                out[rows] = np.einsum("mi,mij->mj", normal, jac)
+            else:  # an analytic world object
+                gradient = scene.world[pair[1]].signed_distance(point_a)[1]
+                out[rows] = np.einsum("mi,mij->mj", gradient, jac_a)
+        return out
+
+    # --- exact contacts, for choosing pairs -----------------------------------------------------
+
+    def exact_contact_fraction(
+        self,
+        family: str,
+        pair: tuple[int, int],
+        poses: np.ndarray,
+        bound: np.ndarray,
+        clearance: float,
+    ) -> float:
+        """Fraction of the configurations (poses (N_J, N, 4, 4)) where the pair's exact geometry is
+        within ``clearance``; ``bound`` (N,): the spheres' lower bound, which rules most out."""
+        exact = self._exact_geometry()
+        near = np.flatnonzero(bound < clearance)
+        hits = sum(exact.in_contact(family, pair, poses[:, k], clearance) for k in near)
+        return hits / len(bound)
