@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from lwrlab.model.robot import RobotModel
-from lwrlab.signal.processing import central_difference
 from lwrlab.pipeline.build import build
+from lwrlab.signal.processing import central_difference
 
 
 @pytest.mark.parametrize("harmonics", [1, 3, 6])
