@@ -28,7 +28,12 @@ import numpy as np
 from lwrlab.dynamics.base_parameters import random_states
 from lwrlab.kinematics.tree import JointAxis, joint_axes, joint_poses
 from lwrlab.model.collision import CollisionSphere
-from lwrlab.model.collision_geometry import CollisionShape, RobotGeometry, load_robot_geometry
+from lwrlab.model.collision_geometry import (
+    CollisionGeometryError,
+    CollisionShape,
+    RobotGeometry,
+    load_robot_geometry,
+)
 from lwrlab.model.enclosing_spheres import enclosing_spheres
 from lwrlab.model.robot import RobotModel
 from lwrlab.model.world import WorldObject
@@ -202,12 +207,18 @@ def build_scene_uncached(
     the spheres kept off the world (None: all but those on the base and joint 1) and the least joint
     gap between spheres kept apart.
     """
-    geometry = None
+    geometry: RobotGeometry | None = None
     world_objects = list(world)
     notes: list[str] = []
     axes = joint_axes(robot.model)
-    if robot.collision_source is not None:
+    if robot.collision_source is not None and robot.collision_spheres:
+        try:  # a described robot may fall back on its spheres (e.g. without the optional robot data)
+            geometry = load_robot_geometry(robot.collision_source, robot.model)
+        except CollisionGeometryError as error:
+            log.warning("%s: %s; its collision spheres stand for its geometry instead", robot.name, error)
+    elif robot.collision_source is not None:
         geometry = load_robot_geometry(robot.collision_source, robot.model)
+    if geometry is not None:
         fixed_primitives = tuple(
             s
             for s in geometry.shapes

@@ -34,13 +34,15 @@ from typing import Any, Literal
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.errors import UserError
+
 log = logging.getLogger(__name__)
 
 ROUND_SEGMENTS = 24
 """Sides of the prisms and polyhedra that enclose round primitives (cylinder, capsule, sphere)."""
 
 
-class CollisionGeometryError(ValueError):
+class CollisionGeometryError(UserError, ValueError):
     """The collision geometry of a robot description cannot be loaded; the message says why."""
 
 
@@ -58,9 +60,10 @@ class CollisionSource:
         elements out with a warning (the motion is then not checked against them).
     """
 
-    urdf: Path
+    urdf: Path | str
+    """The URDF file, or ``package://NAME/…`` resolved as mesh names are."""
     package_dirs: tuple[Path, ...] = ()
-    srdf: Path | None = None
+    srdf: Path | str | None = None
     missing_meshes: Literal["error", "drop"] = "error"
     locked_joints: tuple[tuple[str, float], ...] = ()
     """URDF joints merged into their parent at these positions (as the robot's model merged them)."""
@@ -150,9 +153,22 @@ def resolve_mesh(uri: str, urdf_dir: Path, folders: Sequence[Path]) -> Path | No
     return path if path is not None and path.is_file() else None
 
 
+def urdf_path(source: CollisionSource) -> Path:
+    """The URDF file of ``source`` (a ``package://`` name resolved); CollisionGeometryError if absent."""
+    folders = package_search_path(source.package_dirs)
+    name = str(source.urdf)
+    path = resolve_mesh(name, Path.cwd(), folders)
+    if path is None:
+        searched = ", ".join(str(f) for f in folders) or "none"
+        raise CollisionGeometryError(
+            f"collision URDF {name} not found (folders searched for package://NAME/…: {searched})"
+        )
+    return path
+
+
 def _resolved_urdf(source: CollisionSource) -> str:
     """The URDF text with every collision mesh made an absolute path; missing meshes raise or drop."""
-    urdf = source.urdf
+    urdf = urdf_path(source)
     try:
         tree = ElementTree.parse(urdf)
     except (ElementTree.ParseError, OSError) as error:
@@ -315,6 +331,7 @@ def load_robot_geometry(source: CollisionSource, robot_model: pin.Model) -> Robo
     """The collision shapes of ``source`` fixed to the joints of ``robot_model``."""
     locked_joints = dict(source.locked_joints)
     text = _resolved_urdf(source)
+    urdf = urdf_path(source)
     try:
         urdf_model = pin.buildModelFromXML(text)
         geometry_model = pin.buildGeomFromUrdfString(urdf_model, text, pin.GeometryType.COLLISION)
@@ -332,8 +349,8 @@ def load_robot_geometry(source: CollisionSource, robot_model: pin.Model) -> Robo
         urdf_model, geometry_model = pin.buildReducedModel(
             urdf_model, geometry_model, sorted(ids), q_reference
         )
-    joints = _joint_map(urdf_model, robot_model, source.urdf)
-    _check_same_frames(urdf_model, robot_model, joints, source.urdf)
+    joints = _joint_map(urdf_model, robot_model, urdf)
+    _check_same_frames(urdf_model, robot_model, joints, urdf)
     shapes = []
     for obj in geometry_model.geometryObjects:
         vertices, faces, radius = _mesh_of(obj.geometry, obj.meshPath)
@@ -350,7 +367,12 @@ def load_robot_geometry(source: CollisionSource, robot_model: pin.Model) -> Robo
             )
         )
     if not shapes:
-        raise CollisionGeometryError(f"{source.urdf} has no <collision> geometry")
-    disabled = disabled_pairs_from_srdf(source.srdf) if source.srdf is not None else frozenset()
-    described = f"{source.urdf}" + (f" + {source.srdf}" if source.srdf is not None else "")
+        raise CollisionGeometryError(f"{urdf} has no <collision> geometry")
+    srdf = None
+    if source.srdf is not None:
+        srdf = resolve_mesh(str(source.srdf), urdf.parent, package_search_path(source.package_dirs))
+        if srdf is None:
+            raise CollisionGeometryError(f"SRDF {source.srdf} not found")
+    disabled = disabled_pairs_from_srdf(srdf) if srdf is not None else frozenset()
+    described = f"{urdf}" + (f" + {srdf}" if srdf is not None else "")
     return RobotGeometry(tuple(shapes), disabled, described)

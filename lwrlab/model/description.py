@@ -29,9 +29,15 @@ The keys, as in the robot configs (``conf/robot/<name>.yaml``) or any YAML file 
     collision_spheres:                      # self-collision spheres (lwrlab/model/collision.py); null: none
       # link 0 = base; center in the joint frame (m)
       - {name: elbow, link: 4, center: [0, 0, 0], radius: 0.08}
+    collision_urdf:                         # optional: a URDF whose <collision> geometry is this robot's
+      path: package://my_arm_description/urdf/my_arm.urdf   # its joint frames must be the table's
+      srdf: null                            # MoveIt SRDF (disabled pairs)
+      package_dirs: []                      # folders holding ROS packages (before ROS_PACKAGE_PATH)
+      locked_joints: {}                     # URDF joints merged into their parent (a gripper's fingers)
 
-Every top-level key is required (null where the robot has none): the description is the one place of
-its values. ``build_robot`` takes these keys as keyword arguments (what Hydra's ``instantiate`` passes
+Every top-level key but ``collision_urdf`` is required (null where the robot has none): the
+description is the one place of its values. With ``collision_urdf``, exciting motions are kept clear of
+that URDF's collision meshes (when it can be found; else of the collision spheres, with a warning). ``build_robot`` takes these keys as keyword arguments (what Hydra's ``instantiate`` passes
 through the robot plugin ``plugins.robots.mdh``); ``load_robot_yaml`` reads them from a file.
 ``build_limits`` and ``build_friction`` serve every robot loader (the URDF plugin too).
 
@@ -54,6 +60,7 @@ import numpy as np
 
 from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.model.collision import build_collision_spheres
+from lwrlab.model.collision_geometry import CollisionSource
 from lwrlab.model.dh import ModifiedDH, build_dh_model
 from lwrlab.model.inertia import standard_parameters, to_pin_inertia
 from lwrlab.model.robot import Friction, JointLimits, RobotModel
@@ -103,6 +110,7 @@ def build_robot(
     flange: Sequence[float] | None,
     rotor_inertia: Sequence[float] | None,
     collision_spheres: Sequence[Mapping[str, Any]] | None,
+    collision_urdf: Mapping[str, Any] | None,
     **documentation: Any,
 ) -> RobotModel:
     """Build a :class:`RobotModel` from a modified-DH description (keys in the module docstring).
@@ -144,6 +152,25 @@ def build_robot(
         if rotor_inertia is None
         else _array(rotor_inertia, n, f"robot {name!r} rotor_inertia"),
         collision_spheres=build_collision_spheres(collision_spheres, n, name),
+        collision_source=None if collision_urdf is None else collision_source_of(collision_urdf, name),
+    )
+
+
+def collision_source_of(entry: Mapping[str, Any], robot: str) -> CollisionSource:
+    """A :class:`CollisionSource` from a description's ``collision_urdf`` mapping."""
+    unknown = set(entry) - {"path", "srdf", "package_dirs", "locked_joints"}
+    if unknown or "path" not in entry:
+        raise ValueError(
+            f"robot {robot!r} collision_urdf needs `path` (and optionally srdf, package_dirs, locked_joints); "
+            f"unknown keys: {sorted(unknown)}"
+        )
+    dirs = tuple(Path(d) for d in entry.get("package_dirs") or ())
+    srdf = entry.get("srdf")
+    return CollisionSource(
+        urdf=str(entry["path"]),  # a Path would fold the "//" of package://
+        package_dirs=dirs,
+        srdf=None if srdf is None else str(srdf),
+        locked_joints=tuple((str(k), float(v)) for k, v in dict(entry.get("locked_joints") or {}).items()),
     )
 
 
@@ -160,6 +187,7 @@ def load_robot_yaml(path: str | Path, **overrides: Any) -> RobotModel:
         raise FileNotFoundError(f"robot description {path} does not exist")
     description = read_yaml_mapping(path, "robot")
     description.pop("_target_", None)
+    description.setdefault("collision_urdf", None)
     description.update(overrides)
     missing = [key for key in DESCRIPTION_KEYS if key not in description]
     if missing:

@@ -80,6 +80,30 @@ def _command_line() -> str:
         return "lwrlab task=excitation"
 
 
+PREVIEW_APPROACHES = 6
+"""Closest approaches drawn on the preview besides the violated ones."""
+GOAL_RATES_HZ = (10.0, 20.0, 50.0, 100.0)
+"""Rates tried for the FollowJointTrajectory goal, the lowest whose quintic interpolation stays within
+GOAL_DEVIATION of the motion (a goal passed on the command line must stay under the shell's 128 KiB)."""
+GOAL_DEVIATION = 1e-6
+"""Largest deviation (rad) of the controller's interpolation from the motion, for the goal's rate."""
+
+
+def goal_rate(t: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> float:
+    """The lowest of :data:`GOAL_RATES_HZ` at which quintic interpolation reproduces the motion within
+    :data:`GOAL_DEVIATION` (a quintic B-spline sampled at its knots is reproduced exactly)."""
+    from lwrlab.io.ros2_trajectory import quintic_interpolation
+
+    period = float(np.median(np.diff(t)))
+    for rate in GOAL_RATES_HZ:
+        step = max(1, round(1.0 / (rate * period)))
+        keep = np.unique(np.append(np.arange(0, len(t), step), len(t) - 1))
+        error = np.abs(quintic_interpolation(t[keep], q[keep], dq[keep], ddq[keep], t) - q).max()
+        if error <= GOAL_DEVIATION:
+            return rate
+    return GOAL_RATES_HZ[-1]
+
+
 def require_motion_limits(robot: RobotModel) -> None:
     """Stop at once, in one line naming the setting, when a limit the optimiser needs is unknown."""
     from lwrlab.errors import ConfigError
@@ -106,7 +130,9 @@ def _motion_figures(
     from lwrlab.excitation.collision_scene import posed_meshes
     from lwrlab.figures.motion_preview import BodyMesh, Snapshot, key_times, motion_preview_figure
 
-    approaches = list(check.collisions.approaches) if check.collisions is not None else []
+    found = list(check.collisions.approaches) if check.collisions is not None else []
+    # the violated approaches and the nearest few: a picture of every pair would hide the robot
+    approaches = [a for a in found if a.violated] + [a for a in found if not a.violated][:PREVIEW_APPROACHES]
     snapshots = []
     for t, label in key_times(trajectory.t, approaches):
         k = int(np.argmin(np.abs(trajectory.t - t)))
@@ -231,7 +257,10 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
             shutil.rmtree(bag)
         write_joint_trajectory_bag(bag, list(robot.joint_names), *arrays)
         write_follow_joint_trajectory_goal(
-            output_dir / "exciting_motion_goal.yaml", list(robot.joint_names), *arrays
+            output_dir / "exciting_motion_goal.yaml",
+            list(robot.joint_names),
+            *arrays,
+            rate_hz=goal_rate(*arrays),
         )
         report_lines += [
             "",

@@ -45,6 +45,21 @@ def _locate(source: str, tracking_uri: str | None, fetch_run_artifact: RunArtifa
     return Path(fetch_run_artifact(source, IDENTIFIED_MODEL_FILE, tracking_uri))
 
 
+_KEYS_ADDED_SINCE: dict[str, dict[str, object]] = {
+    "build_robot": {"collision_urdf": None},
+    "load_robot_yaml": {},
+    "load_urdf_robot": {
+        "package_dirs": [],
+        "srdf": None,
+        "joint_limits": None,
+        "collision_geometry": True,
+        "missing_meshes": "error",
+    },
+}
+"""Robot settings added after a model may have been saved, with the value that keeps its behaviour:
+an ``identified_model.yaml`` written before them still loads."""
+
+
 def load_identified_robot(
     source: str,
     *,
@@ -82,7 +97,8 @@ def load_identified_robot(
         raise ValueError(
             f"{path}: robot _target_ {target!r} is not a robot plugin ({_ALLOWED_TARGET_PREFIX}*)"
         )
-    prior = build_robot(robot_config)
+    defaults = _KEYS_ADDED_SINCE.get(target.rsplit(".", 1)[-1], {})
+    prior = build_robot({**defaults, **robot_config})
     if tuple(prior.parameter_names) != identified.standard_names:
         raise ValueError(
             f"{path}: its standard parameters do not match the robot it describes ({prior.name})"
