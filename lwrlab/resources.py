@@ -55,7 +55,7 @@ def config_group(group: str) -> dict[str, Path]:
 
 
 def package_file(reference: str) -> Path:
-    """The file ``pkg://<package>/<path>`` names, as a path on disk (FileNotFoundError if absent)."""
+    """The file (or folder) ``pkg://<package>/<path>`` names, as a path on disk (FileNotFoundError if absent)."""
     if not reference.startswith(PACKAGE_SCHEME):
         raise ValueError(f"{reference!r} does not start with {PACKAGE_SCHEME}")
     package, _, inner = reference.removeprefix(PACKAGE_SCHEME).partition("/")
@@ -63,7 +63,7 @@ def package_file(reference: str) -> Path:
         resource = files(package).joinpath(inner)
     except ModuleNotFoundError as error:
         raise FileNotFoundError(f"{reference}: no package {package!r}") from error
-    if not inner or not resource.is_file():
+    if not inner or not (resource.is_file() or resource.is_dir()):
         raise FileNotFoundError(f"{reference}: no file {inner!r} in package {package!r}")
     return _on_disk(resource)
 

@@ -21,7 +21,7 @@ from lwrlab.dynamics.base_parameters import BaseParameters
 from lwrlab.excitation.constraints import ConstraintSettings
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.excitation.problem import ExcitationProblem
-from lwrlab.excitation.solver import ExcitationResult, SlsqpOptimizer, check_motion
+from lwrlab.excitation.solver import ExcitationResult, SlsqpOptimizer, check_motion, check_motion_at
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.core import Trajectory
 from lwrlab.trajectory.parameterisation import LinearParameterisation
@@ -103,11 +103,30 @@ class OptimalExcitingMotion:
         return problem.parameterisation.with_coefficients(result.coefficients), result, problem
 
     def _load(self, robot: RobotModel, from_file: str) -> LinearParameterisation | None:
-        """The motion of ``from_file`` if it was made for this robot and duration, else None (logged)."""
+        """The motion of ``from_file`` if it was made for this robot and duration, else None (logged).
+
+        ``from_file`` may be a folder (a library of motions, as the shipped
+        ``pkg://lwrlab/data/exciting_motions``): the first of its files made for this robot, criterion,
+        duration and parameterisation is played; none: the motion is optimised.
+        """
         from lwrlab.io.exciting_motion import load_motion_description
         from lwrlab.resources import resolve_data_path
 
-        description = load_motion_description(resolve_data_path(from_file))
+        path = resolve_data_path(from_file)
+        if path.is_dir():
+            for candidate in sorted(path.glob("*.yaml")):
+                motion = self._load_file(robot, str(candidate), quiet=True)
+                if motion is not None:
+                    return motion
+            log.info("no motion in %s was made for %s with these settings: optimising", path, robot.name)
+            return None
+        return self._load_file(robot, str(path), quiet=False)
+
+    def _load_file(self, robot: RobotModel, from_file: str, quiet: bool) -> LinearParameterisation | None:
+        """The motion of one file if it was made for this robot and these settings, else None."""
+        from lwrlab.io.exciting_motion import load_motion_description
+
+        description = load_motion_description(from_file)
         provenance = description.get("provenance", {})
         made_for, criterion = provenance.get("robot"), provenance.get("criterion")
         bare = self.bare_parameterisation(float(description["duration"]))
@@ -115,6 +134,8 @@ class OptimalExcitingMotion:
         wanted = (robot.name, self.criterion.name, self.duration, bare.kind, bare.settings())
         found = (made_for, criterion, float(description["duration"]), description["kind"], settings)
         if found != wanted:
+            if quiet:
+                return None
             log.warning(
                 "%s holds a motion for (robot, criterion, duration, parameterisation, settings) = %s, "
                 "not %s: optimising instead",
@@ -126,6 +147,11 @@ class OptimalExcitingMotion:
         log.info("exciting motion loaded from %s", description["path"])
         return bare.with_coefficients(description["coefficients"])
 
+    def _from_library(self) -> bool:
+        from lwrlab.resources import resolve_data_path
+
+        return bool(self.from_file) and resolve_data_path(str(self.from_file)).is_dir()
+
     def sample(self, robot: RobotModel, rate_hz: float) -> Trajectory:
         """The exciting motion at ``rate_hz`` (Hz), checked against every constraint at that rate.
 
@@ -133,6 +159,15 @@ class OptimalExcitingMotion:
         trajectory's metadata (``cost``), the motion in the trajectory itself.
         """
         motion = self._load(robot, self.from_file) if self.from_file else None
+        if motion is not None and self._from_library():
+            check = check_motion_at(robot, motion, self.constraints, rate_hz)
+            if not check.passed:  # made for this robot's meshes, say, while only its spheres are at hand
+                log.warning(
+                    "the library's motion for %s fails this robot's check (%s): optimising instead",
+                    robot.name,
+                    check.describe(),
+                )
+                motion = None
         cost = None
         if motion is None:
             motion, result, _ = self.optimise(robot)
