@@ -156,7 +156,7 @@ def main() -> None:
         print(f"{name} …", flush=True)
         rows.append(measure(name, args.seed))
         print(pd.DataFrame(rows[-1:]).to_markdown(index=False), flush=True)
-    print()
+    print("\n## Exciting motions of robots nobody here wrote\n")
     print(pd.DataFrame(rows).to_markdown(index=False))
 
 

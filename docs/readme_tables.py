@@ -94,6 +94,11 @@ SOURCES = {
         _printed_table("on motions not in the fit"),
         4.0,
     ),
+    "own_robots": Source(
+        (("python", str(REPOSITORY / "benchmarks" / "own_robot_motion.py")),),
+        _printed_table("## Exciting motions of robots nobody here wrote"),
+        3.0,
+    ),
     "estimator_benchmark": Source(
         (("lwrlab", "-m", "experiment=estimator_benchmark", "hydra/launcher=parallel"),),
         _file_table("outputs/multiruns/*/*/estimator_benchmark_summary.md"),

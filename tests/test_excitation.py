@@ -139,7 +139,7 @@ def test_sphere_centres_agree_with_pinocchio(
     data = robot.model.createData()
     for k in range(4):
         pin.forwardKinematics(robot.model, data, q[k])
-        for s, sphere in enumerate(robot.collision_spheres):
+        for s, sphere in enumerate(scene.spheres):  # fitted to the meshes, or hand-written
             pose = data.oMi[sphere.link] if sphere.link else pin.SE3.Identity()
             np.testing.assert_allclose(centres[s, k], pose.act(sphere.center), atol=1e-12)
 

@@ -87,12 +87,16 @@ class CollisionScene:
         """(S, N, 3) sphere centres (m, base frame) from joint poses (N_J, N, 4, 4)."""
         n = poses.shape[1]
         out = np.empty((len(self.spheres), n, 3))
-        for s, sphere in enumerate(self.spheres):
-            if sphere.link == 0:
-                out[s] = sphere.center
+        links = np.array([s.link for s in self.spheres], dtype=int)
+        centers = np.array([s.center for s in self.spheres]).reshape(-1, 3)
+        for link in np.unique(links):  # one product per joint for all its spheres
+            chosen = links == link
+            if link == 0:
+                out[chosen] = centers[chosen][:, None, :]
             else:
-                pose = poses[sphere.link - 1]
-                out[s] = pose[:, :3, :3] @ sphere.center + pose[:, :3, 3]
+                pose = poses[link - 1]
+                rotated = np.matmul(pose[:, :3, :3], centers[chosen].T)  # (N, 3, s)
+                out[chosen] = rotated.transpose(2, 0, 1) + pose[:, :3, 3]
         return out
 
     def poses(self, q: np.ndarray) -> np.ndarray:

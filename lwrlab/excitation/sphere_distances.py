@@ -56,6 +56,7 @@ class SphereDistances:
         self.all_radii = np.concatenate([self.radii, *fixed_radii])
         self._body_spheres = [np.flatnonzero(scene.sphere_bodies == b) for b in range(len(scene.bodies))]
         self._exact: ExactGeometry | None = None
+        self._layouts: dict[tuple[str, tuple[tuple[int, int], ...]], Any] = {}
         self.use_hulls = False
         """Measure the scene's hull pairs and plane pairs on convex hulls (module docstring)."""
         self._hull_geometry: dict[
@@ -109,23 +110,83 @@ class SphereDistances:
         poses: np.ndarray,
         q: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Smallest distance (N, C) of each pair and where it is reached (a padded sphere pair, −1 for
-        a hull distance, −2 for a plane height); ``q`` (N, N_J) is needed when ``use_hulls``."""
+        """Smallest distance (N, C) of each pair, and how it was measured (0: spheres, −1: convex hulls,
+        −2: a plane's height above the hull); ``q`` (N, N_J) is needed when ``use_hulls``."""
         n = poses.shape[1]
-        if not pairs:
-            return np.zeros((n, 0)), np.zeros((n, 0), dtype=int)
-        first, second = self._sphere_pairs(family, pairs)
         values = np.empty((n, len(pairs)))
-        where = np.empty((n, len(pairs)), dtype=int)
-        for start in range(0, n, CHUNK):
-            chunk = slice(start, min(n, start + CHUNK))
-            centres = self._centres(poses[:, chunk])
-            gaps = self._gaps(family, pairs, first, second, centres)  # (C, P, n_chunk)
-            where[chunk] = np.argmin(gaps, axis=1).T
-            values[chunk] = np.min(gaps, axis=1).T
-        if self.use_hulls and self.scene.geometry is not None:
+        where = np.zeros((n, len(pairs)), dtype=int)
+        refined = self.use_hulls and self.scene.geometry is not None
+        by_spheres = [
+            c
+            for c, pair in enumerate(pairs)
+            if not (
+                refined
+                and (
+                    (family, pair) in self.scene.hull_pairs
+                    or (family == "world" and self.scene.world[pair[1]].shape == "plane")
+                )
+            )
+        ]
+        if by_spheres:
+            layout = self._flat_layout(family, tuple(pairs[c] for c in by_spheres))
+            for start in range(0, n, CHUNK):
+                chunk = slice(start, min(n, start + CHUNK))
+                values[chunk, by_spheres] = self._flat_distances(
+                    family, layout, self._centres(poses[:, chunk])
+                ).T
+        if refined:
             self._refine(family, pairs, poses, values, where, q)
         return values, where
+
+    def _flat_layout(
+        self, family: str, pairs: tuple[tuple[int, int], ...]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[int, int, np.ndarray]]]:
+        """Every sphere pair of the columns, flattened: first and second sphere (M,), the start of each
+        column's run (C,), and, for analytic world columns, (column, world object, spheres)."""
+        key = (family, pairs)
+        if key not in self._layouts:
+            firsts, seconds, starts, analytic = [], [], [], []
+            count = 0
+            for c, (a, b) in enumerate(pairs):
+                first = self._body_spheres[a]
+                if family == "world" and b not in self._world_spheres:
+                    analytic.append((c, b, first))
+                    starts.append(count)  # an empty run, filled below
+                    continue
+                second = self._body_spheres[b] if family == "self" else self._world_spheres[b]
+                ia, ib = np.meshgrid(first, second, indexing="ij")
+                firsts.append(ia.ravel())
+                seconds.append(ib.ravel())
+                starts.append(count)
+                count += ia.size
+            flat_first = np.concatenate(firsts) if firsts else np.zeros(0, dtype=int)
+            flat_second = np.concatenate(seconds) if seconds else np.zeros(0, dtype=int)
+            self._layouts[key] = (flat_first, flat_second, np.array(starts), analytic)
+        return self._layouts[key]
+
+    def _flat_distances(
+        self,
+        family: str,
+        layout: tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[int, int, np.ndarray]]],
+        centres: np.ndarray,
+    ) -> np.ndarray:
+        """(C, N) smallest gap per column from the flattened sphere pairs (and analytic objects)."""
+        first, second, starts, analytic = layout
+        n_columns = len(starts)
+        out = np.full((n_columns, centres.shape[1]), np.inf)
+        if len(first):
+            gap = centres[first] - centres[second]  # (M, N, 3)
+            gaps = np.sqrt(np.einsum("mnk,mnk->mn", gap, gap))
+            gaps -= (self.all_radii[first] + self.all_radii[second])[:, None]
+            sphere_columns = np.array(
+                [c for c in range(n_columns) if c not in {a[0] for a in analytic}], dtype=int
+            )
+            out[sphere_columns] = np.minimum.reduceat(gaps, starts[sphere_columns], axis=0)
+        for c, w, spheres in analytic:
+            points = centres[spheres].reshape(-1, 3)
+            distance = self.scene.world[w].signed_distance(points)[0].reshape(len(spheres), -1)
+            out[c] = np.min(distance - self.all_radii[spheres][:, None], axis=0)
+        return out
 
     # --- refinement by convex hulls -------------------------------------------------------------
 
@@ -286,31 +347,45 @@ class SphereDistances:
         out = np.zeros((len(samples), scene.robot.n_joints))
         sphere_joints = np.array([s.link for s in scene.spheres] + [0] * len(self.fixed_centres), dtype=int)
         exact = self.use_hulls and scene.geometry is not None
+        unique, inverse = np.unique(samples, return_inverse=True)
+        all_poses = scene.poses(q[unique])  # once for every column
+        all_centres: np.ndarray | None = None
+        hull_columns = [c for c in np.unique(columns) if exact and (family, pairs[c]) in scene.hull_pairs]
+        hulls = {}
+        if hull_columns:  # every hull pair at once, at the samples of hull columns only
+            needed = np.unique(inverse[np.isin(columns, hull_columns)])
+            keys = frozenset((family, pairs[c]) for c in hull_columns)
+            found = self.hull_distances(q[unique[needed]], with_points=True, keys=keys)
+            position = {int(u): k for k, u in enumerate(needed)}
+            hulls = {key: (values, position) for key, values in found.items()}
         for c in np.unique(columns):
             rows = np.flatnonzero(columns == c)
             pair = pairs[c]
-            at = samples[rows]
-            poses = scene.poses(q[at])
+            poses = all_poses[:, inverse[rows]]
             joint_a = np.full(len(rows), scene.body_joints[pair[0]])
             if exact and family == "world" and scene.world[pair[1]].shape == "plane":
                 _, point = self._plane_heights(pair[0], pair[1], poses)
                 jac = point_jacobians(model, poses, joint_a, point, scene.axes)
                 out[rows] = np.einsum("i,mij->mj", scene.world[pair[1]].pose[:3, 2], jac)
                 continue
-            if exact and (family, pair) in scene.hull_pairs:
-                d, point_a, point_b = self.hull_distances(q[at], with_points=True)[(family, pair)]
+            if c in hull_columns:
+                (d, point_a, point_b), position = hulls[(family, pair)]
+                picked = [position[int(k)] for k in inverse[rows]]
+                d, point_a, point_b = d[picked], point_a[picked], point_b[picked]
                 jac = point_jacobians(model, poses, joint_a, point_a, scene.axes)
                 if family == "self":
                     joint_b = np.full(len(rows), scene.body_joints[pair[1]])
                     jac = jac - point_jacobians(model, poses, joint_b, point_b, scene.axes)
                 gap = point_a - point_b
                 normal = (
-                    np.sign(d)[:, None] * gap / np.maximum(np.linalg.norm(gap, axis=1, keepdims=True), 1e-12)
+                    np.sign(d)[:, None] * gap / np.maximum(np.sqrt(np.sum(gap * gap, axis=1))[:, None], 1e-12)
                 )
                 out[rows] = np.einsum("mi,mij->mj", normal, jac)
                 continue
+            if all_centres is None:
+                all_centres = self._centres(all_poses)  # (S_all, U, 3)
             first, second = self._sphere_pairs(family, (pair,))
-            centres = self._centres(poses)  # (S_all, m, 3)
+            centres = all_centres[:, inverse[rows]]
             gaps = self._gaps(family, (pair,), first, second, centres)[0]  # (P, m)
             chosen = np.argmin(gaps, axis=0)
             a, b = first[0, chosen], second[0, chosen]
@@ -321,7 +396,7 @@ class SphereDistances:
                 point_b = centres[b, m]
                 jac = jac_a - point_jacobians(model, poses, sphere_joints[b], point_b, scene.axes)
                 gap = point_a - point_b
-                normal = gap / np.maximum(np.linalg.norm(gap, axis=1, keepdims=True), 1e-12)
+                normal = gap / np.maximum(np.sqrt(np.sum(gap * gap, axis=1))[:, None], 1e-12)
                 out[rows] = np.einsum("mi,mij->mj", normal, jac)
             else:  # an analytic world object
                 gradient = scene.world[pair[1]].signed_distance(point_a)[1]

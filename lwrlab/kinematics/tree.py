@@ -151,12 +151,37 @@ def point_jacobians(
     joint moving each point's body (0: the base); ``points`` (m, 3): base frame (m).
     """
     axes = joint_axes(model) if axes is None else axes
-    moves = support_matrix(model)[np.asarray(joints, dtype=int)]  # (m, N_J)
+    moves = _support_matrix(model)[np.asarray(joints, dtype=int)]  # (m, N_J)
     jac = np.zeros((points.shape[0], 3, model.nv))
     for i in range(1, model.njoints):
+        v = model.joints[i].idx_v
+        if not moves[:, v].any():
+            continue
         frame = poses[i - 1]
         axis = frame[:, :3, :3] @ axes[i - 1].axis
-        column = np.cross(axis, points - frame[:, :3, 3]) if axes[i - 1].revolute else axis
-        v = model.joints[i].idx_v
+        if axes[i - 1].revolute:
+            lever = points - frame[:, :3, 3]
+            column = np.stack(  # axis × lever, written out (np.cross costs more than the product here)
+                [
+                    axis[:, 1] * lever[:, 2] - axis[:, 2] * lever[:, 1],
+                    axis[:, 2] * lever[:, 0] - axis[:, 0] * lever[:, 2],
+                    axis[:, 0] * lever[:, 1] - axis[:, 1] * lever[:, 0],
+                ],
+                axis=1,
+            )
+        else:
+            column = axis
         jac[:, :, v] = column * moves[:, v, None]
     return jac
+
+
+_SUPPORTS: dict[int, tuple[pin.Model, np.ndarray]] = {}
+
+
+def _support_matrix(model: pin.Model) -> np.ndarray:
+    """:func:`support_matrix`, computed once per model object."""
+    cached = _SUPPORTS.get(id(model))
+    if cached is None or cached[0] is not model:
+        cached = (model, support_matrix(model))
+        _SUPPORTS[id(model)] = cached
+    return cached[1]
