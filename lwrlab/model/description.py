@@ -35,11 +35,12 @@ The keys, as in the robot configs (``conf/robot/<name>.yaml``) or any YAML file 
       package_dirs: []                      # folders holding ROS packages (before ROS_PACKAGE_PATH)
       locked_joints: {}                     # URDF joints merged into their parent (a gripper's fingers)
 
-Every top-level key but ``collision_urdf`` is required (null where the robot has none): the
-description is the one place of its values. With ``collision_urdf``, exciting motions are kept clear of
-that URDF's collision meshes (when it can be found; else of the collision spheres, with a warning). ``build_robot`` takes these keys as keyword arguments (what Hydra's ``instantiate`` passes
-through the robot plugin ``plugins.robots.mdh``); ``load_robot_yaml`` reads them from a file.
-``build_limits`` and ``build_friction`` serve every robot loader (the URDF plugin too).
+Every top-level key but ``collision_urdf`` is required (null where the robot has none): the description
+is the one place of its values. With ``collision_urdf``, exciting motions are kept clear of that URDF's
+collision meshes (when it can be found; else of the collision spheres, with a warning). ``build_robot``
+takes these keys as keyword arguments (what Hydra's ``instantiate`` passes through the robot plugin
+``plugins.robots.mdh``); ``load_robot_yaml`` reads them from a file. ``build_limits`` and
+``build_friction`` serve every robot loader (the URDF plugin too).
 
 Examples
 --------

@@ -248,15 +248,15 @@ def load_urdf_robot(
         locked = (
             dict(locked_joints) if isinstance(locked_joints, Mapping) else {j: 0.0 for j in locked_joints}
         )
+        if srdf is not None and not str(srdf).startswith("package://") and not Path(srdf).is_file():
+            raise ValueError(f"{path}: srdf file {srdf} does not exist")
         source = CollisionSource(
             urdf=path,
             package_dirs=tuple(Path(d) for d in package_dirs),
-            srdf=None if srdf is None else Path(srdf),
+            srdf=None if srdf is None else str(srdf),
             missing_meshes="drop" if missing_meshes == "drop" else "error",
             locked_joints=tuple((k, float(v)) for k, v in locked.items()),
         )
-        if source.srdf is not None and not source.srdf.is_file():
-            raise ValueError(f"{path}: srdf file {source.srdf} does not exist")
     return RobotModel(
         name=robot_name,
         model=model,
