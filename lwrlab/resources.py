@@ -55,7 +55,8 @@ def config_group(group: str) -> dict[str, Path]:
 
 
 def package_file(reference: str) -> Path:
-    """The file (or folder) ``pkg://<package>/<path>`` names, as a path on disk (FileNotFoundError if absent)."""
+    """The file (or folder) ``pkg://<package>/<path>`` names, as a path on disk (FileNotFoundError if
+    absent)."""
     if not reference.startswith(PACKAGE_SCHEME):
         raise ValueError(f"{reference!r} does not start with {PACKAGE_SCHEME}")
     package, _, inner = reference.removeprefix(PACKAGE_SCHEME).partition("/")

@@ -162,8 +162,8 @@ def collision_source_of(entry: Mapping[str, Any], robot: str) -> CollisionSource
     unknown = set(entry) - {"path", "srdf", "package_dirs", "locked_joints"}
     if unknown or "path" not in entry:
         raise ValueError(
-            f"robot {robot!r} collision_urdf needs `path` (and optionally srdf, package_dirs, locked_joints); "
-            f"unknown keys: {sorted(unknown)}"
+            f"robot {robot!r} collision_urdf needs `path` (and optionally srdf, package_dirs, "
+            f"locked_joints); unknown keys: {sorted(unknown)}"
         )
     dirs = tuple(Path(d) for d in entry.get("package_dirs") or ())
     srdf = entry.get("srdf")

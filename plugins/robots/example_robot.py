@@ -1,4 +1,4 @@
-"""Real arms described by others, loaded by name from the ``example-robot-data`` package (``robot=example_robot``).
+"""Real arms described by others, by name, from the ``example-robot-data`` package (``robot=example_robot``).
 
 ``example-robot-data`` (pip; ``pip install lwrlab[robots]``) ships the URDFs, collision meshes and
 MoveIt SRDFs of real fixed-base arms. Each entry below names the files, the joints to lock (a
@@ -47,7 +47,9 @@ ROBOTS: dict[str, ExampleRobot] = {
     "ur5": ExampleRobot("ur_description/urdf/ur5_robot.urdf", "ur_description/srdf/ur5.srdf", "ee_link"),
     "ur10": ExampleRobot("ur_description/urdf/ur10_robot.urdf", None, "ee_link"),
     "xarm7": ExampleRobot("xarm_description/urdf/xarm7.urdf", "xarm_description/srdf/xarm7.srdf", "link7"),
-    "z1": ExampleRobot("z1_description/urdf/z1.urdf", "z1_description/srdf/z1.srdf", "link06", {"jointGripper": 0.0}),
+    "z1": ExampleRobot(
+        "z1_description/urdf/z1.urdf", "z1_description/srdf/z1.srdf", "link06", {"jointGripper": 0.0}
+    ),
 }
 """The arms this plugin loads by name."""
 
@@ -89,7 +91,9 @@ def load_example_robot(
     return load_urdf_robot(
         example_robot_file(entry.urdf),
         name=robot_name,
-        acceleration_limits=acceleration_limits if acceleration_limits is not None else entry.acceleration_limits,
+        acceleration_limits=acceleration_limits
+        if acceleration_limits is not None
+        else entry.acceleration_limits,
         friction=friction,
         friction_terms=friction_terms,
         gravity=gravity,
