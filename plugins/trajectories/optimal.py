@@ -109,7 +109,6 @@ class OptimalExcitingMotion:
         ``pkg://lwrlab/data/exciting_motions``): the first of its files made for this robot, criterion,
         duration and parameterisation is played; none: the motion is optimised.
         """
-        from lwrlab.io.exciting_motion import load_motion_description
         from lwrlab.resources import resolve_data_path
 
         path = resolve_data_path(from_file)
