@@ -150,8 +150,12 @@ class SlsqpOptimizer:
     initial_amplitude : fraction of each half position range the random starting motions span.
     seed : seed of the starting motions.
     show_progress : show a progress bar.
-    scale_objective : divide the criterion by its largest gradient entry at each start, so that SLSQP's
-        first step (the gradient itself) is of the size of the motion.
+    first_step : largest first step (rad per via point) SLSQP may take from each start: its first step
+        is the criterion's gradient itself (its Hessian estimate starts as the identity), so the
+        criterion is divided by its gradient's largest entry over ``first_step`` when that is larger
+        than 1 (None: never). Measured over the LWR4, Panda, UR3/5/10, xArm7 and Z1: 3 rad converges
+        on every one; without it SLSQP leaves the UR arms' feasible region at once and does not return
+        (``benchmarks/own_robot_motion.py``).
     blas_threads : BLAS threads while solving (None: leave as is). The matrices are small (about
         7000×57): one thread is faster than several, and much faster on a loaded machine, where
         BLAS threads wait for each other (``benchmarks/threads.py``, :mod:`lwrlab.numerics.threads`).
@@ -167,7 +171,7 @@ class SlsqpOptimizer:
         seed: int,
         show_progress: bool,
         blas_threads: int | None,
-        scale_objective: bool,
+        first_step: float | None,
     ) -> None:
         if n_starts < 1:
             raise ValueError(f"n_starts must be at least 1, got {n_starts}")
@@ -178,7 +182,9 @@ class SlsqpOptimizer:
         self.seed = seed
         self.show_progress = show_progress
         self.blas_threads = blas_threads
-        self.scale_objective = scale_objective
+        if first_step is not None and first_step <= 0:
+            raise ValueError(f"first_step must be positive (rad) or null, got {first_step}")
+        self.first_step = first_step
 
     def _start(self, problem: ExcitationProblem, rng: np.random.Generator) -> np.ndarray:
         """A random start whose regressor has full rank (the criterion must be defined there).
@@ -279,12 +285,9 @@ class SlsqpOptimizer:
         run = _StartRun()
         # SLSQP's first step is the gradient itself (its Hessian estimate starts as the identity): a
         # criterion whose gradient is in the hundreds jumps far outside every constraint and may never
-        # come back. Dividing the criterion by its gradient's largest entry at the start makes that
-        # step of the size of the motion; the optimum is the same, and so is the accuracy goal on the
-        # criterion (ftol is divided too).
-        scale = (
-            max(1.0, float(np.max(np.abs(problem.objective_gradient(x0))))) if self.scale_objective else 1.0
-        )
+        # come back. Dividing the criterion by a constant bounds that step; the optimum is the same.
+        gradient_size = float(np.max(np.abs(problem.objective_gradient(x0))))
+        scale = 1.0 if self.first_step is None else max(1.0, gradient_size / self.first_step)
 
         def objective(x: np.ndarray) -> float:
             run.evaluations += 1

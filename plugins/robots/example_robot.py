@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from lwrlab.errors import ConfigError
 from lwrlab.model.collision_geometry import package_search_path
 from lwrlab.model.robot import RobotModel
-from plugins.robots.urdf import load_urdf_robot
+from lwrlab.model.urdf_robot import load_urdf_robot
 
 PACKAGE = "example-robot-data"
 

@@ -1,0 +1,267 @@
+"""Robots described by a URDF file (the loader of ``robot=urdf``, :mod:`plugins.robots.urdf`).
+
+The kinematics, the inertials and the position, velocity and torque limits come from the URDF through
+Pinocchio's parser; what a URDF does not hold (acceleration limits, the friction of our model, which
+joints to lock) is given as arguments. The base is fixed to the URDF's root link.
+
+Pinocchio merges every ``fixed`` joint into its parent body (the child's inertia is added to the
+parent segment, its frames are kept as operational frames). A ``mimic`` joint is loaded as an
+independent joint (Pinocchio's default); lock it, or lock the whole gripper, with ``locked_joints``:
+the locked subtrees are merged into their parent segment at the given positions
+(``pin.buildReducedModel``).
+
+Only fixed-base trees of one-degree-of-freedom joints with ``nq == nv`` are supported (revolute and
+prismatic, aligned or not); floating, planar, spherical and continuous joints are refused.
+
+The URDF's ``<collision>`` geometry (meshes found through ``package_dirs`` and ``ROS_PACKAGE_PATH``)
+and an SRDF's disabled pairs are what exciting motions are kept clear of
+(:mod:`lwrlab.model.collision_geometry`); they are read when a motion is optimised or checked, so
+identifying from logs needs neither. Acceleration limits, which a URDF lacks, come from
+``acceleration_limits`` or a MoveIt ``joint_limits.yaml``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from lwrlab.io.yaml_files import read_yaml_mapping
+from lwrlab.model.collision_geometry import CollisionSource
+from lwrlab.model.description import build_friction
+from lwrlab.model.robot import JointLimits, RobotModel
+
+_FLOATING_JOINTS = ("JointModelFreeFlyer", "JointModelPlanar")
+
+
+class URDFNotFoundError(FileNotFoundError, ValueError):
+    """A URDF path that is not a file: a ``FileNotFoundError`` that a ``ValueError`` handler also catches."""
+
+
+def _check_joints(model: pin.Model, path: Path) -> None:
+    """Refuse a floating base and any joint that is not a 1-DoF joint with nq == nv."""
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        kind = joint.shortname()
+        if kind in _FLOATING_JOINTS and model.parents[j] == 0:
+            raise ValueError(
+                f"{path}: joint {model.names[j]!r} ({kind}) makes a floating base; "
+                "only fixed-base robots are supported "
+                "(fix the root link to the world in the URDF)"
+            )
+        if joint.nq != 1 or joint.nv != 1:
+            raise ValueError(
+                f"{path}: joint {model.names[j]!r} is a {kind} (nq={joint.nq}, nv={joint.nv}); "
+                "only one-degree-of-freedom joints with nq == nv are supported "
+                "(revolute with limits, prismatic), not continuous, planar, spherical or floating joints"
+            )
+
+
+def _locked_configuration(
+    model: pin.Model, locked_joints: Sequence[str] | Mapping[str, float], path: Path
+) -> tuple[list[int], np.ndarray]:
+    """Ids of the joints to lock, and the configuration they are locked at (zero but for the given
+    positions)."""
+    positions = (
+        dict(locked_joints) if isinstance(locked_joints, Mapping) else {name: 0.0 for name in locked_joints}
+    )
+    unknown = [name for name in positions if not model.existJointName(name)]
+    if unknown:
+        raise ValueError(
+            f"{path}: locked_joints {unknown} are not joints of the model; joints: {list(model.names)[1:]}"
+        )
+    q_reference = pin.neutral(model)
+    ids = []
+    for name, position in positions.items():
+        joint_id = model.getJointId(name)
+        q_reference[model.joints[joint_id].idx_q] = float(position)
+        ids.append(joint_id)
+    return sorted(ids), q_reference
+
+
+def _check_limits(model: pin.Model, path: Path) -> None:
+    """URDF joints without limits come out of Pinocchio as zero (or infinite) limits: refuse them."""
+    names = list(model.names)[1:]
+    problems = []
+    for i, name in enumerate(names):
+        lower, upper = model.lowerPositionLimit[i], model.upperPositionLimit[i]
+        velocity, effort = model.velocityLimit[i], model.effortLimit[i]
+        if not (np.isfinite(lower) and np.isfinite(upper) and lower < upper):
+            problems.append(f"{name}: position limits [{lower}, {upper}]")
+        if not (np.isfinite(velocity) and velocity > 0):
+            problems.append(f"{name}: velocity limit {velocity}")
+        if not (np.isfinite(effort) and effort > 0):
+            problems.append(f"{name}: effort limit {effort}")
+    if problems:
+        raise ValueError(
+            f"{path}: missing joint limits (every joint needs <limit lower upper velocity effort> "
+            f"with lower < upper and positive velocity and effort): {'; '.join(problems)}"
+        )
+
+
+def _acceleration_limits(
+    acceleration_limits: Sequence[float] | float | None, n: int, path: Path
+) -> np.ndarray:
+    if acceleration_limits is None:  # unknown: fine for identifying from logs; motion stages refuse it
+        return np.full(n, np.inf)
+    values = np.asarray(acceleration_limits, dtype=float).ravel()
+    if values.size == 1:
+        values = np.full(n, values[0])  # one value for every joint
+    if values.shape != (n,):
+        raise ValueError(f"{path}: acceleration_limits: expected {n} values or a scalar, got {values.size}")
+    if not np.all(values > 0):
+        raise ValueError(f"{path}: acceleration_limits must be positive, got {values.tolist()}")
+    return values
+
+
+def _moveit_limits(path: Path, names: Sequence[str], urdf: Path) -> dict[str, np.ndarray]:
+    """Velocity and acceleration limits of a MoveIt ``joint_limits.yaml`` (``has_*_limits: true`` only),
+    NaN where a joint has none."""
+    if not path.is_file():
+        raise ValueError(f"{urdf}: joint_limits file {path} does not exist")
+    joints = read_yaml_mapping(path, "joint limits").get("joint_limits")
+    if not isinstance(joints, dict):
+        raise ValueError(f"{path}: no `joint_limits:` mapping (MoveIt's joint_limits.yaml format)")
+    out = {key: np.full(len(names), np.nan) for key in ("velocity", "acceleration")}
+    for i, name in enumerate(names):
+        entry = joints.get(name) or {}
+        for key in out:
+            if entry.get(f"has_{key}_limits") and entry.get(f"max_{key}") is not None:
+                out[key][i] = float(entry[f"max_{key}"])
+    return out
+
+
+def _add_flange(model: pin.Model, flange_frame: str, path: Path) -> None:
+    """Add an operational frame named ``flange`` at the URDF frame ``flange_frame``."""
+    if not model.existFrame(flange_frame):
+        raise ValueError(
+            f"{path}: flange_frame {flange_frame!r} is not a frame of the model; "
+            f"frames: {[f.name for f in model.frames]}"
+        )
+    if flange_frame == "flange":
+        return  # the URDF already names its flange
+    if model.existFrame("flange"):
+        raise ValueError(
+            f"{path}: the URDF already has a frame named 'flange'; drop flange_frame or set it to 'flange'"
+        )
+    frame = model.frames[model.getFrameId(flange_frame)]
+    model.addFrame(pin.Frame("flange", frame.parentJoint, frame.placement, pin.FrameType.OP_FRAME))
+
+
+def load_urdf_robot(
+    path: str | Path,
+    *,
+    name: str | None,
+    acceleration_limits: Sequence[float] | float | None,
+    friction: Mapping[str, Sequence[float]] | None,
+    friction_terms: Sequence[str],
+    gravity: Sequence[float],
+    flange_frame: str | None,
+    locked_joints: Sequence[str] | Mapping[str, float],
+    package_dirs: Sequence[str],
+    srdf: str | None,
+    joint_limits: str | None,
+    collision_geometry: bool,
+    missing_meshes: str,
+) -> RobotModel:
+    """Build a fixed-base :class:`RobotModel` from a URDF file.
+
+    Every argument is required: conf/robot/urdf.yaml gives their values (in Python,
+    ``lwrlab.pipeline.build.build("robot", "urdf", path=…, **changes)``).
+
+    Parameters
+    ----------
+    path : URDF file. Meshes it references need not exist (only kinematics and inertials are read).
+    name : robot name; None: the URDF's ``<robot name>``, else the file name.
+    acceleration_limits : largest absolute joint acceleration (rad/s²), one per joint after locking,
+        or one scalar for every joint. A URDF has none: without them the limits are infinite, which
+        identifying from logs does not need and sampling or optimising a motion refuses.
+    friction : nominal friction ``{"coulomb": [...], "viscous": [...], "offset": [...]}`` (N·m,
+        N·m·s/rad, N·m); a missing term is zero.
+    friction_terms : friction columns of the regressor (subset of coulomb, viscous, offset).
+    gravity : gravity acceleration in the base frame (m/s²).
+    flange_frame : name of a URDF frame (a link or a fixed joint, e.g. ``panda_link8``) where an
+        operational frame named ``flange`` is added, or None.
+    locked_joints : joints removed from the model and merged into their parent segment, a list of
+        names (locked at 0) or a mapping name → position (rad or m), e.g. the fingers of a gripper.
+    package_dirs : folders holding the ROS packages that ``package://NAME/…`` mesh names refer to
+        (``DIR/NAME/``), searched before ``ROS_PACKAGE_PATH``.
+    srdf : a MoveIt SRDF whose ``disable_collisions`` pairs are never checked, or None.
+    joint_limits : a MoveIt ``joint_limits.yaml``: its ``max_acceleration`` (where
+        ``has_acceleration_limits``) gives the acceleration limits ``acceleration_limits`` leaves
+        unset, its ``max_velocity`` lowers the URDF's velocity limits.
+    collision_geometry : keep exciting motions clear of the URDF's ``<collision>`` geometry (read
+        when a motion is optimised or checked); False: no collision model.
+    missing_meshes : ``error`` or ``drop`` (leave out, with a warning) collision meshes not found.
+
+    Returns
+    -------
+    RobotModel
+        Joints in URDF tree order, link labels "1" … "n", position/velocity/torque limits from the
+        URDF ``<limit>`` tags.
+
+    Raises
+    ------
+    URDFNotFoundError
+        If ``path`` is not a file (a subclass of both ``FileNotFoundError`` and ``ValueError``).
+    ValueError
+        For an unreadable URDF, a floating base, an unsupported joint, missing limits, unknown
+        locked or flange frames, or wrongly sized acceleration limits; the message names the file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise URDFNotFoundError(f"URDF file {path} does not exist")
+    try:
+        model = pin.buildModelFromUrdf(str(path))  # fixed base: no root joint
+    except (ValueError, RuntimeError) as error:
+        raise ValueError(f"{path}: Pinocchio could not parse the URDF ({error})") from error
+    _check_joints(model, path)
+    if locked_joints:
+        ids, q_reference = _locked_configuration(model, locked_joints, path)
+        model = pin.buildReducedModel(model, ids, q_reference)
+    _check_limits(model, path)
+    model.gravity = pin.Motion(np.asarray(gravity, dtype=float), np.zeros(3))
+    if flange_frame is not None:
+        _add_flange(model, flange_frame, path)
+    n = model.nv
+    robot_name = name or model.name or path.stem
+    velocity = np.array(model.velocityLimit, dtype=float)
+    acceleration = _acceleration_limits(acceleration_limits, n, path)
+    if joint_limits is not None:
+        moveit = _moveit_limits(Path(joint_limits), list(model.names)[1:], path)
+        velocity = np.fmin(velocity, moveit["velocity"])  # NaN (no MoveIt limit) keeps the URDF's
+        if acceleration_limits is None:
+            acceleration = np.where(np.isnan(moveit["acceleration"]), np.inf, moveit["acceleration"])
+    limits = JointLimits(
+        position_lower=np.array(model.lowerPositionLimit, dtype=float),
+        position_upper=np.array(model.upperPositionLimit, dtype=float),
+        velocity=velocity,
+        acceleration=acceleration,
+        torque=np.array(model.effortLimit, dtype=float),
+    )
+    if missing_meshes not in ("error", "drop"):
+        raise ValueError(f"{path}: missing_meshes must be error or drop, got {missing_meshes!r}")
+    source = None
+    if collision_geometry:
+        locked = (
+            dict(locked_joints) if isinstance(locked_joints, Mapping) else {j: 0.0 for j in locked_joints}
+        )
+        if srdf is not None and not str(srdf).startswith("package://") and not Path(srdf).is_file():
+            raise ValueError(f"{path}: srdf file {srdf} does not exist")
+        source = CollisionSource(
+            urdf=path,
+            package_dirs=tuple(Path(d) for d in package_dirs),
+            srdf=None if srdf is None else str(srdf),
+            missing_meshes="drop" if missing_meshes == "drop" else "error",
+            locked_joints=tuple((k, float(v)) for k, v in locked.items()),
+        )
+    return RobotModel(
+        name=robot_name,
+        model=model,
+        limits=limits,
+        friction=build_friction(friction, n, robot_name),
+        friction_terms=tuple(friction_terms),
+        collision_source=source,
+    )
