@@ -804,6 +804,35 @@ def test_srdf_disabled_pairs_are_read_unordered(tmp_path: Path) -> None:
         disabled_pairs_from_srdf(srdf)
 
 
+@pytest.mark.parametrize(
+    "relative",
+    [False, True],
+    ids=["absolute-paths", "paths-relative-to-the-working-directory"],
+)
+def test_srdf_given_with_the_urdf_is_read(
+    package_tree: Path, monkeypatch: pytest.MonkeyPatch, relative: bool
+) -> None:
+    srdf = package_tree / "my_robot" / "srdf" / "robot.srdf"
+    srdf.parent.mkdir()
+    srdf.write_text(
+        '<robot name="my_robot"><disable_collisions link1="base" link2="link2" reason="Never"/></robot>'
+    )
+    urdf = package_tree / "my_robot" / "urdf" / "robot.urdf"
+    monkeypatch.chdir(package_tree.parent)
+    if relative:
+        urdf, srdf = urdf.relative_to(package_tree.parent), srdf.relative_to(package_tree.parent)
+    robot = build(
+        "robot",
+        "urdf",
+        path=str(urdf),
+        acceleration_limits=10,
+        package_dirs=[str(package_tree)],
+        srdf=str(srdf),
+    )
+    geometry = load_robot_geometry(robot.collision_source, robot.model)
+    assert geometry.disabled_pairs == {frozenset({"base", "link2"})}
+
+
 def urdf_adjacency(urdf: Path, locked: set[str]) -> tuple[set[frozenset[str]], set[str]]:
     """Link pairs adjacent as MoveIt counts them, read from the URDF's joints (fixed and locked joints
     merge their links), and the links rigidly attached to the root."""
@@ -895,6 +924,40 @@ def test_panda_srdf_pairs_are_never_checked() -> None:
     assert len(scene_plain.checked_self_pairs) > len(scene.checked_self_pairs)
 
 
+@needs_robot_data
+def test_shapes_sit_where_pinocchio_places_them_fingers_locked_open() -> None:
+    """Every shape, posed by the batched kinematics, is where Pinocchio's full model (fingers free, set to
+    the locked opening) places it."""
+    opening = 0.03
+    robot = build(
+        "robot", "urdf", path=str(panda_urdf()), acceleration_limits=10,
+        locked_joints={finger: opening for finger in PANDA_FINGERS},
+    )  # fmt: skip
+    geometry = load_robot_geometry(robot.collision_source, robot.model)
+    model = pin.buildModelFromUrdf(str(panda_urdf()))
+    full = pin.buildGeomFromUrdf(
+        model, str(panda_urdf()), pin.GeometryType.COLLISION, package_dirs=[str(ROBOTS.parent.parent)]
+    )
+    data, full_data = model.createData(), full.createData()
+    q = random_q(robot.model, 3, np.random.default_rng(13))
+    poses = joint_poses(robot.model, q)
+    fingers = [model.joints[model.getJointId(f)].idx_q for f in PANDA_FINGERS]
+    for k in range(len(q)):
+        q_full = np.zeros(model.nq)
+        q_full[[i for i in range(model.nq) if i not in fingers]] = q[k]
+        q_full[fingers] = opening
+        pin.forwardKinematics(model, data, q_full)
+        pin.updateGeometryPlacements(model, data, full, full_data)
+        for shape in geometry.shapes:
+            pose = (np.eye(4) if shape.joint == 0 else poses[shape.joint - 1, k]) @ shape.placement
+            expected = full_data.oMg[full.getGeometryId(shape.name)].homogeneous
+            np.testing.assert_allclose(pose, expected, atol=1e-12, err_msg=shape.name)
+    left = [s for s in geometry.shapes if s.link == "panda_leftfinger"]
+    right = [s for s in geometry.shapes if s.link == "panda_rightfinger"]
+    gap = left[0].placement[:3, 3] - right[0].placement[:3, 3]
+    assert np.linalg.norm(gap) > 2 * opening - 1e-9  # open, not at 0
+
+
 @needs_kuka
 def test_real_kuka_urdf_missing_wrist_mesh_is_named_or_dropped(caplog: pytest.LogCaptureFixture) -> None:
     urdf = KUKA_HW / "kuka_lwr4.urdf"
@@ -929,3 +992,39 @@ def test_real_kuka_urdf_missing_wrist_mesh_is_named_or_dropped(caplog: pytest.Lo
     for shape in geometry.shapes:  # round primitives keep their radius for exact spheres
         if type(shape.geometry).__name__ == "Sphere":
             assert shape.sphere_radius == shape.geometry.radius == pytest.approx(0.07)
+
+
+@needs_kuka
+@pytest.mark.parametrize(
+    "name",
+    [
+        "tray",
+        "box",  # the name of the URDF's table link
+    ],
+)
+def test_an_obstacle_named_like_a_fixed_urdf_link_is_still_checked(name: str) -> None:
+    urdf = KUKA_HW / "kuka_lwr4.urdf"
+    robot = build(
+        "robot",
+        "urdf",
+        path=str(urdf),
+        acceleration_limits=10,
+        package_dirs=[str(KUKA_HW)],
+        missing_meshes="drop",
+    )
+    # a small ball beside the first moving link (joint 1 turns about x = −0.25, y = 0; its body reaches
+    # 0.1 m out): some configurations touch it, most do not
+    obstacle = {"name": name, "shape": "sphere", "radius": 0.03, "xyz": [-0.25 + 0.13, 0.0, 1.2]}
+    try:
+        scene = build_scene(
+            robot, build_world({"height": 0.0}, [obstacle]),
+            ground_spheres=None, min_link_gap=2, clearance=0.01, self_collision=True, n_samples=100,
+        )  # fmt: skip
+    except ValueError as error:  # refusing the clash, naming it, would do too
+        assert name in str(error)
+        return
+    configured = 1  # after the mounting surface
+    assert scene.world[configured].shape == "sphere"
+    first = scene.bodies.index("lwr_1_link")
+    assert (first, configured) in scene.checked_world_pairs
+    assert [w.name for w in scene.world].count(name) == 1, "two world objects under one name"

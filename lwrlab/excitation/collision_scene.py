@@ -20,7 +20,7 @@ A :class:`CollisionScene` gathers, for one robot and one set of settings:
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -228,7 +228,11 @@ def build_scene_uncached(
             for s in geometry.shapes
             if s.joint == 0 and type(s.geometry).__name__ in ("Box", "Sphere", "Cylinder")
         )
-        world_objects += _world_from_shapes(fixed_primitives)
+        taken = {w.name for w in world}
+        world_objects += [  # a configured obstacle may share a URDF link's name: keep the names apart
+            replace(o, name=f"{o.name} (URDF)") if o.name in taken else o
+            for o in _world_from_shapes(fixed_primitives)
+        ]
         links = [
             link
             for link in geometry.links
@@ -267,7 +271,7 @@ def build_scene_uncached(
             candidates_self.append((a, b))
     if not self_collision:
         candidates_self = []
-    fixed_world_names = {o.name for o in world_objects[len(world) :]}
+    fixed_world = set(range(len(world), len(world_objects)))  # the URDF's fixed links, after the config's
     candidates_world: list[tuple[int, int]] = []
     for a in range(len(bodies)):
         ja = int(body_joints[a])
@@ -276,7 +280,7 @@ def build_scene_uncached(
         if geometry is None and ground_spheres is not None and bodies[a] not in ground_spheres:
             continue
         for w, obj in enumerate(world_objects):
-            if obj.name in fixed_world_names and robot.model.parents[ja] == 0:
+            if w in fixed_world and robot.model.parents[ja] == 0:
                 continue  # the URDF's fixed links are adjacent to the first moving link
             candidates_world.append((a, w))
 
@@ -287,7 +291,7 @@ def build_scene_uncached(
     )  # fmt: skip
     if not spheres or (not candidates_self and not candidates_world):
         return scene
-    return _prune_by_sampling(scene, clearance, n_samples, seed, notes, {w.name for w in world})
+    return _prune_by_sampling(scene, clearance, n_samples, seed, notes, set(range(len(world))))
 
 
 def _prune_by_sampling(
@@ -296,7 +300,7 @@ def _prune_by_sampling(
     n_samples: int,
     seed: int,
     notes: list[str],
-    configured_world: set[str],
+    configured_world: set[int],
 ) -> CollisionScene:
     """Drop pairs (almost) always in contact, and, for the optimiser, pairs never near.
 
@@ -327,7 +331,7 @@ def _prune_by_sampling(
                 else float(np.mean(column < clearance))
             )
             label = scene.pair_label(family, pair)
-            configured = family == "world" and scene.world[pair[1]].name in configured_world
+            configured = family == "world" and pair[1] in configured_world
             if contact >= ALWAYS_IN_CONTACT and (not configured or rigid):
                 # the robot's own structure (or a link standing on the mounting surface): not a motion's doing
                 notes.append(

@@ -253,7 +253,12 @@ def load_urdf_robot(
         source = CollisionSource(
             urdf=path,
             package_dirs=tuple(Path(d) for d in package_dirs),
-            srdf=None if srdf is None else str(srdf),
+            # a file name is the user's, from the working directory (package:// names resolve later)
+            srdf=None
+            if srdf is None
+            else str(srdf)
+            if str(srdf).startswith("package://")
+            else str(Path(srdf).resolve()),
             missing_meshes="drop" if missing_meshes == "drop" else "error",
             locked_joints=tuple((k, float(v)) for k, v in locked.items()),
         )
