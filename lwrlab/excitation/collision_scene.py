@@ -279,7 +279,7 @@ def build_scene_uncached(
             continue
         if geometry is None and ground_spheres is not None and bodies[a] not in ground_spheres:
             continue
-        for w, obj in enumerate(world_objects):
+        for w in range(len(world_objects)):
             if w in fixed_world and robot.model.parents[ja] == 0:
                 continue  # the URDF's fixed links are adjacent to the first moving link
             candidates_world.append((a, w))
