@@ -137,6 +137,19 @@ class _StartRun:
     """The feasible iterate of lowest criterion, or None when no iterate was feasible."""
 
 
+MAX_STALLED_STARTS = 3
+"""Starts that SLSQP abandons without improving on them are replaced by new ones, at most this many."""
+STALL_IMPROVEMENT = 1.0
+"""A start whose best feasible criterion is not this much below its own (logdet: a factor e in
+det W_bᵀW_b) counts as stalled when SLSQP stopped on a failure."""
+
+
+def _stalled(run: _StartRun, start_cost: float) -> bool:
+    """SLSQP stopped on a failure (not convergence, not the iteration limit) without improving."""
+    failed = int(run.result.status) not in (0, 9)
+    return failed and not run.best_feasible_cost < start_cost - STALL_IMPROVEMENT
+
+
 class SlsqpOptimizer:
     """Multi-start SLSQP (config group ``optimizer``).
 
@@ -232,13 +245,23 @@ class SlsqpOptimizer:
         best: tuple[float, np.ndarray] | None = None
         costs, iterations, evaluations, messages = [], 0, 0, []
         last_x = None
-        for start in range(self.n_starts):
+        start, stalled = 0, 0
+        while start < self.n_starts:
             x0 = self._start(problem, rng)
             label = (
                 f"{problem.criterion.name} {problem.parameterisation.duration:g} s, "
                 f"start {start + 1}/{self.n_starts}"
             )
             run = self._run_start(problem, x0, label)
+            if _stalled(run, problem.objective(x0)) and stalled < MAX_STALLED_STARTS:
+                # SLSQP gave up at once (incompatible linearised constraints, a failed line search)
+                # and left the start as it was: a motion barely moving, which would excite nothing
+                stalled += 1
+                iterations += int(run.result.nit)
+                evaluations += run.evaluations
+                messages.append(f"stalled: {run.result.message}")
+                continue
+            start += 1
             result = run.result
             iterations += int(result.nit)
             evaluations += run.evaluations

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
+from lwrlab.identification.identifiability import DEFAULT_POOR_COND
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.figures.excitation import motion_figure
 from lwrlab.io.artifacts import save_trajectory_csv
@@ -220,6 +221,15 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
         "optimisation_seconds": round(result.seconds, 2),
         "command": _command_line(),
     }
+    if provenance["cond_W_b"] > DEFAULT_POOR_COND:
+        log.warning(
+            "the exciting motion of %s excites its base parameters poorly: cond(W_b) = %.4g (> %g, the "
+            "identifiability report's threshold); try more starts (optimizer.n_starts), a longer motion "
+            "(trajectory.duration) or looser constraints",
+            robot.name,
+            provenance["cond_W_b"],
+            DEFAULT_POOR_COND,
+        )
     save_motion_description(motion.to_dict(), output_dir / f"{prefix}.yaml", provenance)
     save_trajectory_csv(trajectory, output_dir / f"{prefix}.csv")
     save_trajectory(trajectory, output_dir / f"{prefix}.parquet")
