@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
-from lwrlab.identification.identifiability import DEFAULT_POOR_COND
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.figures.excitation import motion_figure
+from lwrlab.identification.identifiability import DEFAULT_POOR_COND
 from lwrlab.io.artifacts import save_trajectory_csv
 from lwrlab.io.exciting_motion import save_motion_description
 from lwrlab.model.robot import RobotModel
