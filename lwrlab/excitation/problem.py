@@ -27,6 +27,7 @@ import numpy as np
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.dynamics.regressor_vjp import regressor_vjp
+from lwrlab.errors import ConfigError
 from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
 from lwrlab.excitation.criteria import Criterion
 from lwrlab.model.robot import RobotModel
@@ -42,6 +43,23 @@ def column_scales(robot: RobotModel, base: BaseParameters, n_samples: int = 400,
     """
     w = base.base_regressor(regressor(robot, *random_states(robot, n_samples, np.random.default_rng(seed))))
     return 1.0 / np.sqrt(np.mean(w**2, axis=0))
+
+
+def require_motion_limits(robot: RobotModel) -> None:
+    """Stop at once, in one line naming the setting, when a limit the optimiser needs is unknown."""
+    lim = robot.limits
+    for name, values, setting in (
+        ("acceleration", lim.acceleration, "robot.acceleration_limits=<rad/s², one value or one per joint> "
+         "or robot.joint_limits=<MoveIt joint_limits.yaml>"),
+        ("velocity", lim.velocity, "the URDF's <limit velocity> or robot.joint_limits"),
+        ("torque", lim.torque, "the URDF's <limit effort>"),
+    ):  # fmt: skip
+        unknown = [robot.joint_names[j] for j in np.flatnonzero(~(np.isfinite(values) & (values > 0)))]
+        if unknown:
+            raise ConfigError(
+                f"{robot.name}: no {name} limit for joint(s) {unknown}, which an exciting motion must "
+                f"respect: set {setting}"
+            )
 
 
 @dataclass
@@ -106,6 +124,7 @@ class ExcitationProblem:
         coulomb_smoothing: float | None,
         base: BaseParameters | None = None,
     ) -> None:
+        require_motion_limits(robot)
         self.robot = robot
         self.parameterisation = parameterisation
         self.criterion = criterion

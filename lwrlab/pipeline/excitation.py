@@ -26,6 +26,7 @@ import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.excitation.criteria import Criterion
+from lwrlab.excitation.problem import require_motion_limits
 from lwrlab.figures.excitation import motion_figure
 from lwrlab.identification.identifiability import DEFAULT_POOR_COND
 from lwrlab.io.artifacts import save_trajectory_csv
@@ -105,25 +106,6 @@ def goal_rate(t: np.ndarray, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> 
     return GOAL_RATES_HZ[-1]
 
 
-def require_motion_limits(robot: RobotModel) -> None:
-    """Stop at once, in one line naming the setting, when a limit the optimiser needs is unknown."""
-    from lwrlab.errors import ConfigError
-
-    lim = robot.limits
-    for name, values, setting in (
-        ("acceleration", lim.acceleration, "robot.acceleration_limits=<rad/s², one value or one per joint> "
-         "or robot.joint_limits=<MoveIt joint_limits.yaml>"),
-        ("velocity", lim.velocity, "the URDF's <limit velocity> or robot.joint_limits"),
-        ("torque", lim.torque, "the URDF's <limit effort>"),
-    ):  # fmt: skip
-        unknown = [robot.joint_names[j] for j in np.flatnonzero(~(np.isfinite(values) & (values > 0)))]
-        if unknown:
-            raise ConfigError(
-                f"{robot.name}: no {name} limit for joint(s) {unknown}, which an exciting motion must "
-                f"respect: set {setting}"
-            )
-
-
 def _motion_figures(
     scene: Any, trajectory: Any, check: Any, output_dir: Path, prefix: str, title: str, settings: Any
 ) -> Path:
@@ -196,7 +178,7 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
     from lwrlab.io.artifacts import save_trajectory
 
     robot: RobotModel = instantiate(cfg.robot)
-    require_motion_limits(robot)
+    require_motion_limits(robot)  # before any work, in one line
     source = optimal_source(cfg)
     motion, result, problem = source.optimise(robot)
     q, dq, ddq = (b @ result.coefficients for b in problem.bases)
