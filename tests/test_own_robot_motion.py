@@ -222,3 +222,74 @@ def test_the_shipped_panda_motion_clears_the_panda_meshes_hand_and_srdf(tmp_path
                 lowest = min(lowest, float(points[:, 2].min()))
     assert contacts == 0
     assert lowest > 0.0  # the hand and fingers above the mounting surface
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["panda", "ur3", "ur5", "ur10", "xarm7", "z1"])
+def test_every_example_robot_gets_a_motion_its_own_meshes_clear(name: str) -> None:
+    """Each arm robot=example_robot loads: the default 10 s motion passes lwrlab's check, and an
+    independent Pinocchio/coal check of its URDF meshes finds no self-contact (SRDF pairs aside) and
+    nothing below the mounting surface."""
+    from lwrlab.excitation.solver import check_motion_at
+    from lwrlab.pipeline.build import build
+    from plugins.robots.example_robot import ROBOTS, example_robot_file
+
+    robots = example_robots()
+    entry = ROBOTS[name]
+    robot = build(
+        "robot",
+        "example_robot",
+        robot_name=name,
+        acceleration_limits=None if entry.acceleration_limits else 10.0,
+    )
+    optimizer = build("optimizer", "slsqp", show_progress=False)
+    source = build("trajectory", "optimal", from_file=None, optimizer=optimizer)
+    motion, _, _ = source.optimise(robot)
+    assert check_motion_at(robot, motion, source.constraints, 1000.0).passed
+    q = motion.sample(robot, 1000.0).q
+    urdf = Path(example_robot_file(entry.urdf))
+    model = pin.buildModelFromUrdf(str(urdf))
+    geometry = pin.buildGeomFromUrdf(
+        model, str(urdf), pin.GeometryType.COLLISION, package_dirs=[str(robots.parents[1])]
+    )
+    if entry.locked_joints:
+        reference = pin.neutral(model)
+        ids = [model.getJointId(j) for j in entry.locked_joints]
+        for joint, value in entry.locked_joints.items():
+            reference[model.joints[model.getJointId(joint)].idx_q] = value
+        model, geometry = pin.buildReducedModel(model, geometry, ids, reference)
+    geometry.addAllCollisionPairs()
+    if entry.srdf is not None:
+        pin.removeCollisionPairs(model, geometry, example_robot_file(entry.srdf))
+    for k in reversed(range(len(geometry.collisionPairs))):  # neighbours touch at their joint
+        pair = geometry.collisionPairs[k]
+        a = geometry.geometryObjects[pair.first].parentJoint
+        b = geometry.geometryObjects[pair.second].parentJoint
+        if a == b or model.parents[a] == b or model.parents[b] == a:
+            geometry.removeCollisionPair(pair)
+    data, geometry_data = model.createData(), geometry.createData()
+    rng = np.random.default_rng(3)
+    always = np.zeros(len(geometry.collisionPairs))
+    for _ in range(100):  # pairs touching in every pose are the robot's own structure
+        pin.computeCollisions(
+            model,
+            data,
+            geometry,
+            geometry_data,
+            rng.uniform(model.lowerPositionLimit, model.upperPositionLimit),
+        )
+        always += [r.isCollision() for r in geometry_data.collisionResults]
+    for k in reversed(np.flatnonzero(always >= 95)):
+        geometry.removeCollisionPair(geometry.collisionPairs[int(k)])
+    geometry_data = geometry.createData()
+    contacts, lowest = 0, np.inf
+    for k in range(q.shape[0]):
+        contacts += pin.computeCollisions(model, data, geometry, geometry_data, q[k], True)
+        pin.updateGeometryPlacements(model, data, geometry, geometry_data)
+        for i, obj in enumerate(geometry.geometryObjects):
+            if model.parents[obj.parentJoint] > 0:  # the links beyond the first (it stands on the surface)
+                placement = geometry_data.oMg[i]
+                points = _vertices(obj.geometry) @ placement.rotation.T + placement.translation
+                lowest = min(lowest, float(points[:, 2].min()))
+    assert contacts == 0
+    assert lowest > 0.0
