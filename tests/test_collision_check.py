@@ -450,8 +450,8 @@ def test_sphere_and_hull_distances_are_lower_bounds_of_the_exact_distance(robot_
     assert np.median(hull_slack) < np.median(sphere_slack)
     refined = np.hstack(
         [
-            hulls._distances("self", scene.checked_self_pairs, poses, q)[0],
-            hulls._distances("world", scene.checked_world_pairs, poses, q)[0],
+            hulls.pair_distances("self", scene.checked_self_pairs, poses, q)[0],
+            hulls.pair_distances("world", scene.checked_world_pairs, poses, q)[0],
         ]
     )
     assert np.all(refined <= exact + 1e-7)

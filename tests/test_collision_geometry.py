@@ -25,9 +25,9 @@ from lwrlab.kinematics.tree import joint_axes, joint_poses, point_jacobian, poin
 from lwrlab.model.collision_geometry import (
     CollisionGeometryError,
     CollisionSource,
-    _box_mesh,
-    _prism_mesh,
-    _sphere_mesh,
+    box_mesh,
+    prism_mesh,
+    sphere_mesh,
     disabled_pairs_from_srdf,
     load_robot_geometry,
     package_search_path,
@@ -287,11 +287,11 @@ def test_enclosing_spheres_contain_every_triangle_of_real_link_meshes(mesh) -> N
 @pytest.mark.parametrize(
     "primitive",
     [
-        pytest.param(lambda: _box_mesh(np.array([0.4, 0.05, 0.01])), id="flat-box"),
-        pytest.param(lambda: _box_mesh(np.array([0.01, 0.01, 0.01])), id="cube"),
-        pytest.param(lambda: _prism_mesh(0.07, 0.104), id="cylinder"),
-        pytest.param(lambda: _prism_mesh(0.02, 0.5), id="long-cylinder"),
-        pytest.param(lambda: _sphere_mesh(0.07), id="sphere"),
+        pytest.param(lambda: box_mesh(np.array([0.4, 0.05, 0.01])), id="flat-box"),
+        pytest.param(lambda: box_mesh(np.array([0.01, 0.01, 0.01])), id="cube"),
+        pytest.param(lambda: prism_mesh(0.07, 0.104), id="cylinder"),
+        pytest.param(lambda: prism_mesh(0.02, 0.5), id="long-cylinder"),
+        pytest.param(lambda: sphere_mesh(0.07), id="sphere"),
     ],
 )
 def test_enclosing_spheres_contain_the_meshes_of_primitives(primitive) -> None:
@@ -378,7 +378,7 @@ def sphere_surface(radius: float, n: int, rng: np.random.Generator) -> np.ndarra
 
 def test_box_mesh_is_the_box() -> None:
     half = np.array([0.3, 0.1, 0.02])
-    vertices, faces = _box_mesh(half)
+    vertices, faces = box_mesh(half)
     assert_closed(faces)
     assert len(faces) == 12
     rng = np.random.default_rng(6)
@@ -394,7 +394,7 @@ def test_box_mesh_is_the_box() -> None:
 @pytest.mark.parametrize("segments", [8, 24])
 def test_prism_mesh_contains_the_cylinder(segments: int) -> None:
     radius, half_length = 0.07, 0.15
-    vertices, faces = _prism_mesh(radius, half_length, segments)
+    vertices, faces = prism_mesh(radius, half_length, segments)
     assert_closed(faces)
     surface = cylinder_surface(radius, half_length, 4000, np.random.default_rng(7))
     assert len(outside_hull(surface, vertices)) == 0
@@ -410,7 +410,7 @@ def test_prism_mesh_contains_the_cylinder(segments: int) -> None:
 @pytest.mark.parametrize("segments", [8, 24])
 def test_sphere_mesh_contains_the_sphere(segments: int) -> None:
     radius = 0.05
-    vertices, faces = _sphere_mesh(radius, segments)
+    vertices, faces = sphere_mesh(radius, segments)
     assert_closed(faces)
     assert len(outside_hull(sphere_surface(radius, 5000, np.random.default_rng(9)), vertices)) == 0
     inradius = -ConvexHull(vertices).equations[:, 3].max()

@@ -47,22 +47,24 @@ class ExactGeometry:
             for b, shapes in self.shapes.items()
         }
 
-    def _transform(self, pose: np.ndarray) -> object:
+    def transform(self, pose: np.ndarray) -> object:
+        """A (4, 4) pose as coal's transform."""
         return self._coal.Transform3s(pose[:3, :3].copy(), pose[:3, 3].copy())
 
-    def _body_pose(self, body: int, poses: np.ndarray) -> np.ndarray:
+    def body_pose(self, body: int, poses: np.ndarray) -> np.ndarray:
+        """(4, 4) pose of a body's joint frame from one configuration's joint poses (N_J, 4, 4)."""
         joint = int(self.scene.body_joints[body])
         return np.eye(4) if joint == 0 else poses[joint - 1]
 
     def _objects(self, body: int, poses: np.ndarray) -> list[tuple[object, object]]:
-        pose = self._body_pose(body, poses)
-        return [(s.geometry, self._transform(pose @ s.placement)) for s in self.shapes[body]]
+        pose = self.body_pose(body, poses)
+        return [(s.geometry, self.transform(pose @ s.placement)) for s in self.shapes[body]]
 
     def _other(self, family: str, pair: tuple[int, int], poses: np.ndarray) -> list[tuple[object, object]]:
         if family == "self":
             return self._objects(pair[1], poses)
         obj = self.scene.world[pair[1]]
-        return [(obj.geometry, self._transform(obj.pose))]
+        return [(obj.geometry, self.transform(obj.pose))]
 
     def distance(
         self, family: str, pair: tuple[int, int], poses: np.ndarray
@@ -71,7 +73,7 @@ class ExactGeometry:
         coal = self._coal
         obj = self.scene.world[pair[1]] if family == "world" else None
         if obj is not None and obj.shape == "plane":
-            pose = self._body_pose(pair[0], poses)
+            pose = self.body_pose(pair[0], poses)
             points = self.hull[pair[0]] @ pose[:3, :3].T + pose[:3, 3]
             heights = obj.signed_distance(points)[0]
             k = int(np.argmin(heights))
@@ -96,9 +98,9 @@ class ExactGeometry:
         """Signed distance (m) between the convex hulls of the pair (a world object: itself) at one
         configuration: a lower bound of their distance."""
         coal = self._coal
-        pose_a = self._body_pose(pair[0], poses)
+        pose_a = self.body_pose(pair[0], poses)
         if family == "self":
-            other, pose_b = self.convex(pair[1]), self._body_pose(pair[1], poses)
+            other, pose_b = self.convex(pair[1]), self.body_pose(pair[1], poses)
         else:
             obj = self.scene.world[pair[1]]
             other, pose_b = obj.geometry, obj.pose
@@ -106,7 +108,7 @@ class ExactGeometry:
         request.enable_signed_distance = True
         return float(
             coal.distance(
-                self.convex(pair[0]), self._transform(pose_a), other, self._transform(pose_b),
+                self.convex(pair[0]), self.transform(pose_a), other, self.transform(pose_b),
                 request, coal.DistanceResult(),
             )
         )  # fmt: skip
@@ -201,7 +203,7 @@ def check_collisions(scene: CollisionScene, t: np.ndarray, q: np.ndarray, cleara
             exact is not None and family == "world" and scene.world[p[1]].shape == "plane" for p in pairs
         ]
         others = tuple(p for p, plane in zip(pairs, planes, strict=True) if not plane)
-        other_bounds = distances._distances(family, others, poses)[0]  # (N, C')
+        other_bounds = distances.pair_distances(family, others, poses)[0]  # (N, C')
         for c, pair in enumerate(pairs):
             if planes[c] and exact is not None:
                 approach, contact = _plane_check(exact, scene, pair, poses, t, clearance)

@@ -353,7 +353,7 @@ def _prune_by_sampling(
 def posed_meshes(scene: CollisionScene, q: np.ndarray) -> list[tuple[str, np.ndarray, np.ndarray, bool]]:
     """(name, vertices (V, 3) in the base frame, faces (F, 3), is_world) of every body and world object at
     one configuration q (N_J,): the robot's meshes (or its spheres), for pictures."""
-    from lwrlab.model.collision_geometry import _sphere_mesh
+    from lwrlab.model.collision_geometry import sphere_mesh
 
     poses = scene.poses(np.atleast_2d(q))[:, 0]
     out = []
@@ -367,7 +367,7 @@ def posed_meshes(scene: CollisionScene, q: np.ndarray) -> list[tuple[str, np.nda
             faces = np.vstack([s.faces + o for s, o in zip(shapes, offsets, strict=True)])
         else:
             sphere = scene.spheres[int(np.flatnonzero(scene.sphere_bodies == b)[0])]
-            vertices, faces = _sphere_mesh(sphere.radius, 12)
+            vertices, faces = sphere_mesh(sphere.radius, 12)
             vertices = vertices + sphere.center
         out.append((name, vertices @ pose[:3, :3].T + pose[:3, 3], faces, joint == 0))
     out += [(w.name, w.vertices, w.faces, True) for w in scene.world if w.shape != "plane"]

@@ -219,7 +219,7 @@ class ConstraintSet:
                 pairs = self._pairs(family)
                 if pairs:
                     kind = "world" if family == "world" else "self"
-                    out[family] = self.distances._distances(kind, pairs, poses, q)[0] - offset
+                    out[family] = self.distances.pair_distances(kind, pairs, poses, q)[0] - offset
         return out
 
     # --- derivatives ----------------------------------------------------------------------------

@@ -95,15 +95,15 @@ class SphereDistances:
         self, pairs: tuple[tuple[int, int], ...], poses: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Smallest sphere gap (N, C) of each body pair (m) and the padded column index reaching it."""
-        return self._distances("self", pairs, poses)
+        return self.pair_distances("self", pairs, poses)
 
     def world_distances(
         self, pairs: tuple[tuple[int, int], ...], poses: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Smallest distance (N, C) of each (body, world object) pair (m) and where it is reached."""
-        return self._distances("world", pairs, poses)
+        return self.pair_distances("world", pairs, poses)
 
-    def _distances(
+    def pair_distances(
         self,
         family: str,
         pairs: tuple[tuple[int, int], ...],

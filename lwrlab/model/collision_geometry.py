@@ -220,7 +220,8 @@ def disabled_pairs_from_srdf(srdf: Path) -> frozenset[frozenset[str]]:
 # --- meshes that contain each primitive ------------------------------------------------------------
 
 
-def _box_mesh(half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def box_mesh(half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The box of half extents ``half`` (m, centred): its 8 corners and 12 triangles (exact)."""
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float) * half
     faces = np.array(
         [
@@ -231,7 +232,7 @@ def _box_mesh(half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return corners, faces
 
 
-def _prism_mesh(radius: float, half_length: float, n: int = ROUND_SEGMENTS) -> tuple[np.ndarray, np.ndarray]:
+def prism_mesh(radius: float, half_length: float, n: int = ROUND_SEGMENTS) -> tuple[np.ndarray, np.ndarray]:
     """A prism along z containing the cylinder of this radius and half length (circumscribed polygon)."""
     angle = 2 * np.pi * np.arange(n) / n
     ring = radius / np.cos(np.pi / n) * np.column_stack([np.cos(angle), np.sin(angle)])
@@ -248,7 +249,7 @@ def _prism_mesh(radius: float, half_length: float, n: int = ROUND_SEGMENTS) -> t
     return vertices, np.vstack([sides, caps])
 
 
-def _sphere_mesh(radius: float, n: int = ROUND_SEGMENTS) -> tuple[np.ndarray, np.ndarray]:
+def sphere_mesh(radius: float, n: int = ROUND_SEGMENTS) -> tuple[np.ndarray, np.ndarray]:
     """A convex polyhedron containing the sphere: a UV sphere scaled until its faces clear the radius."""
     from scipy.spatial import ConvexHull
 
@@ -269,14 +270,14 @@ def _mesh_of(geometry: Any, mesh_path: str) -> tuple[np.ndarray, np.ndarray, flo
     """Vertices, faces of a mesh containing a coal geometry, and the radius if it is a sphere."""
     kind = type(geometry).__name__
     if kind == "Box":
-        return (*_box_mesh(np.asarray(geometry.halfSide, dtype=float)), None)
+        return (*box_mesh(np.asarray(geometry.halfSide, dtype=float)), None)
     if kind == "Cylinder":
-        return (*_prism_mesh(float(geometry.radius), float(geometry.halfLength)), None)
+        return (*prism_mesh(float(geometry.radius), float(geometry.halfLength)), None)
     if kind == "Capsule":
         r = float(geometry.radius)
-        return (*_prism_mesh(r, float(geometry.halfLength) + r), None)
+        return (*prism_mesh(r, float(geometry.halfLength) + r), None)
     if kind == "Sphere":
-        return (*_sphere_mesh(float(geometry.radius)), float(geometry.radius))
+        return (*sphere_mesh(float(geometry.radius)), float(geometry.radius))
     if kind.startswith("BVHModel") or kind.startswith("Convex"):
         vertices = np.asarray(geometry.vertices(), dtype=float).reshape(-1, 3)
         count = geometry.num_tris if kind.startswith("BVHModel") else geometry.num_polygons

@@ -132,7 +132,7 @@ def build_obstacle(entry: Mapping[str, Any], index: int) -> WorldObject:
     """A world object from a config entry (module docstring); errors name the entry and the key."""
     import coal
 
-    from lwrlab.model.collision_geometry import _box_mesh, _prism_mesh, _sphere_mesh
+    from lwrlab.model.collision_geometry import box_mesh, prism_mesh, sphere_mesh
     from lwrlab.model.enclosing_spheres import enclosing_spheres
 
     where = f"trajectory.constraints.world.obstacles[{index}]"
@@ -155,17 +155,17 @@ def build_obstacle(entry: Mapping[str, Any], index: int) -> WorldObject:
 
     if shape == "box":
         half = positive("size", 3) / 2
-        vertices, faces = _box_mesh(half)
+        vertices, faces = box_mesh(half)
         return WorldObject(name, "box", pose, half, coal.Box(*(2 * half)), _posed(vertices, pose), faces)
     if shape == "sphere":
         (radius,) = positive("radius", 1)
-        vertices, faces = _sphere_mesh(radius)
+        vertices, faces = sphere_mesh(radius)
         return WorldObject(
             name, "sphere", pose, np.array([radius]), coal.Sphere(radius), _posed(vertices, pose), faces
         )
     if shape == "cylinder":
         (radius,), (length,) = positive("radius", 1), positive("length", 1)
-        vertices, faces = _prism_mesh(radius, length / 2)
+        vertices, faces = prism_mesh(radius, length / 2)
         return WorldObject(
             name, "cylinder", pose, np.array([radius, length / 2]), coal.Cylinder(radius, length),
             _posed(vertices, pose), faces,
