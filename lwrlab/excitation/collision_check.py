@@ -297,10 +297,15 @@ def _plane_check(
     pose = poses[joint - 1]  # (N, 4, 4)
     # heights of the hull's vertices: n·(R·v + p − o) = (Rᵀn)·v + n·(p − o), one matrix product
     normal, origin = plane.pose[:3, 2], plane.pose[:3, 3]
-    heights = (pose[:, :3, :3].transpose(0, 2, 1) @ normal) @ exact.hull[body].T  # (N, V)
-    heights += ((pose[:, :3, 3] - origin) @ normal)[:, None]
-    lowest = heights.argmin(axis=1)
-    distance = heights[np.arange(len(t)), lowest]
+    directions = pose[:, :3, :3].transpose(0, 2, 1) @ normal  # (N, 3): Rᵀn
+    lowest = np.empty(len(t), dtype=int)
+    for start in range(0, len(t), 1000):  # (chunk, V) at a time: a CAD hull may have thousands of vertices
+        lowest[start : start + 1000] = np.argmin(
+            directions[start : start + 1000] @ exact.hull[body].T, axis=1
+        )
+    distance = (
+        np.einsum("ni,ni->n", directions, exact.hull[body][lowest]) + (pose[:, :3, 3] - origin) @ normal
+    )
     k = int(np.argmin(distance))
     point = pose[k, :3, :3] @ exact.hull[body][lowest[k]] + pose[k, :3, 3]
     approach = ClosestApproach(

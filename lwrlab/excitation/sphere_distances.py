@@ -33,6 +33,8 @@ if TYPE_CHECKING:
 
 CHUNK = 2000
 """Samples per chunk."""
+PLANE_POINTS = 256
+"""Hull vertices kept per body for its height above a plane in the optimiser."""
 
 
 class SphereDistances:
@@ -56,6 +58,7 @@ class SphereDistances:
         self.all_radii = np.concatenate([self.radii, *fixed_radii])
         self._body_spheres = [np.flatnonzero(scene.sphere_bodies == b) for b in range(len(scene.bodies))]
         self._exact: ExactGeometry | None = None
+        self._plane_subsets: dict[int, tuple[np.ndarray, float]] = {}
         self._layouts: dict[tuple[str, tuple[tuple[int, int], ...]], Any] = {}
         self.use_hulls = False
         """Measure the scene's hull pairs and plane pairs on convex hulls (module docstring)."""
@@ -261,10 +264,25 @@ class SphereDistances:
                     out[key][2][k] = result.getNearestPoint2()
         return out
 
+    def _plane_points(self, body: int) -> tuple[np.ndarray, float]:
+        """At most PLANE_POINTS of the body's hull vertices (farthest-point sampling) and the largest
+        distance δ from any hull vertex to its nearest chosen one: the lowest chosen point, lowered by
+        δ, is a lower bound of the body's lowest point (a smooth CAD hull has thousands of vertices)."""
+        if body not in self._plane_subsets:
+            hull = self._exact_geometry().hull[body]
+            chosen = [0]
+            nearest = np.linalg.norm(hull - hull[0], axis=1)
+            while len(chosen) < min(PLANE_POINTS, len(hull)):
+                chosen.append(int(np.argmax(nearest)))
+                nearest = np.minimum(nearest, np.linalg.norm(hull - hull[chosen[-1]], axis=1))
+            self._plane_subsets[body] = (hull[chosen], float(nearest.max()))
+        return self._plane_subsets[body]
+
     def _plane_heights(self, body: int, plane_index: int, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Exact height (N,) of a body's hull above a plane at every sample, and the lowest vertex (N, 3)."""
+        """Height (N,) of a body's hull above a plane at every sample — exact up to the δ of
+        :meth:`_plane_points`, never above the true height — and the lowest point used (N, 3)."""
         plane = self.scene.world[plane_index]
-        hull = self._exact_geometry().hull[body]
+        hull, slack = self._plane_points(body)
         joint = int(self.scene.body_joints[body])
         pose = poses[joint - 1]
         normal, origin = plane.pose[:3, 2], plane.pose[:3, 3]
@@ -273,7 +291,7 @@ class SphereDistances:
         lowest = heights.argmin(axis=1)
         rows = np.arange(len(lowest))
         points = np.einsum("nij,nj->ni", pose[:, :3, :3], hull[lowest]) + pose[:, :3, 3]
-        return heights[rows, lowest], points
+        return heights[rows, lowest] - slack, points
 
     def _refine(
         self,
