@@ -198,11 +198,11 @@ def motion_preview_figure(
     Parameters
     ----------
     snapshots : one to :data:`MAX_SNAPSHOTS` poses, drawn in the given order, three per row.
-    approaches : closest approaches (self and world), numbered nearest first. Each is drawn on the
-        snapshot nearest its time as a red segment from ``point_a`` to ``point_b``, its ends marked,
-        tagged with its number, its label in the panel's upper left corner: solid when the snapshot
-        lies within ``time_tolerance`` of it (half a sample: 0.5 ms at 1 kHz), else dashed and
-        labelled "pose of another time". All are listed under the panels, violations in red.
+    approaches : closest approaches (self and world), numbered nearest first. Each is labelled in the
+        upper left corner of the snapshot nearest its time, and drawn there as a red segment from
+        ``point_a`` to ``point_b`` (ends marked, tagged with its number) when the snapshot lies within
+        ``time_tolerance`` of it (half a sample: 0.5 ms at 1 kHz); else its label says "pose of another
+        time" and nothing floats beside the robot. All are listed under the panels, violations in red.
     path : the PNG written.
     title : the figure's title.
     mounting_height : height (m, base frame) of the surface the robot stands on, drawn as a
@@ -275,7 +275,8 @@ def motion_preview_figure(
             if int(np.argmin(np.abs(times - approach.t))) == index
         ]
         for number, approach, at_its_time in drawn:
-            _draw_approach(ax, number, approach, at_its_time)
+            if at_its_time:  # a segment on another time's pose would float beside the robot
+                _draw_approach(ax, number, approach, at_its_time)
         if drawn:
             _approach_labels(ax, drawn)
         name = f" — {snapshot.label}" if snapshot.label else ""
