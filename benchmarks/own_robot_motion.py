@@ -34,6 +34,21 @@ DEFAULT_ACCELERATION = 10.0
 """rad/s² where the manufacturer publishes none."""
 
 
+def _surface_points(geometry: object) -> np.ndarray:
+    """Points whose lowest is the shape's lowest: a mesh's vertices, a box's corners, 256 points on a
+    cylinder's rims or a sphere's great circles (within 0.01 % of the radius)."""
+    if hasattr(geometry, "vertices"):
+        return np.asarray(geometry.vertices())
+    if hasattr(geometry, "halfSide"):
+        return np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * geometry.halfSide
+    angle = np.linspace(0.0, 2 * np.pi, 256, endpoint=False)
+    circle = np.column_stack([np.cos(angle), np.sin(angle), np.zeros(256)])
+    if hasattr(geometry, "halfLength"):
+        rims = [geometry.radius * circle + [0.0, 0.0, z] for z in (-geometry.halfLength, geometry.halfLength)]
+        return np.vstack(rims)
+    return geometry.radius * np.vstack([circle[:, order] for order in ([0, 1, 2], [0, 2, 1], [2, 0, 1])])
+
+
 def independent_check(name: str, q: np.ndarray, clearance: float) -> tuple[int, int, float]:
     """Poses (of q (N, N_J)) in self-contact and below the mounting surface z = 0, and the lowest
     mesh point (m), from the robot's own files through Pinocchio alone."""
@@ -80,9 +95,9 @@ def independent_check(name: str, q: np.ndarray, clearance: float) -> tuple[int, 
     for request in geometry_data.collisionRequests:
         request.security_margin = clearance
     vertices = {
-        i: np.asarray(obj.geometry.vertices()) @ obj.placement.rotation.T + obj.placement.translation
+        i: _surface_points(obj.geometry) @ obj.placement.rotation.T + obj.placement.translation
         for i, obj in enumerate(geometry.geometryObjects)
-        if obj.parentJoint > 0 and hasattr(obj.geometry, "vertices")
+        if obj.parentJoint > 0
     }
     self_contacts = below = 0
     lowest = np.inf

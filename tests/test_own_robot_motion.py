@@ -107,11 +107,24 @@ def test_an_accepted_motion_is_exported_for_ros2_with_its_preview(tmp_path: Path
 
 
 def _vertices(geometry: object) -> np.ndarray:
-    """Points whose lowest is the lowest of a mesh or a box (shape frame)."""
+    """Points whose lowest is the lowest of a mesh, a box, a cylinder or a sphere (shape frame; round
+    shapes by 256 points on their rims, within 0.01 % of their radius)."""
     if hasattr(geometry, "vertices"):
         return np.asarray(geometry.vertices())
-    half = np.asarray(geometry.halfSide)  # a box
-    return np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half
+    if hasattr(geometry, "halfSide"):  # a box
+        half = np.asarray(geometry.halfSide)
+        return np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half
+    angle = np.linspace(0.0, 2 * np.pi, 256, endpoint=False)
+    if hasattr(geometry, "halfLength"):  # a cylinder along z
+        ring = geometry.radius * np.column_stack([np.cos(angle), np.sin(angle)])
+        return np.vstack(
+            [np.column_stack([ring, np.full(256, z)]) for z in (-geometry.halfLength, geometry.halfLength)]
+        )
+    circles = [
+        np.column_stack([np.cos(angle), np.sin(angle), np.zeros(256)])[:, order]
+        for order in ([0, 1, 2], [0, 2, 1], [2, 0, 1])
+    ]
+    return geometry.radius * np.vstack(circles)  # a sphere: its great circles
 
 
 def _independent_contacts(urdf: Path, share: Path, q: np.ndarray, clearance: float) -> tuple[int, float]:

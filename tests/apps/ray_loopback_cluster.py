@@ -23,6 +23,10 @@ from ray.cluster_utils import Cluster
 
 
 def main(temp_dir: str) -> None:
+    # Ray writes the head's address to $RAY_TMPDIR/ray/ray_current_cluster (default /tmp/ray), a folder
+    # it creates only for a node using that default: kept inside this cluster's folder, made here
+    os.environ["RAY_TMPDIR"] = temp_dir
+    os.makedirs(os.path.join(temp_dir, "ray"), exist_ok=True)
     cluster = Cluster(
         initialize_head=True,
         head_node_args={
