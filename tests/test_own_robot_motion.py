@@ -306,3 +306,14 @@ def test_every_example_robot_gets_a_motion_its_own_meshes_clear(name: str) -> No
                 lowest = min(lowest, float(points[:, 2].min()))
     assert contacts == 0
     assert lowest > 0.0
+
+
+def test_a_urdf_robot_without_a_flange_frame_is_one_line_naming_the_setting(tmp_path: Path) -> None:
+    """task=payload needs the flange: the error is a user error (one line) naming robot.flange_frame."""
+    from lwrlab.model.payload import flange_placement
+    from lwrlab.pipeline.build import build
+
+    urdf = example_robots() / "ur_description" / "urdf" / "ur5_robot.urdf"
+    robot = build("robot", "urdf", path=str(urdf))
+    with pytest.raises(ConfigError, match=r"robot\.flange_frame=<the URDF link"):
+        flange_placement(robot)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.errors import ConfigError
 from lwrlab.model.inertia import inertia_matrix, packed_parameters
 from lwrlab.model.robot import RobotModel
 
@@ -60,14 +61,16 @@ def frame_change_matrix(rotation: np.ndarray, translation: np.ndarray) -> np.nda
 def flange_placement(robot: RobotModel) -> tuple[int, pin.SE3]:
     """The joint that carries the flange and the flange's pose in that joint's frame.
 
-    Raises a ``ValueError`` if the robot defines no ``flange`` frame (add ``flange:`` to its
-    modified-DH config, or ``flange_frame:`` to a URDF robot).
+    Raises a :class:`~lwrlab.errors.ConfigError` (a ``ValueError``, printed as one line) if the robot
+    defines no ``flange`` frame (add ``flange:`` to its modified-DH config, or ``flange_frame:`` to a
+    URDF robot).
     """
     model = robot.model
     if not model.existFrame(FLANGE_FRAME):
-        raise ValueError(
-            f"robot {robot.name!r} has no {FLANGE_FRAME!r} frame to attach a tool to; "
-            "give it one (`flange: [x, y, z]` in a modified-DH config, `flange_frame:` for a URDF)"
+        raise ConfigError(
+            f"robot {robot.name!r} has no {FLANGE_FRAME!r} frame to attach a tool to; give it one: "
+            "robot.flange_frame=<the URDF link or fixed joint the tool is mounted on> for a URDF robot, "
+            "`flange: [x, y, z]` in a modified-DH description"
         )
     frame = model.frames[model.getFrameId(FLANGE_FRAME)]
     return int(frame.parentJoint), frame.placement
