@@ -23,7 +23,7 @@ import argparse
 import time
 
 import numpy as np
-import pinocchio as pin
+from independent_mesh_check import independent_check  # beside this script
 
 from lwrlab.excitation.solver import check_motion_at
 from lwrlab.pipeline.build import build
@@ -34,86 +34,13 @@ DEFAULT_ACCELERATION = 10.0
 """rad/s² where the manufacturer publishes none."""
 
 
-def _surface_points(geometry: object) -> np.ndarray:
-    """Points whose lowest is the shape's lowest: a mesh's vertices, a box's corners, 256 points on a
-    cylinder's rims or a sphere's great circles (within 0.01 % of the radius)."""
-    if hasattr(geometry, "vertices"):
-        return np.asarray(geometry.vertices())
-    if hasattr(geometry, "halfSide"):
-        return np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * geometry.halfSide
-    angle = np.linspace(0.0, 2 * np.pi, 256, endpoint=False)
-    circle = np.column_stack([np.cos(angle), np.sin(angle), np.zeros(256)])
-    if hasattr(geometry, "halfLength"):
-        rims = [geometry.radius * circle + [0.0, 0.0, z] for z in (-geometry.halfLength, geometry.halfLength)]
-        return np.vstack(rims)
-    return geometry.radius * np.vstack([circle[:, order] for order in ([0, 1, 2], [0, 2, 1], [2, 0, 1])])
-
-
-def independent_check(name: str, q: np.ndarray, clearance: float) -> tuple[int, int, float]:
-    """Poses (of q (N, N_J)) in self-contact and below the mounting surface z = 0, and the lowest
-    mesh point (m), from the robot's own files through Pinocchio alone."""
+def mesh_check(name: str, q: np.ndarray, clearance: float) -> tuple[int, int, float]:
+    """:func:`independent_mesh_check.independent_check` of the arm ``name`` from its own files."""
     entry = ROBOTS[name]
     urdf = example_robot_file(entry.urdf)
     share = urdf[: urdf.index("/example-robot-data/")]
-    model = pin.buildModelFromUrdf(urdf)
-    geometry = pin.buildGeomFromUrdf(model, urdf, pin.GeometryType.COLLISION, package_dirs=[share])
-    if entry.locked_joints:
-        q_ref = pin.neutral(model)
-        for joint, value in entry.locked_joints.items():
-            q_ref[model.joints[model.getJointId(joint)].idx_q] = value
-        ids = [model.getJointId(j) for j in entry.locked_joints]
-        model, geometry = pin.buildReducedModel(model, geometry, ids, q_ref)
-    geometry.addAllCollisionPairs()
-    if entry.srdf is not None:
-        pin.removeCollisionPairs(model, geometry, example_robot_file(entry.srdf))
-    # neighbours (a joint and its parent) touch at their joint: MoveIt's "adjacent"
-    for k in reversed(range(len(geometry.collisionPairs))):
-        pair = geometry.collisionPairs[k]
-        a = geometry.geometryObjects[pair.first].parentJoint
-        b = geometry.geometryObjects[pair.second].parentJoint
-        if a == b or model.parents[a] == b or model.parents[b] == a:
-            geometry.removeCollisionPair(pair)
-    data, geometry_data = model.createData(), geometry.createData()
-    for request in geometry_data.collisionRequests:
-        request.security_margin = clearance
-    # pairs in contact in the robot's every random pose are its structure (MoveIt's "always")
-    rng = np.random.default_rng(1)
-    always = np.zeros(len(geometry.collisionPairs))
-    for _ in range(200):
-        pin.computeCollisions(
-            model,
-            data,
-            geometry,
-            geometry_data,
-            rng.uniform(model.lowerPositionLimit, model.upperPositionLimit),
-            False,
-        )
-        always += [r.isCollision() for r in geometry_data.collisionResults]
-    for k in reversed(np.flatnonzero(always >= 190)):
-        geometry.removeCollisionPair(geometry.collisionPairs[int(k)])
-    geometry_data = geometry.createData()
-    for request in geometry_data.collisionRequests:
-        request.security_margin = clearance
-    vertices = {
-        i: _surface_points(obj.geometry) @ obj.placement.rotation.T + obj.placement.translation
-        for i, obj in enumerate(geometry.geometryObjects)
-        if obj.parentJoint > 0
-    }
-    self_contacts = below = 0
-    lowest = np.inf
-    for k in range(q.shape[0]):
-        pin.computeCollisions(model, data, geometry, geometry_data, q[k], False)
-        self_contacts += any(r.isCollision() for r in geometry_data.collisionResults)
-        heights = [
-            (data.oMi[geometry.geometryObjects[i].parentJoint].rotation @ v.T)[2].min()
-            + data.oMi[geometry.geometryObjects[i].parentJoint].translation[2]
-            for i, v in vertices.items()
-            if model.parents[geometry.geometryObjects[i].parentJoint] != 0  # the first link stands on it
-        ]
-        low = min(heights)
-        lowest = min(lowest, low)
-        below += low < clearance
-    return self_contacts, below, float(lowest)
+    srdf = None if entry.srdf is None else example_robot_file(entry.srdf)
+    return independent_check(urdf, share, q, clearance, srdf, dict(entry.locked_joints))
 
 
 def measure(name: str, seed: int) -> dict[str, object]:
@@ -132,11 +59,11 @@ def measure(name: str, seed: int) -> dict[str, object]:
     free_source = build(
         "trajectory", "optimal", from_file=None, optimizer=optimizer, constraints=free_constraints
     )
-    free_motion, free_result, free_problem = free_source.optimise(robot)
+    _, free_result, free_problem = free_source.optimise(robot)
     fq, fdq, fddq = (b @ free_result.coefficients for b in free_problem.bases)
     free_cond = regressor_condition(robot, fq, fdq, fddq, free_problem.base)
     sampled = motion.sample(robot, 1000.0)
-    self_contacts, below, lowest = independent_check(name, sampled.q, source.constraints.clearance)
+    self_contacts, below, lowest = mesh_check(name, sampled.q, source.constraints.clearance)
     collisions = check.collisions
     assert collisions is not None
     closest_self, closest_world = collisions.closest("self"), collisions.closest("world")

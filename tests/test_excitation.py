@@ -172,7 +172,7 @@ def test_unknown_ground_sphere_lists_the_robot_spheres(lwr4: RobotModel) -> None
 def test_short_optimisation_is_feasible_and_improves_the_criterion(lwr4: RobotModel, lwr_base) -> None:
     problem = optimal(criterion=LogDet()).problem(lwr4, lwr_base)
     optimizer = quiet_optimizer(40, seed=4)
-    start = optimizer._start(problem, np.random.default_rng(4))
+    start, _ = optimizer._start(problem, np.random.default_rng(4))
     result = optimizer.solve(problem)
     assert result.cost < problem.objective(start)
     assert all(not r.violated for r in result.reports)

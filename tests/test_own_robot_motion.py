@@ -4,14 +4,12 @@ through ROS_PACKAGE_PATH), a motion an independent exact-mesh check finds free o
 
 from __future__ import annotations
 
+import importlib.util
 import json
-import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pinocchio as pin
 import pytest
 from composing import compose_config
 from test_end_to_end import only_run, run_lwrlab
@@ -22,6 +20,7 @@ from lwrlab.io.ros2_trajectory import read_follow_joint_trajectory_goal, read_jo
 from lwrlab.model.collision_geometry import package_search_path
 from lwrlab.pipeline.excitation import run_excitation
 
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 QUICK = ["optimizer.max_iterations=30", "optimizer.show_progress=false", "trajectory.duration=2.0"]
 
 
@@ -106,68 +105,15 @@ def test_an_accepted_motion_is_exported_for_ros2_with_its_preview(tmp_path: Path
     assert "Start pose" in (tmp_path / "excitation_report.md").read_text()
 
 
-def _vertices(geometry: object) -> np.ndarray:
-    """Points whose lowest is the lowest of a mesh, a box, a cylinder or a sphere (shape frame; round
-    shapes by 256 points on their rims, within 0.01 % of their radius)."""
-    if hasattr(geometry, "vertices"):
-        return np.asarray(geometry.vertices())
-    if hasattr(geometry, "halfSide"):  # a box
-        half = np.asarray(geometry.halfSide)
-        return np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half
-    angle = np.linspace(0.0, 2 * np.pi, 256, endpoint=False)
-    if hasattr(geometry, "halfLength"):  # a cylinder along z
-        ring = geometry.radius * np.column_stack([np.cos(angle), np.sin(angle)])
-        return np.vstack(
-            [np.column_stack([ring, np.full(256, z)]) for z in (-geometry.halfLength, geometry.halfLength)]
-        )
-    circles = [
-        np.column_stack([np.cos(angle), np.sin(angle), np.zeros(256)])[:, order]
-        for order in ([0, 1, 2], [0, 2, 1], [2, 0, 1])
-    ]
-    return geometry.radius * np.vstack(circles)  # a sphere: its great circles
-
-
-def _independent_contacts(urdf: Path, share: Path, q: np.ndarray, clearance: float) -> tuple[int, float]:
-    """Poses of q in self-contact (URDF collision meshes, neighbours and always-touching pairs left
-    out, padding = clearance) and the lowest point of the moving links beyond the first, by Pinocchio
-    and coal alone."""
-    model = pin.buildModelFromUrdf(str(urdf))
-    geometry = pin.buildGeomFromUrdf(model, str(urdf), pin.GeometryType.COLLISION, package_dirs=[str(share)])
-    geometry.addAllCollisionPairs()
-    for k in reversed(range(len(geometry.collisionPairs))):
-        pair = geometry.collisionPairs[k]
-        a = geometry.geometryObjects[pair.first].parentJoint
-        b = geometry.geometryObjects[pair.second].parentJoint
-        if a == b or model.parents[a] == b or model.parents[b] == a:
-            geometry.removeCollisionPair(pair)
-    data, geometry_data = model.createData(), geometry.createData()
-    rng = np.random.default_rng(3)
-    always = np.zeros(len(geometry.collisionPairs))
-    for _ in range(100):
-        pin.computeCollisions(
-            model,
-            data,
-            geometry,
-            geometry_data,
-            rng.uniform(model.lowerPositionLimit, model.upperPositionLimit),
-        )
-        always += [r.isCollision() for r in geometry_data.collisionResults]
-    for k in reversed(np.flatnonzero(always >= 95)):
-        geometry.removeCollisionPair(geometry.collisionPairs[int(k)])
-    geometry_data = geometry.createData()
-    for request in geometry_data.collisionRequests:
-        request.security_margin = clearance
-    in_contact, lowest = 0, np.inf
-    for k in range(q.shape[0]):
-        pin.computeCollisions(model, data, geometry, geometry_data, q[k], False)
-        in_contact += any(r.isCollision() for r in geometry_data.collisionResults)
-        pin.updateGeometryPlacements(model, data, geometry, geometry_data)
-        for i, obj in enumerate(geometry.geometryObjects):
-            if obj.parentJoint > 1:
-                placement = geometry_data.oMg[i]
-                points = _vertices(obj.geometry) @ placement.rotation.T + placement.translation
-                lowest = min(lowest, float(points[:, 2].min()))
-    return in_contact, lowest
+def independent_check(*args: object) -> tuple[int, int, float]:
+    """``benchmarks/independent_mesh_check.py``'s check (Pinocchio and coal only, no lwrlab code)."""
+    spec = importlib.util.spec_from_file_location(
+        "independent_mesh_check", BENCHMARKS / "independent_mesh_check.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.independent_check(*args)
 
 
 @pytest.mark.slow
@@ -195,8 +141,8 @@ def test_an_unseen_industrial_arm_gets_a_motion_clear_of_its_meshes_and_the_tabl
     folder = tmp_path / "run" / "run"
     q = pd.read_csv(folder / "exciting_motion.csv").filter(regex=r"^q\d").to_numpy()
     assert q.shape == (10001, 6)
-    in_contact, lowest = _independent_contacts(urdf, robots, q, clearance=0.01)
-    assert in_contact == 0
+    in_contact, below, lowest = independent_check(urdf, robots, q, 0.01)
+    assert in_contact == 0 and below == 0
     assert lowest > 0.01  # above the mounting surface, with the clearance
     assert only_run(tmp_path / "run", "excitation").info.status == "FINISHED"
 
@@ -214,25 +160,9 @@ def test_the_shipped_panda_motion_clears_the_panda_meshes_hand_and_srdf(tmp_path
     robot = build("robot", "panda")
     q = motion.sample(robot, 1000.0).q
     urdf = robots / "panda_description" / "urdf" / "panda.urdf"
-    model = pin.buildModelFromUrdf(str(urdf))
-    share = robots.parents[1]
-    geometry = pin.buildGeomFromUrdf(model, str(urdf), pin.GeometryType.COLLISION, package_dirs=[str(share)])
-    fingers = [model.getJointId(n) for n in ("panda_finger_joint1", "panda_finger_joint2")]
-    reference = pin.neutral(model)
-    reference[[model.joints[j].idx_q for j in fingers]] = 0.04
-    model, geometry = pin.buildReducedModel(model, geometry, fingers, reference)
-    geometry.addAllCollisionPairs()
-    pin.removeCollisionPairs(model, geometry, str(robots / "panda_description" / "srdf" / "panda.srdf"))
-    data, geometry_data = model.createData(), geometry.createData()
-    contacts, lowest = 0, np.inf
-    for k in range(0, q.shape[0]):
-        contacts += pin.computeCollisions(model, data, geometry, geometry_data, q[k], True)
-        pin.updateGeometryPlacements(model, data, geometry, geometry_data)
-        for i, obj in enumerate(geometry.geometryObjects):
-            if obj.parentJoint > 1:
-                placement = geometry_data.oMg[i]
-                points = _vertices(obj.geometry) @ placement.rotation.T + placement.translation
-                lowest = min(lowest, float(points[:, 2].min()))
+    srdf = robots / "panda_description" / "srdf" / "panda.srdf"
+    fingers = {"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}
+    contacts, _, lowest = independent_check(urdf, robots.parents[1], q, 0.0, srdf, fingers)
     assert contacts == 0
     assert lowest > 0.0  # the hand and fingers above the mounting surface
 
@@ -260,50 +190,10 @@ def test_every_example_robot_gets_a_motion_its_own_meshes_clear(name: str) -> No
     motion, _, _ = source.optimise(robot)
     assert check_motion_at(robot, motion, source.constraints, 1000.0).passed
     q = motion.sample(robot, 1000.0).q
-    urdf = Path(example_robot_file(entry.urdf))
-    model = pin.buildModelFromUrdf(str(urdf))
-    geometry = pin.buildGeomFromUrdf(
-        model, str(urdf), pin.GeometryType.COLLISION, package_dirs=[str(robots.parents[1])]
+    srdf = None if entry.srdf is None else example_robot_file(entry.srdf)
+    contacts, _, lowest = independent_check(
+        example_robot_file(entry.urdf), robots.parents[1], q, 0.0, srdf, dict(entry.locked_joints)
     )
-    if entry.locked_joints:
-        reference = pin.neutral(model)
-        ids = [model.getJointId(j) for j in entry.locked_joints]
-        for joint, value in entry.locked_joints.items():
-            reference[model.joints[model.getJointId(joint)].idx_q] = value
-        model, geometry = pin.buildReducedModel(model, geometry, ids, reference)
-    geometry.addAllCollisionPairs()
-    if entry.srdf is not None:
-        pin.removeCollisionPairs(model, geometry, example_robot_file(entry.srdf))
-    for k in reversed(range(len(geometry.collisionPairs))):  # neighbours touch at their joint
-        pair = geometry.collisionPairs[k]
-        a = geometry.geometryObjects[pair.first].parentJoint
-        b = geometry.geometryObjects[pair.second].parentJoint
-        if a == b or model.parents[a] == b or model.parents[b] == a:
-            geometry.removeCollisionPair(pair)
-    data, geometry_data = model.createData(), geometry.createData()
-    rng = np.random.default_rng(3)
-    always = np.zeros(len(geometry.collisionPairs))
-    for _ in range(100):  # pairs touching in every pose are the robot's own structure
-        pin.computeCollisions(
-            model,
-            data,
-            geometry,
-            geometry_data,
-            rng.uniform(model.lowerPositionLimit, model.upperPositionLimit),
-        )
-        always += [r.isCollision() for r in geometry_data.collisionResults]
-    for k in reversed(np.flatnonzero(always >= 95)):
-        geometry.removeCollisionPair(geometry.collisionPairs[int(k)])
-    geometry_data = geometry.createData()
-    contacts, lowest = 0, np.inf
-    for k in range(q.shape[0]):
-        contacts += pin.computeCollisions(model, data, geometry, geometry_data, q[k], True)
-        pin.updateGeometryPlacements(model, data, geometry, geometry_data)
-        for i, obj in enumerate(geometry.geometryObjects):
-            if model.parents[obj.parentJoint] > 0:  # the links beyond the first (it stands on the surface)
-                placement = geometry_data.oMg[i]
-                points = _vertices(obj.geometry) @ placement.rotation.T + placement.translation
-                lowest = min(lowest, float(points[:, 2].min()))
     assert contacts == 0
     assert lowest > 0.0
 

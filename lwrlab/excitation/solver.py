@@ -163,12 +163,13 @@ class SlsqpOptimizer:
     initial_amplitude : fraction of each half position range the random starting motions span.
     seed : seed of the starting motions.
     show_progress : show a progress bar.
-    first_step : largest first step (rad per via point) SLSQP may take from each start: its first step
-        is the criterion's gradient itself (its Hessian estimate starts as the identity), so the
-        criterion is divided by its gradient's largest entry over ``first_step`` when that is larger
-        than 1 (None: never). Measured over the LWR4, Panda, UR3/5/10, xArm7 and Z1: 3 rad converges
-        on every one; without it SLSQP leaves the UR arms' feasible region at once and does not return
-        (``benchmarks/own_robot_motion.py``).
+    first_step : largest first step (rad per via point) SLSQP may take from a start moved near the
+        safest pose (a motion barely moving, whose criterion's gradient is huge): SLSQP's first step
+        is that gradient itself (its Hessian estimate starts as the identity), so the criterion is
+        divided by the gradient's largest entry over ``first_step`` when that is larger than 1 (None:
+        never). The usual random start keeps the criterion as it is. Measured over the LWR4, Panda,
+        UR3/5/10, xArm7 and Z1: 3 rad converges on every one; without it SLSQP leaves the UR arms'
+        feasible region at once and does not return (``benchmarks/own_robot_motion.py``).
     blas_threads : BLAS threads while solving (None: leave as is). The matrices are small (about
         7000×57): one thread is faster than several, and much faster on a loaded machine, where
         BLAS threads wait for each other (``benchmarks/threads.py``, :mod:`lwrlab.numerics.threads`).
@@ -199,7 +200,7 @@ class SlsqpOptimizer:
             raise ValueError(f"first_step must be positive (rad) or null, got {first_step}")
         self.first_step = first_step
 
-    def _start(self, problem: ExcitationProblem, rng: np.random.Generator) -> np.ndarray:
+    def _start(self, problem: ExcitationProblem, rng: np.random.Generator) -> tuple[np.ndarray, bool]:
         """A random start whose regressor has full rank (the criterion must be defined there).
 
         The random motion around the middle of the joint ranges is used as it is when it satisfies
@@ -215,7 +216,7 @@ class SlsqpOptimizer:
             if not np.isfinite(problem.objective(x)):
                 continue
             if problem.constraint_values(x).min() >= -FEASIBILITY_TOLERANCE:
-                return x
+                return x, False
             still_middle = problem.still_motion(problem.middle_pose)
             still_safe = problem.still_motion(problem.safe_pose())
             deviation = x - still_middle
@@ -225,9 +226,9 @@ class SlsqpOptimizer:
                 if not np.isfinite(problem.objective(candidate)):
                     break
                 if problem.constraint_values(candidate).min() >= -FEASIBILITY_TOLERANCE:
-                    return candidate
+                    return candidate, True
             if np.isfinite(problem.objective(candidate)):
-                return candidate
+                return candidate, True
         raise InfeasibleExcitationError(
             f"no random start excites every base parameter of {problem.robot.name}: "
             f"the motion is too short ({problem.parameterisation.duration} s) "
@@ -247,12 +248,12 @@ class SlsqpOptimizer:
         last_x = None
         start, stalled = 0, 0
         while start < self.n_starts:
-            x0 = self._start(problem, rng)
+            x0, near_still = self._start(problem, rng)
             label = (
                 f"{problem.criterion.name} {problem.parameterisation.duration:g} s, "
                 f"start {start + 1}/{self.n_starts}"
             )
-            run = self._run_start(problem, x0, label)
+            run = self._run_start(problem, x0, label, bound_first_step=near_still)
             if _stalled(run, problem.objective(x0)) and stalled < MAX_STALLED_STARTS:
                 # SLSQP gave up at once (incompatible linearised constraints, a failed line search)
                 # and left the start as it was: a motion barely moving, which would excite nothing
@@ -302,15 +303,25 @@ class SlsqpOptimizer:
             message="; ".join(messages),
         )
 
-    def _run_start(self, problem: ExcitationProblem, x0: np.ndarray, label: str) -> _StartRun:
+    def _run_start(
+        self, problem: ExcitationProblem, x0: np.ndarray, label: str, bound_first_step: bool
+    ) -> _StartRun:
         """One SLSQP run from ``x0``, counting the criterion evaluations and keeping the best feasible
         iterate: a start stopped by the iteration limit still counts."""
         run = _StartRun()
-        # SLSQP's first step is the gradient itself (its Hessian estimate starts as the identity): a
-        # criterion whose gradient is in the hundreds jumps far outside every constraint and may never
-        # come back. Dividing the criterion by a constant bounds that step; the optimum is the same.
+        # SLSQP's first step is the gradient itself (its Hessian estimate starts as the identity): from a
+        # motion barely moving, whose criterion's gradient is in the hundreds, it jumps far outside
+        # every constraint and may never come back. Dividing the criterion by a constant bounds that
+        # step; the optimum is the same.
+        # SLSQP's convergence test is absolute on the scaled criterion: a change below tolerance·scale in
+        # J. When that is coarser than the accuracy relative to J itself (tolerance·|J|: cond, whose
+        # gradient from a still motion is in the thousands while J ends near 6, not logdet, near −480),
+        # a second phase on the criterion itself continues from where the first converged.
         gradient_size = float(np.max(np.abs(problem.objective_gradient(x0))))
-        scale = 1.0 if self.first_step is None else max(1.0, gradient_size / self.first_step)
+        bounded = bound_first_step and self.first_step is not None
+        scales = [max(1.0, gradient_size / self.first_step)] if bounded and self.first_step else []
+        scales.append(1.0)
+        scale = scales[0]
 
         def objective(x: np.ndarray) -> float:
             run.evaluations += 1
@@ -333,16 +344,25 @@ class SlsqpOptimizer:
                 bar.update(1)
                 bar.set_postfix(J=f"{cost:.5g}", refresh=False)
 
-            run.result = minimize(
-                objective,
-                x0,
-                jac=gradient,
-                method="SLSQP",
-                bounds=problem.bounds(),
-                constraints=[vector_inequality(problem.constraint_values, problem.constraint_jacobian)],
-                callback=callback,
-                options={"maxiter": self.max_iterations, "ftol": self.tolerance},
-            )
+            x, iterations = x0, 0
+            for phase, scale in enumerate(scales if scales[0] > 1.0 else [1.0]):
+                result = minimize(
+                    objective,
+                    x,
+                    jac=gradient,
+                    method="SLSQP",
+                    bounds=problem.bounds(),
+                    constraints=[vector_inequality(problem.constraint_values, problem.constraint_jacobian)],
+                    callback=callback,
+                    options={"maxiter": self.max_iterations - iterations, "ftol": self.tolerance},
+                )
+                iterations += int(result.nit)
+                run.result = result
+                converged = int(result.status) == 0 and iterations < self.max_iterations
+                if phase == 0 and not (converged and scale > max(1.0, abs(run.best_feasible_cost))):
+                    break
+                x = run.best_feasible if run.best_feasible is not None else result.x
+            run.result["nit"] = iterations
         return run
 
     @staticmethod
