@@ -207,3 +207,14 @@ def test_a_urdf_robot_without_a_flange_frame_is_one_line_naming_the_setting(tmp_
     robot = build("robot", "urdf", path=str(urdf))
     with pytest.raises(ConfigError, match=r"robot\.flange_frame=<the URDF link"):
         flange_placement(robot)
+
+
+def test_the_panda_motion_is_exported_with_the_joint_names_its_controller_knows(tmp_path: Path) -> None:
+    """The shipped Panda is a modified-DH table (joints joint1…7); its collision URDF names them as
+    franka_ros does, and the ROS 2 export uses those."""
+    example_robots()
+    cfg = compose_config("task=excitation", "robot=panda", *QUICK, "trajectory.from_file=null")
+    run_excitation(cfg, tmp_path)
+    bag = read_joint_trajectory_bag(tmp_path / "exciting_motion_bag")
+    assert bag.joint_names == tuple(f"panda_joint{j}" for j in range(1, 8))
+    assert "panda_joint1" in (tmp_path / "exciting_motion_goal.yaml").read_text()

@@ -103,6 +103,8 @@ class RobotGeometry:
     """Link pairs the SRDF disables (``disable_collisions``)."""
     source: str = ""
     """Where the geometry came from (for reports)."""
+    joint_names: tuple[str, ...] = ()
+    """The URDF's names of the robot's joints, in the robot's order (what its controller calls them)."""
 
     @property
     def links(self) -> tuple[str, ...]:
@@ -376,4 +378,6 @@ def load_robot_geometry(source: CollisionSource, robot_model: pin.Model) -> Robo
             raise CollisionGeometryError(f"SRDF {source.srdf} not found")
     disabled = disabled_pairs_from_srdf(srdf) if srdf is not None else frozenset()
     described = f"{urdf}" + (f" + {srdf}" if srdf is not None else "")
-    return RobotGeometry(tuple(shapes), disabled, described)
+    urdf_names = {r: str(urdf_model.names[u]) for u, r in joints.items() if r}
+    names = tuple(urdf_names[j] for j in range(1, robot_model.njoints))
+    return RobotGeometry(tuple(shapes), disabled, described, names)

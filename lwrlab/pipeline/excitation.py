@@ -242,15 +242,18 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
         from lwrlab.io.ros2_trajectory import write_follow_joint_trajectory_goal, write_joint_trajectory_bag
 
         arrays = (trajectory.t, trajectory.q, trajectory.dq, trajectory.ddq)
+        # a controller knows the joints by the URDF's names (a modified-DH robot's own are joint1…)
+        geometry = problem.constraint_set.scene.geometry
+        joint_names = list(geometry.joint_names if geometry is not None else robot.joint_names)
         bag = output_dir / "exciting_motion_bag"
         if bag.exists():
             import shutil
 
             shutil.rmtree(bag)
-        write_joint_trajectory_bag(bag, list(robot.joint_names), *arrays)
+        write_joint_trajectory_bag(bag, joint_names, *arrays)
         write_follow_joint_trajectory_goal(
             output_dir / "exciting_motion_goal.yaml",
-            list(robot.joint_names),
+            joint_names,
             *arrays,
             rate_hz=goal_rate(*arrays),
         )
@@ -259,7 +262,7 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
             "## On the robot",
             "",
             "Start pose (bring the arm there at rest first), rad: "
-            + ", ".join(f"{n} {v:.4f}" for n, v in zip(robot.joint_names, trajectory.q[0], strict=True)),
+            + ", ".join(f"{n} {v:.4f}" for n, v in zip(joint_names, trajectory.q[0], strict=True)),
             "",
             "ROS 2: `exciting_motion_bag/` (one `trajectory_msgs/msg/JointTrajectory`) and "
             "`exciting_motion_goal.yaml` (a `control_msgs/action/FollowJointTrajectory` goal; its header "
