@@ -158,6 +158,7 @@ class OptimalExcitingMotion:
         trajectory's metadata (``cost``), the motion in the trajectory itself.
         """
         motion = self._load(robot, self.from_file) if self.from_file else None
+        checked = False
         if motion is not None and self._from_library():
             check = check_motion_at(robot, motion, self.constraints, rate_hz)
             if not check.passed:  # made for this robot's meshes, say, while only its spheres are at hand
@@ -167,11 +168,13 @@ class OptimalExcitingMotion:
                     check.describe(),
                 )
                 motion = None
+            checked = motion is not None
         cost = None
         if motion is None:
             motion, result, _ = self.optimise(robot)
             cost = result.cost
-        check_motion(robot, motion, self.constraints, rate_hz)
+        if not checked:
+            check_motion(robot, motion, self.constraints, rate_hz)
         trajectory = motion.sample(robot, rate_hz)
         metadata = {
             **trajectory.metadata,
