@@ -218,3 +218,27 @@ def test_the_panda_motion_is_exported_with_the_joint_names_its_controller_knows(
     bag = read_joint_trajectory_bag(tmp_path / "exciting_motion_bag")
     assert bag.joint_names == tuple(f"panda_joint{j}" for j in range(1, 8))
     assert "panda_joint1" in (tmp_path / "exciting_motion_goal.yaml").read_text()
+
+
+@pytest.mark.slow
+def test_a_rejected_motion_fails_the_command_in_one_line_and_the_run_in_mlflow(tmp_path: Path) -> None:
+    """What a user sees: exit status 1, one line saying why, the run FAILED with its error, the
+    rejected motion on disk under its own name."""
+    completed = run_lwrlab(
+        tmp_path,
+        "task=excitation",
+        *QUICK,
+        "trajectory.rate_hz=10",
+        "trajectory.window_s=0.1",
+        "trajectory.constraints.limit_margin=0.0",
+        "trajectory.constraints.distance_margin=0.0",
+    )
+    assert completed.returncode == 1
+    errors = [line for line in completed.stderr.splitlines() if line.startswith("lwrlab: ")]
+    assert len(errors) == 1 and "not written as a motion to run" in errors[0], completed.stderr[-2000:]
+    assert "Traceback" not in completed.stderr
+    run = only_run(tmp_path, "excitation")
+    assert run.info.status == "FAILED"
+    folder = tmp_path / "run"
+    assert (folder / "rejected_exciting_motion.yaml").is_file()
+    assert not (folder / "exciting_motion.yaml").exists()
