@@ -24,6 +24,7 @@ import numpy as np
 from lwrlab.excitation.approaches import ClosestApproach
 from lwrlab.excitation.collision_scene import CollisionScene
 from lwrlab.excitation.sphere_distances import SphereDistances
+from lwrlab.model.enclosing_spheres import hull_vertices
 
 APPROACH_CANDIDATES = 12
 """Exact distances computed per pair for its closest approach: at the samples of smallest bound, no two
@@ -43,7 +44,7 @@ class ExactGeometry:
         self._convex: dict[int, object] = {}
         # hull vertices of each body in its joint frame: the plane test needs only them
         self.hull = {
-            b: _hull_vertices(np.vstack([s.vertices_in_joint_frame() for s in shapes]))
+            b: hull_vertices(np.vstack([s.vertices_in_joint_frame() for s in shapes]))
             for b, shapes in self.shapes.items()
         }
 
@@ -73,12 +74,8 @@ class ExactGeometry:
         coal = self._coal
         obj = self.scene.world[pair[1]] if family == "world" else None
         if obj is not None and obj.shape == "plane":
-            pose = self.body_pose(pair[0], poses)
-            points = self.hull[pair[0]] @ pose[:3, :3].T + pose[:3, 3]
-            heights = obj.signed_distance(points)[0]
-            k = int(np.argmin(heights))
-            below = points[k] - heights[k] * obj.pose[:3, 2]
-            return float(heights[k]), points[k], below
+            heights, points = obj.lowest(self.hull[pair[0]], self.body_pose(pair[0], poses)[None])
+            return float(heights[0]), points[0], points[0] - heights[0] * obj.pose[:3, 2]
         best = (np.inf, np.zeros(3), np.zeros(3))
         request = coal.DistanceRequest()
         request.enable_signed_distance = True
@@ -135,15 +132,6 @@ class ExactGeometry:
                 if coal.collide(geometry_a, placement_a, geometry_b, placement_b, request, result):
                     return True
         return False
-
-
-def _hull_vertices(points: np.ndarray) -> np.ndarray:
-    from scipy.spatial import ConvexHull, QhullError
-
-    try:
-        return points[ConvexHull(points).vertices]
-    except (QhullError, ValueError):
-        return points
 
 
 @dataclass(frozen=True)
@@ -294,20 +282,9 @@ def _plane_check(
     """A body against a plane at every sample at once: the lowest vertex of its hull is exact."""
     body, plane = pair[0], scene.world[pair[1]]
     joint = int(scene.body_joints[body])
-    pose = poses[joint - 1]  # (N, 4, 4)
-    # heights of the hull's vertices: n·(R·v + p − o) = (Rᵀn)·v + n·(p − o), one matrix product
-    normal, origin = plane.pose[:3, 2], plane.pose[:3, 3]
-    directions = pose[:, :3, :3].transpose(0, 2, 1) @ normal  # (N, 3): Rᵀn
-    lowest = np.empty(len(t), dtype=int)
-    for start in range(0, len(t), 1000):  # (chunk, V) at a time: a CAD hull may have thousands of vertices
-        lowest[start : start + 1000] = np.argmin(
-            directions[start : start + 1000] @ exact.hull[body].T, axis=1
-        )
-    distance = (
-        np.einsum("ni,ni->n", directions, exact.hull[body][lowest]) + (pose[:, :3, 3] - origin) @ normal
-    )
+    distance, points = plane.lowest(exact.hull[body], poses[joint - 1])
     k = int(np.argmin(distance))
-    point = pose[k, :3, :3] @ exact.hull[body][lowest[k]] + pose[k, :3, 3]
+    point = points[k]
     approach = ClosestApproach(
         "world", scene.bodies[body], plane.name, float(distance[k]), float(t[k]), point,
         point - distance[k] * plane.pose[:3, 2], clearance,

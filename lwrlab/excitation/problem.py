@@ -143,6 +143,7 @@ class ExcitationProblem:
         # The last sample (at rest) joins the last window rather than making one of its own.
         self.window_starts = np.arange(0, max(len(self.times) - 1, 1), samples_per_window)
         self._cache: _Evaluation | None = None
+        self._safe_poses: dict[tuple[int, int], np.ndarray] = {}
 
     # --- variables ------------------------------------------------------------------------------
 
@@ -185,7 +186,10 @@ class ExcitationProblem:
 
     def safe_pose(self, n_candidates: int = 500, seed: int = 0) -> np.ndarray:
         """The random pose (within the position bounds) farthest from violating any constraint at rest:
-        the largest smallest scaled slack over every family, distances in metres."""
+        the largest smallest scaled slack over every family, distances in metres. Found once per
+        problem (every start of an optimiser asks for it)."""
+        if (n_candidates, seed) in self._safe_poses:
+            return self._safe_poses[(n_candidates, seed)]
         rng = np.random.default_rng(seed)
         low, high = self.constraint_set.position_bounds
         poses = np.vstack(
@@ -197,7 +201,8 @@ class ExcitationProblem:
             [np.min(slack / self.constraint_set.scales(family), axis=1) for family, slack in slacks.items()],
             axis=0,
         )
-        return poses[int(np.argmax(worst))]
+        self._safe_poses[(n_candidates, seed)] = poses[int(np.argmax(worst))]
+        return self._safe_poses[(n_candidates, seed)]
 
     # --- evaluation -----------------------------------------------------------------------------
 

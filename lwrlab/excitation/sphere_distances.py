@@ -5,9 +5,9 @@ their enclosing spheres, for many configurations at once, with their derivatives
 * a (body, world object) distance is the smallest ``sdf(c_i) − r_i`` over the body's spheres (plane,
   box, sphere, cylinder: exact signed distances), or the smallest gap to a mesh object's spheres.
 
-Since the spheres contain the bodies, these distances are lower bounds of the true ones. Columns are
-padded to the largest number of sphere pairs and the samples processed in chunks, so memory stays
-bounded on a 1 kHz motion.
+Since the spheres contain the bodies, these distances are lower bounds of the true ones. The sphere
+pairs of all columns are flattened into one array and reduced per column, and the samples processed in
+chunks, so memory stays bounded on a 1 kHz motion.
 
 Spheres overshoot a link's surface by a centimetre or two: too much for links that are always close
 (a wrist next to the forearm, an upper arm next to the base), where the spheres would overlap in
@@ -69,23 +69,6 @@ class SphereDistances:
 
     # --- layout ---------------------------------------------------------------------------------
 
-    def _sphere_pairs(self, family: str, pairs: tuple[tuple[int, int], ...]) -> tuple[np.ndarray, np.ndarray]:
-        """Padded sphere index arrays (C, P) of the pairs (−1: padding); world columns against an
-        analytic object have −1 as second sphere."""
-        lists = []
-        for a, b in pairs:
-            first = self._body_spheres[a]
-            absent = np.array([-1])  # an analytic world object: no sphere on its side
-            second = self._body_spheres[b] if family == "self" else self._world_spheres.get(b, absent)
-            ia, ib = np.meshgrid(first, second, indexing="ij")
-            lists.append((ia.ravel(), ib.ravel()))
-        width = max((len(x) for x, _ in lists), default=1)
-        first_idx = np.full((len(lists), width), -1)
-        second_idx = np.full((len(lists), width), -1)
-        for c, (x, y) in enumerate(lists):
-            first_idx[c, : len(x)], second_idx[c, : len(y)] = x, y
-        return first_idx, second_idx
-
     def _centres(self, poses: np.ndarray) -> np.ndarray:
         """(S_all, N, 3): the robot's sphere centres then the fixed world spheres."""
         robot = self.scene.sphere_centres(poses)
@@ -97,7 +80,8 @@ class SphereDistances:
     def self_distances(
         self, pairs: tuple[tuple[int, int], ...], poses: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Smallest sphere gap (N, C) of each body pair (m) and the padded column index reaching it."""
+        """Smallest sphere gap (N, C) of each body pair (m), and how it was measured (see
+        :meth:`pair_distances`)."""
         return self.pair_distances("self", pairs, poses)
 
     def world_distances(
@@ -178,18 +162,26 @@ class SphereDistances:
         n_columns = len(starts)
         out = np.full((n_columns, centres.shape[1]), np.inf)
         if len(first):
-            gap = centres[first] - centres[second]  # (M, N, 3)
-            gaps = np.sqrt(np.einsum("mnk,mnk->mn", gap, gap))
-            gaps -= (self.all_radii[first] + self.all_radii[second])[:, None]
+            gaps = self._sphere_gaps(first, second, centres)
             sphere_columns = np.array(
                 [c for c in range(n_columns) if c not in {a[0] for a in analytic}], dtype=int
             )
             out[sphere_columns] = np.minimum.reduceat(gaps, starts[sphere_columns], axis=0)
         for c, w, spheres in analytic:
-            points = centres[spheres].reshape(-1, 3)
-            distance = self.scene.world[w].signed_distance(points)[0].reshape(len(spheres), -1)
-            out[c] = np.min(distance - self.all_radii[spheres][:, None], axis=0)
+            out[c] = np.min(self._object_gaps(w, spheres, centres), axis=0)
         return out
+
+    def _sphere_gaps(self, first: np.ndarray, second: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        """(M, N) gaps ``‖c_a − c_b‖ − r_a − r_b`` of the sphere pairs (first, second)."""
+        gap = centres[first] - centres[second]  # (M, N, 3)
+        gaps = np.sqrt(np.einsum("mnk,mnk->mn", gap, gap))
+        return gaps - (self.all_radii[first] + self.all_radii[second])[:, None]
+
+    def _object_gaps(self, world: int, spheres: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        """(S, N) signed distances of the spheres to an analytic world object, minus their radii."""
+        points = centres[spheres].reshape(-1, 3)
+        distance = self.scene.world[world].signed_distance(points)[0].reshape(len(spheres), -1)
+        return distance - self.all_radii[spheres][:, None]
 
     # --- refinement by convex hulls -------------------------------------------------------------
 
@@ -281,17 +273,11 @@ class SphereDistances:
     def _plane_heights(self, body: int, plane_index: int, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Height (N,) of a body's hull above a plane at every sample — exact up to the δ of
         :meth:`_plane_points`, never above the true height — and the lowest point used (N, 3)."""
-        plane = self.scene.world[plane_index]
         hull, slack = self._plane_points(body)
-        joint = int(self.scene.body_joints[body])
-        pose = poses[joint - 1]
-        normal, origin = plane.pose[:3, 2], plane.pose[:3, 3]
-        heights = (pose[:, :3, :3].transpose(0, 2, 1) @ normal) @ hull.T  # (N, V): (Rᵀn)·v
-        heights += ((pose[:, :3, 3] - origin) @ normal)[:, None]
-        lowest = heights.argmin(axis=1)
-        rows = np.arange(len(lowest))
-        points = np.einsum("nij,nj->ni", pose[:, :3, :3], hull[lowest]) + pose[:, :3, 3]
-        return heights[rows, lowest] - slack, points
+        heights, points = self.scene.world[plane_index].lowest(
+            hull, poses[int(self.scene.body_joints[body]) - 1]
+        )
+        return heights - slack, points
 
     def _refine(
         self,
@@ -315,38 +301,6 @@ class SphereDistances:
                 hulls = self.hull_distances(q) if hulls is None else hulls
                 values[:, c] = hulls[(family, pair)][0]
                 where[:, c] = -1
-
-    def _gaps(
-        self,
-        family: str,
-        pairs: tuple[tuple[int, int], ...],
-        first: np.ndarray,
-        second: np.ndarray,
-        centres: np.ndarray,
-    ) -> np.ndarray:
-        """(C, P, N) gaps of every padded sphere pair (inf on padding)."""
-        gaps = np.full((*first.shape, centres.shape[1]), np.inf)
-        valid = first >= 0
-        c_a = centres[np.where(valid, first, 0)]  # (C, P, N, 3)
-        sphere_pair = valid & (second >= 0)
-        if sphere_pair.any():
-            c_b = centres[np.where(sphere_pair, second, 0)]
-            gap = (
-                np.linalg.norm(c_a - c_b, axis=-1)
-                - self.all_radii[np.where(valid, first, 0)][..., None]
-                - self.all_radii[np.where(sphere_pair, second, 0)][..., None]
-            )
-            gaps = np.where(sphere_pair[..., None], gap, gaps)
-        if family == "world":
-            for c, (_, w) in enumerate(pairs):
-                obj = self.scene.world[w]
-                if obj.shape == "mesh":
-                    continue
-                row = first[c][valid[c]]
-                points = c_a[c, : len(row)].reshape(-1, 3)
-                distance = obj.signed_distance(points)[0].reshape(len(row), -1)
-                gaps[c, : len(row)] = distance - self.all_radii[row][:, None]
-        return gaps
 
     # --- derivatives ----------------------------------------------------------------------------
 
@@ -402,23 +356,25 @@ class SphereDistances:
                 continue
             if all_centres is None:
                 all_centres = self._centres(all_poses)  # (S_all, U, 3)
-            first, second = self._sphere_pairs(family, (pair,))
+            first, second, _, analytic = self._flat_layout(family, (pair,))
             centres = all_centres[:, inverse[rows]]
-            gaps = self._gaps(family, (pair,), first, second, centres)[0]  # (P, m)
-            chosen = np.argmin(gaps, axis=0)
-            a, b = first[0, chosen], second[0, chosen]
             m = np.arange(len(rows))
-            point_a = centres[a, m]
-            jac_a = point_jacobians(model, poses, sphere_joints[a], point_a, scene.axes)
-            if b[0] >= 0:  # a sphere on the other side (a body, or a mesh object's)
-                point_b = centres[b, m]
-                jac = jac_a - point_jacobians(model, poses, sphere_joints[b], point_b, scene.axes)
-                gap = point_a - point_b
-                normal = gap / np.maximum(np.sqrt(np.sum(gap * gap, axis=1))[:, None], 1e-12)
-                out[rows] = np.einsum("mi,mij->mj", normal, jac)
-            else:  # an analytic world object
+            if analytic:  # an analytic world object: the sphere nearest it
+                spheres = analytic[0][2]
+                a = spheres[np.argmin(self._object_gaps(pair[1], spheres, centres), axis=0)]
+                point_a = centres[a, m]
+                jac_a = point_jacobians(model, poses, sphere_joints[a], point_a, scene.axes)
                 gradient = scene.world[pair[1]].signed_distance(point_a)[1]
                 out[rows] = np.einsum("mi,mij->mj", gradient, jac_a)
+                continue
+            chosen = np.argmin(self._sphere_gaps(first, second, centres), axis=0)  # a body's or a mesh's
+            a, b = first[chosen], second[chosen]
+            point_a, point_b = centres[a, m], centres[b, m]
+            jac = point_jacobians(model, poses, sphere_joints[a], point_a, scene.axes)
+            jac = jac - point_jacobians(model, poses, sphere_joints[b], point_b, scene.axes)
+            gap = point_a - point_b
+            normal = gap / np.maximum(np.sqrt(np.sum(gap * gap, axis=1))[:, None], 1e-12)
+            out[rows] = np.einsum("mi,mij->mj", normal, jac)
         return out
 
     # --- exact contacts, for choosing pairs -----------------------------------------------------

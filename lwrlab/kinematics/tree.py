@@ -119,14 +119,7 @@ def point_jacobian(
     Revolute joint i moving the body: ``a_i × (p − o_i)``; prismatic: ``a_i``, with ``a_i`` and ``o_i``
     joint i's axis and origin in the base frame from ``poses`` (:func:`joint_poses`).
     """
-    axes = joint_axes(model) if axes is None else axes
-    jac = np.zeros((points.shape[0], 3, model.nv))
-    for i in supports(model)[joint]:
-        frame = poses[i - 1]
-        axis = frame[:, :3, :3] @ axes[i - 1].axis
-        column = np.cross(axis, points - frame[:, :3, 3]) if axes[i - 1].revolute else axis
-        jac[:, :, model.joints[i].idx_v] = column
-    return jac
+    return point_jacobians(model, poses, np.full(points.shape[0], joint), points, axes)
 
 
 def support_matrix(model: pin.Model) -> np.ndarray:

@@ -268,7 +268,7 @@ def sphere_mesh(radius: float, n: int = ROUND_SEGMENTS) -> tuple[np.ndarray, np.
     return points * radius / inradius, hull.simplices
 
 
-def _mesh_of(geometry: Any, mesh_path: str) -> tuple[np.ndarray, np.ndarray, float | None]:
+def enclosing_mesh(geometry: Any, mesh_path: str) -> tuple[np.ndarray, np.ndarray, float | None]:
     """Vertices, faces of a mesh containing a coal geometry, and the radius if it is a sphere."""
     kind = type(geometry).__name__
     if kind == "Box":
@@ -356,7 +356,7 @@ def load_robot_geometry(source: CollisionSource, robot_model: pin.Model) -> Robo
     _check_same_frames(urdf_model, robot_model, joints, urdf)
     shapes = []
     for obj in geometry_model.geometryObjects:
-        vertices, faces, radius = _mesh_of(obj.geometry, obj.meshPath)
+        vertices, faces, radius = enclosing_mesh(obj.geometry, obj.meshPath)
         shapes.append(
             CollisionShape(
                 name=obj.name,

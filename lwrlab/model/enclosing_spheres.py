@@ -38,7 +38,7 @@ def smallest_ball(points: np.ndarray, iterations: int = 200) -> tuple[np.ndarray
     Bădoiu–Clarkson: step towards the farthest point by 1/(i+1); the radius is then the exact largest
     distance, so the ball contains every point whatever the iterations.
     """
-    points = _hull_vertices(points)  # the farthest point is always a vertex of the hull
+    points = hull_vertices(points)  # the farthest point is always a vertex of the hull
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
     for i in range(1, iterations + 1):
         far = points[np.argmax(np.sum((points - centre) ** 2, axis=1))]
@@ -46,7 +46,8 @@ def smallest_ball(points: np.ndarray, iterations: int = 200) -> tuple[np.ndarray
     return centre, float(np.sqrt(np.max(np.sum((points - centre) ** 2, axis=1))))
 
 
-def _hull_vertices(points: np.ndarray) -> np.ndarray:
+def hull_vertices(points: np.ndarray) -> np.ndarray:
+    """The vertices of the convex hull of ``points`` (M, 3); all of them when they are flat or few."""
     from scipy.spatial import ConvexHull, QhullError
 
     try:

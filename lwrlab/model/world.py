@@ -28,6 +28,8 @@ import pinocchio as pin
 
 Shape = Literal["plane", "box", "sphere", "cylinder", "mesh"]
 SHAPES: tuple[str, ...] = ("plane", "box", "sphere", "cylinder", "mesh")
+LOWEST_CHUNK = 2_000_000
+"""Heights (poses × points) computed at once by :meth:`WorldObject.lowest` (16 MB)."""
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,26 @@ class WorldObject:
         else:
             raise ValueError(f"world object {self.name!r}: a mesh has no signed distance, use its spheres")
         return distance, gradient @ rotation.T
+
+    def lowest(self, points: np.ndarray, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For a plane: the height (N,) above it of the lowest of ``points`` (V, 3, a body's frame)
+        carried by each of ``poses`` (N, 4, 4), and that point (N, 3, base frame).
+
+        Heights are ``n·(R·v + p − o) = (Rᵀn)·v + n·(p − o)``: one product, for at most
+        :data:`LOWEST_CHUNK` heights at a time (a smooth CAD hull has thousands of vertices)."""
+        normal, origin = self.pose[:3, 2], self.pose[:3, 3]
+        directions = poses[:, :3, :3].transpose(0, 2, 1) @ normal  # (N, 3): Rᵀn
+        offsets = (poses[:, :3, 3] - origin) @ normal
+        lowest = np.empty(len(poses), dtype=int)
+        heights = np.empty(len(poses))
+        rows = max(1, LOWEST_CHUNK // max(len(points), 1))
+        for start in range(0, len(poses), rows):
+            chunk = slice(start, start + rows)
+            all_heights = directions[chunk] @ points.T + offsets[chunk, None]  # (chunk, V)
+            lowest[chunk] = np.argmin(all_heights, axis=1)
+            heights[chunk] = all_heights[np.arange(len(all_heights)), lowest[chunk]]
+        posed = np.einsum("nij,nj->ni", poses[:, :3, :3], points[lowest]) + poses[:, :3, 3]
+        return heights, posed
 
 
 def _box_distance(p: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -132,7 +154,7 @@ def build_obstacle(entry: Mapping[str, Any], index: int) -> WorldObject:
     """A world object from a config entry (module docstring); errors name the entry and the key."""
     import coal
 
-    from lwrlab.model.collision_geometry import box_mesh, prism_mesh, sphere_mesh
+    from lwrlab.model.collision_geometry import box_mesh, enclosing_mesh, prism_mesh, sphere_mesh
     from lwrlab.model.enclosing_spheres import enclosing_spheres
 
     where = f"trajectory.constraints.world.obstacles[{index}]"
@@ -176,8 +198,7 @@ def build_obstacle(entry: Mapping[str, Any], index: int) -> WorldObject:
     scale = np.asarray(entry.get("scale", (1.0, 1.0, 1.0)), dtype=float)
     loader = coal.MeshLoader()
     geometry = loader.load(str(path), scale)
-    vertices = np.asarray(geometry.vertices(), dtype=float)
-    faces = np.array([[geometry.tri_indices(i)[k] for k in range(3)] for i in range(geometry.num_tris)])
+    vertices, faces, _ = enclosing_mesh(geometry, str(path))
     posed = _posed(vertices, pose)
     return WorldObject(
         name, "mesh", pose, np.zeros(0), geometry, posed, faces, enclosing_spheres(posed, faces)
