@@ -8,7 +8,7 @@ temporary folder, then times, in alternating rounds (so a change of machine load
 - the same with tracking on, logging into a new SQLite MLflow store each round (a new project);
 - the same with tracking on, logging into one store that earlier runs created (the usual case).
 
-A new store is a copy of MLflow's empty migrated database (:mod:`lwrlab.tracking.schema_template`),
+A new store is a copy of MLflow's empty migrated database (:mod:`lwrlab.tracking.store.schema_template`),
 built once per MLflow version; it is built before the rounds, so that all rounds time the same thing.
 Prints the median wall time of each and its ratio to the floor, and the same for CPU time (user +
 system), which other processes on a busy machine disturb less than wall time.

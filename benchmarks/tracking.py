@@ -102,7 +102,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=10, help="timed callback runs (default 10)")
     arguments = parser.parse_args()
     jobs = arguments.jobs
-    from lwrlab.tracking.store import prepare_sqlite_store
+    from lwrlab.tracking.store.sqlite import prepare_sqlite_store
 
     with tempfile.TemporaryDirectory(prefix="lwrlab_bench_") as scratch:
         root = Path(scratch)

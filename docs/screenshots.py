@@ -9,8 +9,10 @@ The script follows the walk-through as a reader would:
 3. drives headless Chromium over the DevTools protocol on a pipe (no debugging port is opened) and
    captures, at 1400×900:
 
-   - ``mlflow_runs.png``: the experiment's runs table, the sweep expanded, with the columns
-     ``estimator``, ``seed``, ``rms_mean``, ``nrms_mean`` and ``base_parameter_error``;
+   - ``mlflow_runs.png``: the experiment's runs table, the sweep expanded, with the Dataset column and
+     ``estimator``, ``seed``, ``accuracy/rms_mean``,
+     ``accuracy/base_parameter_error``, the sweep's ``summary/best_rms_mean`` and the comparison run's
+     ``estimator:wls/rms_mean``;
    - ``mlflow_runs_grouped.png``: the same runs grouped by ``estimator`` (averages over seeds);
    - ``mlflow_compare.png``: the compare-runs page of the six job runs;
 
@@ -60,9 +62,10 @@ MAX_PNG_BYTES = 300_000
 COLUMNS = [
     "params.`estimator`",
     "params.`seed`",
-    "metrics.`rms_mean`",
-    "metrics.`nrms_mean`",
-    "metrics.`base_parameter_error`",
+    "metrics.`accuracy/rms_mean`",
+    "metrics.`accuracy/base_parameter_error`",
+    "metrics.`summary/best_rms_mean`",
+    "metrics.`estimator:wls/rms_mean`",
 ]
 
 
@@ -327,14 +330,23 @@ def take_screenshots(uri: str, browser: HeadlessChromium, base_url: str, output:
     if experiment is None:
         raise SystemExit(f"no experiment {EXPERIMENT!r} in {uri}")
     runs = client.search_runs([experiment.experiment_id], "attributes.status = 'FINISHED'")
-    jobs = [run for run in runs if "estimator" in run.data.params and "rms_mean" in run.data.metrics]
+    jobs = [run for run in runs if "estimator" in run.data.params and "accuracy/rms_mean" in run.data.metrics]
     parents = {run.data.tags.get("mlflow.parentRunId") for run in jobs} - {None}
     if not jobs:
         raise SystemExit(f"no finished identification run in {EXPERIMENT!r}")
     runs_url = f"{base_url}/#/experiments/{experiment.experiment_id}/runs?workflowType=machine_learning"
     estimators = sorted({run.data.params["estimator"] for run in jobs})
+    browser.open_page()
+    # The first visit lets the UI write its own view state (its default columns, Dataset among them);
+    # the views below are merged into it.
+    browser.show(runs_url, ["matching runs"])
+    key = view_state_key(experiment.experiment_id)
+    default = browser.evaluate(f"JSON.parse(localStorage.getItem({json.dumps(key)}) || '{{}}')")
+    # Of the default columns only Dataset says something here (Source, Models and Duration are empty or
+    # noise): the headline metrics then fit in the window beside it.
+    default_columns = [c for c in (default or {}).get("selectedColumns") or [] if "Dataset" in c]
     table_view = {
-        "selectedColumns": COLUMNS,
+        "selectedColumns": default_columns + COLUMNS,
         "runsExpanded": {parent: True for parent in parents},
         "orderByKey": "params.`estimator`",
         "orderByAsc": True,
@@ -348,22 +360,19 @@ def take_screenshots(uri: str, browser: HeadlessChromium, base_url: str, output:
     }
     table_view["groupBy"] = None
     written = []
-    browser.open_page()
-    # The first visit lets the UI write its own view state; the views below are merged into it.
-    browser.show(runs_url, ["matching runs"])
     for name, view, ready in [
         (
             "mlflow_runs.png",
             table_view,
-            ["matching runs", "base_parameter_error", jobs[0].info.run_name[:12]],
+            ["matching runs", "accuracy/base_parameter_error", jobs[0].info.run_name[:12]],
         ),
         (
             "mlflow_runs_grouped.png",
             grouped_view,
-            ["matching runs", "base_parameter_error", f"Group: {estimators[0]}"],
+            ["matching runs", "accuracy/base_parameter_error", f"Group: {estimators[0]}"],
         ),
     ]:
-        browser.update_local_storage(view_state_key(experiment.experiment_id), view)
+        browser.update_local_storage(key, view)
         browser.show(runs_url, ready)
         browser.screenshot(output / name)
         written.append(output / name)

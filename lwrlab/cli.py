@@ -26,8 +26,9 @@ from lwrlab.garbage_collection import freeze_heap_at_exit, relax_garbage_collect
 from lwrlab.numerics.threads import limit_process_blas_threads
 from lwrlab.pipeline.config_checks import check_config
 from lwrlab.resources import CONFIG_SEARCH_PATH
-from lwrlab.tracking import early_companion, job_state
-from lwrlab.tracking.processes import JobInterrupted
+from lwrlab.tracking.companion import early_companion
+from lwrlab.tracking.lifecycle import job_state
+from lwrlab.tracking.runs.processes import JobInterrupted
 
 log = logging.getLogger("lwrlab")
 
@@ -35,9 +36,9 @@ VERSIONED_DISTRIBUTIONS = ("hydra-core", "pin", "numpy", "scipy", "cvxpy", "mlfl
 """The libraries whose versions ``lwrlab --version`` names (what a bug report needs)."""
 
 SUBCOMMANDS = {
-    "report": "lwrlab.tracking.report",
-    "compare": "lwrlab.tracking.compare",
-    "sync": "lwrlab.tracking.sync",
+    "report": "lwrlab.tracking.reports.report",
+    "compare": "lwrlab.tracking.reports.compare",
+    "sync": "lwrlab.tracking.runs.sync",
 }
 """``lwrlab <name> ...`` runs ``<module>.main(argv)`` instead of a Hydra job."""
 

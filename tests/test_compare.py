@@ -8,9 +8,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from lwrlab.tracking.compare import compare_runs, to_markdown, write_comparison
-from lwrlab.tracking.report import pooling_refusal, unseparated_parameters
-from lwrlab.tracking.run_groups import swept_parameters
+from lwrlab.tracking.job_config.metric_sections import sectioned_name
+from lwrlab.tracking.reports.compare import (
+    compare_runs,
+    comparison_metrics,
+    group_key,
+    runs_view_hint,
+    to_markdown,
+    write_comparison,
+)
+from lwrlab.tracking.reports.report import pooling_refusal, unseparated_parameters
+from lwrlab.tracking.reports.run_groups import swept_parameters
+from lwrlab.tracking.reports.run_selection import plain_metric_columns
 
 ESTIMATORS = ("ols", "sdp", "wls")
 SEEDS = (0, 1, 2)
@@ -67,7 +76,51 @@ def test_one_row_per_estimator_with_seeds_pooled(runs: pd.DataFrame, tmp_path: P
     markdown = to_markdown(comparison)
     assert "rms_mean [N·m]" in markdown and "fit_cpu_s [s]" in markdown and " ± " in markdown
     written = write_comparison(comparison, tmp_path, "test")
-    assert {path.name for path in written} == {"compare.md", "compare.csv", "runs.csv", "rms_per_joint.png"}
+    assert {path.name for path in written} == {
+        "compare.md",
+        "compare.csv",
+        "runs.csv",
+        "rms_per_joint.png",
+        "compare.html",
+    }
+
+
+def test_the_comparison_run_carries_its_table_as_group_metrics_and_a_self_contained_page(
+    runs: pd.DataFrame, tmp_path: Path
+) -> None:
+    comparison = compare_runs(runs)
+    metrics = comparison_metrics(comparison)
+    for estimator in ESTIMATORS:
+        key = group_key(f"estimator={estimator}")
+        assert key == f"estimator:{estimator}"  # a valid MLflow key ('=' is not)
+        assert metrics[f"{key}/runs"] == 3.0
+        assert metrics[f"{key}/rms_mean"] == pytest.approx(
+            comparison.table.loc[f"estimator={estimator}", "rms_mean"]
+        )
+    page = (write_comparison(comparison, tmp_path, "sweep")[-1]).read_text()
+    assert "data:image/png;base64," in page and "<script" in page  # the figure and the sorting inline
+    assert 'src="http' not in page and 'href="http' not in page  # nothing fetched
+    mean = float(comparison.table.loc["estimator=wls", "rms_mean"])
+    assert f'data-value="{mean!r}"' in page  # sorted by the number, not by its text
+    assert all(run_id in page for run_id in runs["run_id"])
+
+
+def test_runs_logged_with_and_without_sections_are_compared_alike(runs: pd.DataFrame) -> None:
+    sectioned = runs.rename(
+        columns={
+            c: "metrics." + sectioned_name(c[len("metrics.") :]) for c in runs if c.startswith("metrics.")
+        }
+    )
+    assert "metrics.accuracy/rms_mean" in sectioned and "metrics.joints/rms_joint1" in sectioned
+    mixed = pd.concat([sectioned.iloc[:4], runs.iloc[4:]], ignore_index=True)  # old and new runs together
+    table = compare_runs(plain_metric_columns(mixed)).table
+    pd.testing.assert_frame_equal(table, compare_runs(runs).table)
+
+
+def test_the_printed_link_uses_the_port_given() -> None:
+    hint = runs_view_hint("sqlite:////lab/mlflow.db", "7", ui_port=5123)
+    assert hint is not None and "--port 5123" in hint and "http://127.0.0.1:5123/#/experiments/7/runs" in hint
+    assert "--port" not in (runs_view_hint("sqlite:////lab/mlflow.db", "7") or "")
 
 
 def test_a_single_run_has_no_spread_and_an_unknown_group_is_named(runs: pd.DataFrame) -> None:

@@ -32,9 +32,9 @@ from tracking_apps import (
     wait_for_held_jobs,
 )
 
-from lwrlab.tracking.finalise import KILLED_BY_TAG
-from lwrlab.tracking.processes import descendant_pids, process_alive, send_signal, wait_until
-from lwrlab.tracking.run_queries import RETRIED_BY_TAG
+from lwrlab.tracking.runs.finalise import KILLED_BY_TAG
+from lwrlab.tracking.runs.processes import descendant_pids, process_alive, send_signal, wait_until
+from lwrlab.tracking.runs.run_queries import RETRIED_BY_TAG
 
 RAY_MISSING = importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is None
 CLUSTER_APP = REPO_ROOT / "tests" / "apps" / "ray_loopback_cluster.py"

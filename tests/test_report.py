@@ -18,9 +18,9 @@ from mlflow.tracking import MlflowClient
 from tracking_apps import TABLE_FIXTURES_APP, run_app
 
 from lwrlab.reference import paper_results
-from lwrlab.tracking.compare import main as compare_main
-from lwrlab.tracking.report import build_report, main
-from lwrlab.tracking.run_selection import REPORT_EXPERIMENT, selection_filter
+from lwrlab.tracking.reports.compare import main as compare_main
+from lwrlab.tracking.reports.report import build_report, main
+from lwrlab.tracking.reports.run_selection import REPORT_EXPERIMENT, selection_filter
 
 SEEDS = (0, 1, 2)
 

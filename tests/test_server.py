@@ -18,8 +18,8 @@ from pathlib import Path
 import pytest
 from tracking_apps import TOY_APP, all_logged_text, jobs_and_parents, run_app, runs_of
 
-from lwrlab.tracking.report import build_report
-from lwrlab.tracking.run_selection import selection_filter
+from lwrlab.tracking.reports.report import build_report
+from lwrlab.tracking.reports.run_selection import selection_filter
 
 pytestmark = pytest.mark.slow
 STARTUP_TIMEOUT_S = 120

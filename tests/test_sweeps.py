@@ -12,7 +12,8 @@ import pytest
 import yaml
 from tracking_apps import REPO_CONF, REPO_ROOT, TOY_APP, jobs_and_parents, run_app, runs_of
 
-from lwrlab.tracking.run_logging import ERROR_FILE, RESUMED_FILE
+from lwrlab.tracking.job_config.metric_sections import plain_metrics
+from lwrlab.tracking.runs.run_logging import ERROR_FILE, RESUMED_FILE
 
 # A 2 s multisine motion instead of the (optimised) default one: seconds per job.
 SHORT_JOB = [
@@ -149,10 +150,16 @@ def test_identification_sweep_3_by_3_with_joblib_and_its_table2_report(tmp_path:
     by_seed: dict[str, dict[float, float]] = {}
     for run in jobs:
         by_seed.setdefault(run.data.tags["seed"], {})[float(run.data.params["plant.torque_noise_std"])] = (
-            run.data.metrics["rms_mean"]
+            run.data.metrics["accuracy/rms_mean"]
         )
     for errors in by_seed.values():
         assert errors[0.05] < errors[0.1] < errors[0.2]
+    # The parent's row says what the sweep found: its jobs and the best and mean headline error.
+    summary = parents[0].data.metrics
+    rms = [run.data.metrics["accuracy/rms_mean"] for run in jobs]
+    assert (summary["summary/jobs"], summary["summary/finished"], summary["summary/failed"]) == (9, 9, 0)
+    assert summary["summary/best_rms_mean"] == min(rms)
+    assert summary["summary/mean_rms_mean"] == pytest.approx(sum(rms) / 9)
 
     # Table II pools seeds, not noise levels: refused for the whole sweep, built for one noise level.
     pooled = run_app(
@@ -213,7 +220,9 @@ def test_optuna_preset_tunes_cutoff_and_harmonics_on_cross_validation_rms(tmp_pa
     jobs, parents = jobs_and_parents(runs_of(uri, "tune_processing"))
     assert len(parents) == 1 and len(jobs) == 3
     best = yaml.safe_load((tmp_path / "sweep" / "optimization_results.yaml").read_text())
-    assert best["best_value"] == pytest.approx(min(run.data.metrics["rms_mean"] for run in jobs), rel=1e-12)
+    assert best["best_value"] == pytest.approx(
+        min(run.data.metrics["accuracy/rms_mean"] for run in jobs), rel=1e-12
+    )
     assert len({run.data.params["measurement.processing.cutoff_hz"] for run in jobs}) == 3
 
 
@@ -251,8 +260,8 @@ def test_rerunning_the_logged_config_reproduces_the_metrics_exactly(tmp_path: Pa
     )
     assert again.returncode == 0, again.stderr[-3000:]
     metrics = json.loads((tmp_path / "again" / "metrics.json").read_text())
-    timings = {
-        key for key in run.data.metrics if key.endswith(("cpu_s", "wall_s", "time_s"))
-    }  # clocks, not results
-    results = {key: value for key, value in run.data.metrics.items() if key not in timings}
+    logged = plain_metrics(run.data.metrics)  # MLflow's keys without their sections: metrics.json's names
+    timings = {key for key in logged if key.endswith(("cpu_s", "wall_s", "time_s"))}  # clocks, not results
+    results = {key: value for key, value in logged.items() if key not in timings}
     assert len(results) > 10 and {key: metrics[key] for key in results} == results  # bit for bit
+    assert set(logged) <= set(metrics)  # every metric MLflow shows is in metrics.json, by the same name

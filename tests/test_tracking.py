@@ -22,9 +22,16 @@ from omegaconf import OmegaConf
 from tracking_apps import unit_job_config
 
 from lwrlab.tracking import MlflowTracking, runs_table
-from lwrlab.tracking.config_params import PARAM_VALUE_MAX_LENGTH, config_hash, flatten_config, numeric_metrics
-from lwrlab.tracking.run_logging import ERROR_FILE, RUN_ID_FILE
-from lwrlab.tracking.store import absolute_tracking_uri
+from lwrlab.tracking.job_config.config_params import (
+    PARAM_VALUE_MAX_LENGTH,
+    config_hash,
+    flatten_config,
+    numeric_metrics,
+)
+from lwrlab.tracking.job_config.metric_sections import plain_name
+from lwrlab.tracking.job_config.run_params import MAX_PARAMS, RESOLVED_CONFIG_ARTIFACT
+from lwrlab.tracking.runs.run_logging import ERROR_FILE, RUN_ID_FILE
+from lwrlab.tracking.store.sqlite import absolute_tracking_uri
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 TOY_APP = REPO_ROOT / "tests" / "apps" / "toy_app.py"
@@ -111,11 +118,17 @@ def test_completed_job_is_a_finished_run_with_params_tags_metrics_and_artifacts(
     assert (job_dir / RUN_ID_FILE).read_text().strip() == run.info.run_id
 
     params = run.data.params
-    assert params["x"] == "3"
-    assert params["model.gains"] == "[1.0, 2.0, 3.0]"  # lists as strings
-    assert params["model.nested.depth"] == "2"  # nested keys joined by dots
-    assert params["experiment_name"] == "toy_ok"
-    assert not any(key.startswith("hydra") for key in params)
+    assert params["x"] == "3"  # overridden: it tells the run apart
+    assert params["seed"] == "7"  # a knob that changes results
+    assert params["tracking"] == "sqlite"  # a plugin choice by its short name
+    assert "model.gains" not in params and "model.nested.depth" not in params  # neither set nor a knob
+    assert not any(key.startswith("hydra") for key in params) and len(params) <= MAX_PARAMS
+    assert all("\n" not in value and not value.startswith(("[", "{")) for value in params.values())
+    client = MlflowClient(tracking_uri=tracking_uri)
+    resolved = OmegaConf.load(
+        client.download_artifacts(run.info.run_id, RESOLVED_CONFIG_ARTIFACT, str(tmp_path))
+    )
+    assert list(resolved.model.gains) == [1.0, 2.0, 3.0] and resolved.model.nested.depth == 2  # all of it
 
     tags = run.data.tags
     assert tags["overrides"] == "experiment_name=toy_ok x=3"  # the task overrides, not hydra.*
@@ -129,7 +142,10 @@ def test_completed_job_is_a_finished_run_with_params_tags_metrics_and_artifacts(
     if head is not None:
         assert tags["git_commit"] == head
 
-    assert run.data.metrics == {"doubled": 6.0, "per_joint_rms.0": 0.5, "per_joint_rms.1": 0.25}
+    # A list item is a joint's figure: filed under `joints/`; `doubled` has no section (MLflow's default).
+    assert run.data.metrics == {"doubled": 6.0, "joints/per_joint_rms.0": 0.5, "joints/per_joint_rms.1": 0.25}
+    returned = {"doubled": 6.0, "per_joint_rms.0": 0.5, "per_joint_rms.1": 0.25}
+    assert {plain_name(key): value for key, value in run.data.metrics.items()} == returned
     assert {"table.csv", ".hydra", RUN_ID_FILE, "toy_app.log"} <= artifact_paths(
         tracking_uri, run.info.run_id
     )
@@ -220,7 +236,7 @@ def test_unreachable_server_warns_once_and_keeps_the_job_result(
         tmp_path, {"_target_": "lwrlab.tracking.MlflowTracking", "tracking_uri": uri, "experiment": "x"}
     )
     (tmp_path / "job").mkdir()
-    with caplog.at_level(logging.DEBUG, logger="lwrlab.tracking.mlflow_callback"):
+    with caplog.at_level(logging.DEBUG, logger="lwrlab.tracking.lifecycle.mlflow_callback"):
         for status, value in [
             (JobStatus.COMPLETED, {"metrics": {"a": 1.0}}),
             (JobStatus.FAILED, ValueError("boom")),

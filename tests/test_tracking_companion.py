@@ -22,12 +22,14 @@ from mlflow.entities import Run
 from mlflow.tracking import MlflowClient
 from tracking_apps import TOY_APP, run_app, runs_of, start_app, unit_job_config, wait_for_files
 
-from lwrlab.tracking import MlflowTracking, early_companion
-from lwrlab.tracking.companion import GONE_REASON
-from lwrlab.tracking.companion_link import CompanionLink, ForwardedError
-from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
-from lwrlab.tracking.processes import descendant_pids, process_alive, wait_until
-from lwrlab.tracking.run_logging import RUN_ID_FILE
+from lwrlab.tracking import MlflowTracking
+from lwrlab.tracking.companion import early_companion
+from lwrlab.tracking.companion.companion_link import CompanionLink
+from lwrlab.tracking.companion.process import GONE_REASON
+from lwrlab.tracking.runs.finalise import KILLED_BY_TAG, OUTPUTS_TAG
+from lwrlab.tracking.runs.forwarded_error import ForwardedError
+from lwrlab.tracking.runs.processes import descendant_pids, process_alive, wait_until
+from lwrlab.tracking.runs.run_logging import RUN_ID_FILE
 
 PROCESS_FILE = "job_process.json"  # tests/apps/toy_app.py writes it when TOY_REPORT_PROCESS is set
 COMPANION_FLAG = "hydra.callbacks.mlflow.companion"
@@ -210,7 +212,7 @@ def test_an_unconfigured_companion_exits_quietly_when_closed_or_left() -> None:
         [
             sys.executable,
             "-c",
-            "import os; from lwrlab.tracking.companion_link import CompanionLink; "
+            "import os; from lwrlab.tracking.companion.companion_link import CompanionLink; "
             "print(CompanionLink.launch().process.pid, flush=True); os._exit(0)",
         ],
         capture_output=True,

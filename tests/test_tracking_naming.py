@@ -10,9 +10,9 @@ from mlflow.tracking import MlflowClient
 from omegaconf import OmegaConf
 from tracking_apps import TOY_APP, jobs_and_parents, run_app, runs_of
 
-from lwrlab.tracking.config_params import plugin_choices
-from lwrlab.tracking.mlflow_callback import InProcessTracking
-from lwrlab.tracking.naming import (
+from lwrlab.tracking.companion.callback import MlflowTracking
+from lwrlab.tracking.job_config.config_params import plugin_choices
+from lwrlab.tracking.job_config.naming import (
     DESCRIPTION_TAG,
     EXPERIMENT_KIND,
     EXPERIMENT_KIND_TAG,
@@ -20,6 +20,7 @@ from lwrlab.tracking.naming import (
     run_name,
     swept_keys,
 )
+from lwrlab.tracking.lifecycle.mlflow_callback import InProcessTracking
 
 
 def test_swept_overrides_come_first_and_plugin_choices_read_as_their_names() -> None:
@@ -82,7 +83,9 @@ def test_plugin_choices_are_params_under_their_group_names() -> None:
 )
 def test_one_experiment_per_task_or_preset_unless_named(overrides: list[str], experiment: str) -> None:
     config = compose_config(*overrides, hydra_node=True)
-    callback = InProcessTracking("sqlite:///x.db", "${experiment_name}", None, True, True)
+    callback = InProcessTracking(
+        "sqlite:///x.db", "${experiment_name}", None, True, True, configured_as=MlflowTracking
+    )
     assert callback.settings_for(config).experiment == experiment
 
 

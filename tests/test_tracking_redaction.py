@@ -14,7 +14,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 from tracking_apps import TOY_APP, all_logged_text, run_app, runs_of
 
-from lwrlab.tracking.redaction import (
+from lwrlab.tracking.job_config.redaction import (
     REDACTED,
     Redactor,
     is_secret_key,

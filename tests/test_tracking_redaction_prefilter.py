@@ -5,7 +5,7 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from lwrlab.tracking.redaction import (
+from lwrlab.tracking.job_config.redaction import (
     SECRET_KEY_WORD,
     Redactor,
     _may_name_a_secret_key,

@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 from tracking_apps import TOY_APP, all_logged_text, jobs_and_parents, run_app, runs_of
 
-from lwrlab.tracking.offline import OFFLINE_RECORD, SYNCED_RECORD
-from lwrlab.tracking.redaction import REDACTED, Redactor, redact_uri_passwords
-from lwrlab.tracking.store import is_locked_error, retry_locked
+from lwrlab.tracking.job_config.redaction import REDACTED, Redactor, redact_uri_passwords
+from lwrlab.tracking.runs.offline import OFFLINE_RECORD, SYNCED_RECORD
+from lwrlab.tracking.store.sqlite import is_locked_error, retry_locked
 
 SECRET_URI = "postgresql://user:secret@host/db"
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from mlflow.tracking import MlflowClient
 
-from lwrlab.tracking import schema_template
-from lwrlab.tracking.store import prepare_sqlite_store
+from lwrlab.tracking.store import schema_template
+from lwrlab.tracking.store.sqlite import prepare_sqlite_store
 
 
 def _statements(database: Path) -> list[str]:

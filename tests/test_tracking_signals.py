@@ -28,9 +28,9 @@ from tracking_apps import (
     wait_for_held_jobs,
 )
 
-from lwrlab.tracking.finalise import KILLED_BY_TAG, OUTPUTS_TAG
-from lwrlab.tracking.processes import descendant_pids, process_alive, wait_until
-from lwrlab.tracking.run_logging import RUN_ID_FILE
+from lwrlab.tracking.runs.finalise import KILLED_BY_TAG, OUTPUTS_TAG
+from lwrlab.tracking.runs.processes import descendant_pids, process_alive, wait_until
+from lwrlab.tracking.runs.run_logging import RUN_ID_FILE
 
 # The paper's whole chain (identification, tool, painting in MuJoCo): ~10 s on one core, of which
 # the run's start takes ~3 s (MLflow loads in the tracking companion), so a signal finds it busy.

@@ -6,6 +6,7 @@ the same path. The command is checked end to end on a real SQLite store with one
 
 from __future__ import annotations
 
+import json
 import re
 import shlex
 from pathlib import Path
@@ -13,7 +14,7 @@ from pathlib import Path
 import pytest
 from mlflow.tracking import MlflowClient
 
-from lwrlab.tracking.compare import MLFLOW_UI_ADDRESS, main, runs_view_hint
+from lwrlab.tracking.reports.compare import MLFLOW_UI_ADDRESS, main, runs_view_hint
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -65,3 +66,37 @@ def test_compare_prints_the_hint_after_its_table_with_the_experiment_id(
         f"MLflow UI: mlflow ui --backend-store-uri {store}, "
         f"then open {MLFLOW_UI_ADDRESS}/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
     )
+
+
+def test_compare_links_the_port_given_and_logs_its_table_as_metrics_and_a_table(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    client = MlflowClient(tracking_uri=uri)
+    experiment_id = client.create_experiment("ui_port", str(tmp_path / "artifacts"))
+    for estimator, rms in (("ols", 0.2), ("wls", 0.1)):
+        run = client.create_run(experiment_id, tags={"run_kind": "job"})
+        client.log_param(run.info.run_id, "estimator", estimator)
+        client.log_metric(run.info.run_id, "accuracy/rms_mean", rms)  # as a job logs it
+        client.set_terminated(run.info.run_id, "FINISHED")
+    assert main(["--tracking-uri", uri, "--experiment", "ui_port", "--ui-port", "5123"]) == 0
+    printed = capsys.readouterr().out
+    hint = next(line for line in printed.splitlines() if line.startswith("MLflow UI: "))
+    assert "--port 5123, then open http://127.0.0.1:5123/#/experiments/" in hint
+    (compared,) = client.search_runs([experiment_id], "tags.run_kind = 'compare'")
+    assert compared.data.metrics == {
+        "estimator:ols/runs": 1.0,
+        "estimator:ols/rms_mean": 0.2,
+        "estimator:wls/runs": 1.0,
+        "estimator:wls/rms_mean": 0.1,
+    }
+    artifacts = {item.path for item in client.list_artifacts(compared.info.run_id)}
+    assert {"compare_table.json", "compare.html", "compare.md"} <= artifacts
+    table = json.loads(
+        Path(client.download_artifacts(compared.info.run_id, "compare_table.json", str(tmp_path))).read_text()
+    )
+    groups = [row[table["columns"].index("group")] for row in table["data"]]  # MLflow's table layout
+    assert sorted(groups) == ["estimator=ols", "estimator=wls"] and "rms_mean" in table["columns"]
+    logged = json.loads(compared.data.tags["mlflow.loggedArtifacts"])  # what makes the UI show it as a table
+    assert {"path": "compare_table.json", "type": "table"} in logged

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from lwrlab.errors import MissingFileError
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
@@ -70,7 +71,7 @@ def identified_model_path(source: str | Path) -> Path:
     if path.is_dir():
         path = path / IDENTIFIED_MODEL_FILE
     if not path.is_file():
-        raise FileNotFoundError(f"identified model {path} does not exist")
+        raise MissingFileError(f"identified model {path} does not exist")
     return path
 
 

@@ -14,17 +14,20 @@ from typing import Any
 
 import yaml
 
+from lwrlab.errors import MissingFileError
+
 REPOSITORY = Path(__file__).resolve().parents[2]
 """The repository root: relative motion paths are looked up there too (e.g. the shipped ``lwrlab/data/``)."""
 
 
 def resolve_motion_path(path: str | Path) -> Path:
-    """``path`` as given if it exists, else relative to the repository root (FileNotFoundError if neither)."""
+    """``path`` as given if it exists, else relative to the repository root (``MissingFileError``, a
+    ``FileNotFoundError``, if neither)."""
     path = Path(path).expanduser()
     for candidate in (path, REPOSITORY / path):
         if candidate.is_file():
             return candidate
-    raise FileNotFoundError(
+    raise MissingFileError(
         f"exciting-motion file {path} not found (looked in the working directory and in {REPOSITORY})"
     )
 

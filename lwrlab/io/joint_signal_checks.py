@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from lwrlab.io.log_findings import Finding
-from lwrlab.io.logs import row_location
+from lwrlab.io.log_schema import row_location
 
 if TYPE_CHECKING:
     from lwrlab.io.plausibility import LogLimits, PlausibilityThresholds

@@ -1,6 +1,6 @@
 """What the checks of a recorded log report: :class:`Finding` objects naming the file columns of
 :class:`LogColumns`, and :func:`raise_for_errors`, which turns the errors into one
-:class:`~lwrlab.io.logs.LogError` (:mod:`lwrlab.io.plausibility` checks the values,
+:class:`~lwrlab.io.log_schema.LogError` (:mod:`lwrlab.io.plausibility` checks the values,
 :mod:`lwrlab.io.column_types` the column types).
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
-from lwrlab.io.logs import LogError, joint_columns
+from lwrlab.io.log_schema import LogError, joint_columns
 
 SEVERITIES = ("error", "warning")
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from lwrlab.io.logs import LogError
+from lwrlab.io.log_schema import LogError
 
 FORMATS = (".csv", ".txt", ".parquet", ".pq", ".npz", "ROS 2 bag folder (.db3 / .mcap)")
 """What :func:`load_log` reads."""

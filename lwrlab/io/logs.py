@@ -41,6 +41,9 @@ median period) is linearly interpolated onto the uniform grid ``t_0 + k/rate`` (
 or 1/median period) before anything else; the measurement metadata records it, and the times and
 torques as logged are kept, so that a prediction is scored against what the sensors gave, not
 against interpolated torques.
+
+:class:`LogError`, the units and the column names live in :mod:`lwrlab.io.log_schema`, below the
+readers and checks this module calls, and are importable from here too.
 """
 
 from __future__ import annotations
@@ -52,18 +55,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from lwrlab.errors import UserError
+from lwrlab.io.column_types import check_column_dtypes
+from lwrlab.io.log_findings import LogColumns, raise_for_errors
+from lwrlab.io.log_formats import read_frame
+from lwrlab.io.log_schema import POSITION_UNITS, TIME_UNITS, LogError, joint_columns, row_location
+from lwrlab.io.plausibility import check_plausibility
 from lwrlab.model.robot import JointLimits
 from lwrlab.plants.core import Measurement
-
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-"""Seconds per unit of the time column."""
-POSITION_UNITS = {"rad": 1.0, "deg": np.pi / 180.0}
-"""Radians per unit of the position (and velocity) columns."""
-
-
-class LogError(UserError, ValueError):
-    """A malformed or implausible log; the message names the file, the column and the row or check."""
 
 
 @dataclass(frozen=True)
@@ -113,17 +111,6 @@ class RecordedLog:
                 "warnings": list(self.warnings),
             },
         )
-
-
-def joint_columns(prefix: str, n_joints: int) -> list[str]:
-    """Schema column names ``prefix1 … prefixN``."""
-    return [f"{prefix}{j}" for j in range(1, n_joints + 1)]
-
-
-def row_location(path: Path, row: int) -> str:
-    """``row 41`` of a log's data, with the file's line for text files (``(line 43 of the file)``)."""
-    line = f" (line {row + 2} of the file)" if path.suffix.lower() in (".csv", ".txt") else ""
-    return f"row {row}{line}"
 
 
 def _numeric_column(frame: pd.DataFrame, name: str, schema_name: str, path: Path) -> np.ndarray:
@@ -213,16 +200,18 @@ def load_log(
         raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
     if drive_gains is not None and len(drive_gains) != n_joints:
         raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
-    # the readers and checks import this module
-    from lwrlab.io.column_types import check_column_dtypes
-    from lwrlab.io.log_findings import LogColumns, raise_for_errors
-    from lwrlab.io.log_formats import read_frame
-    from lwrlab.io.plausibility import check_plausibility
-
     frame, mapping = read_frame(path, dict(column_map or {}), n_joints, joint_names, topic)
 
     def name(schema: str) -> str:
         return mapping.get(schema, schema)
+
+    # a joint beyond the robot's: the log of another robot, which would be fitted without its last joints
+    beyond = [c for c in (f"q{n_joints + 1}", f"tau{n_joints + 1}") if c in frame.columns]
+    if beyond and not set(beyond) & set(mapping.values()):
+        raise LogError(
+            f"{path}: columns {beyond} beyond the robot's {n_joints} joints: a log of another robot? "
+            "(name its robot: robot=…, or drop those columns)"
+        )
 
     if len(frame) < min_samples:
         raise LogError(f"{path}: {len(frame)} rows, too short (at least {min_samples} samples needed)")

@@ -6,7 +6,7 @@ columns, a torque sensor that was not recorded, one corrupt cell of 1e30. Each w
 give a confident wrong model. :func:`check_plausibility` compares the loaded values with the
 robot's limits and returns :class:`~lwrlab.io.log_findings.Finding` objects;
 :func:`~lwrlab.io.log_findings.raise_for_errors` turns the errors into one
-:class:`~lwrlab.io.logs.LogError` that lists them all and hands back the warnings for the caller to
+:class:`~lwrlab.io.log_schema.LogError` that lists them all and hands back the warnings for the caller to
 print and tag. :func:`lwrlab.io.column_types.check_column_dtypes` catches, before conversion,
 Parquet columns whose type is not a number (booleans, datetimes, text).
 
@@ -44,7 +44,7 @@ import numpy as np
 
 from lwrlab.io.joint_signal_checks import position_findings, torque_findings, velocity_findings
 from lwrlab.io.log_findings import SEVERITIES, Finding, LogColumns
-from lwrlab.io.logs import POSITION_UNITS, TIME_UNITS, joint_columns, row_location
+from lwrlab.io.log_schema import POSITION_UNITS, TIME_UNITS, joint_columns, row_location
 from lwrlab.model.robot import MotionLimits
 
 

@@ -16,7 +16,7 @@ the order of ``joint_names`` (the URDF's joints). Two exports, each with its rea
 
 Numbers are written at full precision (``repr``), so both round trips return the positions,
 velocities and accelerations exactly; times come back to the ns. Every error is a
-:class:`~lwrlab.io.logs.LogError` naming the file (and for a bag, the topic).
+:class:`~lwrlab.io.log_schema.LogError` naming the file (and for a bag, the topic).
 
 Example
 -------
@@ -52,7 +52,7 @@ from rosbags.typesys.stores.ros2_humble import (
     trajectory_msgs__msg__JointTrajectoryPoint as JointTrajectoryPoint,
 )
 
-from lwrlab.io.logs import LogError
+from lwrlab.io.log_schema import LogError
 from lwrlab.io.rosbag import STORAGES, _bag_folder
 
 JOINT_TRAJECTORY_TYPE = "trajectory_msgs/msg/JointTrajectory"

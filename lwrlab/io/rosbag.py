@@ -27,7 +27,7 @@ Reading rules
   :attr:`JointStateLog.dropped_duplicates`; same stamp with different values is an error naming
   both messages.
 
-Every error is a :class:`~lwrlab.io.logs.LogError` naming the bag, the topic and, where relevant,
+Every error is a :class:`~lwrlab.io.log_schema.LogError` naming the bag, the topic and, where relevant,
 the message (0-based index among the topic's messages in the bag's order).
 
 Example
@@ -56,7 +56,7 @@ from rosbags.typesys.stores.ros2_humble import builtin_interfaces__msg__Time as 
 from rosbags.typesys.stores.ros2_humble import sensor_msgs__msg__JointState as JointState
 from rosbags.typesys.stores.ros2_humble import std_msgs__msg__Header as Header
 
-from lwrlab.io.logs import LogError
+from lwrlab.io.log_schema import LogError
 
 JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 """The ROS 2 message type read and written."""
