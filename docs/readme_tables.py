@@ -105,6 +105,11 @@ SOURCES = {
         10.0,
         (("outputs/multiruns/*/*/estimator_benchmark.png", "docs/figures/estimator_benchmark.png"),),
     ),
+    "monitor": Source(
+        (("python", str(REPOSITORY / "benchmarks" / "monitor.py"), "--output", "scenario"),),
+        _printed_table("## Collision detection on the MuJoCo scenario"),
+        5.0,
+    ),
 }
 """Every generated README table, by the name in its marker."""
 

@@ -170,6 +170,40 @@ class WriteExampleLogsTask(Instantiable):
 
 
 @schema
+class MonitorTask(Instantiable):
+    """``task=monitor``: external torques, contact forces and detected contacts of logs."""
+
+    model: str | None
+    """An identified_model.yaml (or its run folder); null: the robot config's model."""
+    calibration_paths: list[str] | None
+    """Contact-free logs for the thresholds; null: the logs the model's run identified from."""
+    observer_gain: float
+    """1/s, K of the momentum observer."""
+    velocity_cutoff_hz: float
+    """Hz, velocity low-pass: causal for the observer, zero-phase on q and τ for the direct residual."""
+    coulomb_smoothing: float
+    """rad/s, ε of FC·tanh(q̇/ε)."""
+    false_alarm_rate: float
+    """Stated false alarms per hour."""
+    margin: float
+    """Factor ≥ 1 on the calibrated levels."""
+    min_duration: float
+    """s above threshold before a contact is raised."""
+    release: float
+    """Share of the threshold every joint must fall below to end a contact."""
+    frame: str | None
+    """Frame of the robot where the contact load is mapped; null: the flange, else the last link's."""
+    point: list[float] | None
+    """m, a point of ``frame`` taking a pure force; null: the frame's wrench."""
+    truth_contacts: str | None
+    """CSV of known contacts (simulation): detection scores."""
+    truth_torque: str | None
+    """Parquet of the true external torque: RMS errors."""
+    min_force: float
+    """N, weaker true contacts count neither as missed nor as false alarms."""
+
+
+@schema
 class PaperChainTask(Instantiable):
     """``task=paper_chain``: the whole chain of the paper's Fig. 1."""
 
@@ -188,6 +222,7 @@ TASK_SCHEMAS: dict[str, type] = {
     "table3_tools": Table3ToolsTask,
     "tool_recognition_benchmark": ToolRecognitionBenchmarkTask,
     "write_example_logs": WriteExampleLogsTask,
+    "monitor": MonitorTask,
     "paper_chain": PaperChainTask,
     "painting": PaintingTask,
 }

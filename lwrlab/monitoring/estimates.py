@@ -1,0 +1,193 @@
+"""A log's external torques by both estimators, their calibration and detections: the monitor's steps.
+
+The stage ``task=monitor`` (:mod:`lwrlab.pipeline.monitor`) and the benchmark both run these on
+measurements: :func:`estimate_external_torques` (observer and direct residual, and which samples are
+past the estimators' start-up and the filter's edges), :func:`calibrate` (thresholds per estimator
+from contact-free estimates) and :func:`detect` (contacts per estimator).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from lwrlab.model.robot import RobotModel
+from lwrlab.monitoring.calibration import Calibration, calibrate_thresholds
+from lwrlab.monitoring.detection import Detection, detect_contacts
+from lwrlab.monitoring.direct_residual import (
+    causal_velocity,
+    joint_motion,
+    model_torque,
+    smooth,
+    uniform_period,
+)
+from lwrlab.monitoring.observer import MomentumObserver, first_order_recursion
+from lwrlab.plants.core import Measurement
+
+ESTIMATORS = ("observer", "residual")
+"""The two estimates of the external torque: the momentum observer and the direct residual."""
+SETTLING_TIME_CONSTANTS = 5.0
+"""The observer's first 5/K seconds are its start-up (r starts at 0): not monitored."""
+FILTER_EDGE_PERIODS = 2.0
+"""The zero-phase filter's first and last 2/f_c seconds are edge transients: not monitored."""
+
+
+@dataclass(frozen=True)
+class MonitorSettings:
+    """How the external torques are estimated and contacts detected (``task=monitor``'s settings)."""
+
+    observer_gain: float
+    """K (1/s) of the momentum observer."""
+    velocity_cutoff_hz: float
+    """Low-pass of the velocity (Hz): causal for the observer (what a robot's loop has), zero-phase on
+    q and τ for the direct residual."""
+    coulomb_smoothing: float
+    """ε (rad/s) of ``FC·tanh(q̇/ε)``."""
+    false_alarm_rate: float
+    """Stated false alarms per hour."""
+    margin: float
+    """Factor ≥ 1 on the calibrated levels."""
+    min_duration: float
+    """Time above threshold before a contact is raised (s)."""
+    release: float
+    """Share of the threshold every joint must fall below to end a contact."""
+
+    @property
+    def start_skip(self) -> float:
+        """Seconds not monitored at a log's start (observer start-up, filter edge)."""
+        return SETTLING_TIME_CONSTANTS / self.observer_gain + FILTER_EDGE_PERIODS / self.velocity_cutoff_hz
+
+    @property
+    def end_skip(self) -> float:
+        """Seconds not monitored at a log's end (filter edge)."""
+        return FILTER_EDGE_PERIODS / self.velocity_cutoff_hz
+
+
+@dataclass(frozen=True)
+class ExternalTorques:
+    """One log's external torque estimates (N·m) at its samples."""
+
+    name: str
+    """The log's name."""
+    t: np.ndarray
+    """(N,) stamps (s)."""
+    q: np.ndarray
+    """(N, N_J) positions (rad): where the force mapping's Jacobians are taken."""
+    observer: np.ndarray
+    """(N, N_J) momentum observer."""
+    residual: np.ndarray
+    """(N, N_J) direct residual τ − τ̂(q, q̇, q̈), τ low-passed alike."""
+    monitored: np.ndarray
+    """(N,) False during the start-up and the filter's edges."""
+    seconds: float
+    """Wall time of the observer over the log (s)."""
+
+    def estimate(self, estimator: str) -> np.ndarray:
+        """The estimate named ``observer`` or ``residual``."""
+        if estimator not in ESTIMATORS:
+            raise ValueError(f"unknown estimator {estimator!r}; valid: {list(ESTIMATORS)}")
+        return self.observer if estimator == "observer" else self.residual
+
+    @property
+    def period(self) -> float:
+        """Sampling period (s)."""
+        return float((self.t[-1] - self.t[0]) / (len(self.t) - 1))
+
+    @property
+    def monitored_hours(self) -> float:
+        """Monitored time (h)."""
+        return float(np.count_nonzero(self.monitored) * self.period / 3600.0)
+
+
+def estimate_external_torques(
+    robot: RobotModel,
+    measurement: Measurement,
+    settings: MonitorSettings,
+    progress: Callable[[int, int], None] | None = None,
+) -> ExternalTorques:
+    """Both estimates of a measurement's external torques with the model ``robot``."""
+    import time
+
+    t = measurement.t
+    period = uniform_period(t)
+    motion = joint_motion(t, measurement.q, settings.velocity_cutoff_hz)
+    observer = MomentumObserver(robot, settings.observer_gain, settings.coulomb_smoothing)
+    start = time.perf_counter()
+    velocity = causal_velocity(t, measurement.q, settings.velocity_cutoff_hz)
+    estimate, _ = observer.observe(t, measurement.q, velocity, measurement.tau, progress=progress)
+    seconds = time.perf_counter() - start
+    friction = observer.friction_torque(motion.dq)
+    predicted = model_torque(robot.model, motion.q, motion.dq, motion.ddq, friction)
+    residual = smooth(measurement.tau, period, settings.velocity_cutoff_hz) - predicted
+    elapsed = t - t[0]
+    monitored = (elapsed >= settings.start_skip) & (elapsed <= elapsed[-1] - settings.end_skip)
+    return ExternalTorques(measurement.name, t, measurement.q, estimate, residual, monitored, seconds)
+
+
+def calibrate(contact_free: Sequence[ExternalTorques], settings: MonitorSettings) -> dict[str, Calibration]:
+    """Thresholds of each estimator from contact-free logs' monitored samples."""
+    if not contact_free:
+        raise ValueError("no contact-free log to calibrate on")
+    return {
+        estimator: calibrate_thresholds(
+            [e.estimate(estimator)[e.monitored] for e in contact_free],
+            [e.period for e in contact_free],
+            settings.false_alarm_rate,
+            settings.margin,
+        )
+        for estimator in ESTIMATORS
+    }
+
+
+def detect(
+    estimates: ExternalTorques, calibrations: dict[str, Calibration], settings: MonitorSettings
+) -> dict[str, list[Detection]]:
+    """Each estimator's contacts in a log, on its monitored samples."""
+    found = {}
+    for estimator in ESTIMATORS:
+        estimate = np.where(estimates.monitored[:, None], estimates.estimate(estimator), 0.0)
+        found[estimator] = detect_contacts(
+            estimates.t,
+            estimate,
+            calibrations[estimator].thresholds,
+            min_duration=settings.min_duration,
+            release=settings.release,
+        )
+    return found
+
+
+def held_out_false_alarm_rate(
+    contact_free: Sequence[ExternalTorques], settings: MonitorSettings, estimator: str = "observer"
+) -> float:
+    """Alarms per hour on each contact-free log with thresholds calibrated on the others (NaN for one log)."""
+    if len(contact_free) < 2:
+        return float("nan")
+    alarms, hours = 0, 0.0
+    for i, held_out in enumerate(contact_free):
+        others = [e for j, e in enumerate(contact_free) if j != i]
+        alarms += len(detect(held_out, calibrate(others, settings), settings)[estimator])
+        hours += held_out.monitored_hours
+    return alarms / hours if hours > 0 else float("nan")
+
+
+def truth_as_estimated(
+    truth: np.ndarray, estimates: ExternalTorques, settings: MonitorSettings
+) -> dict[str, np.ndarray]:
+    """The true external torque (N, N_J) as each estimator would see it with an exact model and
+    noiseless sensors: through the observer's first-order dynamics, through the residual's filter.
+
+    An estimator's error against this is its model and noise error; against the raw truth it also
+    holds its lag (the observer's 1/K), which the detection delay measures on its own.
+    """
+    t = estimates.t
+    gains = np.full(truth.shape[1], settings.observer_gain)
+    decay = gains * np.diff(t)[:, None]
+    alpha = np.exp(-decay)
+    observed = np.empty_like(truth)
+    observed[0] = 0.0
+    interval_mean = 0.5 * (truth[:-1] + truth[1:])
+    observed[1:] = first_order_recursion(alpha, decay, (1.0 - alpha) * interval_mean, observed[0])
+    filtered = smooth(truth, estimates.period, settings.velocity_cutoff_hz)
+    return {"observer": observed, "residual": filtered}
