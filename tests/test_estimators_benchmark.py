@@ -10,7 +10,7 @@ import pytest
 from composing import compose_config
 
 from lwrlab.pipeline.estimator_benchmark import run_estimator_benchmark
-from lwrlab.tracking.benchmark_tables import METRICS, collect, write_summary
+from lwrlab.tracking.reports.benchmark_tables import METRICS, collect, write_summary
 
 
 def _job(tmp_path: Path, estimator: str, noise: str, seed: int) -> dict[str, float]:

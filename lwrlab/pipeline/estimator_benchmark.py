@@ -5,7 +5,7 @@ executes the exciting motion with the preset's encoder and torque noise, the est
 the base parameters, and the job scores them. ``experiment=estimator_benchmark`` sweeps
 estimator × preset × seed as a Hydra multirun, so each job is one MLflow run (logged by the
 tracking callback like any job, params and status included), and
-:class:`lwrlab.tracking.benchmark_summary.EstimatorBenchmarkSummary` aggregates the sweep at its
+:class:`lwrlab.tracking.reports.benchmark_summary.EstimatorBenchmarkSummary` aggregates the sweep at its
 end. Why a sweep and not one job looping over everything: every (estimator, preset, seed) gets its
 own run, status and artifacts, a failed estimator does not hide the others, and the sweep runs in
 parallel with ``hydra/launcher=parallel`` (or on a cluster) unchanged; the price is that each job
@@ -25,7 +25,7 @@ Files of a job (``estimator_benchmark.csv``, one row), columns:
 - ``residual_std`` (N·m): torque residual σ.
 
 and ``parameter_errors.csv``: per base parameter its truth, estimate, error and relative error.
-The summary (sweep folder, :mod:`lwrlab.tracking.benchmark_tables`) has ``estimator_benchmark.csv``
+The summary (sweep folder, :mod:`lwrlab.tracking.reports.benchmark_tables`) has ``estimator_benchmark.csv``
 (all rows), ``estimator_benchmark_summary.csv`` and ``.md`` (mean and spread per estimator and
 preset), ``estimator_benchmark_parameters.csv`` (per parameter: mean and spread of the relative
 error) and ``estimator_benchmark.png``.
@@ -45,7 +45,7 @@ from lwrlab.identification.consistency import consistency_margin
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.pipeline.config_nodes import processing_settings
 from lwrlab.pipeline.identification import identify
-from lwrlab.tracking.benchmark_tables import JOB_TABLE, METRICS, PARAMETER_TABLE, write_summary
+from lwrlab.tracking.reports.benchmark_tables import JOB_TABLE, METRICS, PARAMETER_TABLE, write_summary
 
 log = logging.getLogger(__name__)
 
@@ -107,7 +107,7 @@ def run_estimator_benchmark(
 
 if (
     __name__ == "__main__"
-):  # re-aggregate an earlier sweep (also python -m lwrlab.tracking.benchmark_tables <sweep_dir>)
+):  # re-aggregate an earlier sweep (also python -m lwrlab.tracking.reports.benchmark_tables <sweep_dir>)
     import sys
 
     write_summary(Path(sys.argv[1]))
