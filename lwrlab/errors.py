@@ -22,3 +22,19 @@ class IdentifiabilityError(UserError, ValueError):
 
 class InfeasibleProblemError(UserError, ValueError):
     """An optimisation whose constraints cannot all hold; the message names the constraint."""
+
+
+class MissingFileError(ConfigError, FileNotFoundError):
+    """A file or folder a setting names does not exist; the message names the setting and the path.
+
+    Also a ``FileNotFoundError``, which callers of file readers already catch.
+    """
+
+
+class UnknownNameError(ConfigError, KeyError):
+    """A name a setting gives (a tool, a frame, a joint) is not among those available; the message lists them.
+
+    Also a ``KeyError``, which callers of look-ups already catch; printed as its message, unquoted.
+    """
+
+    __str__ = Exception.__str__

@@ -11,7 +11,7 @@ from omegaconf import OmegaConf
 
 from lwrlab.pipeline.build import build
 from lwrlab.pipeline.tool_library import load_library
-from lwrlab.tools.recognition import interpolate_geometry, recognise
+from lwrlab.tools.recognition import UNKNOWN_TOOL, interpolate_geometry, noise_distance, recognise
 
 CLASSIFIERS = sorted(Path(__file__).resolve().parents[1].joinpath("conf", "classifier").glob("*.yaml"))
 
@@ -35,12 +35,42 @@ def test_every_classifier_recognises_every_library_tool(path: Path, library) -> 
     for tool in library:
         exact = classifier.predict(tool.parameters, covariance)
         assert exact.tool == tool.name and exact.confidence == pytest.approx(1.0)
+        assert exact.known and exact.noise_distance == 0.0
         assert exact.geometry == tool.geometry and exact.kind == tool.kind
         noisy = tool.parameters + rng.multivariate_normal(np.zeros(10), covariance)
         recognition = classifier.predict(noisy, covariance)
         assert recognition.tool == tool.name, f"{path.stem} took {tool.name} for {recognition.tool}"
         assert 0.0 < recognition.confidence <= 1.0
         assert set(recognition.distances) == set(library.names)
+
+
+@pytest.mark.parametrize("path", CLASSIFIERS, ids=lambda p: p.stem)
+def test_every_classifier_calls_a_tool_outside_its_library_unknown(path: Path, library) -> None:
+    """Open set: a tool held out of the library is unknown, not the nearest one's name."""
+    covariance = _covariance(library)
+    for tool in library:
+        classifier = instantiate(OmegaConf.load(path)).fit(library.without(tool.name))
+        assert np.isfinite(classifier.unknown_distance)  # every shipped classifier makes the test
+        recognition = classifier.predict(tool.parameters, covariance)
+        assert recognition.tool == UNKNOWN_TOOL and not recognition.known, f"{path.stem}: {tool.name}"
+        assert recognition.nearest in library.names and recognition.nearest != tool.name
+        assert recognition.noise_distance > recognition.unknown_distance
+        assert recognition.distance == min(recognition.distances.values())
+        assert "nearest " + recognition.nearest in recognition.describe()
+    # the same tool back in the library, identified with noise: known again
+    classifier = instantiate(OmegaConf.load(path)).fit(library)
+    rng = np.random.default_rng(1)
+    noisy = library.tools[0].parameters + rng.multivariate_normal(np.zeros(10), covariance)
+    recognition = classifier.predict(noisy, covariance)
+    assert recognition.known and 0.0 < recognition.noise_distance < recognition.unknown_distance
+
+
+def test_the_noise_distance_is_in_standard_deviations(rng: np.random.Generator) -> None:
+    factor = rng.normal(size=(10, 10))
+    covariance = factor @ factor.T + np.eye(10)
+    step = rng.normal(size=10)
+    step *= 3.0 / np.sqrt(step @ np.linalg.solve(covariance, step))  # 3 σ along a random direction
+    assert noise_distance(step, np.zeros(10), covariance, ridge=0.0) == pytest.approx(3.0)
 
 
 @pytest.mark.parametrize("path", CLASSIFIERS, ids=lambda p: p.stem)

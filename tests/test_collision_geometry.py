@@ -26,12 +26,12 @@ from lwrlab.model.collision_geometry import (
     CollisionGeometryError,
     CollisionSource,
     box_mesh,
-    prism_mesh,
-    sphere_mesh,
     disabled_pairs_from_srdf,
     load_robot_geometry,
     package_search_path,
+    prism_mesh,
     resolve_mesh,
+    sphere_mesh,
 )
 from lwrlab.model.enclosing_spheres import bisect_long_triangles, enclosing_spheres, smallest_ball
 from lwrlab.model.world import build_obstacle, build_world, mounting_surface

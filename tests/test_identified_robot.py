@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -15,7 +16,12 @@ from lwrlab.io.artifacts import save_identified_model
 from lwrlab.model.robot import RobotModel
 from plugins.robots.identified import load_identified_robot
 
-WITHOUT_LOOKUP = {"tracking_uri": None, "build_robot": instantiate, "fetch_run_artifact": None}
+WITHOUT_LOOKUP: dict[str, Any] = {
+    "friction_terms": None,
+    "tracking_uri": None,
+    "build_robot": instantiate,
+    "fetch_run_artifact": None,
+}
 """The plugin's edges, with no way to look a run up: a file or folder must be given."""
 
 
@@ -56,12 +62,29 @@ def test_a_run_id_is_fetched_through_the_given_lookup(lwr4: RobotModel, tmp_path
         return tmp_path / artifact
 
     robot = load_identified_robot(
-        "0123abcd", tracking_uri="sqlite:///x.db", build_robot=instantiate, fetch_run_artifact=fetch
+        "0123abcd",
+        friction_terms=None,
+        tracking_uri="sqlite:///x.db",
+        build_robot=instantiate,
+        fetch_run_artifact=fetch,
     )
     assert calls == [("0123abcd", "identified_model.yaml", "sqlite:///x.db")]
     np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)
     with pytest.raises(FileNotFoundError, match="fetch_run_artifact"):
         load_identified_robot("0123abcd", **WITHOUT_LOOKUP)
+
+
+def test_friction_terms_of_its_own_keep_the_identified_values(lwr4: RobotModel, tmp_path: Path) -> None:
+    """``plant=log`` adds torque offsets to a robot identified without them: they start at zero."""
+    standard = _identified_run(lwr4, tmp_path)
+    robot = load_identified_robot(
+        str(tmp_path), **{**WITHOUT_LOOKUP, "friction_terms": ["coulomb", "viscous", "offset"]}
+    )
+    assert robot.friction_terms == ("coulomb", "viscous", "offset")
+    values = dict(zip(robot.parameter_names, robot.parameters, strict=True))
+    identified = dict(zip(lwr4.parameter_names, standard, strict=True))
+    assert all(values[name] == pytest.approx(value, rel=1e-12) for name, value in identified.items())
+    assert all(values[f"FO{j}"] == 0.0 for j in range(1, lwr4.n_joints + 1))
 
 
 def test_only_robot_plugins_are_built_and_missing_files_are_named(lwr4: RobotModel, tmp_path: Path) -> None:
@@ -73,7 +96,7 @@ def test_only_robot_plugins_are_built_and_missing_files_are_named(lwr4: RobotMod
 
 
 def test_the_tracking_lookup_names_a_missing_run(tmp_path: Path) -> None:
-    from lwrlab.tracking.run_artifacts import download_run_artifact
+    from lwrlab.tracking.store.run_artifacts import download_run_artifact
 
     with pytest.raises(FileNotFoundError, match=r"identified_model\.yaml for MLflow run 'feedbeef'"):
         download_run_artifact("feedbeef", "identified_model.yaml", (tmp_path / "mlruns").as_uri())

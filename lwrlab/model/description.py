@@ -59,6 +59,7 @@ from typing import Any
 
 import numpy as np
 
+from lwrlab.errors import ConfigError, MissingFileError
 from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.model.collision import build_collision_spheres
 from lwrlab.model.collision_geometry import CollisionSource
@@ -70,8 +71,13 @@ from lwrlab.model.robot import Friction, JointLimits, RobotModel
 def _array(values: Sequence[float], n: int, what: str) -> np.ndarray:
     array = np.asarray(values, dtype=float).ravel()
     if array.shape != (n,):
-        raise ValueError(f"{what}: expected {n} values, got {array.size}")
+        raise ConfigError(f"{what}: expected {n} values, got {array.size}")
     return array
+
+
+def gravity_vector(gravity: Sequence[float]) -> np.ndarray:
+    """``robot.gravity`` as a 3-vector (m/s², base frame); a ``ConfigError`` for any other length."""
+    return _array(gravity, 3, "robot.gravity")
 
 
 def _inertia_tensor(values: Sequence[float], what: str) -> np.ndarray:
@@ -84,7 +90,7 @@ def build_limits(limits: Mapping[str, Sequence[float]], n: int, robot: str) -> J
     keys = ("position_lower", "position_upper", "velocity", "acceleration", "torque")
     missing = [k for k in keys if k not in limits]
     if missing:
-        raise ValueError(f"robot {robot!r}: limits lack {missing}")
+        raise ConfigError(f"robot {robot!r}: limits lack {missing}")
     return JointLimits(**{k: _array(limits[k], n, f"robot {robot!r} limits.{k}") for k in keys})
 
 
@@ -127,7 +133,7 @@ def build_robot(
     )
     n = table.n_joints
     if len(links) != n:
-        raise ValueError(f"robot {name!r}: {n} DH rows but {len(links)} links")
+        raise ConfigError(f"robot {name!r}: {n} DH rows but {len(links)} links")
     inertias = [
         to_pin_inertia(
             standard_parameters(
@@ -142,7 +148,7 @@ def build_robot(
     if flange is not None:
         flange_pose = np.eye(4)
         flange_pose[:3, 3] = _array(flange, 3, f"robot {name!r} flange")
-    model = build_dh_model(table, inertias, np.asarray(gravity, dtype=float), flange=flange_pose)
+    model = build_dh_model(table, inertias, gravity_vector(gravity), flange=flange_pose)
     return RobotModel(
         name=name,
         model=model,
@@ -161,7 +167,7 @@ def collision_source_of(entry: Mapping[str, Any], robot: str) -> CollisionSource
     """A :class:`CollisionSource` from a description's ``collision_urdf`` mapping."""
     unknown = set(entry) - {"path", "srdf", "package_dirs", "locked_joints"}
     if unknown or "path" not in entry:
-        raise ValueError(
+        raise ConfigError(
             f"robot {robot!r} collision_urdf needs `path` (and optionally srdf, package_dirs, "
             f"locked_joints); unknown keys: {sorted(unknown)}"
         )
@@ -185,14 +191,14 @@ def load_robot_yaml(path: str | Path, **overrides: Any) -> RobotModel:
     """Build a robot from a modified-DH YAML file; keyword arguments override the file's keys."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"robot description {path} does not exist")
+        raise MissingFileError(f"robot.path={path}: the robot description does not exist")
     description = read_yaml_mapping(path, "robot")
     description.pop("_target_", None)
     description.setdefault("collision_urdf", None)
     description.update(overrides)
     missing = [key for key in DESCRIPTION_KEYS if key not in description]
     if missing:
-        raise ValueError(
+        raise ConfigError(
             f"robot description {path} lacks {missing}: every key of lwrlab.model.description is "
             "required (null where the robot has none)"
         )

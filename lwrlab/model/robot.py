@@ -8,6 +8,7 @@ from typing import Protocol
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.errors import ConfigError
 from lwrlab.model.collision import CollisionSphere
 from lwrlab.model.collision_geometry import CollisionSource
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, from_pin_inertia, to_pin_inertia
@@ -119,7 +120,9 @@ class RobotModel:
     def __post_init__(self) -> None:
         unknown = set(self.friction_terms) - set(FRICTION_TERMS)
         if unknown:
-            raise ValueError(f"unknown friction terms {sorted(unknown)}; valid: {sorted(FRICTION_TERMS)}")
+            raise ConfigError(
+                f"robot.friction_terms: unknown terms {sorted(unknown)}; valid: {sorted(FRICTION_TERMS)}"
+            )
         if not self.link_labels:
             object.__setattr__(self, "link_labels", tuple(str(j) for j in range(1, self.n_joints + 1)))
         if self.rotor_inertia is not None and np.shape(self.rotor_inertia) != (self.n_joints,):

@@ -28,15 +28,16 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.errors import ConfigError, MissingFileError, UnknownNameError
 from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.model.collision_geometry import CollisionSource
-from lwrlab.model.description import build_friction
+from lwrlab.model.description import build_friction, gravity_vector
 from lwrlab.model.robot import JointLimits, RobotModel
 
 _FLOATING_JOINTS = ("JointModelFreeFlyer", "JointModelPlanar")
 
 
-class URDFNotFoundError(FileNotFoundError, ValueError):
+class URDFNotFoundError(MissingFileError):
     """A URDF path that is not a file: a ``FileNotFoundError`` that a ``ValueError`` handler also catches."""
 
 
@@ -46,13 +47,13 @@ def _check_joints(model: pin.Model, path: Path) -> None:
         joint = model.joints[j]
         kind = joint.shortname()
         if kind in _FLOATING_JOINTS and model.parents[j] == 0:
-            raise ValueError(
+            raise ConfigError(
                 f"{path}: joint {model.names[j]!r} ({kind}) makes a floating base; "
                 "only fixed-base robots are supported "
                 "(fix the root link to the world in the URDF)"
             )
         if joint.nq != 1 or joint.nv != 1:
-            raise ValueError(
+            raise ConfigError(
                 f"{path}: joint {model.names[j]!r} is a {kind} (nq={joint.nq}, nv={joint.nv}); "
                 "only one-degree-of-freedom joints with nq == nv are supported "
                 "(revolute with limits, prismatic), not continuous, planar, spherical or floating joints"
@@ -69,8 +70,9 @@ def _locked_configuration(
     )
     unknown = [name for name in positions if not model.existJointName(name)]
     if unknown:
-        raise ValueError(
-            f"{path}: locked_joints {unknown} are not joints of the model; joints: {list(model.names)[1:]}"
+        raise UnknownNameError(
+            f"{path}: robot.locked_joints {unknown} are not joints of the model; "
+            f"joints: {list(model.names)[1:]}"
         )
     q_reference = pin.neutral(model)
     ids = []
@@ -95,7 +97,7 @@ def _check_limits(model: pin.Model, path: Path) -> None:
         if not (np.isfinite(effort) and effort > 0):
             problems.append(f"{name}: effort limit {effort}")
     if problems:
-        raise ValueError(
+        raise ConfigError(
             f"{path}: missing joint limits (every joint needs <limit lower upper velocity effort> "
             f"with lower < upper and positive velocity and effort): {'; '.join(problems)}"
         )
@@ -110,9 +112,11 @@ def _acceleration_limits(
     if values.size == 1:
         values = np.full(n, values[0])  # one value for every joint
     if values.shape != (n,):
-        raise ValueError(f"{path}: acceleration_limits: expected {n} values or a scalar, got {values.size}")
+        raise ConfigError(
+            f"{path}: robot.acceleration_limits: expected {n} values or a scalar, got {values.size}"
+        )
     if not np.all(values > 0):
-        raise ValueError(f"{path}: acceleration_limits must be positive, got {values.tolist()}")
+        raise ConfigError(f"{path}: robot.acceleration_limits must be positive, got {values.tolist()}")
     return values
 
 
@@ -120,10 +124,10 @@ def _moveit_limits(path: Path, names: Sequence[str], urdf: Path) -> dict[str, np
     """Velocity and acceleration limits of a MoveIt ``joint_limits.yaml`` (``has_*_limits: true`` only),
     NaN where a joint has none."""
     if not path.is_file():
-        raise ValueError(f"{urdf}: joint_limits file {path} does not exist")
+        raise MissingFileError(f"{urdf}: robot.joint_limits file {path} does not exist")
     joints = read_yaml_mapping(path, "joint limits").get("joint_limits")
     if not isinstance(joints, dict):
-        raise ValueError(f"{path}: no `joint_limits:` mapping (MoveIt's joint_limits.yaml format)")
+        raise ConfigError(f"{path}: no `joint_limits:` mapping (MoveIt's joint_limits.yaml format)")
     out = {key: np.full(len(names), np.nan) for key in ("velocity", "acceleration")}
     for i, name in enumerate(names):
         entry = joints.get(name) or {}
@@ -136,15 +140,16 @@ def _moveit_limits(path: Path, names: Sequence[str], urdf: Path) -> dict[str, np
 def _add_flange(model: pin.Model, flange_frame: str, path: Path) -> None:
     """Add an operational frame named ``flange`` at the URDF frame ``flange_frame``."""
     if not model.existFrame(flange_frame):
-        raise ValueError(
-            f"{path}: flange_frame {flange_frame!r} is not a frame of the model; "
+        raise UnknownNameError(
+            f"{path}: robot.flange_frame {flange_frame!r} is not a frame of the model; "
             f"frames: {[f.name for f in model.frames]}"
         )
     if flange_frame == "flange":
         return  # the URDF already names its flange
     if model.existFrame("flange"):
-        raise ValueError(
-            f"{path}: the URDF already has a frame named 'flange'; drop flange_frame or set it to 'flange'"
+        raise ConfigError(
+            f"{path}: the URDF already has a frame named 'flange'; "
+            "drop robot.flange_frame or set it to 'flange'"
         )
     frame = model.frames[model.getFrameId(flange_frame)]
     model.addFrame(pin.Frame("flange", frame.parentJoint, frame.placement, pin.FrameType.OP_FRAME))
@@ -206,23 +211,26 @@ def load_urdf_robot(
     ------
     URDFNotFoundError
         If ``path`` is not a file (a subclass of both ``FileNotFoundError`` and ``ValueError``).
-    ValueError
-        For an unreadable URDF, a floating base, an unsupported joint, missing limits, unknown
-        locked or flange frames, or wrongly sized acceleration limits; the message names the file.
+    ConfigError
+        (a ``ValueError``) For an unreadable URDF, a URDF without moving joints, a floating base,
+        an unsupported joint, missing limits, unknown locked or flange frames, or wrongly sized
+        acceleration limits; the message names the file and the key.
     """
     path = Path(path)
     if not path.is_file():
-        raise URDFNotFoundError(f"URDF file {path} does not exist")
+        raise URDFNotFoundError(f"robot.path={path}: the URDF file does not exist")
     try:
         model = pin.buildModelFromUrdf(str(path))  # fixed base: no root joint
     except (ValueError, RuntimeError) as error:
-        raise ValueError(f"{path}: Pinocchio could not parse the URDF ({error})") from error
+        raise ConfigError(f"{path}: Pinocchio could not parse the URDF ({error})") from error
     _check_joints(model, path)
+    if model.nv == 0:
+        raise ConfigError(f"{path}: the URDF has no joint that moves (a robot needs at least one)")
     if locked_joints:
         ids, q_reference = _locked_configuration(model, locked_joints, path)
         model = pin.buildReducedModel(model, ids, q_reference)
     _check_limits(model, path)
-    model.gravity = pin.Motion(np.asarray(gravity, dtype=float), np.zeros(3))
+    model.gravity = pin.Motion(gravity_vector(gravity), np.zeros(3))
     if flange_frame is not None:
         _add_flange(model, flange_frame, path)
     n = model.nv
@@ -242,14 +250,14 @@ def load_urdf_robot(
         torque=np.array(model.effortLimit, dtype=float),
     )
     if missing_meshes not in ("error", "drop"):
-        raise ValueError(f"{path}: missing_meshes must be error or drop, got {missing_meshes!r}")
+        raise ConfigError(f"{path}: robot.missing_meshes must be error or drop, got {missing_meshes!r}")
     source = None
     if collision_geometry:
         locked = (
             dict(locked_joints) if isinstance(locked_joints, Mapping) else {j: 0.0 for j in locked_joints}
         )
         if srdf is not None and not str(srdf).startswith("package://") and not Path(srdf).is_file():
-            raise ValueError(f"{path}: srdf file {srdf} does not exist")
+            raise MissingFileError(f"{path}: robot.srdf file {srdf} does not exist")
         source = CollisionSource(
             urdf=path,
             package_dirs=tuple(Path(d) for d in package_dirs),

@@ -44,6 +44,10 @@ def rule(key: str, accepts: Callable[[Any], bool], expected: str) -> Rule:
     return Rule(key, lambda value, cfg: accepts(value), lambda cfg: expected)
 
 
+_SCHEMA_COLUMN = re.compile(r"^(t|(q|dq|tau|current)([1-9][0-9]*)?)$")
+"""A name of the log schema (:mod:`lwrlab.io.logs`): what ``data.column_map`` maps from."""
+
+
 def _number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -202,6 +206,12 @@ RULES: tuple[Rule, ...] = (
         "null or a list of non-zero numbers (N·m/A per joint)",
     ),
     one_of("data.velocity", *VELOCITY_SOURCES),
+    rule(
+        "data.column_map",
+        lambda v: v is None or (isinstance(v, dict) and all(_SCHEMA_COLUMN.match(str(k)) for k in v)),
+        "null or a mapping whose keys are schema names: t, q, dq, tau, current (npz arrays) or "
+        "q1…qN, dq1…dqN, tau1…tauN, current1…currentN",
+    ),
     # statistics
     integer_at_least("statistics.resamples", 0),
     positive("statistics.block_s"),
@@ -226,6 +236,15 @@ RULES: tuple[Rule, ...] = (
     integer_at_least("task.tool_motion_candidates", 1),
     *painting_rules("task."),
     *painting_rules("task.painting."),
+    # task=monitor
+    positive("task.observer_gain"),
+    positive("task.velocity_cutoff_hz"),
+    positive("task.coulomb_smoothing"),
+    positive("task.false_alarm_rate"),
+    rule("task.margin", lambda v: _number(v) and v >= 1, "a number ≥ 1"),
+    non_negative("task.min_duration"),
+    rule("task.release", lambda v: _number(v) and 0 < v <= 1, "a number in (0, 1]"),
+    non_negative("task.min_force"),
 )
 """The settings checked, by key."""
 
@@ -260,6 +279,20 @@ def _unknown_below(node: Any, prefix: str) -> Iterator[str]:
             yield from _unknown_below(node._get_node(key), f"{prefix}{key}.")
 
 
+def _missing_below(node: Any, prefix: str) -> Iterator[str]:
+    """Keys under ``node`` whose value is mandatory and unset (``???``); interpolations are left
+    unresolved (a copied value may dangle where its source is another plant's)."""
+    from omegaconf import DictConfig, OmegaConf
+
+    if not isinstance(node, DictConfig):
+        return
+    for key in map(str, node):
+        if OmegaConf.is_missing(node, key):
+            yield f"{prefix}{key}"
+        elif not OmegaConf.is_interpolation(node, key):
+            yield from _missing_below(node[key], f"{prefix}{key}.")
+
+
 def unknown_keys(cfg: Any) -> list[str]:
     """Keys of typed nodes that their schema does not have (added with ``+key=value``).
 
@@ -269,12 +302,15 @@ def unknown_keys(cfg: Any) -> list[str]:
 
 
 def violations(cfg: Any, rules: Iterable[Rule] = RULES) -> list[str]:
-    """One line per rule that a value of ``cfg`` (a composed Hydra config) breaks, and per unknown key."""
+    """One line per rule that a value of ``cfg`` (a composed Hydra config) breaks, per unknown key and per
+    mandatory value left unset."""
     from omegaconf import OmegaConf
 
     rules = tuple(rules)
     checked = {r.key for r in rules}
     problems = list(unknown_keys(cfg))
+    # a mandatory value left out (``???`` in the option's YAML, e.g. robot=urdf's path)
+    problems += [f"{key}: must be set ({key}=…)" for key in _missing_below(cfg, "")]
     for each in rules:
         if _copied_from(cfg, each.key) in checked:  # not resolved: the copy may dangle (painting on logs)
             continue

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import logging
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -200,8 +201,10 @@ def paint(
         tool = library[name]
         estimate = identify_tool(bench, unloaded, bench.data(plant.with_tool(tool), loaded))
         recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
-        recognised = library[recognition.tool]
-        log.info("%s: recognised as %s (w_L = %.3f m)", name, recognised.name, recognised.width)
+        if not recognition.known:  # the path still needs a width: the nearest tool's, said aloud
+            warnings.warn(f"{name}: {recognition.describe()}; painting with its geometry", stacklevel=1)
+        recognised = library[recognition.nearest]
+        log.info("%s: recognised as %s (w_L = %.3f m)", name, recognition.tool, recognised.width)
         plans[name] = plan_roller(tool, estimate.phi_flange, recognised, identified_robot, settings)
 
     runs: list[ScoredRun] = []

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
@@ -34,7 +35,7 @@ from lwrlab.pipeline.log_rows import log_rows, read_logs
 from lwrlab.pipeline.tool_bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.pipeline.tool_library import load_library, load_tool
 from lwrlab.tools.model import Tool
-from lwrlab.tools.recognition import Recognition, ToolClassifier
+from lwrlab.tools.recognition import UNKNOWN_TOOL, Recognition, ToolClassifier, UnknownToolWarning
 
 log = logging.getLogger(__name__)
 
@@ -133,9 +134,12 @@ def payload_document(estimate: PayloadEstimate, recognition: Recognition | None)
     }
     if recognition is not None:
         document["recognised"] = {
-            "tool": recognition.tool,
-            "kind": recognition.kind,
+            "tool": recognition.tool,  # "unknown" when far from every library tool
+            "nearest": recognition.nearest,
+            "kind": recognition.kind,  # kind and geometry: the nearest tool's
             "confidence": float(recognition.confidence),
+            "noise_distance_sigma": float(recognition.noise_distance),
+            "unknown_above_sigma": float(recognition.unknown_distance),
             "geometry": dict(recognition.geometry),
         }
     return document
@@ -153,7 +157,8 @@ def _payload_metrics(
     if recognition is not None:
         metrics |= {
             "recognition_confidence": float(recognition.confidence),
-            f"recognised_{recognition.tool}": 1.0,
+            "recognition_noise_distance": float(recognition.noise_distance),
+            f"recognised_{recognition.tool}": 1.0,  # recognised_unknown: far from every library tool
         }
     if truth is not None:
         true_phi = truth.parameters
@@ -186,10 +191,17 @@ def format_payload(document: dict[str, Any], truth: Tool | None = None) -> str:
     ]
     if "recognised" in document:
         r = document["recognised"]
-        lines.append(
-            f"recognised: {r['tool']} ({r['kind']}, confidence {r['confidence']:.3f}, length "
-            f"{r['geometry']['length']} m, width {r['geometry']['width']} m)"
-        )
+        nearness = f"{r['noise_distance_sigma']:.3g} σ, unknown above {r['unknown_above_sigma']:.3g} σ"
+        if r["tool"] == UNKNOWN_TOOL:
+            lines.append(
+                f"WARNING: unknown tool: the payload is far from every library tool; nearest "
+                f"{r['nearest']} ({r['kind']}) at {nearness}"
+            )
+        else:
+            lines.append(
+                f"recognised: {r['tool']} ({r['kind']}, confidence {r['confidence']:.3f}, {nearness}, "
+                f"length {r['geometry']['length']} m, width {r['geometry']['width']} m)"
+            )
     header = "| parameter | value | std | %σ |" + (" truth |" if truth is not None else "")
     lines += ["", header, "|---|---|---|---|" + ("---|" if truth is not None else "")]
     for i, name in enumerate(LINK_PARAMETER_NAMES):
@@ -254,6 +266,8 @@ def run_payload(
     tools = load_library(list(library) if library else None)
     classifier: ToolClassifier = instantiate(cfg.classifier).fit(tools)
     recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
+    if not recognition.known:
+        warnings.warn(recognition.describe(), UnknownToolWarning, stacklevel=1)
     true_tool = (tools[truth] if truth in tools.names else load_tool(truth)) if truth else None
 
     document = payload_document(estimate, recognition)

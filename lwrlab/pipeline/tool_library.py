@@ -36,6 +36,7 @@ from typing import Any
 from hydra.errors import InstantiationException
 from hydra.utils import instantiate
 
+from lwrlab.errors import MissingFileError, UnknownNameError
 from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.resources import config_group
 from lwrlab.tools.library import ToolLibrary
@@ -73,7 +74,7 @@ def _library_files(directory: str | Path | None) -> dict[str, Path]:
         return config_group(LIBRARY_GROUP)
     folder = Path(directory)
     if not folder.is_dir():
-        raise FileNotFoundError(f"tool library folder {folder} does not exist")
+        raise MissingFileError(f"tool library folder {folder} does not exist")
     return {path.stem: path for path in folder.glob("*.yaml")}
 
 
@@ -87,7 +88,7 @@ def load_tool(name: str, directory: str | Path | None = None) -> Tool:
     library = _library_files(directory)
     if name not in library:
         where = directory if directory is not None else f"the tool library ({LIBRARY_GROUP} config group)"
-        raise KeyError(f"no tool named {name!r} in {where}; available: {sorted(library)}")
+        raise UnknownNameError(f"no tool named {name!r} in {where}; available: {sorted(library)}")
     source = library[name]
     description = read_yaml_mapping(source, "tool")
     description.setdefault("name", name)

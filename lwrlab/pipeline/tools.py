@@ -14,6 +14,7 @@ import copy
 import json
 import logging
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,7 +41,7 @@ from lwrlab.pipeline.tool_library import load_library
 from lwrlab.reference import paper_results
 from lwrlab.tools.library import PAPER_TOOLS, ToolLibrary
 from lwrlab.tools.model import GEOMETRY_NAMES, Tool
-from lwrlab.tools.recognition import Recognition, ToolClassifier
+from lwrlab.tools.recognition import UNKNOWN_TOOL, Recognition, ToolClassifier, UnknownToolWarning
 from lwrlab.trajectory.core import Trajectory
 
 log = logging.getLogger(__name__)
@@ -175,6 +176,8 @@ def run_table3_tools(
         estimate = stage.identify(plant, unloaded, tool, method, weighted, consistent)
         seconds = time.perf_counter() - start
         recognition: Recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
+        if not recognition.known:
+            warnings.warn(f"{name}: {recognition.describe()}", UnknownToolWarning, stacklevel=1)
         mass_error = 100.0 * (estimate.phi[0] / tool.mass - 1.0)
         tables.append(table3_rows(tool, estimate, bench.truth_in_joint_frame(tool)))
         recognitions.append(
@@ -184,8 +187,10 @@ def run_table3_tools(
                 "identified_mass": estimate.phi[0],
                 "mass_error_pct": mass_error,
                 "recognised": recognition.tool,
+                "nearest": recognition.nearest,
                 "correct": recognition.tool == name,
                 "confidence": recognition.confidence,
+                "noise_distance_sigma": recognition.noise_distance,
                 **{f"{g}_m": recognition.geometry[g] for g in GEOMETRY_NAMES},
                 "method": estimate.method,
                 "cond": estimate.cond,
@@ -196,6 +201,7 @@ def run_table3_tools(
             f"mass_error_pct_{name}": float(mass_error),
             f"recognised_{name}": float(recognition.tool == name),
             f"confidence_{name}": float(recognition.confidence),
+            f"noise_distance_{name}": float(recognition.noise_distance),
             f"relative_std_mass_{name}": float(estimate.relative_std[0]),
         }
     table = pd.concat(tables, ignore_index=True)
@@ -257,11 +263,15 @@ def run_tool_recognition_benchmark(
 
     Each seed draws another robot truth and other sensor noise; each tool is identified by eq. (7)
     and recognised by every classifier of ``classifiers`` (unfitted plugins, by name; the other
-    arguments as :func:`run_table3_tools`). Held-out geometry: each tool in turn
-    is removed from the library and its geometry interpolated by the classifiers that can
-    (``estimate_geometry``). Writes ``tool_recognition_trials.csv`` (classifier, seed, tool,
-    recognised, correct, confidence), ``tool_recognition_accuracy.csv`` (classifier, accuracy,
-    mean/min confidence of correct answers), ``geometry_interpolation.csv`` (classifier, seed, tool,
+    arguments as :func:`run_table3_tools`). Held-out tools: each tool in turn is removed from the
+    library; every classifier must then call it unknown (open set: the tools a library lacks), and
+    the classifiers that can (``estimate_geometry``) interpolate its geometry. Writes
+    ``tool_recognition_trials.csv`` (classifier, seed, tool, recognised, nearest, correct, confidence,
+    distance, noise distance in σ), ``tool_recognition_heldout.csv`` (classifier, seed, held-out tool,
+    nearest, distances, rejected), ``tool_recognition_accuracy.csv`` (classifier, accuracy, share
+    called unknown, largest noise distance of a library tool, held-out rejection rate and smallest
+    held-out noise distance, mean/min confidence of correct answers),
+    ``geometry_interpolation.csv`` (classifier, seed, tool,
     true and estimated length/width in m, errors in mm), ``tool_identification.csv`` (seed, tool, mass
     error %), ``confusion_matrix.png`` and ``summary.md``.
     """
@@ -272,10 +282,10 @@ def run_tool_recognition_benchmark(
         (name, tool.name): copy.deepcopy(classifier).fit(tools.without(tool.name))
         for name, classifier in classifiers.items()
         for tool in tools
-        if hasattr(classifier, "estimate_geometry")
     }
     classifiers = {name: copy.deepcopy(classifier).fit(tools) for name, classifier in classifiers.items()}
     trials: list[dict[str, Any]] = []
+    held_out_trials: list[dict[str, Any]] = []
     geometry: list[dict[str, Any]] = []
     identification: list[dict[str, Any]] = []
     seeds = range(int(cfg.seed), int(cfg.seed) + int(n_seeds))
@@ -297,12 +307,29 @@ def run_tool_recognition_benchmark(
                         "seed": seed,
                         "tool": tool.name,
                         "recognised": recognition.tool,
+                        "nearest": recognition.nearest,
                         "correct": recognition.tool == tool.name,
                         "confidence": recognition.confidence,
+                        "distance": recognition.distance,
+                        "noise_distance": recognition.noise_distance,
                     }
                 )
             for (name, held_name), classifier in held_out.items():
-                if held_name == tool.name:
+                if held_name != tool.name:
+                    continue
+                unseen = classifier.predict(phi, covariance)
+                held_out_trials.append(
+                    {
+                        "classifier": name,
+                        "seed": seed,
+                        "tool": tool.name,
+                        "nearest": unseen.nearest,
+                        "distance": unseen.distance,
+                        "noise_distance": unseen.noise_distance,
+                        "rejected": not unseen.known,
+                    }
+                )
+                if hasattr(classifier, "estimate_geometry"):
                     estimated = classifier.estimate_geometry(phi)
                     true = np.array([tool.geometry[g] for g in GEOMETRY_NAMES])
                     geometry.append(
@@ -316,14 +343,22 @@ def run_tool_recognition_benchmark(
                     )
             progress.update()
     progress.close()
-    trials_table, geometry_table, identification_table = (
+    trials_table, held_out_table, geometry_table, identification_table = (
         pd.DataFrame(trials),
+        pd.DataFrame(held_out_trials),
         pd.DataFrame(geometry),
         pd.DataFrame(identification),
     )
+    trials_table["unknown"] = trials_table["recognised"] == UNKNOWN_TOOL
     accuracy = trials_table.groupby("classifier", sort=False).agg(
-        accuracy=("correct", "mean"), trials=("correct", "size")
+        accuracy=("correct", "mean"),
+        trials=("correct", "size"),
+        called_unknown=("unknown", "mean"),
+        max_noise_distance=("noise_distance", "max"),
     )
+    by_classifier = held_out_table.groupby("classifier", sort=False)
+    accuracy["heldout_rejected"] = by_classifier["rejected"].mean()
+    accuracy["min_heldout_noise_distance"] = by_classifier["noise_distance"].min()
     correct = trials_table[trials_table.correct].groupby("classifier", sort=False)["confidence"]
     accuracy["mean_confidence"], accuracy["min_confidence_correct"] = correct.mean(), correct.min()
     matrices = {
@@ -332,10 +367,12 @@ def run_tool_recognition_benchmark(
     accuracy_by_classifier = {str(name): float(value) for name, value in accuracy["accuracy"].items()}
     confusion_matrices(tools.names, matrices, accuracy_by_classifier, output_dir / "confusion_matrix.png")
     trials_table.to_csv(output_dir / "tool_recognition_trials.csv", index=False)
+    held_out_table.to_csv(output_dir / "tool_recognition_heldout.csv", index=False)
     accuracy.to_csv(output_dir / "tool_recognition_accuracy.csv")
     geometry_table.to_csv(output_dir / "geometry_interpolation.csv", index=False)
     identification_table.to_csv(output_dir / "tool_identification.csv", index=False)
     metrics = {f"accuracy_{name}": value for name, value in accuracy_by_classifier.items()}
+    metrics |= {f"heldout_rejected_{name}": float(v) for name, v in accuracy["heldout_rejected"].items()}
     metrics["max_abs_mass_error_pct"] = float(identification_table["mass_error_pct"].abs().max())
     geometry_summary = pd.DataFrame()
     if not geometry_table.empty:
@@ -345,7 +382,8 @@ def run_tool_recognition_benchmark(
             metrics |= {f"heldout_{column}_{classifier_name}": float(value) for column, value in row.items()}
     text = "\n".join(
         [
-            f"## Tool recognition over {len(tools)} tools × {len(seeds)} noise seeds",
+            f"## Tool recognition over {len(tools)} tools × {len(seeds)} noise seeds (held out: each "
+            "tool removed from the library in turn, to be called unknown)",
             "",
             accuracy.to_markdown(floatfmt=".4g"),
             "",
@@ -376,5 +414,6 @@ def _confusion(trials: pd.DataFrame, names: tuple[str, ...]) -> np.ndarray:
     index = {name: i for i, name in enumerate(names)}
     matrix = np.zeros((len(names), len(names)), dtype=int)
     for true, recognised in zip(trials["tool"], trials["recognised"], strict=True):
-        matrix[index[true], index[recognised]] += 1
+        if recognised in index:  # an unknown answer has no column: the row sums to fewer trials
+            matrix[index[true], index[recognised]] += 1
     return matrix

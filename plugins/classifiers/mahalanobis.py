@@ -24,10 +24,13 @@ class Mahalanobis(DistanceClassifier):
     Parameters
     ----------
     regularisation : added to Σ's diagonal, relative to its largest entry (keeps Σ invertible).
+    unknown_distance : largest noise distance (σ) of a known tool
+        (:mod:`lwrlab.tools.recognition`); beyond it the tool is unknown.
     """
 
-    def __init__(self, *, regularisation: float) -> None:
+    def __init__(self, *, regularisation: float, unknown_distance: float) -> None:
         self.regularisation = regularisation
+        self.unknown_distance = unknown_distance
 
     def fit(self, library: ToolLibrary) -> Self:
         self.library_ = library

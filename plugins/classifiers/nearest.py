@@ -24,10 +24,13 @@ class WhitenedNearest(DistanceClassifier):
     ----------
     min_relative_spread : parameters whose spread over the library is below this fraction of the
         largest spread are ignored.
+    unknown_distance : largest noise distance (σ) of a known tool
+        (:mod:`lwrlab.tools.recognition`); beyond it the tool is unknown.
     """
 
-    def __init__(self, *, min_relative_spread: float) -> None:
+    def __init__(self, *, min_relative_spread: float, unknown_distance: float) -> None:
         self.min_relative_spread = min_relative_spread
+        self.unknown_distance = unknown_distance
 
     def fit(self, library: ToolLibrary) -> Self:
         spread = library.parameters.std(axis=0)

@@ -33,6 +33,8 @@ class PCALookup(DistanceClassifier):
     geometry_method : how :meth:`estimate_geometry` interpolates an unknown tool's geometry in PCA
         space: ``linear`` (affine fit over the library) or ``idw`` (inverse-distance weighting).
     neighbours : library tools blended by ``idw``.
+    unknown_distance : largest noise distance (σ) of a known tool
+        (:mod:`lwrlab.tools.recognition`); beyond it the tool is unknown.
 
     Examples
     --------
@@ -52,12 +54,14 @@ class PCALookup(DistanceClassifier):
         scaling: str,
         geometry_method: str,
         neighbours: int,
+        unknown_distance: float,
     ) -> None:
         self.n_components = n_components
         self.center = center
         self.scaling = scaling
         self.geometry_method = geometry_method
         self.neighbours = neighbours
+        self.unknown_distance = unknown_distance
 
     def fit(self, library: ToolLibrary) -> Self:
         if self.scaling not in SCALINGS:

@@ -33,6 +33,9 @@ class InstrumentalVariables(HyperParameters, LearnedAttributes):
     residual ``τ − W·φ``.
     """
 
+    def __init__(self) -> None:
+        """No settings (an explicit constructor: the protocol base's placeholder takes ``*args``)."""
+
     @staticmethod
     def _instruments(
         rows: int, context: IdentificationContext | None, instruments: np.ndarray | None

@@ -8,16 +8,19 @@ reproduce the identified base parameters exactly.
 Building a description from its ``_target_`` and looking a run up in MLflow belong to the edges
 (Hydra, tracking): the config ``conf/robot/identified.yaml`` hands them in as ``build_robot``
 (``hydra.utils.instantiate``) and ``fetch_run_artifact``
-(:func:`lwrlab.tracking.run_artifacts.download_run_artifact`), so this plugin needs neither.
+(:func:`lwrlab.tracking.store.run_artifacts.download_run_artifact`), so this plugin needs neither.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from lwrlab.errors import ConfigError, MissingFileError
 from lwrlab.io.artifacts import IDENTIFIED_MODEL_FILE, identified_model_path, load_identified_model
 from lwrlab.model.robot import RobotModel
 
@@ -38,8 +41,8 @@ def _locate(source: str, tracking_uri: str | None, fetch_run_artifact: RunArtifa
     if _is_file_reference(source):
         return identified_model_path(source)
     if fetch_run_artifact is None:
-        raise FileNotFoundError(
-            f"identified model {source!r} is not a file or run folder, "
+        raise MissingFileError(
+            f"robot.source={source}: identified model {source!r} is not a file or run folder, "
             "and no run look-up was given (fetch_run_artifact)"
         )
     return Path(fetch_run_artifact(source, IDENTIFIED_MODEL_FILE, tracking_uri))
@@ -63,6 +66,7 @@ an ``identified_model.yaml`` written before them still loads."""
 def load_identified_robot(
     source: str,
     *,
+    friction_terms: Sequence[str] | None,
     tracking_uri: str | None,
     build_robot: RobotBuilder,
     fetch_run_artifact: RunArtifactFetcher | None,
@@ -74,6 +78,8 @@ def load_identified_robot(
     Parameters
     ----------
     source : an ``identified_model.yaml``, the run folder holding it, or an MLflow run id.
+    friction_terms : the friction columns of the rebuilt robot (``None``: those it was identified
+        with); a term it was not identified with starts at zero (e.g. ``plant=log`` adds ``offset``).
     tracking_uri : the store a run id is looked up in (``None``: MLflow's default).
     build_robot : builds the robot description stored in the file (e.g. ``hydra.utils.instantiate``);
         only robot plugins (``_target_: plugins.robots.*``) are built.
@@ -84,6 +90,7 @@ def load_identified_robot(
     >>> import hydra.utils  # doctest: +SKIP
     >>> load_identified_robot(
     ...     "outputs/runs/<run>",
+    ...     friction_terms=None,
     ...     tracking_uri=None,
     ...     build_robot=hydra.utils.instantiate,
     ...     fetch_run_artifact=None,
@@ -94,14 +101,19 @@ def load_identified_robot(
     target = str(robot_config.get("_target_", ""))
     # The description comes from a file that may be shared: build only known robot plugins.
     if not target.startswith(_ALLOWED_TARGET_PREFIX):
-        raise ValueError(
+        raise ConfigError(
             f"{path}: robot _target_ {target!r} is not a robot plugin ({_ALLOWED_TARGET_PREFIX}*)"
         )
     defaults = _KEYS_ADDED_SINCE.get(target.rsplit(".", 1)[-1], {})
-    prior = build_robot({**defaults, **robot_config})
-    if tuple(prior.parameter_names) != identified.standard_names:
-        raise ValueError(
+    description = {**defaults, **robot_config}
+    if friction_terms is not None:
+        description["friction_terms"] = list(friction_terms)
+    prior = build_robot(description)
+    inertial = slice(0, prior.n_parameters - prior.n_friction)
+    if prior.parameter_names[inertial] != identified.standard_names[inertial]:
+        raise ConfigError(
             f"{path}: its standard parameters do not match the robot it describes ({prior.name})"
         )
-    robot = prior.with_parameters(identified.standard_values)
+    identified_values = dict(zip(identified.standard_names, identified.standard_values, strict=True))
+    robot = prior.with_parameters(np.array([identified_values.get(n, 0.0) for n in prior.parameter_names]))
     return replace(robot, name=f"{prior.name}_identified")
