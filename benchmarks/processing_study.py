@@ -189,11 +189,11 @@ def ours(seed: int) -> DataSet:
     )
 
 
-def real_lwr4() -> list[DataSet]:
-    """The real LWR4+ runs, two splits, if ../shared has them."""
+def real_lwr4_runs() -> tuple[RobotModel, dict[int, Measurement]] | None:
+    """The URDF robot and the three real LWR4+ runs by number, or None (said) without ../shared."""
     if not (REAL_LWR4 / "measurements_1.npz").is_file():
         print(f"skipping the real LWR4+ runs: not found at {REAL_LWR4}")
-        return []
+        return None
     robot = build("robot", "urdf", path=str(REAL_LWR4 / "kuka_lwr4.urdf"))
     runs = {
         i: load_log(
@@ -201,6 +201,15 @@ def real_lwr4() -> list[DataSet]:
         ).to_measurement()
         for i in (1, 2, 3)
     }
+    return robot, runs
+
+
+def real_lwr4() -> list[DataSet]:
+    """The real LWR4+ runs, two splits, if ../shared has them."""
+    found = real_lwr4_runs()
+    if found is None:
+        return []
+    robot, runs = found
     return [
         DataSet("lwr4+ 2+3→1", robot, [runs[2], runs[3]], [runs[1]]),
         DataSet("lwr4+ 3→1,2", robot, [runs[3]], [runs[1], runs[2]]),

@@ -73,11 +73,14 @@ def _same_params(a: dict, b: dict) -> bool:
 def test_every_estimator_recovers_true_base_parameters_from_noiseless_data(name: str, problem: dict) -> None:
     estimator = _estimator(name)
     assert estimator.fit(problem["w"], problem["tau"], context=problem["context"]) is estimator
-    assert _relative_error(estimator.phi_, problem["beta"]) < 1e-6
+    # an estimator leaning on a prior may keep a trace of it: the sdp's weakest pull (1e-8 of the data's
+    # information) biases noiseless base parameters by ~1e-5
+    tolerance = 3e-5 if getattr(estimator, "uses_prior", False) else 1e-6
+    assert _relative_error(estimator.phi_, problem["beta"]) < tolerance
     for attribute in ("std_", "relative_std_", "residual_std_", "cond_"):
         assert hasattr(estimator, attribute), attribute
     np.testing.assert_allclose(
-        estimator.predict(problem["w"]), problem["tau"], atol=1e-6 * np.abs(problem["tau"]).max()
+        estimator.predict(problem["w"]), problem["tau"], atol=tolerance * np.abs(problem["tau"]).max()
     )
 
 

@@ -19,7 +19,7 @@ from lwrlab.io.logs import load_log, write_log
 from lwrlab.io.rosbag import write_joint_states
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.identification import identify, identify_configured
+from lwrlab.pipeline.identification import IdentificationReport, identify, identify_configured
 from lwrlab.pipeline.identification_report import write_report
 from lwrlab.plants.core import Measurement
 from plugins.plants.log import LogPlant
@@ -121,7 +121,9 @@ def test_several_logs_each_scored_with_what_a_user_takes_away(
         f"data.validation_paths=[{paths['check_a']},{paths['check_b']}]",
         "trajectory.from_file=/no/such/motion.yaml",  # a log run must not sample any motion
     )
-    assert cfg.estimator._target_.endswith("OrdinaryLeastSquares") and "offset" in cfg.robot.friction_terms
+    # logs: physically consistent, the prior's pull chosen by cross-validation; offsets modelled
+    assert cfg.estimator._target_.endswith("PhysicallyConsistentSDP") and cfg.estimator.weight == "auto"
+    assert "offset" in cfg.robot.friction_terms
     report = identify_configured(cfg)
     write_report(report, tmp_path / "run", {})
     run = tmp_path / "run"
@@ -131,26 +133,39 @@ def test_several_logs_each_scored_with_what_a_user_takes_away(
     assert 0 < metrics["fit_rel_error"] < 0.05 and max(per_log) < 0.05
     predicted = pd.read_parquet(run / "predicted_torque.parquet")
     n = lwr4.n_joints
-    assert list(predicted.columns) == [
-        "log",
-        "role",
-        "t",
-        "scored",
-        *[f"tau{j}" for j in range(1, n + 1)],
-        *[f"tau_hat{j}" for j in range(1, n + 1)],
-    ]
-    for name, measurement in recorded.items():  # every logged sample, measured torques as logged
+    measured_columns = [f"tau{j}" for j in range(1, n + 1)]
+    predicted_columns = [f"tau_hat{j}" for j in range(1, n + 1)]
+    leading = ["log", "role", "t", *measured_columns, *predicted_columns]
+    assert list(predicted.columns)[: len(leading)] == leading  # then the prediction interval, if any
+
+    def rel_error(rows: pd.DataFrame) -> float:
+        measured = rows[measured_columns].to_numpy()
+        return float(np.linalg.norm(measured - rows[predicted_columns].to_numpy()) / np.linalg.norm(measured))
+
+    for name, measurement in recorded.items():  # the scored span of every log, torques as logged
         rows = predicted[predicted["log"] == name]
-        np.testing.assert_array_equal(rows["t"].to_numpy(), measurement.t)
-        np.testing.assert_array_equal(rows[[f"tau{j}" for j in range(1, n + 1)]].to_numpy(), measurement.tau)
-    scored = predicted[predicted["scored"] & (predicted["log"] == "check_b")]
-    residual = (
-        scored[[f"tau{j}" for j in range(1, n + 1)]].to_numpy()
-        - scored[[f"tau_hat{j}" for j in range(1, n + 1)]].to_numpy()
+        first = int(np.searchsorted(measurement.t, rows["t"].iloc[0]))
+        span = slice(first, first + len(rows))
+        assert 0.8 * len(measurement.t) < len(rows) < len(measurement.t)  # the edges, and only they, left out
+        np.testing.assert_array_equal(rows["t"].to_numpy(), measurement.t[span])
+        np.testing.assert_array_equal(rows[measured_columns].to_numpy(), measurement.tau[span])
+    # whoever scores the file gets what lwrlab reported
+    for name in ("check_a", "check_b"):
+        assert rel_error(predicted[predicted["log"] == name]) == pytest.approx(
+            metrics[f"validation_rel_error_{name}"], rel=1e-12
+        )
+    assert rel_error(predicted[predicted["role"] == "identification"]) == pytest.approx(
+        metrics["fit_rel_error"], rel=1e-12
     )
-    assert np.linalg.norm(residual) / np.linalg.norm(
-        scored[[f"tau{j}" for j in range(1, n + 1)]].to_numpy()
-    ) == pytest.approx(per_log[1])
+    # the 95 % prediction interval beside τ̂, its coverage on the validation logs as reported
+    low, high = (predicted[[f"tau_{side}{j}" for j in range(1, n + 1)]].to_numpy() for side in ("lo", "hi"))
+    assert np.all(low < predicted[predicted_columns].to_numpy()) and np.all(high > low)
+    inside = (predicted[measured_columns].to_numpy() >= low) & (
+        predicted[measured_columns].to_numpy() <= high
+    )
+    validation = (predicted["role"] == "validation").to_numpy()
+    assert inside[validation].mean() == pytest.approx(metrics["validation_interval_coverage"], abs=1e-12)
+    assert 0.85 < metrics["validation_interval_coverage"] <= 1.0  # simulated noise: near the nominal 95 %
     summary = (run / "summary.md").read_text()
     assert "check_a, check_b: validation logs, not used for identification" in summary
     assert not (run / "exciting_motion.csv").exists() and (run / "residuals_per_log.png").is_file()
@@ -176,35 +191,46 @@ def test_irregular_log_is_scored_at_its_logged_samples(
     assert report.validation_measurement.metadata["resampled"]
 
 
+def _real_lwr4(fit: list[int], validation: list[int]) -> IdentificationReport:
+    """The real LWR4+ identified with the defaults, only the robot and the logs named."""
+    logs = {i: REAL_LWR4 / f"measurements_{i}.npz" for i in (1, 2, 3)}
+    return identify_configured(
+        _compose(
+            "robot=urdf",
+            f"robot.path={REAL_LWR4 / 'kuka_lwr4.urdf'}",
+            NPZ_COLUMNS,
+            f"data.paths=[{','.join(str(logs[i]) for i in fit)}]",
+            f"data.validation_paths=[{','.join(str(logs[i]) for i in validation)}]",
+        )
+    )
+
+
 @needs_real_logs
-def test_real_lwr4_with_defaults_beats_plain_least_squares() -> None:
-    """Done-when of the real-logs issue: defaults only, the robot and the data named.
+def test_real_lwr4_defaults_predict_new_motions() -> None:
+    """The model study's figures with the defaults (README, model study).
 
     Plain OLS reference (README of the data): 2.63 % on measurements_1 from 2 + 3; 5.05 % / 4.78 %
-    on 1 / 2 from 3 alone (FloBaRoID publishes 2.81 % for the first split).
+    on 1 / 2 from 3 alone, a new (slower) motion; 11.6 % on 3 from 2 alone, a new faster one.
+    The physically consistent default gives up ~0.1 point on the seen motion for 1.5 points on the
+    slower new motions and 7 on the faster one.
     """
-    urdf = REAL_LWR4 / "kuka_lwr4.urdf"
-    logs = {i: REAL_LWR4 / f"measurements_{i}.npz" for i in (1, 2, 3)}
-    both = identify_configured(
-        _compose(
-            "robot=urdf",
-            f"robot.path={urdf}",
-            NPZ_COLUMNS,
-            f"data.paths=[{logs[2]},{logs[3]}]",
-            f"data.validation_paths=[{logs[1]}]",
-        )
-    )
-    assert both.metrics["validation_rel_error"] < 0.0263
-    new_motion = identify_configured(
-        _compose(
-            "robot=urdf",
-            f"robot.path={urdf}",
-            NPZ_COLUMNS,
-            f"data.paths=[{logs[3]}]",
-            f"data.validation_paths=[{logs[1]},{logs[2]}]",
-        )
-    )
-    assert new_motion.metrics["validation_rel_error"] <= 0.048
+    new_slower = _real_lwr4([3], [1, 2])
+    assert new_slower.metrics["validation_rel_error"] <= 0.032
+    assert new_slower.metrics["min_pseudo_inertia_eigenvalue"] > -1e-12  # bodies a simulator can take
+    # the 95 % band covers ~83 % of a new motion's samples: its model error exceeds what the blocks of
+    # the fit show (README, model study)
+    assert 0.8 <= new_slower.metrics["validation_interval_coverage"] <= 1.0
+    both = _real_lwr4([2, 3], [1])
+    assert both.metrics["validation_rel_error"] < 0.027
     assert not any(
         p.processing.endswith("logged q̇") for p in both.predictions
     )  # their logged velocities disagree with q
+
+
+@pytest.mark.slow
+@needs_real_logs
+def test_real_lwr4_defaults_predict_a_new_faster_motion() -> None:
+    """From run 2 alone to the faster run 3: plain least squares 11.6 %, the defaults ≤ 5 %."""
+    report = _real_lwr4([2], [3])
+    assert report.metrics["validation_rel_error"] <= 0.05
+    assert report.metrics["prior_weight"] > 1e-8  # thin data: the cross-validation leans on the prior

@@ -23,6 +23,8 @@ class ProcessingSettings:
     """Hz, rate of the identification rows after the filter; null = 5 × the cut-off."""
     velocity: str
     """Velocity source: ``auto``, ``logged`` or ``differentiated``."""
+    block_s: float | None
+    """s of log processed at a time (memory independent of the log's length); null = the whole log."""
 
 
 @schema

@@ -262,6 +262,7 @@ def assess_identifiability(
     n_smallest: int = 3,
     max_listed: int = 6,
     max_terms: int = 4,
+    factor: bool = False,
 ) -> IdentifiabilityReport:
     """Rank, conditioning, weak directions and joint excitation of an identification's data.
 
@@ -281,6 +282,8 @@ def assess_identifiability(
     n_smallest : how many weakest directions :attr:`~IdentifiabilityReport.smallest_directions` keeps.
     max_listed : how many weak directions the messages list (the report keeps them all).
     max_terms : most parameters named per direction.
+    factor : ``w_base`` is the R factor of the rows (``W_b = Q·R``: the same column norms and
+        singular values, a few kB whatever the logs' length), not the rows themselves.
 
     Examples
     --------
@@ -299,7 +302,7 @@ def assess_identifiability(
             f"w_base must be (rows, {len(names)}) for {len(names)} parameter names, got shape {w_base.shape}"
         )
     n_joints = np.shape(q)[1]
-    if w_base.shape[0] != np.shape(q)[0] * n_joints:
+    if not factor and w_base.shape[0] != np.shape(q)[0] * n_joints:
         raise ValueError(
             f"w_base has {w_base.shape[0]} rows, expected {np.shape(q)[0]} samples × {n_joints} joints"
         )

@@ -15,6 +15,7 @@ import numpy as np
 
 from lwrlab.identification.compression import compress
 from lwrlab.identification.core import LearnedAttributes, column_scaled_condition_number, relative_std
+from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.numerics.threads import dense_algebra
 
 
@@ -185,3 +186,55 @@ def set_learned_attributes(estimator: LearnedAttributes, fit: LeastSquaresFit, W
     rows, columns = W.shape
     estimator.residual_std_ = float(np.sqrt(fit.residual @ fit.residual / (rows - columns)))
     estimator.cond_ = column_scaled_condition_number(W)
+
+
+@dense_algebra()
+def least_squares_from_statistics(
+    statistics: RowStatistics, rcond: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`weighted_least_squares` (unit weights) from the rows' R factor: ``(φ, σ²·(WᵀW)⁻¹)``."""
+    compressed = statistics.compressed()
+    phi, *_ = np.linalg.lstsq(compressed.R, compressed.y, rcond=rcond)
+    r_inverse = np.linalg.pinv(compressed.R)
+    squares = float(statistics.residual_squares(phi).sum())
+    covariance = r_inverse @ r_inverse.T * squares / (statistics.rows - statistics.n_columns)
+    return phi, covariance
+
+
+@dense_algebra()
+def joint_weighted_least_squares(
+    statistics: RowStatistics, steps: int = 1, min_relative_std: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`grouped_least_squares` with one group per joint, from the rows' R factors.
+
+    Returns ``(φ, covariance, σ_j)``: the last weighted fit and the per-joint σ_j behind its weights.
+    """
+    n_joints, columns, rows = statistics.n_joints, statistics.n_columns, statistics.rows
+    joint_rows = rows / n_joints
+
+    def joint_std(phi: np.ndarray) -> np.ndarray:
+        squares = statistics.residual_squares(phi).sum(axis=0)
+        dof = joint_rows * (1.0 - columns / rows)
+        return np.sqrt(squares / max(dof, 1.0))
+
+    phi, _ = least_squares_from_statistics(statistics)
+    for _ in range(max(1, int(steps))):
+        sigma = weighting_std(joint_std(phi), min_relative_std)
+        weighted = statistics.weighted(1.0 / sigma**2)
+        phi, covariance = least_squares_from_statistics(weighted)
+    return phi, covariance, sigma
+
+
+@dense_algebra()
+def set_learned_attributes_from_statistics(
+    estimator: LearnedAttributes, phi: np.ndarray, covariance: np.ndarray, statistics: RowStatistics
+) -> None:
+    """:func:`set_learned_attributes` of an estimate ``phi`` fitted to the rows behind ``statistics``."""
+    std = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    estimator.phi_ = phi
+    estimator.covariance_ = covariance
+    estimator.std_ = std
+    estimator.relative_std_ = relative_std(phi, std)
+    squares = float(statistics.residual_squares(phi).sum())
+    estimator.residual_std_ = float(np.sqrt(squares / (statistics.rows - statistics.n_columns)))
+    estimator.cond_ = column_scaled_condition_number(statistics.compressed().R)

@@ -24,16 +24,29 @@ from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.core import Estimator, torque_errors
+from lwrlab.identification.extrapolation import (
+    ExtrapolationReport,
+    assess_extrapolation,
+    likely_causes,
+    validation_warning,
+)
 from lwrlab.identification.identifiability import (
     IdentifiabilityReport,
     assess_identifiability,
     format_prior_note,
 )
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
+from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
 from lwrlab.pipeline.identification_report import format_report, write_report
-from lwrlab.pipeline.log_predictions import LogPrediction, predict_measurement, process_measurement
+from lwrlab.pipeline.identification_rows import identification_rows
+from lwrlab.pipeline.log_predictions import (
+    LogPrediction,
+    PredictionUncertainty,
+    predict_measurement,
+    process_measurement,
+)
 from lwrlab.plants.core import Measurement, Plant, is_recorded
 from lwrlab.signal.processing import ProcessedData
 from lwrlab.trajectory.core import MotionSource, Trajectory, check_limits
@@ -62,6 +75,8 @@ class IdentificationReport:
     """The model's prediction on every identification and validation measurement."""
     identifiability: IdentifiabilityReport
     """What the data can determine (rank, cond, weak directions, still joints)."""
+    extrapolation: ExtrapolationReport | None = None
+    """How uncertain the predictions are on motions within the limits (None: not assessed)."""
     notes: list[str] = field(default_factory=list)
     """What the processing chose per log, and the warnings to print with the result (identifiability,
     implausible logs)."""
@@ -198,13 +213,18 @@ def identify(
     )
 
     processed = [process_measurement(m, processing) for m in measurements]
-    rows = [
-        data.rows(lambda q, dq, ddq: base.base_regressor(regressor(robot, q, dq, ddq))) for data in processed
-    ]
-    w_base = np.vstack([w for w, _ in rows])
-    tau = np.concatenate([t for _, t in rows])
-    q, dq, ddq = (np.vstack([getattr(d, name)[d.index] for d in processed]) for name in ("q", "dq", "ddq"))
-    identifiability = assess_identifiability(w_base, base.names, q, dq, ddq, robot.limits)
+    bootstrap = statistics is not None and statistics["resamples"] > 0
+    rows = identification_rows(robot, base, processed, estimator, keep_rows=bootstrap)
+    q, dq, ddq = rows.q, rows.dq, rows.ddq  # the joint states at the rows
+    identifiability = assess_identifiability(
+        rows.statistics.factor()[: base.count, : base.count],
+        base.names,
+        q,
+        dq,
+        ddq,
+        robot.limits,
+        factor=True,
+    )
     has_prior = bool(getattr(estimator, "uses_prior", False))
     if identifiability.status == "rank_deficient" and not has_prior:
         raise IdentifiabilityError(
@@ -214,7 +234,7 @@ def identify(
         )
     context = _context(robot, base, motion, processed[0])
     cpu_start = time.process_time()
-    estimator.fit(w_base, tau, context=context)
+    rows.fit(estimator, context)
     fit_cpu_s = time.process_time() - cpu_start
     standard = getattr(estimator, "standard_phi_", None)  # physically consistent estimators give it
     if standard is None:
@@ -225,15 +245,24 @@ def identify(
 
     # An identification log is predicted with the cut-off and velocity source its fit used; a
     # validation log gets its own, as a new log would.
-    fit_predictions = [
-        replace(
-            predict_measurement(robot, base, estimator.phi_, m, _as_chosen(processing, data)),
-            role="identification",
-        )
-        for m, data in zip(measurements, processed, strict=True)
-    ]
+    def predict_fit_logs(uncertainty: PredictionUncertainty | None) -> list[LogPrediction]:
+        return [
+            replace(
+                predict_measurement(
+                    robot, base, estimator.phi_, m, _as_chosen(processing, data), uncertainty
+                ),
+                role="identification",
+            )
+            for m, data in zip(measurements, processed, strict=True)
+        ]
+
+    fit_predictions = predict_fit_logs(None)
+    uncertainty = prediction_uncertainty(estimator, fit_predictions, rows.statistics)
+    fit_predictions = predict_fit_logs(uncertainty)
     validation_predictions = [
-        replace(predict_measurement(robot, base, estimator.phi_, m, processing), role="validation")
+        replace(
+            predict_measurement(robot, base, estimator.phi_, m, processing, uncertainty), role="validation"
+        )
         for m in validation_measurements
     ]
     predictions = fit_predictions + validation_predictions
@@ -258,11 +287,14 @@ def identify(
         },
         index=pd.Index(base.names, name="parameter"),
     )
-    if statistics is not None and statistics["resamples"] > 0:
+    share = getattr(estimator, "prior_share_", None)
+    if share is not None:
+        parameters["prior_share"] = share
+    if statistics is not None and rows.w_base is not None and rows.tau is not None and bootstrap:
         interval = block_bootstrap(
             estimator,
-            w_base,
-            tau,
+            rows.w_base,
+            rows.tau,
             robot.n_joints,
             block_samples=max(1, round(statistics["block_s"] * processed[0].rate_hz)),
             resamples=int(statistics["resamples"]),
@@ -284,9 +316,11 @@ def identify(
         "nrms_mean": float(np.nanmean(errors["nrms"])),
         "fit_rel_error": float(np.linalg.norm(fit_measured - fit_estimated) / np.linalg.norm(fit_measured)),
         "validation_rel_error": float(np.mean([p.relative_error for p in validation_predictions])),
+        "validation_interval_coverage": _coverage(validation_predictions),
+        "fit_interval_coverage": _coverage(fit_predictions),
         **{f"validation_rel_error_{p.name}": p.relative_error for p in validation_predictions},
         "n_base_parameters": float(base.count),
-        "n_rows": float(w_base.shape[0]),
+        "n_rows": float(rows.statistics.rows),
         "fit_cpu_s": fit_cpu_s,
         "min_pseudo_inertia_eigenvalue": float(min_pseudo_inertia_eigenvalues(standard, robot.n_links).min()),
         **identifiability.metrics(),
@@ -303,12 +337,20 @@ def identify(
         metrics["base_parameter_error"] = float(
             np.linalg.norm(estimator.phi_ - true_base) / np.linalg.norm(true_base)
         )
+    causes = _likely_causes(robot, measurements, q, dq)
+    extrapolation = _extrapolation(robot, base, estimator, causes)
+    metrics |= extrapolation.metrics()
     notes = [
         f"processing of {m.name}: {data.describe()}" for m, data in zip(measurements, processed, strict=True)
     ]
     notes += [] if identifiability.ok else [identifiability.warning_text()]
+    notes += [
+        extrapolation.warning_text(),
+        validation_warning(metrics["fit_rel_error"], metrics["validation_rel_error"], causes),
+    ]
     if not identifiability.ok and has_prior:
         notes.append(format_prior_note(identifiability))
+    notes.append(_prior_note(base.names, share))
     notes += [
         f"WARNING: {w}"
         for m in [*measurements, *validation_measurements]
@@ -319,6 +361,7 @@ def identify(
         base=base,
         identified=identified,
         identifiability=identifiability,
+        extrapolation=extrapolation,
         notes=[n for n in notes if n],
         motion=motion,
         validation_motion=validation_motion,
@@ -328,6 +371,84 @@ def identify(
         validation=validation,
         predictions=predictions,
         metrics=metrics,
+    )
+
+
+def _likely_causes(
+    robot: RobotModel, measurements: list[Measurement], q: np.ndarray, dq: np.ndarray
+) -> tuple[str, ...]:
+    limits = robot.limits
+    return likely_causes(
+        q,
+        dq,
+        duration_s=float(sum(m.t[-1] - m.t[0] for m in measurements)),
+        position_range=limits.position_upper - limits.position_lower,
+        velocity_limit=limits.velocity,
+    )
+
+
+def _extrapolation(
+    robot: RobotModel, base: BaseParameters, estimator: Estimator, causes: tuple[str, ...]
+) -> ExtrapolationReport:
+    """The spread of the model's predictions over the joint limits (unknown acceleration limits:
+    5 × the velocity limit per second, about what arms reach)."""
+    limits = robot.limits
+    velocity = np.where(np.isfinite(limits.velocity), limits.velocity, 2.0)
+    acceleration = np.where(np.isfinite(limits.acceleration), limits.acceleration, 5.0 * velocity)
+    return assess_extrapolation(
+        lambda q, dq, ddq: base.base_regressor(regressor(robot, q, dq, ddq)),
+        base.names,
+        np.asarray(estimator.covariance_),
+        float(estimator.residual_std_),
+        limits.position_lower,
+        limits.position_upper,
+        velocity,
+        acceleration,
+        causes=causes,
+    )
+
+
+def prediction_uncertainty(
+    estimator: Estimator, fit_predictions: list[LogPrediction], statistics: RowStatistics
+) -> PredictionUncertainty:
+    """The uncertainty of the model's predictions on a new motion, from its fit.
+
+    Per joint, the model error is the residual on the identification logs as logged (sensor noise
+    and unmodelled dynamics), plus what cross-validation adds on held-out blocks beyond the in-sample
+    residual on the same rows, when the estimator measured it (``cv_joint_rms_``): the error a motion
+    not in the fit brings. Without it the interval is the in-sample one, and its coverage on the
+    validation logs says how far that is from the truth.
+    """
+    n_joints = fit_predictions[0].measured.shape[1]
+    logged = np.vstack([(p.measured - p.predicted)[p.scored] for p in fit_predictions])
+    error_variance = np.mean(logged**2, axis=0)
+    held_out = getattr(estimator, "cv_joint_rms_", None)
+    if held_out is not None:
+        in_sample = statistics.residual_squares(estimator.phi_).sum(axis=0) / (statistics.rows // n_joints)
+        error_variance = error_variance + np.clip(np.asarray(held_out) ** 2 - in_sample, 0.0, None)
+    return PredictionUncertainty(np.asarray(estimator.covariance_), np.sqrt(error_variance))
+
+
+def _coverage(predictions: list[LogPrediction]) -> float:
+    """Share of scored samples and joints inside their prediction interval, over ``predictions``."""
+    inside = [
+        (np.abs(p.measured - p.predicted) <= p.half_width)[p.scored]
+        for p in predictions
+        if p.half_width is not None
+    ]
+    return float(np.mean(np.concatenate([i.ravel() for i in inside]))) if inside else float("nan")
+
+
+def _prior_note(names: tuple[str, ...] | list[str], share: np.ndarray | None, threshold: float = 0.5) -> str:
+    """A line naming the base parameters whose estimate came mostly from the prior ('' if none)."""
+    if share is None:
+        return ""
+    leaning = [f"{name} ({100 * s:.0f} %)" for name, s in zip(names, share, strict=True) if s > threshold]
+    if not leaning:
+        return ""
+    return (
+        f"{len(leaning)} of {len(names)} base parameters come mostly from the prior (the robot's CAD/URDF "
+        f"inertials), not the data — the motion barely excites them: {', '.join(leaning)}"
     )
 
 

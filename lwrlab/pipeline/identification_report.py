@@ -17,7 +17,7 @@ from lwrlab.figures.residuals import residuals_per_log
 from lwrlab.figures.torques import error_per_joint, torque_overlay
 from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory
 from lwrlab.io.urdf_export import export_urdf
-from lwrlab.pipeline.log_predictions import predicted_torque_frame, prediction_table
+from lwrlab.pipeline.log_predictions import prediction_table, write_predicted_torque
 
 if TYPE_CHECKING:  # the identification module runs this writer: its report type only annotates here
     from lwrlab.pipeline.identification import IdentificationReport
@@ -82,14 +82,15 @@ def format_report(report: IdentificationReport) -> str:
 
 
 def run_tags(report: IdentificationReport) -> dict[str, str]:
-    """Run tags: ``identifiability`` (good, poor, rank_deficient), ``warnings`` (count), ``data``
+    """Run tags: ``identifiability`` (good, poor, rank_deficient), ``extrapolation`` (good, poor: the
+    predictions on other motions), ``warnings`` (count of the report's WARNING lines: implausible
+    logs, identifiability, poorly determined parameters, validation far above the fit), ``data``
     (logs or simulation)."""
-    warnings = sum(
-        len(m.metadata.get("warnings", [])) for m in [*report.measurements, *report.validation_measurements]
-    )
+    extrapolation = report.extrapolation
     return {
         "identifiability": report.identifiability.status,
-        "warnings": str(warnings + (0 if report.identifiability.ok else 1)),
+        "extrapolation": "good" if extrapolation is None or extrapolation.ok else "poor",
+        "warnings": str(sum(note.startswith("WARNING") for note in report.notes)),
         "data": "logs" if report.recorded else "simulation",
     }
 
@@ -135,7 +136,7 @@ def write_report(
     files["predictions"] = output_dir / "prediction_errors.csv"
     prediction_table(report.predictions).to_csv(files["predictions"])
     files["predicted_torque"] = output_dir / "predicted_torque.parquet"
-    predicted_torque_frame(report.predictions).to_parquet(files["predicted_torque"], index=False)
+    write_predicted_torque(report.predictions, files["predicted_torque"])
     files["summary"] = output_dir / "summary.md"
     files["summary"].write_text(format_report(report) + "\n")
     files["metrics"] = output_dir / "metrics.json"

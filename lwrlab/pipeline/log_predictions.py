@@ -7,8 +7,9 @@ of an identification in tables (the report's per-log errors, ``predicted_torque.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,9 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement
 from lwrlab.signal.processing import ProcessedData, process
+
+REGRESSOR_BLOCK_SAMPLES = 8192
+"""Samples whose full regressor is built at a time when predicting (8192 × 7 joints × 91 columns: 42 MB)."""
 
 
 @dataclass(frozen=True)
@@ -39,12 +43,49 @@ class LogPrediction:
     """(M,) samples inside the trimmed span, where the filtered states are free of edge transients."""
     processing: str
     """What the processing chose for this log (cut-off, velocity source)."""
+    half_width: np.ndarray | None = None
+    """(M, N_J) half-width of the prediction interval ``τ̂ ± half_width`` (N·m), or None."""
+
+    @property
+    def interval_coverage(self) -> float:
+        """Share of the scored samples and joints whose measured torque lies in the interval (NaN: none)."""
+        if self.half_width is None:
+            return float("nan")
+        inside = np.abs(self.measured - self.predicted) <= self.half_width
+        return float(inside[self.scored].mean())
 
     @property
     def relative_error(self) -> float:
         """‖τ − τ̂‖/‖τ‖ over all joints and scored samples."""
         measured = self.measured[self.scored]
         return float(np.linalg.norm(measured - self.predicted[self.scored]) / np.linalg.norm(measured))
+
+
+@dataclass(frozen=True)
+class PredictionUncertainty:
+    """What makes a prediction on a new motion uncertain: the parameters' spread and the model's error.
+
+    The interval of τ̂_j at a sample with base regressor row ``w`` is
+    ``τ̂_j ± z·√(wᵀ·Σ·w + s_j²)``: ``Σ`` the base parameters' covariance, ``s_j`` the torque error
+    the model makes on joint j beyond its parameters (sensor noise, unmodelled dynamics), and ``z``
+    the normal quantile of ``level``.
+    """
+
+    covariance: np.ndarray
+    """(N_B, N_B) covariance of the base parameters."""
+    error_std: np.ndarray
+    """(N_J,) model error per joint (N·m)."""
+    level: float = 0.95
+    """Probability the interval is meant to cover."""
+
+    def half_width(self, base_rows: np.ndarray) -> np.ndarray:
+        """(M, N_J) half-widths at the sample-major base regressor rows ``base_rows`` (M·N_J, N_B)."""
+        from scipy.stats import norm
+
+        n_joints = self.error_std.size
+        parameter_variance = np.einsum("ij,jk,ik->i", base_rows, self.covariance, base_rows)
+        variance = parameter_variance.reshape(-1, n_joints) + self.error_std**2
+        return float(norm.ppf(0.5 + self.level / 2)) * np.sqrt(np.clip(variance, 0.0, None))
 
 
 def process_measurement(
@@ -62,13 +103,31 @@ def predict_measurement(
     phi: np.ndarray,
     measurement: Measurement,
     processing: dict[str, Any],
+    uncertainty: PredictionUncertainty | None = None,
 ) -> LogPrediction:
-    """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit)."""
+    """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit).
+
+    With ``uncertainty``, also the prediction interval's half-width at every sample.
+    """
     data = process_measurement(measurement, processing, every_sample=True)
-    predicted = base.torques(regressor(robot, data.q, data.dq, data.ddq), phi).reshape(-1, robot.n_joints)
+    predicted = np.empty((data.n_working, robot.n_joints))
+    half_width = None if uncertainty is None else np.empty_like(predicted)
+    # Block by block: the full regressor of every sample of a long log would not fit in memory.
+    for block in data.state_blocks():
+        for first in range(0, len(block.t), REGRESSOR_BLOCK_SAMPLES):
+            part = slice(first, first + REGRESSOR_BLOCK_SAMPLES)
+            full_rows = regressor(robot, block.q[part], block.dq[part], block.ddq[part])
+            samples = slice(block.start + first, block.start + first + full_rows.shape[0] // robot.n_joints)
+            predicted[samples] = base.torques(full_rows, phi).reshape(-1, robot.n_joints)
+            if uncertainty is not None and half_width is not None:
+                half_width[samples] = uncertainty.half_width(base.base_regressor(full_rows))
     t, measured = measurement.as_logged()
     if t is not measurement.t:  # resampled log: back to the logged samples
         predicted = np.column_stack([np.interp(t, data.t, predicted[:, j]) for j in range(robot.n_joints)])
+        if half_width is not None:
+            half_width = np.column_stack(
+                [np.interp(t, data.t, half_width[:, j]) for j in range(robot.n_joints)]
+            )
     span = data.row_times
     scored = (t >= span[0] - 1e-9) & (t <= span[-1] + 1e-9)
     cutoff = "no filter" if data.cutoff_hz is None else f"{data.cutoff_hz:.3g} Hz"
@@ -81,6 +140,7 @@ def predict_measurement(
         predicted,
         scored,
         f"{cutoff}, {velocity}",
+        half_width,
     )
 
 
@@ -98,15 +158,53 @@ def prediction_table(predictions: Sequence[LogPrediction]) -> pd.DataFrame:
 
 
 def predicted_torque_frame(predictions: Sequence[LogPrediction]) -> pd.DataFrame:
-    """Measured and predicted torques of every log at its logged samples.
+    """Measured and predicted torques of every log at its scored samples: the rows its errors come from.
 
-    Columns ``log, role, t, scored, tau1…N, tau_hat1…N``.
+    Columns ``log, role, t, tau1…N, tau_hat1…N`` and, where the model carries its uncertainty,
+    ``tau_lo1…N, tau_hi1…N`` (the prediction interval, 95 % by default). The samples before and
+    after the trimmed span are left out: there the filtered states carry the filter's edge
+    transients, their predictions are several times worse than the rest and no metric scores them,
+    so ‖τ − τ̂‖/‖τ‖ over a log's rows
+    is its ``validation_rel_error_<log>`` (over the identification logs' rows, ``fit_rel_error``).
     """
-    frames = []
+    return pd.concat(_predicted_torque_blocks(predictions, block_samples=None), ignore_index=True)
+
+
+def _predicted_torque_blocks(
+    predictions: Sequence[LogPrediction], block_samples: int | None
+) -> Iterator[pd.DataFrame]:
+    """The rows of :func:`predicted_torque_frame`, log by log in blocks of ``block_samples`` samples."""
     for p in predictions:
         n = p.measured.shape[1]
-        frame = pd.DataFrame({"log": p.name, "role": p.role, "t": p.t, "scored": p.scored})
-        frame[[f"tau{j}" for j in range(1, n + 1)]] = p.measured
-        frame[[f"tau_hat{j}" for j in range(1, n + 1)]] = p.predicted
-        frames.append(frame)
-    return pd.concat(frames, ignore_index=True)
+        scored = np.flatnonzero(p.scored)
+        step = scored.size if block_samples is None else block_samples
+        for first in range(0, max(scored.size, 1), max(step, 1)):
+            rows = scored[first : first + step]
+            frame = pd.DataFrame({"log": p.name, "role": p.role, "t": p.t[rows]})
+            frame[[f"tau{j}" for j in range(1, n + 1)]] = p.measured[rows]
+            frame[[f"tau_hat{j}" for j in range(1, n + 1)]] = p.predicted[rows]
+            if p.half_width is not None:
+                frame[[f"tau_lo{j}" for j in range(1, n + 1)]] = p.predicted[rows] - p.half_width[rows]
+                frame[[f"tau_hi{j}" for j in range(1, n + 1)]] = p.predicted[rows] + p.half_width[rows]
+            yield frame
+
+
+def write_predicted_torque(
+    predictions: Sequence[LogPrediction], path: Path, block_samples: int = 1 << 17
+) -> Path:
+    """:func:`predicted_torque_frame` written to Parquet block by block (a long log's frame would not
+    fit in memory): the same file, one row group per block."""
+    import pyarrow as pa  # type: ignore[import-untyped]
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    writer = None
+    try:
+        for frame in _predicted_torque_blocks(predictions, block_samples):
+            table = pa.Table.from_pandas(frame, preserve_index=False)
+            if writer is None:
+                writer = pq.ParquetWriter(path, table.schema)
+            writer.write_table(table.cast(writer.schema))
+    finally:
+        if writer is not None:
+            writer.close()
+    return path

@@ -9,7 +9,11 @@ import numpy as np
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.core import LearnedAttributes
 from lwrlab.identification.hyperparameters import HyperParameters
-from lwrlab.identification.least_squares import set_learned_attributes, weighted_least_squares
+from lwrlab.identification.least_squares import (
+    least_squares_from_statistics,
+    set_learned_attributes_from_statistics,
+)
+from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.numerics.threads import dense_algebra
 
 
@@ -40,7 +44,15 @@ class OrdinaryLeastSquares(HyperParameters, LearnedAttributes):
 
         ``context`` is not needed (accepted for the protocol).
         """
-        set_learned_attributes(self, weighted_least_squares(W, tau, rcond=self.rcond), W)
+        return self.fit_statistics(RowStatistics.from_rows(W, tau), context=context)
+
+    @dense_algebra()
+    def fit_statistics(
+        self, statistics: RowStatistics, *, context: IdentificationContext | None = None
+    ) -> Self:
+        """Fit to rows given by their R factors (:class:`RowStatistics`, accumulated block by block)."""
+        phi, covariance = least_squares_from_statistics(statistics, rcond=self.rcond)
+        set_learned_attributes_from_statistics(self, phi, covariance, statistics)
         return self
 
     def predict(self, W: np.ndarray) -> np.ndarray:

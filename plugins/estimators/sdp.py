@@ -23,6 +23,17 @@ Regularisation toward the CAD prior ``D``:
   every J_i strictly positive definite;
 - ``none``: only the constraints (the unidentifiable directions are then left to the solver).
 
+``weight: auto`` lets the data choose how strongly to lean on the prior
+(:mod:`lwrlab.identification.prior_weight`): the squared residual ``‖W_b·K·φ − τ‖²`` plus
+``λ·ΔφᵀSΔφ`` (S the chosen divergence's quadratic form at the prior: exact for ``euclidean``, the
+second-order expansion for ``entropic``), λ picked from ``weight_grid`` (relative to the data's
+information per base parameter in the metric S) by cross-validation over ``folds`` contiguous
+blocks of the rows (``selection``: the smallest held-out error, or the largest weight within one
+standard error of it), each candidate a full consistent fit. The programme is compiled once (cvxpy
+parameters) and re-solved for every fold and weight. Rich data choose the smallest weight, which
+only keeps what they cannot see near the prior; thin data lean on the prior, and ``prior_share_``
+says for which base parameters.
+
 The solver is CLARABEL; when it fails (an error, or a status other than optimal), SCS is tried,
 a warning names both, and the learned attributes ``solver_`` and ``solver_fallback_`` (also in
 ``diagnostics_``, which the pipeline returns as metrics) record it.
@@ -32,13 +43,15 @@ from __future__ import annotations
 
 import logging
 import time
+import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Self
 
 import cvxpy as cp
 import numpy as np
 
-from lwrlab.identification.compression import compress
+from lwrlab.identification.compression import CompressedLeastSquares, compress
 from lwrlab.identification.consistency import (
     consistency_constraints,
     min_pseudo_inertia_eigenvalues,
@@ -48,7 +61,18 @@ from lwrlab.identification.consistency import (
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.core import LearnedAttributes
 from lwrlab.identification.hyperparameters import HyperParameters
-from lwrlab.identification.least_squares import fit_with_covariance, set_learned_attributes
+from lwrlab.identification.least_squares import (
+    fit_with_covariance,
+    set_learned_attributes,
+    set_learned_attributes_from_statistics,
+)
+from lwrlab.identification.prior_weight import (
+    entropic_metric,
+    information_scale,
+    posterior_covariance,
+    prior_share,
+)
+from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.model.inertia import from_pseudo_inertia, pseudo_inertia
 from lwrlab.numerics.threads import dense_algebra
 
@@ -56,6 +80,33 @@ log = logging.getLogger(__name__)
 
 REGULARIZATIONS = ("none", "euclidean", "entropic")
 _ACCEPTED = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
+
+
+@dataclass(frozen=True)
+class _WeightedProgramme:
+    """A compiled prior-weighted programme: its variable and the parameters a re-solve sets."""
+
+    problem: cp.Problem
+    phi: cp.Variable
+    factor: cp.Parameter
+    target: cp.Parameter
+    weight: cp.Parameter
+
+
+def _chosen_weight(fold_scores: np.ndarray, selection: str) -> int:
+    """Index of the chosen candidate, the candidates sorted by increasing weight.
+
+    ``min``: the smallest held-out error. ``one_se``: the largest weight whose error is within one
+    standard error of the smallest (Breiman's rule: the simplest model the data cannot tell from the
+    best), the standard error taken over the folds.
+    """
+    totals = fold_scores.sum(axis=0)
+    best = int(np.argmin(totals))
+    if selection == "min":
+        return best
+    folds = fold_scores.shape[0]
+    standard_error = float(np.std(fold_scores[:, best], ddof=1)) * np.sqrt(folds)
+    return int(np.flatnonzero(totals <= totals[best] + standard_error).max())
 
 
 class SolverFailure(RuntimeError):
@@ -71,7 +122,12 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     Parameters
     ----------
     regularization : ``"euclidean"``, ``"entropic"`` or ``"none"``.
-    weight : weight of the regularisation (N·m per unit of divergence).
+    weight : weight of the regularisation (N·m per unit of divergence), or ``"auto"``: chosen by
+        cross-validation (the module's docstring).
+    folds : contiguous blocks of the rows for ``weight: auto``'s cross-validation.
+    weight_grid : candidate weights for ``weight: auto``, relative to the data's information per
+        base parameter in the metric S, in increasing order.
+    selection : ``"min"`` or ``"one_se"``, how ``weight: auto`` picks among the candidates.
     min_eigenvalue : ε, the smallest eigenvalue asked of every pseudo-inertia (kg·m²).
     friction_nonnegative : constrain Coulomb and viscous friction to be ≥ 0.
     mass_bounds : ``[low, high]`` factors of each segment's CAD mass, or None.
@@ -87,7 +143,11 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     parameters, ``min_eigenvalues_`` (N_L,) their pseudo-inertias' smallest eigenvalues,
     ``solver_`` (the solver that produced the result), ``solver_fallback_`` (bool),
     ``solver_status_``, ``solve_time_`` (s, problem build + solve) and ``diagnostics_`` (numbers
-    for the run's metrics).
+    for the run's metrics). With ``weight: auto`` also ``weight_`` (the chosen relative weight),
+    ``prior_share_`` (N_B,) the share of each base parameter's estimate that came from the prior,
+    ``cv_joint_rms_`` (N_J,) the held-out residual RMS per joint at the chosen weight (N·m) and
+    ``cv_scores_`` (the held-out ‖W·β − τ‖² summed over folds, per candidate weight); ``std_`` is
+    then the posterior standard deviation (finite where the data alone cannot determine a parameter).
     """
 
     uses_prior = True
@@ -101,12 +161,19 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     solver_status_: str
     solve_time_: float
     diagnostics_: dict[str, float]
+    weight_: float
+    prior_share_: np.ndarray
+    cv_joint_rms_: np.ndarray
+    cv_scores_: np.ndarray
 
     def __init__(
         self,
         *,
         regularization: str,
-        weight: float,
+        weight: float | str,
+        folds: int,
+        weight_grid: Sequence[float],
+        selection: str,
         min_eigenvalue: float,
         friction_nonnegative: bool,
         mass_bounds: Sequence[float] | None,
@@ -117,6 +184,9 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     ) -> None:
         self.regularization = regularization
         self.weight = weight
+        self.folds = folds
+        self.weight_grid = weight_grid
+        self.selection = selection
         self.min_eigenvalue = min_eigenvalue
         self.friction_nonnegative = friction_nonnegative
         self.mass_bounds = mass_bounds
@@ -134,6 +204,15 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         if self.regularization not in REGULARIZATIONS:
             raise ValueError(
                 f"unknown regularization {self.regularization!r}; valid: {list(REGULARIZATIONS)}"
+            )
+        if isinstance(self.weight, str) and self.weight != "auto":
+            raise ValueError(f"weight must be a number or 'auto', got {self.weight!r}")
+        if self.weight == "auto" and (
+            self.folds < 2 or not len(self.weight_grid) or self.selection not in ("min", "one_se")
+        ):
+            raise ValueError(
+                f"weight: auto needs folds ≥ 2, a weight_grid and selection min|one_se, got "
+                f"folds={self.folds}, weight_grid={list(self.weight_grid)}, selection={self.selection!r}"
             )
         if self.mass_bounds is not None:
             low, high = self.mass_bounds
@@ -155,25 +234,17 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
             terms.append(-cp.log_det(j) + cp.trace(j_prior_inv @ j))
         return cp.sum(cp.hstack(terms))
 
-    def _problem(
-        self, W: np.ndarray, tau: np.ndarray, context: IdentificationContext
-    ) -> tuple[cp.Problem, cp.Variable]:
-        phi = cp.Variable(context.n_parameters, name="phi")
-        if self.compress:
-            compressed = compress(W, tau)
-            # ‖Wφ − τ‖ = ‖[Rφ − y; ρ]‖ exactly (the floor ρ matters once the norm is not squared)
-            residual = cp.hstack(
-                [
-                    compressed.R @ context.regrouping @ phi - compressed.y,
-                    np.array([compressed.residual_floor]),
-                ]
-            )
-            fit = cp.norm(residual) / np.sqrt(W.shape[0])
-        else:
-            fit = cp.norm(W @ context.regrouping @ phi - tau) / np.sqrt(W.shape[0])
-        objective = fit
-        if self.regularization != "none" and self.weight > 0:
-            objective = fit + self.weight * self._regularizer(phi, context)
+    def _metric(self, context: IdentificationContext) -> np.ndarray:
+        """(P, P) quadratic form of the regularisation at the prior (zero on friction)."""
+        n_inertial = 10 * context.n_links
+        if self.regularization == "entropic":
+            return entropic_metric(context.prior, context.n_links)
+        metric = np.zeros((context.n_parameters, context.n_parameters))
+        if self.regularization == "euclidean":
+            metric[np.arange(n_inertial), np.arange(n_inertial)] = 1.0
+        return metric
+
+    def _constraints(self, phi: cp.Expression, context: IdentificationContext) -> list[cp.Constraint]:
         constraints = consistency_constraints(phi, context.n_links, margin=self.min_eigenvalue)
         if self.friction_nonnegative:
             dissipative = np.concatenate(
@@ -188,7 +259,37 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
                 phi[masses] >= low * context.prior[masses],
                 phi[masses] <= high * context.prior[masses],
             ]
-        return cp.Problem(cp.Minimize(objective), constraints), phi
+        return constraints
+
+    def _problem(
+        self, W: np.ndarray, tau: np.ndarray, context: IdentificationContext
+    ) -> tuple[cp.Problem, cp.Variable]:
+        if self.compress:
+            return self._compressed_problem(compress(W, tau), context)
+        phi = cp.Variable(context.n_parameters, name="phi")
+        fit = cp.norm(W @ context.regrouping @ phi - tau) / np.sqrt(W.shape[0])
+        return self._regularised(fit, phi, context)
+
+    def _compressed_problem(
+        self, compressed: CompressedLeastSquares, context: IdentificationContext
+    ) -> tuple[cp.Problem, cp.Variable]:
+        phi = cp.Variable(context.n_parameters, name="phi")
+        # ‖Wφ − τ‖ = ‖[Rφ − y; ρ]‖ exactly (the floor ρ matters once the norm is not squared)
+        residual = cp.hstack(
+            [
+                compressed.R @ context.regrouping @ phi - compressed.y,
+                np.array([compressed.residual_floor]),
+            ]
+        )
+        return self._regularised(cp.norm(residual) / np.sqrt(compressed.rows), phi, context)
+
+    def _regularised(
+        self, fit: cp.Expression, phi: cp.Variable, context: IdentificationContext
+    ) -> tuple[cp.Problem, cp.Variable]:
+        objective = fit
+        if self.regularization != "none" and float(self.weight) > 0:
+            objective = fit + float(self.weight) * self._regularizer(phi, context)
+        return cp.Problem(cp.Minimize(objective), self._constraints(phi, context)), phi
 
     def _solve(self, problem: cp.Problem) -> None:
         attempts = [(self.solver, self.solver_options or {})]
@@ -197,7 +298,10 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         failures = []
         for name, options in attempts:
             try:
-                problem.solve(solver=name, **options)
+                with warnings.catch_warnings():
+                    # an inaccurate solution is accepted and recorded (solver_status_), not shouted
+                    warnings.filterwarnings("ignore", "Solution may be inaccurate", UserWarning)
+                    problem.solve(solver=name, **options)
             except (cp.error.SolverError, ValueError) as error:
                 failures.append(f"{name}: {error}")
                 continue
@@ -236,6 +340,89 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
                 standard[index] = np.maximum(standard[index], 0.0)
         return standard
 
+    def _programme(self, context: IdentificationContext, metric: np.ndarray) -> _WeightedProgramme:
+        """``‖R·K·φ − y‖² + λ·ΔφᵀSΔφ`` under the constraints, compiled once for every fold and weight."""
+        n_base = context.regrouping.shape[0]
+        phi = cp.Variable(context.n_parameters, name="phi")
+        factor = cp.Parameter((n_base, n_base), name="R")
+        target = cp.Parameter(n_base, name="y")
+        weight = cp.Parameter(nonneg=True, name="weight")
+        objective = cp.sum_squares(factor @ (context.regrouping @ phi) - target)
+        values, vectors = np.linalg.eigh(metric)
+        kept = values > 1e-12 * max(float(values.max()), 1e-300)
+        if kept.any():
+            root = (vectors[:, kept] * np.sqrt(values[kept])).T  # S = rootᵀ·root
+            objective = objective + weight * cp.sum_squares(root @ (phi - context.prior))
+        problem = cp.Problem(cp.Minimize(objective), self._constraints(phi, context))
+        return _WeightedProgramme(problem, phi, factor, target, weight)
+
+    def _solve_weighted(
+        self,
+        programme: _WeightedProgramme,
+        compressed: CompressedLeastSquares,
+        weight: float,
+        context: IdentificationContext,
+    ) -> np.ndarray:
+        """Consistent standard parameters fitting the compressed rows with the pull ``weight``.
+
+        The residual is divided by √rows (a mean square), so ``weight`` is per row:
+        λ·‖·‖² of the programme is ``rows·λ`` in the units of ``‖W·β − τ‖²``.
+        """
+        root_rows = np.sqrt(compressed.rows)
+        programme.factor.value = compressed.R / root_rows
+        programme.target.value = compressed.y / root_rows
+        programme.weight.value = weight
+        self._solve(programme.problem)
+        return self._clean(np.asarray(programme.phi.value, dtype=float), context)
+
+    @property
+    def statistics_folds(self) -> int:
+        """Contiguous folds the row statistics must keep apart (``weight: auto``'s cross-validation)."""
+        return int(self.folds) if self.weight == "auto" else 1
+
+    def _fit_auto(self, statistics: RowStatistics, context: IdentificationContext) -> np.ndarray:
+        """Cross-validate the weight over contiguous blocks, then fit all rows with the winner."""
+        metric = self._metric(context)
+        grid = np.asarray(self.weight_grid, dtype=float) if metric.any() else np.zeros(1)
+        programme = self._programme(context, metric)
+        regrouping, n_joints = context.regrouping, context.n_joints
+        if statistics.folds != int(self.folds) or statistics.n_joints != n_joints:
+            raise ValueError(
+                f"sdp: statistics of {statistics.folds} folds and {statistics.n_joints} joints, "
+                f"expected {self.folds} folds and {n_joints} joints"
+            )
+
+        def per_row_scale(compressed: CompressedLeastSquares) -> float:
+            return information_scale(regrouping, compressed.R.T @ compressed.R, metric) / compressed.rows
+
+        scores = np.zeros((int(self.folds), grid.size))
+        joint_squares = np.zeros((grid.size, n_joints))
+        for fold in range(int(self.folds)):
+            held_out = np.arange(int(self.folds)) == fold
+            compressed = statistics.compressed(~held_out)
+            scale = per_row_scale(compressed)
+            for index, relative in enumerate(grid):
+                standard = self._solve_weighted(programme, compressed, relative * scale, context)
+                squares = statistics.residual_squares(regrouping @ standard)[fold]
+                scores[fold, index] = squares.sum()
+                joint_squares[index] += squares
+        best = _chosen_weight(scores, self.selection)
+        self.weight_ = float(grid[best])
+        self.cv_scores_ = scores.sum(axis=0)
+        self.cv_joint_rms_ = np.sqrt(joint_squares[best] / (statistics.rows // n_joints))
+        compressed = statistics.compressed()
+        weight = self.weight_ * per_row_scale(compressed)
+        standard = self._solve_weighted(programme, compressed, weight, context)
+        gram = compressed.R.T @ compressed.R
+        beta = regrouping @ standard
+        sigma2 = float(statistics.residual_squares(beta).sum()) / max(
+            1, statistics.rows - statistics.n_columns
+        )
+        covariance = posterior_covariance(regrouping, gram, metric, compressed.rows * weight, sigma2)
+        set_learned_attributes_from_statistics(self, beta, covariance, statistics)
+        self.prior_share_ = prior_share(regrouping, gram, metric, compressed.rows * weight)
+        return standard
+
     @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:
         """Fit to regressor rows ``W`` and torques ``tau``.
@@ -247,19 +434,58 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         rows = W.shape[0]
         if rows != tau.shape[0]:
             raise ValueError(f"W has {rows} rows but tau has {tau.shape[0]}")
+        if self.weight != "auto" and not self.compress:  # the uncompressed rows, to measure the gain
+            start = time.perf_counter()
+            problem, phi = self._problem(W, tau, context)
+            self._solve(problem)
+            self.solve_time_ = time.perf_counter() - start
+            self.standard_phi_ = self._clean(np.asarray(phi.value, dtype=float), context)
+            set_learned_attributes(
+                self, fit_with_covariance(W, tau, context.regrouping @ self.standard_phi_, W.T @ W), W
+            )
+            return self._finish(float(tau @ tau), context)
+        statistics = RowStatistics.from_rows(W, tau, context.n_joints, self.statistics_folds)
+        return self.fit_statistics(statistics, context=context)
+
+    @dense_algebra()
+    def fit_statistics(
+        self, statistics: RowStatistics, *, context: IdentificationContext | None = None
+    ) -> Self:
+        """Fit to rows given by their R factors per fold and joint (:class:`RowStatistics`,
+        accumulated block by block; ``statistics_folds`` folds)."""
+        context = self._check(context)
         start = time.perf_counter()
-        problem, phi = self._problem(W, tau, context)
-        self._solve(problem)
-        self.solve_time_ = time.perf_counter() - start
-        self.standard_phi_ = self._clean(np.asarray(phi.value, dtype=float), context)
+        if self.weight == "auto":
+            self.standard_phi_ = self._fit_auto(statistics, context)
+            self.solve_time_ = time.perf_counter() - start
+        else:
+            compressed = statistics.compressed()
+            problem, phi = self._compressed_problem(compressed, context)
+            self._solve(problem)
+            self.solve_time_ = time.perf_counter() - start
+            self.standard_phi_ = self._clean(np.asarray(phi.value, dtype=float), context)
+            beta = context.regrouping @ self.standard_phi_
+            sigma2 = float(statistics.residual_squares(beta).sum()) / (statistics.rows - statistics.n_columns)
+            covariance = sigma2 * np.linalg.pinv(compressed.R.T @ compressed.R)
+            set_learned_attributes_from_statistics(self, beta, covariance, statistics)
+        torque_squares = float(np.sum(statistics.factors[..., -1] ** 2))  # ‖τ‖²: the last column's norm
+        return self._finish(torque_squares, context)
+
+    def _finish(self, torque_squares: float, context: IdentificationContext) -> Self:
+        """The learned attributes every path shares (``phi_``, eigenvalues, diagnostics)."""
         self.phi_ = context.regrouping @ self.standard_phi_
         self.min_eigenvalues_ = min_pseudo_inertia_eigenvalues(self.standard_phi_, context.n_links)
-        set_learned_attributes(self, fit_with_covariance(W, tau, self.phi_, W.T @ W), W)
         self.diagnostics_ = {
             "solver_fallback": float(self.solver_fallback_),
             "solve_time_s": self.solve_time_,
             "min_pseudo_inertia_eigenvalue": float(self.min_eigenvalues_.min()),
         }
+        if self.weight == "auto":
+            self.diagnostics_ |= {
+                "prior_weight": self.weight_,
+                "prior_dominated_parameters": float(np.sum(self.prior_share_ > 0.5)),
+                "cv_rel_error": float(np.sqrt(self.cv_scores_.min() / torque_squares)),
+            }
         return self
 
     def predict(self, W: np.ndarray) -> np.ndarray:

@@ -11,10 +11,14 @@ from typing import Self
 
 import numpy as np
 
-from lwrlab.identification.context import IdentificationContext, resolve_joint_count, row_joints
+from lwrlab.identification.context import IdentificationContext, resolve_joint_count
 from lwrlab.identification.core import LearnedAttributes
 from lwrlab.identification.hyperparameters import HyperParameters
-from lwrlab.identification.least_squares import grouped_least_squares, set_learned_attributes
+from lwrlab.identification.least_squares import (
+    joint_weighted_least_squares,
+    set_learned_attributes_from_statistics,
+)
+from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.numerics.threads import dense_algebra
 
 
@@ -60,14 +64,22 @@ class WeightedLeastSquares(HyperParameters, LearnedAttributes):
         ``context`` gives N_J when ``n_joints`` is None.
         """
         n_joints = resolve_joint_count(self.n_joints, context, "wls")
-        fit = grouped_least_squares(
-            W, tau, row_joints(W.shape[0], n_joints), self.reweight_steps, self.min_relative_std
+        return self.fit_statistics(RowStatistics.from_rows(W, tau, n_joints), context=context)
+
+    @dense_algebra()
+    def fit_statistics(
+        self, statistics: RowStatistics, *, context: IdentificationContext | None = None
+    ) -> Self:
+        """Fit to rows given by their R factors per joint (:class:`RowStatistics`)."""
+        n_joints = resolve_joint_count(self.n_joints, context, "wls")
+        if statistics.n_joints != n_joints:
+            raise ValueError(f"wls: statistics of {statistics.n_joints} joints, expected {n_joints}")
+        phi, covariance, sigma = joint_weighted_least_squares(
+            statistics, self.reweight_steps, self.min_relative_std
         )
-        if fit.group_std is None:
-            raise RuntimeError("grouped least squares returned no per-joint residual σ")
-        self.joint_std_ = fit.group_std
-        self.weights_ = 1.0 / fit.group_std**2
-        set_learned_attributes(self, fit, W)
+        self.joint_std_ = sigma
+        self.weights_ = 1.0 / sigma**2
+        set_learned_attributes_from_statistics(self, phi, covariance, statistics)
         return self
 
     def predict(self, W: np.ndarray) -> np.ndarray:

@@ -1,0 +1,165 @@
+"""What the estimators need of the identification rows, accumulated block by block: QR factors.
+
+A least-squares estimator never needs the rows ``[W τ]`` themselves, only their R factor
+(``[W τ]ᵀ[W τ] = RᵀR``): the solution, the residual ``‖τ − W·β‖² = ‖R·[β; −1]‖²``, the Gram matrix
+and the column norms (hence the column-scaled condition number) all follow from it. Cross-validation
+over contiguous folds and per-joint weighting need the same per fold and per joint, so
+:class:`RowStatistics` keeps one ``(P+1) × (P+1)`` factor per fold and joint — a few megabytes
+whatever the length of the logs. :class:`RowAccumulator` builds it from the rows of a log processed
+in blocks (a TSQR: every block's rows are factored with the factor so far).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lwrlab.identification.compression import CompressedLeastSquares, blocked_qr_factor
+from lwrlab.identification.prior_weight import contiguous_folds
+
+
+def _square_factor(stacked: np.ndarray) -> np.ndarray:
+    """The (P+1, P+1) R factor of ``stacked`` rows (zero rows added when there are fewer)."""
+    size = stacked.shape[1]
+    if stacked.shape[0] < size:
+        stacked = np.vstack([stacked, np.zeros((size - stacked.shape[0], size))])
+    return blocked_qr_factor(stacked)
+
+
+@dataclass(frozen=True)
+class RowStatistics:
+    """R factors of the stacked rows ``[W τ]`` of every cross-validation fold and joint.
+
+    ``factors[f, j]`` is the upper-triangular R of the rows of joint ``j`` in fold ``f``
+    (the folds: :func:`lwrlab.identification.prior_weight.contiguous_folds` over the samples).
+    """
+
+    factors: np.ndarray
+    """(folds, N_J, P+1, P+1) R factors of ``[W τ]`` (units of W; last column N·m)."""
+    samples: np.ndarray
+    """(folds,) samples (rows per joint) in each fold."""
+
+    @classmethod
+    def from_rows(cls, W: np.ndarray, tau: np.ndarray, n_joints: int = 1, folds: int = 1) -> RowStatistics:
+        """The statistics of sample-major rows ``W`` (rows, P) and ``tau`` (rows,) in ``folds`` folds."""
+        tau = np.asarray(tau, dtype=float).ravel()
+        if W.shape[0] != tau.shape[0]:
+            raise ValueError(f"W has {W.shape[0]} rows but tau has {tau.shape[0]}")
+        accumulator = RowAccumulator(W.shape[0] // n_joints, n_joints, W.shape[1], folds)
+        accumulator.add(W, tau)
+        return accumulator.result()
+
+    @property
+    def n_joints(self) -> int:
+        """Rows per sample N_J."""
+        return int(self.factors.shape[1])
+
+    @property
+    def folds(self) -> int:
+        """Number of contiguous folds."""
+        return int(self.factors.shape[0])
+
+    @property
+    def n_columns(self) -> int:
+        """Columns P of W."""
+        return int(self.factors.shape[-1]) - 1
+
+    @property
+    def rows(self) -> int:
+        """Rows of the stacked W (samples × N_J)."""
+        return int(self.samples.sum()) * self.n_joints
+
+    def factor(self, folds: np.ndarray | None = None, joints: np.ndarray | None = None) -> np.ndarray:
+        """(P+1, P+1) R of ``[W τ]`` over the selected folds and joints (boolean masks; None: all)."""
+        chosen = self.factors
+        if folds is not None:
+            chosen = chosen[np.asarray(folds, dtype=bool)]
+        if joints is not None:
+            chosen = chosen[:, np.asarray(joints, dtype=bool)]
+        stacked = chosen.reshape(-1, chosen.shape[-1])
+        if stacked.shape[0] == chosen.shape[-1]:  # a single factor
+            return stacked
+        return _square_factor(stacked)
+
+    def compressed(self, folds: np.ndarray | None = None) -> CompressedLeastSquares:
+        """``‖W·φ − τ‖² = ‖R·φ − y‖² + ρ²`` over the rows of the selected folds (None: all)."""
+        r_full = self.factor(folds)
+        columns = self.n_columns
+        samples = self.samples if folds is None else self.samples[np.asarray(folds, dtype=bool)]
+        rows = int(samples.sum()) * self.n_joints
+        if rows <= columns:
+            raise ValueError(
+                f"cannot compress {rows} rows into {columns} columns: need more rows than parameters"
+            )
+        return CompressedLeastSquares(
+            R=r_full[:columns, :columns],
+            y=r_full[:columns, columns],
+            residual_floor=float(abs(r_full[columns, columns])),
+            rows=rows,
+        )
+
+    def residual_squares(self, beta: np.ndarray) -> np.ndarray:
+        """(folds, N_J) ``‖τ − W·β‖²`` of each fold's rows of each joint (N·m)²."""
+        extended = np.append(np.asarray(beta, dtype=float), -1.0)
+        return np.sum((self.factors @ extended) ** 2, axis=-1)
+
+    def joint_factors(self) -> np.ndarray:
+        """(N_J, P+1, P+1) R of ``[W τ]`` over all folds, per joint."""
+        joints = np.eye(self.n_joints, dtype=bool)
+        return np.stack([self.factor(joints=joints[j]) for j in range(self.n_joints)])
+
+    def weighted(self, joint_weights: np.ndarray) -> RowStatistics:
+        """The statistics of the rows of joint ``j`` scaled by ``√joint_weights[j]``."""
+        root = np.sqrt(np.asarray(joint_weights, dtype=float))
+        return RowStatistics(self.factors * root[None, :, None, None], self.samples)
+
+
+class RowAccumulator:
+    """Fills :class:`RowStatistics` from sample-major rows given block by block, in order.
+
+    Parameters
+    ----------
+    n_samples : total samples (rows / N_J) that will be added, over every block and log: it places
+        the fold boundaries.
+    n_joints : rows per sample N_J.
+    n_columns : columns P of W.
+    folds : contiguous folds (1: none).
+    """
+
+    def __init__(self, n_samples: int, n_joints: int, n_columns: int, folds: int = 1) -> None:
+        self.n_samples = int(n_samples)
+        self.n_joints = int(n_joints)
+        self.fold_of_sample = contiguous_folds(self.n_samples, 1, int(folds))
+        self.factors = np.zeros((int(folds), n_joints, n_columns + 1, n_columns + 1))
+        self.added = 0
+
+    def add(self, W: np.ndarray, tau: np.ndarray) -> None:
+        """The next rows ``W`` (rows, P) and torques ``tau`` (rows,), sample-major."""
+        tau = np.asarray(tau, dtype=float).ravel()
+        samples = W.shape[0] // self.n_joints
+        if samples * self.n_joints != W.shape[0] or tau.shape[0] != W.shape[0]:
+            raise ValueError(
+                f"{W.shape[0]} rows, {tau.shape[0]} torques: not whole samples of {self.n_joints} joints"
+            )
+        if self.added + samples > self.n_samples:
+            raise ValueError(f"more than the {self.n_samples} samples announced")
+        rows = np.column_stack([W, tau]).reshape(samples, self.n_joints, -1)
+        folds = self.fold_of_sample[self.added : self.added + samples]
+        for fold in np.unique(folds):
+            in_fold = rows[folds == fold]
+            for joint in range(self.n_joints):
+                if not self.factors[fold, joint].any():  # the first rows of this fold and joint
+                    self.factors[fold, joint] = _square_factor(in_fold[:, joint])
+                else:
+                    self.factors[fold, joint] = _square_factor(
+                        np.vstack([self.factors[fold, joint], in_fold[:, joint]])
+                    )
+        self.added += samples
+
+    def result(self) -> RowStatistics:
+        """The statistics of every row added (all announced samples must have come)."""
+        if self.added != self.n_samples:
+            raise ValueError(f"{self.added} of the {self.n_samples} announced samples were added")
+        samples = np.bincount(self.fold_of_sample, minlength=self.factors.shape[0])
+        return RowStatistics(self.factors.copy(), samples)

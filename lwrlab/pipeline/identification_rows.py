@@ -1,0 +1,115 @@
+"""The identification rows of processed logs, built block by block and kept as what the estimator needs.
+
+An estimator that fits from the rows' R factors (``fit_statistics``: OLS, WLS, SDP) gets a
+:class:`~lwrlab.identification.row_statistics.RowStatistics` accumulated block by block, so memory
+does not grow with the logs' length. An estimator that needs every row (IRLS, IV) and the block
+bootstrap get the stacked rows too, up to :data:`MAX_STACKED_VALUES`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from lwrlab.dynamics.base_parameters import BaseParameters
+from lwrlab.dynamics.regressor import regressor
+from lwrlab.errors import ConfigError
+from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.core import Estimator
+from lwrlab.identification.row_statistics import RowAccumulator, RowStatistics
+from lwrlab.model.robot import RobotModel
+from lwrlab.signal.processing import ProcessedData
+
+MAX_STACKED_VALUES = 50_000_000
+"""Most values (rows × base parameters, 400 MB) of stacked rows kept for an estimator or a statistic
+that needs every row; longer logs are refused with a one-line error."""
+
+
+@dataclass(frozen=True)
+class IdentificationRows:
+    """The rows of an identification: their statistics, and the rows themselves where needed."""
+
+    statistics: RowStatistics
+    """R factors of ``[W_b τ]`` per cross-validation fold and joint."""
+    w_base: np.ndarray | None
+    """(rows, N_B) stacked base regressor rows, or None (not kept)."""
+    tau: np.ndarray | None
+    """(rows,) stacked torques (N·m), or None."""
+    q: np.ndarray
+    """(samples, N_J) positions at the rows (rad)."""
+    dq: np.ndarray
+    """(samples, N_J) velocities at the rows (rad/s)."""
+    ddq: np.ndarray
+    """(samples, N_J) accelerations at the rows (rad/s²)."""
+
+    def fit(self, estimator: Estimator, context: IdentificationContext) -> None:
+        """Fit ``estimator`` from the statistics when it can, else from the stacked rows."""
+        fit_statistics = getattr(estimator, "fit_statistics", None)
+        if fit_statistics is not None:
+            fit_statistics(self.statistics, context=context)
+        elif self.w_base is not None and self.tau is not None:
+            estimator.fit(self.w_base, self.tau, context=context)
+        else:
+            raise ValueError("the rows were not kept for an estimator that needs them")
+
+
+def needs_rows(estimator: Any) -> bool:
+    """Whether ``estimator`` fits only from stacked rows (no ``fit_statistics``)."""
+    return getattr(estimator, "fit_statistics", None) is None
+
+
+def identification_rows(
+    robot: RobotModel,
+    base: BaseParameters,
+    processed: Sequence[ProcessedData],
+    estimator: Any,
+    keep_rows: bool = False,
+) -> IdentificationRows:
+    """The base regressor rows of every processed log, accumulated block by block in log order.
+
+    ``keep_rows``: keep the stacked rows as well (block bootstrap); they are kept anyway for an
+    estimator without ``fit_statistics``. Raises :class:`ConfigError` when the rows to keep would
+    exceed :data:`MAX_STACKED_VALUES`.
+    """
+    name = type(estimator).__name__
+    keep = keep_rows or needs_rows(estimator)
+    n_joints = robot.n_joints
+    samples = sum(len(data.index) for data in processed)
+    if keep and samples * n_joints * base.count > MAX_STACKED_VALUES:
+        why = "block bootstrap (statistics=block_bootstrap)" if keep_rows else f"estimator {name}"
+        raise ConfigError(
+            f"{why} needs every identification row: {samples * n_joints} rows × {base.count} parameters "
+            f"exceed {MAX_STACKED_VALUES:.3g} values; use estimator=ols|wls|sdp (fitted from QR factors) "
+            "without the bootstrap, or shorter logs"
+        )
+    accumulator = RowAccumulator(
+        samples, n_joints, base.count, int(getattr(estimator, "statistics_folds", 1))
+    )
+    kept: list[tuple[np.ndarray, np.ndarray]] = []
+    states: list[list[np.ndarray]] = [[], [], []]
+
+    def base_regressor(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        return base.base_regressor(regressor(robot, q, dq, ddq))
+
+    for data in processed:
+        for w, tau in data.row_blocks(base_regressor):
+            accumulator.add(w, tau)
+            if keep:
+                kept.append((w, tau))
+        if data.index.size == 0:
+            continue
+        for block in data.state_blocks(int(data.index[0]), int(data.index[-1]) + 1):
+            rows = data.index[(data.index >= block.start) & (data.index < block.start + len(block.t))]
+            for values, part in zip(states, (block.q, block.dq, block.ddq), strict=True):
+                values.append(part[rows - block.start])
+    return IdentificationRows(
+        statistics=accumulator.result(),
+        w_base=np.vstack([w for w, _ in kept]) if keep else None,
+        tau=np.concatenate([t for _, t in kept]) if keep else None,
+        q=np.vstack(states[0]),
+        dq=np.vstack(states[1]),
+        ddq=np.vstack(states[2]),
+    )
