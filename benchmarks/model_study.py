@@ -43,7 +43,7 @@ from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.identification.context import IdentificationContext  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
-from lwrlab.pipeline.identification import prediction_uncertainty  # noqa: E402
+from lwrlab.pipeline.identification import prediction_interval  # noqa: E402
 from lwrlab.pipeline.log_predictions import predict_measurement  # noqa: E402
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402
@@ -153,9 +153,12 @@ def evaluate(split: Split, setting: Setting) -> dict[str, float]:
         estimator.fit(w, tau, context=IdentificationContext.from_robot(robot, base))
     seconds = time.process_time() - started
     fitted = [predict_measurement(robot, base, estimator.phi_, m, DEFAULTS) for m in split.fit]
-    uncertainty = prediction_uncertainty(estimator, fitted, w, tau)
+    in_sample = np.mean((tau - w @ estimator.phi_).reshape(-1, robot.n_joints) ** 2, axis=0)
+    interval = prediction_interval(estimator, fitted, in_sample)
+    covariance = np.asarray(estimator.covariance_)
     predictions = [
-        predict_measurement(robot, base, estimator.phi_, m, DEFAULTS, uncertainty) for m in split.validation
+        interval.around(predict_measurement(robot, base, estimator.phi_, m, DEFAULTS, covariance))
+        for m in split.validation
     ]
     row = {
         "validation_%": float(np.mean([100 * p.relative_error for p in predictions])),

@@ -36,14 +36,13 @@ from lwrlab.identification.identifiability import (
     format_prior_note,
 )
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
-from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
 from lwrlab.pipeline.identification_report import format_report, write_report
 from lwrlab.pipeline.identification_rows import identification_rows
 from lwrlab.pipeline.log_predictions import (
     LogPrediction,
-    PredictionUncertainty,
+    PredictionInterval,
     predict_measurement,
     process_measurement,
 )
@@ -245,23 +244,24 @@ def identify(
 
     # An identification log is predicted with the cut-off and velocity source its fit used; a
     # validation log gets its own, as a new log would.
-    def predict_fit_logs(uncertainty: PredictionUncertainty | None) -> list[LogPrediction]:
-        return [
-            replace(
-                predict_measurement(
-                    robot, base, estimator.phi_, m, _as_chosen(processing, data), uncertainty
-                ),
-                role="identification",
-            )
-            for m, data in zip(measurements, processed, strict=True)
-        ]
-
-    fit_predictions = predict_fit_logs(None)
-    uncertainty = prediction_uncertainty(estimator, fit_predictions, rows.statistics)
-    fit_predictions = predict_fit_logs(uncertainty)
-    validation_predictions = [
+    covariance = np.asarray(estimator.covariance_)
+    fit_predictions = [
         replace(
-            predict_measurement(robot, base, estimator.phi_, m, processing, uncertainty), role="validation"
+            predict_measurement(robot, base, estimator.phi_, m, _as_chosen(processing, data), covariance),
+            role="identification",
+        )
+        for m, data in zip(measurements, processed, strict=True)
+    ]
+    in_sample = rows.statistics.residual_squares(estimator.phi_).sum(axis=0) / (
+        rows.statistics.rows // robot.n_joints
+    )
+    band = prediction_interval(estimator, fit_predictions, in_sample)
+    fit_predictions = [band.around(p) for p in fit_predictions]
+    validation_predictions = [
+        band.around(
+            replace(
+                predict_measurement(robot, base, estimator.phi_, m, processing, covariance), role="validation"
+            )
         )
         for m in validation_measurements
     ]
@@ -408,25 +408,23 @@ def _extrapolation(
     )
 
 
-def prediction_uncertainty(
-    estimator: Estimator, fit_predictions: list[LogPrediction], statistics: RowStatistics
-) -> PredictionUncertainty:
-    """The uncertainty of the model's predictions on a new motion, from its fit.
+def prediction_interval(
+    estimator: Estimator, fit_predictions: list[LogPrediction], in_sample: np.ndarray
+) -> PredictionInterval:
+    """The interval of the model's predictions on a new motion, from its fit.
 
     Per joint, the model error is the residual on the identification logs as logged (sensor noise
-    and unmodelled dynamics), plus what cross-validation adds on held-out blocks beyond the in-sample
-    residual on the same rows, when the estimator measured it (``cv_joint_rms_``): the error a motion
-    not in the fit brings. Without it the interval is the in-sample one, and its coverage on the
-    validation logs says how far that is from the truth.
+    and unmodelled dynamics), plus what cross-validation adds on held-out blocks beyond ``in_sample``
+    (N·m², the mean square residual per joint on the fitted rows), when the estimator measured it
+    (``cv_joint_rms_``): the error a motion not in the fit brings. Without it the interval is the
+    in-sample one, and its coverage on the validation logs says how far that is from the truth.
     """
-    n_joints = fit_predictions[0].measured.shape[1]
     logged = np.vstack([(p.measured - p.predicted)[p.scored] for p in fit_predictions])
     error_variance = np.mean(logged**2, axis=0)
     held_out = getattr(estimator, "cv_joint_rms_", None)
     if held_out is not None:
-        in_sample = statistics.residual_squares(estimator.phi_).sum(axis=0) / (statistics.rows // n_joints)
         error_variance = error_variance + np.clip(np.asarray(held_out) ** 2 - in_sample, 0.0, None)
-    return PredictionUncertainty(np.asarray(estimator.covariance_), np.sqrt(error_variance))
+    return PredictionInterval(np.sqrt(error_variance))
 
 
 def _coverage(predictions: list[LogPrediction]) -> float:

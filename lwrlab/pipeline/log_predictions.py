@@ -8,7 +8,7 @@ of an identification in tables (the report's per-log errors, ``predicted_torque.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +43,8 @@ class LogPrediction:
     """(M,) samples inside the trimmed span, where the filtered states are free of edge transients."""
     processing: str
     """What the processing chose for this log (cut-off, velocity source)."""
+    parameter_variance: np.ndarray | None = None
+    """(M, N_J) variance of τ̂ from the parameters' covariance, ``wᵀ·Σ·w`` (N·m²), or None."""
     half_width: np.ndarray | None = None
     """(M, N_J) half-width of the prediction interval ``τ̂ ± half_width`` (N·m), or None."""
 
@@ -62,30 +64,28 @@ class LogPrediction:
 
 
 @dataclass(frozen=True)
-class PredictionUncertainty:
-    """What makes a prediction on a new motion uncertain: the parameters' spread and the model's error.
+class PredictionInterval:
+    """What makes a prediction on a new motion uncertain beyond its parameters: the model's error.
 
-    The interval of τ̂_j at a sample with base regressor row ``w`` is
-    ``τ̂_j ± z·√(wᵀ·Σ·w + s_j²)``: ``Σ`` the base parameters' covariance, ``s_j`` the torque error
-    the model makes on joint j beyond its parameters (sensor noise, unmodelled dynamics), and ``z``
-    the normal quantile of ``level``.
+    The interval of τ̂_j at a sample is ``τ̂_j ± z·√(wᵀ·Σ·w + s_j²)``: ``wᵀ·Σ·w`` the parameters'
+    part (:attr:`LogPrediction.parameter_variance`, from the base parameters' covariance Σ at the
+    sample's regressor row w), ``s_j`` the torque error the model makes on joint j beyond its
+    parameters (sensor noise, unmodelled dynamics), and ``z`` the normal quantile of ``level``.
     """
 
-    covariance: np.ndarray
-    """(N_B, N_B) covariance of the base parameters."""
     error_std: np.ndarray
     """(N_J,) model error per joint (N·m)."""
     level: float = 0.95
     """Probability the interval is meant to cover."""
 
-    def half_width(self, base_rows: np.ndarray) -> np.ndarray:
-        """(M, N_J) half-widths at the sample-major base regressor rows ``base_rows`` (M·N_J, N_B)."""
+    def around(self, prediction: LogPrediction) -> LogPrediction:
+        """``prediction`` with the interval's half-width at every sample."""
         from scipy.stats import norm
 
-        n_joints = self.error_std.size
-        parameter_variance = np.einsum("ij,jk,ik->i", base_rows, self.covariance, base_rows)
-        variance = parameter_variance.reshape(-1, n_joints) + self.error_std**2
-        return float(norm.ppf(0.5 + self.level / 2)) * np.sqrt(np.clip(variance, 0.0, None))
+        if prediction.parameter_variance is None:
+            raise ValueError(f"{prediction.name}: predicted without the parameters' covariance")
+        variance = prediction.parameter_variance + self.error_std**2
+        return replace(prediction, half_width=float(norm.ppf(0.5 + self.level / 2)) * np.sqrt(variance))
 
 
 def process_measurement(
@@ -103,15 +103,16 @@ def predict_measurement(
     phi: np.ndarray,
     measurement: Measurement,
     processing: dict[str, Any],
-    uncertainty: PredictionUncertainty | None = None,
+    covariance: np.ndarray | None = None,
 ) -> LogPrediction:
     """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit).
 
-    With ``uncertainty``, also the prediction interval's half-width at every sample.
+    With the base parameters' ``covariance``, also the variance it gives τ̂ at every sample
+    (:class:`PredictionInterval` turns it into an interval).
     """
     data = process_measurement(measurement, processing, every_sample=True)
     predicted = np.empty((data.n_working, robot.n_joints))
-    half_width = None if uncertainty is None else np.empty_like(predicted)
+    variance = None if covariance is None else np.empty_like(predicted)
     # Block by block: the full regressor of every sample of a long log would not fit in memory.
     for block in data.state_blocks():
         for first in range(0, len(block.t), REGRESSOR_BLOCK_SAMPLES):
@@ -119,15 +120,14 @@ def predict_measurement(
             full_rows = regressor(robot, block.q[part], block.dq[part], block.ddq[part])
             samples = slice(block.start + first, block.start + first + full_rows.shape[0] // robot.n_joints)
             predicted[samples] = base.torques(full_rows, phi).reshape(-1, robot.n_joints)
-            if uncertainty is not None and half_width is not None:
-                half_width[samples] = uncertainty.half_width(base.base_regressor(full_rows))
+            if covariance is not None and variance is not None:
+                rows = base.base_regressor(full_rows)  # wᵀΣw row by row, through one BLAS product
+                variance[samples] = np.einsum("ij,ij->i", rows @ covariance, rows).reshape(-1, robot.n_joints)
     t, measured = measurement.as_logged()
     if t is not measurement.t:  # resampled log: back to the logged samples
         predicted = np.column_stack([np.interp(t, data.t, predicted[:, j]) for j in range(robot.n_joints)])
-        if half_width is not None:
-            half_width = np.column_stack(
-                [np.interp(t, data.t, half_width[:, j]) for j in range(robot.n_joints)]
-            )
+        if variance is not None:
+            variance = np.column_stack([np.interp(t, data.t, variance[:, j]) for j in range(robot.n_joints)])
     span = data.row_times
     scored = (t >= span[0] - 1e-9) & (t <= span[-1] + 1e-9)
     cutoff = "no filter" if data.cutoff_hz is None else f"{data.cutoff_hz:.3g} Hz"
@@ -140,7 +140,7 @@ def predict_measurement(
         predicted,
         scored,
         f"{cutoff}, {velocity}",
-        half_width,
+        None if variance is None else np.clip(variance, 0.0, None),
     )
 
 
