@@ -8,6 +8,8 @@ cannot see a parameter at all.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -19,6 +21,7 @@ from lwrlab.identification.prior_weight import (
     entropic_metric,
     information_scale,
     posterior_covariance,
+    prior_doubts,
     prior_share,
 )
 from lwrlab.model.inertia import pseudo_inertia, random_consistent_parameters
@@ -135,3 +138,37 @@ def test_auto_weight_rejects_bad_settings(lwr4: RobotModel) -> None:
         build("estimator", "sdp", selection="best").fit(w, tau, context=context)
     with pytest.raises(ValueError, match="'auto'"):
         build("estimator", "sdp", weight="automatic").fit(w, tau, context=context)
+
+
+def test_placeholder_inertials_are_doubted(lwr4: RobotModel) -> None:
+    assert prior_doubts(lwr4.parameters, lwr4.n_links) == []  # a CAD model
+    placeholder = lwr4.parameters.copy()
+    for link in range(lwr4.n_links):
+        placeholder[10 * link : 10 * link + 10] = [1.0, 0, 0, 0, 0.01, 0.01, 0.01, 0, 0, 0]
+    assert any("same inertial values" in d for d in prior_doubts(placeholder, lwr4.n_links))
+    massless = lwr4.parameters.copy()
+    massless[20:30] = 0.0
+    point = lwr4.parameters.copy()
+    point[34:40] = 0.0  # link 4: its inertia about the origin gone, its mass kept
+    assert any("no mass on link 3" in d for d in prior_doubts(massless, lwr4.n_links))
+    assert any("not a solid body" in d and "link 4" in d for d in prior_doubts(point, lwr4.n_links))
+
+
+def test_auto_weight_survives_a_placeholder_prior(lwr4: RobotModel) -> None:
+    """Cross-validation pulls toward a wrong prior only as far as it helps: close to the CAD prior's fit."""
+    rng = np.random.default_rng(8)
+    base = compute_base_parameters(lwr4)
+    truth = perturbed_robot(lwr4, 0.05, 0.1, rng)
+    motion = build("trajectory", "multisine", duration=6.0, harmonics=4, seed=2).sample(lwr4, 50.0)
+    w = base.base_regressor(regressor(lwr4, motion.q, motion.dq, motion.ddq))
+    tau = truth.inverse_dynamics(motion.q, motion.dq, motion.ddq).ravel() + 0.1 * rng.normal(size=w.shape[0])
+    context = IdentificationContext.from_robot(lwr4, base)
+    placeholder = context.prior.copy()
+    for link in range(lwr4.n_links):
+        placeholder[10 * link : 10 * link + 10] = [1.0, 0, 0, 0, 0.01, 0.01, 0.01, 0, 0, 0]
+    true_base = base.base_values(truth.parameters)
+    errors = {}
+    for name, prior in {"cad": context.prior, "placeholder": placeholder}.items():
+        fitted = build("estimator", "sdp").fit(w, tau, context=replace(context, prior=prior))
+        errors[name] = np.linalg.norm(fitted.phi_ - true_base) / np.linalg.norm(true_base)
+    assert errors["placeholder"] < 1.5 * errors["cad"]

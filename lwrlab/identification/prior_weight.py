@@ -101,3 +101,28 @@ def posterior_covariance(
     """
     information = regrouping.T @ gram @ regrouping + weight * metric
     return sigma2 * regrouping @ np.linalg.pinv(information, hermitian=True) @ regrouping.T
+
+
+def prior_doubts(prior: np.ndarray, n_links: int) -> list[str]:
+    """What makes a prior's bodies look like placeholders rather than a CAD model ([] if nothing).
+
+    Zero or negative masses, pseudo-inertias that are not positive definite (point masses, rods,
+    inconsistent inertias), or the same ten values on every link (a URDF generator's defaults).
+    """
+    segments = np.asarray(prior, dtype=float)[: 10 * n_links].reshape(n_links, 10)
+    doubts = []
+    massless = [f"link {i + 1}" for i, m in enumerate(segments[:, 0]) if m <= 0]
+    if massless:
+        doubts.append(f"no mass on {', '.join(massless)}")
+    degenerate = [
+        f"link {i + 1}"
+        for i, segment in enumerate(segments)
+        if segment[0] > 0 and np.linalg.eigvalsh(pseudo_inertia(segment))[0] <= 1e-12 * segment[0]
+    ]
+    if degenerate:
+        doubts.append(
+            f"not a solid body (point mass, rod or inconsistent inertia) on {', '.join(degenerate)}"
+        )
+    if n_links > 2 and np.allclose(segments, segments[0], rtol=1e-9, atol=0.0):
+        doubts.append("the same inertial values on every link")
+    return doubts

@@ -36,6 +36,7 @@ from lwrlab.identification.identifiability import (
     format_prior_note,
 )
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
+from lwrlab.identification.prior_weight import prior_doubts
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
 from lwrlab.pipeline.identification_report import format_report, write_report
@@ -351,6 +352,12 @@ def identify(
     if not identifiability.ok and has_prior:
         notes.append(format_prior_note(identifiability))
     notes.append(_prior_note(base.names, share))
+    doubts = prior_doubts(robot.parameters, robot.n_links) if has_prior else []
+    if doubts:
+        notes.append(
+            f"NOTE: the robot's inertials look like placeholders ({'; '.join(doubts)}): the prior only "
+            "regularises what the data leave open; parameters said to come from it carry its values"
+        )
     notes += [
         f"WARNING: {w}"
         for m in [*measurements, *validation_measurements]
