@@ -132,6 +132,7 @@ def test_completed_job_is_a_finished_run_with_params_tags_metrics_and_artifacts(
 
     tags = run.data.tags
     assert tags["overrides"] == "experiment_name=toy_ok x=3"  # the task overrides, not hydra.*
+    assert tags["mlflow.source.name"] == "lwrlab experiment_name=toy_ok x=3"  # the UI's Source column
     assert tags["seed"] == "7"
     assert tags["run_kind"] == "job"
     assert tags["lwrlab_version"] and tags["mlflow_version"] and tags["numpy_version"]

@@ -125,6 +125,11 @@ def job_tags(config: DictConfig, job_config: Mapping[str, Any], parent_run_id: s
         "hydra_output_dir": str(config.hydra.runtime.output_dir),
         **provenance_tags(original_cwd(config)),
         **process_tags(),
+        # the UI's Source column: the command that ran, as a user would type it again
+        "mlflow.source.type": "LOCAL",
+        "mlflow.source.name": truncate(
+            " ".join(["lwrlab", *task_overrides(config)]) or "lwrlab", TAG_VALUE_MAX_LENGTH
+        ),
     }
     if "seed" in job_config:
         tags["seed"] = str(job_config["seed"])
