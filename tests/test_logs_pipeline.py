@@ -217,7 +217,7 @@ def test_real_lwr4_defaults_predict_new_motions() -> None:
     new_slower = _real_lwr4([3], [1, 2])
     assert new_slower.metrics["validation_rel_error"] <= 0.032
     assert new_slower.metrics["min_pseudo_inertia_eigenvalue"] > -1e-12  # bodies a simulator can take
-    # the 95 % band covers ~83 % of a new motion's samples: its model error exceeds what the blocks of
+    # the 95 % band covers ~89 % of a new motion's samples: its model error exceeds what the blocks of
     # the fit show (README, model study)
     assert 0.8 <= new_slower.metrics["validation_interval_coverage"] <= 1.0
     both = _real_lwr4([2, 3], [1])

@@ -120,6 +120,7 @@ def test_auto_weight_leans_on_the_prior_for_thin_noisy_data_not_for_rich_data(lw
         assert estimator.cv_scores_.shape == (len(estimator.weight_grid),)
         assert estimator.prior_share_.shape == estimator.phi_.shape
         assert estimator.cv_joint_rms_.shape == (lwr4.n_joints,) and np.all(estimator.cv_joint_rms_ > 0)
+        assert np.all(estimator.cv_worst_joint_rms_ >= estimator.cv_joint_rms_)  # the worst block, per joint
         assert estimator.min_eigenvalues_.min() >= 0.0  # consistent whatever the weight
     assert chosen["thin"].weight_ > chosen["rich"].weight_
     assert chosen["rich"].weight_ <= 1e-5

@@ -145,7 +145,8 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     ``solver_status_``, ``solve_time_`` (s, problem build + solve) and ``diagnostics_`` (numbers
     for the run's metrics). With ``weight: auto`` also ``weight_`` (the chosen relative weight),
     ``prior_share_`` (N_B,) the share of each base parameter's estimate that came from the prior,
-    ``cv_joint_rms_`` (N_J,) the held-out residual RMS per joint at the chosen weight (N·m) and
+    ``cv_joint_rms_`` (N_J,) the held-out residual RMS per joint at the chosen weight (N·m),
+    ``cv_worst_joint_rms_`` (N_J,) the same in the worst held-out block of each joint, and
     ``cv_scores_`` (the held-out ‖W·β − τ‖² summed over folds, per candidate weight); ``std_`` is
     then the posterior standard deviation (finite where the data alone cannot determine a parameter).
     """
@@ -164,6 +165,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     weight_: float
     prior_share_: np.ndarray
     cv_joint_rms_: np.ndarray
+    cv_worst_joint_rms_: np.ndarray
     cv_scores_: np.ndarray
 
     def __init__(
@@ -396,7 +398,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
             return information_scale(regrouping, compressed.R.T @ compressed.R, metric) / compressed.rows
 
         scores = np.zeros((int(self.folds), grid.size))
-        joint_squares = np.zeros((grid.size, n_joints))
+        joint_squares = np.zeros((int(self.folds), grid.size, n_joints))
         for fold in range(int(self.folds)):
             held_out = np.arange(int(self.folds)) == fold
             compressed = statistics.compressed(~held_out)
@@ -405,11 +407,14 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
                 standard = self._solve_weighted(programme, compressed, relative * scale, context)
                 squares = statistics.residual_squares(regrouping @ standard)[fold]
                 scores[fold, index] = squares.sum()
-                joint_squares[index] += squares
+                joint_squares[fold, index] = squares
         best = _chosen_weight(scores, self.selection)
         self.weight_ = float(grid[best])
         self.cv_scores_ = scores.sum(axis=0)
-        self.cv_joint_rms_ = np.sqrt(joint_squares[best] / (statistics.rows // n_joints))
+        chosen = joint_squares[:, best]  # (folds, N_J)
+        self.cv_joint_rms_ = np.sqrt(chosen.sum(axis=0) / (statistics.rows // n_joints))
+        per_fold = chosen / np.asarray(statistics.samples, dtype=float)[:, None]
+        self.cv_worst_joint_rms_ = np.sqrt(per_fold.max(axis=0))
         compressed = statistics.compressed()
         weight = self.weight_ * per_row_scale(compressed)
         standard = self._solve_weighted(programme, compressed, weight, context)
