@@ -163,7 +163,7 @@ def write_report(
         [p.name for p in report.predictions],
         [p.role for p in report.predictions],
         [p.t for p in report.predictions],
-        [p.measured - p.predicted for p in report.predictions],
+        [p.residual() for p in report.predictions],  # single precision: drawn, not scored
         output_dir / "residuals_per_log.png",
     )
     return files

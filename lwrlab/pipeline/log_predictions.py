@@ -23,6 +23,8 @@ from lwrlab.signal.processing import ProcessedData, process
 
 REGRESSOR_BLOCK_SAMPLES = 8192
 """Samples whose full regressor is built at a time when predicting (8192 × 7 joints × 91 columns: 42 MB)."""
+SUMMARY_BLOCK_SAMPLES = 1 << 16
+"""Samples summed at a time for the errors and the coverage (a copy of a long log's arrays would not fit)."""
 
 
 @dataclass(frozen=True)
@@ -44,23 +46,85 @@ class LogPrediction:
     processing: str
     """What the processing chose for this log (cut-off, velocity source)."""
     parameter_variance: np.ndarray | None = None
-    """(M, N_J) variance of τ̂ from the parameters' covariance, ``wᵀ·Σ·w`` (N·m²), or None."""
+    """(M, N_J) variance of τ̂ from the parameters' covariance, ``wᵀ·Σ·w`` (N·m²), or None (also once
+    :meth:`PredictionInterval.around` has turned it into :attr:`half_width`)."""
     half_width: np.ndarray | None = None
     """(M, N_J) half-width of the prediction interval ``τ̂ ± half_width`` (N·m), or None."""
 
     @property
     def interval_coverage(self) -> float:
         """Share of the scored samples and joints whose measured torque lies in the interval (NaN: none)."""
-        if self.half_width is None:
-            return float("nan")
-        inside = np.abs(self.measured - self.predicted) <= self.half_width
-        return float(inside[self.scored].mean())
+        return ResidualSums.of([self]).coverage
 
     @property
     def relative_error(self) -> float:
         """‖τ − τ̂‖/‖τ‖ over all joints and scored samples."""
-        measured = self.measured[self.scored]
-        return float(np.linalg.norm(measured - self.predicted[self.scored]) / np.linalg.norm(measured))
+        return ResidualSums.of([self]).relative_error
+
+    def scored_blocks(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray | None]]:
+        """``(measured, predicted, half_width)`` at the scored samples, in blocks of
+        :data:`SUMMARY_BLOCK_SAMPLES` samples (half_width None without an interval)."""
+        for first in range(0, len(self.t), SUMMARY_BLOCK_SAMPLES):
+            part = slice(first, first + SUMMARY_BLOCK_SAMPLES)
+            keep = self.scored[part]
+            half_width = None if self.half_width is None else self.half_width[part][keep]
+            yield self.measured[part][keep], self.predicted[part][keep], half_width
+
+    def residual(self, dtype: type = np.float32) -> np.ndarray:
+        """(M, N_J) τ − τ̂ at every sample, in ``dtype`` (single precision: for drawing)."""
+        residual: np.ndarray = np.empty(self.measured.shape, dtype=dtype)
+        for first in range(0, len(self.t), SUMMARY_BLOCK_SAMPLES):
+            part = slice(first, first + SUMMARY_BLOCK_SAMPLES)
+            residual[part] = self.measured[part] - self.predicted[part]
+        return residual
+
+
+@dataclass(frozen=True)
+class ResidualSums:
+    """Sums over the scored samples of predictions: what their errors and coverage are computed from."""
+
+    measured: np.ndarray
+    """(N_J,) Σ τ² per joint (N²·m²)."""
+    residual: np.ndarray
+    """(N_J,) Σ (τ − τ̂)² per joint (N²·m²)."""
+    samples: int
+    """Scored samples."""
+    inside: int
+    """Scored samples × joints inside the prediction interval."""
+    with_interval: int
+    """Scored samples × joints that have an interval."""
+
+    @classmethod
+    def of(cls, predictions: Sequence[LogPrediction]) -> ResidualSums:
+        """The sums over every scored sample of ``predictions``, block by block."""
+        n_joints = predictions[0].measured.shape[1] if predictions else 0
+        measured, residual = np.zeros(n_joints), np.zeros(n_joints)
+        samples = inside = with_interval = 0
+        for p in predictions:
+            for tau, tau_hat, half_width in p.scored_blocks():
+                error = tau - tau_hat
+                measured += np.sum(tau**2, axis=0)
+                residual += np.sum(error**2, axis=0)
+                samples += tau.shape[0]
+                if half_width is not None:
+                    inside += int(np.count_nonzero(np.abs(error) <= half_width))
+                    with_interval += error.size
+        return cls(measured, residual, samples, inside, with_interval)
+
+    @property
+    def relative_error(self) -> float:
+        """‖τ − τ̂‖/‖τ‖ over all joints and scored samples."""
+        return float(np.sqrt(self.residual.sum()) / np.sqrt(self.measured.sum()))
+
+    @property
+    def mean_square(self) -> np.ndarray:
+        """(N_J,) mean square residual per joint (N²·m²)."""
+        return self.residual / self.samples
+
+    @property
+    def coverage(self) -> float:
+        """Share of scored samples and joints inside their prediction interval (NaN: no interval)."""
+        return self.inside / self.with_interval if self.with_interval else float("nan")
 
 
 @dataclass(frozen=True)
@@ -79,13 +143,18 @@ class PredictionInterval:
     """Probability the interval is meant to cover."""
 
     def around(self, prediction: LogPrediction) -> LogPrediction:
-        """``prediction`` with the interval's half-width at every sample."""
+        """``prediction`` with the interval's half-width at every sample.
+
+        The parameters' variance is not kept beside it (a long log's arrays are large).
+        """
         from scipy.stats import norm
 
         if prediction.parameter_variance is None:
             raise ValueError(f"{prediction.name}: predicted without the parameters' covariance")
-        variance = prediction.parameter_variance + self.error_std**2
-        return replace(prediction, half_width=float(norm.ppf(0.5 + self.level / 2)) * np.sqrt(variance))
+        half_width = prediction.parameter_variance + self.error_std**2
+        np.sqrt(half_width, out=half_width)
+        half_width *= float(norm.ppf(0.5 + self.level / 2))
+        return replace(prediction, parameter_variance=None, half_width=half_width)
 
 
 def process_measurement(
@@ -140,7 +209,7 @@ def predict_measurement(
         predicted,
         scored,
         f"{cutoff}, {velocity}",
-        None if variance is None else np.clip(variance, 0.0, None),
+        None if variance is None else np.clip(variance, 0.0, None, out=variance),
     )
 
 
