@@ -6,7 +6,9 @@
    contact-free logs, then ``--contact-free-s`` seconds of contact-free motion followed by pushes
    (5–50 N, 50–500 ms) and impacts on links 3–7 during ``--contact-s`` seconds. Thresholds from the
    identification logs. Scored for the identified and the CAD model, the momentum observer and the
-   direct residual: contacts of ≥ 10 N missed, false alarms (and those in the contact-free stretch),
+   direct residual: contacts of ≥ 10 N missed, those of them detectable (their true external joint
+   torque above some joint's threshold for the minimum duration) and missed, false alarms (and those
+   in the contact-free stretch),
    median and largest detection delay, external torque RMS error (against the truth seen through
    each estimator's filter, and against the raw truth), force RMS error at the true contact point
    over each push's plateau (median over pushes).
@@ -46,7 +48,12 @@ from lwrlab.monitoring.estimates import (  # noqa: E402
     truth_as_estimated,
 )
 from lwrlab.monitoring.observer import MomentumObserver, observer_step  # noqa: E402
-from lwrlab.monitoring.scoring import contact_force_errors, rms_error, score_detections  # noqa: E402
+from lwrlab.monitoring.scoring import (  # noqa: E402
+    contact_force_errors,
+    detectable_contacts,
+    rms_error,
+    score_detections,
+)
 from lwrlab.pipeline.build import build  # noqa: E402
 from lwrlab.pipeline.monitor_scenario import identify_logs, write_scenario  # noqa: E402
 
@@ -67,6 +74,7 @@ def settings() -> MonitorSettings:
         margin=float(task.margin),
         min_duration=float(task.min_duration),
         release=float(task.release),
+        residual_margin=float(task.residual_margin),
     )
 
 
@@ -109,7 +117,14 @@ def score(
     keep = monitored.monitored
     rows = {}
     for estimator in ESTIMATORS:
-        result = score_detections(found[estimator], contacts)
+        detectable = detectable_contacts(
+            monitored.t,
+            np.where(keep[:, None], truth, 0.0),
+            contacts,
+            calibrations[estimator].thresholds,
+            min_duration=chosen.min_duration,
+        )
+        result = score_detections(found[estimator], contacts, detectable=detectable)
         free = [d for d in found[estimator] if d.start < contact_free_s]
         estimate = monitored.estimate(estimator)
         settle = 5.0 / chosen.observer_gain if estimator == "observer" else 2.0 / chosen.velocity_cutoff_hz
@@ -117,6 +132,8 @@ def score(
         rows[estimator] = {
             "contacts ≥ 10 N": result.contacts,
             "missed": result.missed,
+            "detectable": result.detectable,
+            "detectable missed": result.missed_detectable,
             "false alarms": result.false_alarms,
             "false alarms, contact-free stretch": len(free),
             "median delay [ms]": 1000 * result.median_delay,

@@ -187,6 +187,8 @@ class MonitorTask(Instantiable):
     """Stated false alarms per hour."""
     margin: float
     """Factor ≥ 1 on the calibrated levels."""
+    residual_margin: float
+    """Factor ≥ 1 on the direct residual's calibrated levels."""
     min_duration: float
     """s above threshold before a contact is raised."""
     release: float

@@ -48,11 +48,18 @@ class MonitorSettings:
     false_alarm_rate: float
     """Stated false alarms per hour."""
     margin: float
-    """Factor ≥ 1 on the calibrated levels."""
+    """Factor ≥ 1 on the observer's calibrated levels."""
     min_duration: float
     """Time above threshold before a contact is raised (s)."""
     release: float
     """Share of the threshold every joint must fall below to end a contact."""
+    residual_margin: float
+    """Factor ≥ 1 on the direct residual's levels (its offline filter and q̈ make it noisier off the
+    calibration's motions than the observer)."""
+
+    def margin_of(self, estimator: str) -> float:
+        """The margin of ``estimator`` (one of :data:`ESTIMATORS`)."""
+        return self.residual_margin if estimator == "residual" else self.margin
 
     @property
     def start_skip(self) -> float:
@@ -135,7 +142,7 @@ def calibrate(contact_free: Sequence[ExternalTorques], settings: MonitorSettings
             [e.estimate(estimator)[e.monitored] for e in contact_free],
             [e.period for e in contact_free],
             settings.false_alarm_rate,
-            settings.margin,
+            settings.margin_of(estimator),
         )
         for estimator in ESTIMATORS
     }

@@ -17,9 +17,10 @@ which is the continuous observer's exact (zero-order-hold) discretisation: for a
 constant between stamps and an exactly known β, r_k equals the continuous r(t_k) whatever the
 stamps' spacing. K → ∞ gives e_k, the interval's mean external torque, unfiltered.
 
-:func:`observer_step` is the real-time form (state in, torques and state out, about 10 µs for 7
-joints); :meth:`MomentumObserver.observe` runs a whole log, the Pinocchio terms in one loop and
-the rest vectorised, and gives the same numbers (tested).
+:func:`observer_step` is the real-time form (state in, torques and state out): three Pinocchio
+calls (C, g, M·q̇) and a dozen numpy operations in place on 7-vectors, whose dispatch costs as much
+as the calls. :meth:`MomentumObserver.observe` runs a whole log, the Pinocchio terms in one loop
+and the rest vectorised, and gives the same numbers (tested).
 """
 
 from __future__ import annotations
@@ -38,6 +39,21 @@ CHUNK_SAMPLES = 4096
 """Samples whose Coriolis matrices are held at once by :meth:`MomentumObserver.observe`."""
 MAX_DECAY_EXPONENT = 300.0
 """Largest K·(t − t_start) of one block of the closed-form recursion: e^300 is far below overflow."""
+
+
+class _StepScratch(NamedTuple):
+    """What :func:`observer_step` reuses from one sample to the next instead of making it anew."""
+
+    coriolis_transposed: np.ndarray
+    """Cᵀ: a view of the Pinocchio scratch's C, rewritten by every ``computeCoriolisMatrix``."""
+    zero: np.ndarray
+    """(N_J,) zero velocities."""
+    inverse_smoothing: np.ndarray
+    """(N_J,) 1/ε."""
+    negative_gains: np.ndarray
+    """(N_J,) −K."""
+    last_interval: list[float | np.ndarray]
+    """[Δt, α = e^{−K·Δt}, 1/Δt per joint] of the last interval: a uniform log computes them once."""
 
 
 class ObserverState(NamedTuple):
@@ -81,8 +97,8 @@ class MomentumObserver:
     """FC, FV, FO per joint (zero for a term the model leaves out)."""
     data: pin.Data = field(init=False, repr=False, compare=False)
     """Pinocchio scratch, rewritten by every call."""
-    _per_sample: tuple[np.ndarray, ...] = field(init=False, repr=False, compare=False)
-    """−K, 1/ε and zero velocities, made once: the step function's numpy calls are its cost."""
+    _scratch: _StepScratch = field(init=False, repr=False, compare=False)
+    """Views and constants of the step function, made once: its numpy calls are its cost."""
 
     def __post_init__(self) -> None:
         n = self.robot.n_joints
@@ -98,9 +114,16 @@ class MomentumObserver:
         )
         object.__setattr__(self, "gains", gains)
         object.__setattr__(self, "friction_coefficients", coefficients)
-        object.__setattr__(self, "data", self.robot.model.createData())
-        per_sample = (-gains, np.full(n, 1.0 / self.coulomb_smoothing), np.zeros(n))
-        object.__setattr__(self, "_per_sample", per_sample)
+        data = self.robot.model.createData()
+        object.__setattr__(self, "data", data)
+        scratch = _StepScratch(
+            coriolis_transposed=data.C.T,
+            zero=np.zeros(n),
+            inverse_smoothing=np.full(n, 1.0 / self.coulomb_smoothing),
+            negative_gains=-gains,
+            last_interval=[float("nan"), np.ones(n), np.ones(n)],
+        )
+        object.__setattr__(self, "_scratch", scratch)
 
     def friction_torque(self, dq: np.ndarray) -> np.ndarray:
         """τ_f (N·m) at velocities ``dq`` (…, N_J), Coulomb smoothed."""
@@ -111,17 +134,35 @@ class MomentumObserver:
         self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """p = M(q)·q̇ and β = τ + Cᵀq̇ − g − τ_f at one sample (N·m·s, N·m)."""
-        model, data = self.robot.model, self.data
-        _, inverse_smoothing, zero = self._per_sample
+        model, data, scratch = self.robot.model, self.data, self._scratch
         coulomb, viscous, offset = self.friction_coefficients
-        # β = τ + Cᵀq̇ − g − τ_f; (q̇ᵀC)ᵀ = Cᵀq̇
-        known = tau + dq @ pin.computeCoriolisMatrix(model, data, q, dq)
-        known -= coulomb * np.tanh(dq * inverse_smoothing) + viscous * dq + offset
+        pin.computeCoriolisMatrix(model, data, q, dq)  # read through scratch.coriolis_transposed
         gravity = pin.computeGeneralizedGravity(model, data, q)
+        # rnea(q, 0, q̇) = M(q)·q̇ + g(q); it returns data.tau, which the subtraction copies
+        momentum = pin.rnea(model, data, q, scratch.zero, dq) - gravity
+        # β in place: on 7-vectors each numpy call costs more than its arithmetic
+        known = scratch.coriolis_transposed.dot(dq)
+        known += tau
         known -= gravity
-        # rnea(q, 0, q̇) = M(q)·q̇ + g(q)
-        momentum = pin.rnea(model, data, q, zero, dq) - gravity
+        friction = np.multiply(dq, scratch.inverse_smoothing)
+        np.tanh(friction, out=friction)
+        friction *= coulomb
+        known -= friction
+        np.multiply(viscous, dq, out=friction)
+        known -= friction
+        known -= offset
         return momentum, known
+
+    def interval_constants(self, period: float) -> tuple[np.ndarray, np.ndarray]:
+        """α = e^{−K·Δt} and 1/Δt per joint for an interval of ``period`` (s); the last ones kept."""
+        last = self._scratch.last_interval
+        if last[0] != period:
+            last[:] = [
+                period,
+                np.exp(self._scratch.negative_gains * period),
+                np.full(len(self.gains), 1.0 / period),
+            ]
+        return last[1], last[2]  # type: ignore[return-value]
 
     def start(self, t: float, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> ObserverState:
         """The state at the first sample, with no external torque estimated yet."""
@@ -221,7 +262,8 @@ def observer_step(
 ) -> tuple[np.ndarray, ObserverState]:
     """One sample of the observer: the external torque estimate r_k (N·m) and the next state.
 
-    Pure but for the observer's Pinocchio scratch: the same state and sample give the same result.
+    Pure but for the observer's scratch (Pinocchio's, and α and 1/Δt of the last interval): the same
+    state and sample give the same result.
 
     Parameters
     ----------
@@ -234,10 +276,16 @@ def observer_step(
     if period <= 0:
         raise ValueError(f"observer stamps must increase: {t} after {state.t}")
     momentum, known = observer.momentum_and_known_torque(q, dq, tau)
-    interval_torque = 0.5 * (state.known_torque + known) - (momentum - state.momentum) / period
-    alpha = np.exp(observer._per_sample[0] * period)
-    # α·r + (1 − α)·e, in three operations
-    r = interval_torque + alpha * (state.external_torque - interval_torque)
+    alpha, inverse_period = observer.interval_constants(period)
+    # e = (β_{k−1} + β_k)/2 − (p_k − p_{k−1})/Δt, then r = α·r_{k−1} + (1 − α)·e = e + α·(r_{k−1} − e)
+    interval_torque = state.known_torque + known
+    interval_torque *= 0.5
+    momentum_change = momentum - state.momentum
+    momentum_change *= inverse_period
+    interval_torque -= momentum_change
+    r = state.external_torque - interval_torque
+    r *= alpha
+    r += interval_torque
     return r, ObserverState(t, momentum, known, r)
 
 

@@ -4,7 +4,10 @@ A true contact is *detected* when an alarm is raised between its start and ``tol
 end; its delay is the alarm's raise time minus the contact's start. A detection that overlaps no
 true contact (widened by ``tolerance`` after its end, the observer's decay) is a *false alarm*.
 Contacts weaker than ``min_force`` may be detected or not: they count neither as missed nor, when
-detected, as false alarms.
+detected, as false alarms. A contact is *detectable* (:func:`detectable_contacts`) when its true
+external joint torque stays above some joint's threshold for the minimum duration: a force the
+joints feel below every threshold is missed by any detector on those thresholds, and is scored
+apart from the detector's own misses.
 """
 
 from __future__ import annotations
@@ -38,6 +41,10 @@ class DetectionScore:
     """(detected,) delays of the detected contacts (s)."""
     detected_mask: np.ndarray
     """(every true contact,) whether each was detected."""
+    detectable: int | None = None
+    """Contacts of at least ``min_force`` whose true torque crosses the thresholds (None: not known)."""
+    missed_detectable: int | None = None
+    """Of those, not detected."""
 
     @property
     def median_delay(self) -> float:
@@ -45,14 +52,18 @@ class DetectionScore:
         return float(np.median(self.delays)) if self.delays.size else float("nan")
 
     def metrics(self, prefix: str = "") -> dict[str, float]:
-        """The score as flat metrics (delays in ms)."""
-        return {
+        """The score as flat metrics (delays in ms; the detectable counts where known)."""
+        metrics = {
             f"{prefix}contacts": float(self.contacts),
             f"{prefix}missed_contacts": float(self.missed),
             f"{prefix}false_alarms": float(self.false_alarms),
             f"{prefix}median_delay_ms": 1000 * self.median_delay,
             f"{prefix}max_delay_ms": 1000 * float(self.delays.max()) if self.delays.size else float("nan"),
         }
+        if self.detectable is not None and self.missed_detectable is not None:
+            metrics[f"{prefix}detectable_contacts"] = float(self.detectable)
+            metrics[f"{prefix}missed_detectable_contacts"] = float(self.missed_detectable)
+        return metrics
 
 
 def score_detections(
@@ -61,8 +72,13 @@ def score_detections(
     *,
     min_force: float = 10.0,
     tolerance: float = 0.3,
+    detectable: np.ndarray | None = None,
 ) -> DetectionScore:
-    """Score ``detections`` against ``contacts`` (columns :data:`CONTACT_COLUMNS`)."""
+    """Score ``detections`` against ``contacts`` (columns :data:`CONTACT_COLUMNS`).
+
+    ``detectable`` (one flag per contact, :func:`detectable_contacts`) adds the counts of the
+    detectable contacts and of those missed.
+    """
     missing = set(CONTACT_COLUMNS) - set(contacts.columns)
     if missing:
         raise ValueError(f"true contacts need the columns {sorted(missing)}")
@@ -79,6 +95,7 @@ def score_detections(
             delays[i] = float(inside.min() - start)
     false_alarms = sum(1 for d in detections if not np.any((d.end >= starts) & (d.start <= ends + tolerance)))
     counted = strong & detected_mask
+    seen = None if detectable is None else strong & np.asarray(detectable, dtype=bool)
     return DetectionScore(
         contacts=int(strong.sum()),
         detected=int(counted.sum()),
@@ -86,7 +103,45 @@ def score_detections(
         false_alarms=int(false_alarms),
         delays=delays[counted],
         detected_mask=detected_mask,
+        detectable=None if seen is None else int(seen.sum()),
+        missed_detectable=None if seen is None else int((seen & ~detected_mask).sum()),
     )
+
+
+def detectable_contacts(
+    t: np.ndarray,
+    true_torque: np.ndarray,
+    contacts: pd.DataFrame,
+    thresholds: np.ndarray,
+    *,
+    min_duration: float,
+) -> np.ndarray:
+    """(every true contact,) whether its true external joint torque can raise an alarm at all.
+
+    A contact is detectable when, between its start and end, some joint's true |τ_ext| stays above
+    its threshold for at least ``min_duration`` (s) without a break: what an estimator without
+    error or lag would raise. The rest push along directions the joints feel below every threshold.
+
+    Examples
+    --------
+    >>> t = np.arange(10) * 1e-3
+    >>> torque = np.where((t > 2e-3) & (t < 7e-3), 2.0, 0.1)[:, None]
+    >>> contacts = pd.DataFrame({"start": [0.0, 0.0], "end": [9e-3, 4e-3], "peak_force": [20.0, 20.0]})
+    >>> detectable_contacts(t, torque, contacts, np.array([1.0]), min_duration=3e-3).tolist()
+    [True, False]
+    """
+    above = (np.abs(np.asarray(true_torque, dtype=float)) > np.asarray(thresholds, dtype=float)).any(axis=1)
+    flags = np.zeros(len(contacts), dtype=bool)
+    columns = zip(contacts["start"].to_numpy(dtype=float), contacts["end"].to_numpy(dtype=float), strict=True)
+    for i, (start, end) in enumerate(columns):
+        inside = np.flatnonzero((t >= start) & (t <= end))
+        padded = np.concatenate([[False], above[inside], [False]]).astype(np.int8)
+        edges = np.flatnonzero(np.diff(padded))  # rises and falls, alternating
+        for rise, fall in zip(edges[::2], edges[1::2], strict=True):
+            if t[inside[fall - 1]] - t[inside[rise]] >= min_duration - 1e-12:
+                flags[i] = True
+                break
+    return flags
 
 
 def rms_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:

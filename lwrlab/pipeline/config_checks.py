@@ -242,6 +242,7 @@ RULES: tuple[Rule, ...] = (
     positive("task.coulomb_smoothing"),
     positive("task.false_alarm_rate"),
     rule("task.margin", lambda v: _number(v) and v >= 1, "a number ≥ 1"),
+    rule("task.residual_margin", lambda v: _number(v) and v >= 1, "a number ≥ 1"),
     non_negative("task.min_duration"),
     rule("task.release", lambda v: _number(v) and 0 < v <= 1, "a number in (0, 1]"),
     non_negative("task.min_force"),

@@ -47,7 +47,7 @@ from lwrlab.monitoring.estimates import (
     held_out_false_alarm_rate,
     truth_as_estimated,
 )
-from lwrlab.monitoring.scoring import rms_error, score_detections
+from lwrlab.monitoring.scoring import detectable_contacts, rms_error, score_detections
 from lwrlab.pipeline.log_rows import read_logs
 from lwrlab.plants.core import Measurement
 
@@ -200,24 +200,36 @@ def calibration_table(calibrations: dict[str, Calibration]) -> pd.DataFrame:
 def _truth_metrics(
     estimates: ExternalTorques,
     found: dict[str, list[Detection]],
+    calibrations: dict[str, Calibration],
     settings: MonitorSettings,
     truth_contacts: str | None,
     truth_torque: str | None,
     min_force: float,
 ) -> dict[str, float]:
     metrics: dict[str, float] = {}
-    if truth_contacts:
-        contacts = pd.read_csv(truth_contacts)
-        for estimator in ESTIMATORS:
-            prefix = "" if estimator == "observer" else "residual_"
-            score = score_detections(found[estimator], contacts, min_force=min_force)
-            metrics |= score.metrics(prefix)
+    truth = None
     if truth_torque:
         truth_frame = pd.read_parquet(truth_torque)
         n = estimates.observer.shape[1]
         truth = np.column_stack(
             [np.interp(estimates.t, truth_frame["t"], truth_frame[f"tau_ext{j}"]) for j in range(1, n + 1)]
         )
+    if truth_contacts:
+        contacts = pd.read_csv(truth_contacts)
+        for estimator in ESTIMATORS:
+            prefix = "" if estimator == "observer" else "residual_"
+            detectable = None
+            if truth is not None:  # which contacts these thresholds can see at all
+                detectable = detectable_contacts(
+                    estimates.t,
+                    np.where(estimates.monitored[:, None], truth, 0.0),
+                    contacts,
+                    calibrations[estimator].thresholds,
+                    min_duration=settings.min_duration,
+                )
+            score = score_detections(found[estimator], contacts, min_force=min_force, detectable=detectable)
+            metrics |= score.metrics(prefix)
+    if truth is not None:
         seen = truth_as_estimated(truth, estimates, settings)
         keep = estimates.monitored
         for estimator in ESTIMATORS:
@@ -239,7 +251,8 @@ def format_summary(
     lines = [
         f"## Thresholds per joint (N·m), calibrated on {source}",
         "",
-        f"stated false-alarm rate {settings.false_alarm_rate:g} per hour, margin {settings.margin:g}; "
+        f"stated false-alarm rate {settings.false_alarm_rate:g} per hour, margin {settings.margin:g} "
+        f"(direct residual {settings.residual_margin:g}); "
         f"observer gain {settings.observer_gain:g} 1/s; "
         f"minimum duration {1000 * settings.min_duration:g} ms, "
         f"release at {settings.release:g} × threshold",
@@ -268,6 +281,7 @@ def run_monitor(
     coulomb_smoothing: float,
     false_alarm_rate: float,
     margin: float,
+    residual_margin: float,
     min_duration: float,
     release: float,
     frame: str | None,
@@ -284,8 +298,8 @@ def run_monitor(
     ----------
     model : an ``identified_model.yaml`` or its run folder; None: the robot config's model (CAD).
     calibration_paths : contact-free logs for the thresholds; None: the model's run's logs.
-    observer_gain, velocity_cutoff_hz, coulomb_smoothing, false_alarm_rate, margin, min_duration,
-    release : see :class:`lwrlab.monitoring.estimates.MonitorSettings`.
+    observer_gain, velocity_cutoff_hz, coulomb_smoothing, false_alarm_rate, margin, residual_margin,
+    min_duration, release : see :class:`lwrlab.monitoring.estimates.MonitorSettings`.
     frame, point : where the contact load is mapped: the frame's wrench, or a pure force at ``point``
         (m, frame axes); frame None: the flange, or the last link's frame.
     truth_contacts : CSV of known contacts (``start``, ``end``, ``peak_force``): detection scores.
@@ -297,7 +311,14 @@ def run_monitor(
 
     output_dir.mkdir(parents=True, exist_ok=True)
     settings = MonitorSettings(
-        observer_gain, velocity_cutoff_hz, coulomb_smoothing, false_alarm_rate, margin, min_duration, release
+        observer_gain,
+        velocity_cutoff_hz,
+        coulomb_smoothing,
+        false_alarm_rate,
+        margin,
+        min_duration,
+        release,
+        residual_margin,
     )
     paths = OmegaConf.select(cfg, "data.paths") or (
         [OmegaConf.select(cfg, "data.path")] if OmegaConf.select(cfg, "data.path") else []
@@ -334,7 +355,9 @@ def run_monitor(
         seconds += estimates.seconds
         samples += len(estimates.t)
         if measurement is monitored[0]:
-            metrics |= _truth_metrics(estimates, found, settings, truth_contacts, truth_torque, min_force)
+            metrics |= _truth_metrics(
+                estimates, found, calibrations, settings, truth_contacts, truth_torque, min_force
+            )
             true_spans = []
             if truth_contacts:
                 true_spans = list(pd.read_csv(truth_contacts)[["start", "end"]].itertuples(index=False))
