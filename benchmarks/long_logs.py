@@ -64,6 +64,8 @@ def identify(folder: Path, validation: Path, run_dir: Path, code: Path | None) -
     env = dict(os.environ)
     if code is not None:  # the copy's packages come before the installed ones
         env["PYTHONPATH"] = os.pathsep.join([str(code), env.get("PYTHONPATH", "")])
+    # started in the copy: ``python -m`` puts the working directory first on the path, before PYTHONPATH
+    cwd = None if code is None else code
     command = _lwrlab(
         "task=identification",
         "plant=log",
@@ -72,7 +74,12 @@ def identify(folder: Path, validation: Path, run_dir: Path, code: Path | None) -
         f"hydra.run.dir={run_dir}",
     )
     result = subprocess.run(
-        [sys.executable, "-c", _MEASURED, *command], capture_output=True, text=True, env=env, check=True
+        [sys.executable, "-c", _MEASURED, *command],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+        cwd=cwd,
     )
     return json.loads(result.stdout)
 
@@ -85,6 +92,8 @@ def main() -> None:
     parser.add_argument("--logs", type=Path, default=Path("outputs/long_logs"), help="where the logs go")
     parser.add_argument("--code", type=Path, default=None, help="run this copy of the code instead")
     args = parser.parse_args()
+    args.logs = args.logs.resolve()  # the runs of --code start in the copy
+    code = None if args.code is None else args.code.resolve()
     validation = write_log(10, args.logs) / "validation.parquet"
     label = "installed" if args.code is None else str(args.code)
     print(f"| log length | samples | wall (s) | peak RSS (MB) | code: {label}")
@@ -92,7 +101,7 @@ def main() -> None:
     for length in args.lengths:
         folder = write_log(length, args.logs)
         run_dir = args.logs / "runs" / f"identify_{length}_{int(time.time())}"
-        figures = identify(folder, validation, run_dir, args.code)
+        figures = identify(folder, validation, run_dir, code)
         if figures["rc"] != 0:
             print(f"| {length} s | failed: {figures['tail'].strip().splitlines()[-1:]} |")
             continue

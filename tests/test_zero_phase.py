@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from lwrlab.signal.zero_phase import butterworth_sos, sosfiltfilt
+from lwrlab.signal.zero_phase import butterworth_sos, sosfiltfilt, sosfiltfilt_window
 
 # cut-off / rate: processing's lowest auto cut-off at 1 kHz (0.5 Hz), typical auto cut-offs (2-20 Hz
 # at 1 kHz), motion_frequency's smoothing (rate / 5), and near Nyquist.
@@ -115,3 +115,22 @@ def test_sosfiltfilt_filters_each_column_on_its_own() -> None:
     filtered = sosfiltfilt(sos, x, 500)
     for column in (0, 1, 64, 65, 199):
         np.testing.assert_array_equal(filtered[:, column], sosfiltfilt(sos, x[:, column], 500))
+
+
+def test_zero_columns_and_filtering_in_place_give_the_same_bits() -> None:
+    # Zero columns are skipped (zero in, zero out); in place, C- or column-major, equals the copy.
+    rng = np.random.default_rng(8)
+    x = rng.standard_normal((2000, 9)) + rng.uniform(-5.0, 5.0, 9)
+    x[:, [2, 6]] = 0.0
+    sos = butterworth_sos(5, 20.0, 1000.0)
+    expected = sosfiltfilt_window(sos, x, 0, 150)
+    assert not expected[:, [2, 6]].any()
+    np.testing.assert_array_equal(expected[:, 3], sosfiltfilt_window(sos, x[:, 3], 0, 150))
+    kept = x.copy()
+    sosfiltfilt_window(sos, kept, 0, 150)
+    np.testing.assert_array_equal(kept, x)  # not overwritten unless asked
+    for order in ("C", "F"):
+        signal = np.array(x, order=order)
+        filtered = sosfiltfilt_window(sos, signal, 0, 150, overwrite_x=True)
+        assert np.shares_memory(filtered, signal)
+        np.testing.assert_array_equal(filtered, expected)

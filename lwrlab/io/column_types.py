@@ -8,6 +8,7 @@ column would be coerced into wrong numbers. :func:`check_column_dtypes` names th
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Protocol
 
 import pandas as pd
 
@@ -18,6 +19,20 @@ _DTYPE_ADVICE = {
     "torque": "write the torque in N·m (or motor currents in A with data.drive_gains) as numbers",
 }
 """What to write instead, by the role of the column; other roles get the generic advice."""
+
+
+class ColumnTypes(Protocol):
+    """What the type check reads of a table: its column names and their types (a DataFrame has them)."""
+
+    @property
+    def columns(self) -> pd.Index:
+        """Column names."""
+        ...
+
+    @property
+    def dtypes(self) -> pd.Series:
+        """Column name → dtype."""
+        ...
 
 
 def column_dtype_finding(
@@ -48,10 +63,11 @@ def column_dtype_finding(
     return Finding("error", str(path), column, "dtype", f"{what} (dtype {dtype})")
 
 
-def check_column_dtypes(frame: pd.DataFrame, columns: LogColumns, path: str | Path) -> list[Finding]:
+def check_column_dtypes(frame: ColumnTypes, columns: LogColumns, path: str | Path) -> list[Finding]:
     """:func:`column_dtype_finding` for every column of ``columns`` present in ``frame``.
 
     For typed files (Parquet); a CSV read as text has every column of dtype object: convert there.
+    Only the types are read (``frame.dtypes``), none of the values.
     """
     roles = [
         (columns.t, "time"),
@@ -60,6 +76,8 @@ def check_column_dtypes(frame: pd.DataFrame, columns: LogColumns, path: str | Pa
         *((c, "velocity") for c in columns.dq or ()),
     ]
     findings = [
-        column_dtype_finding(frame[name], name, path, role) for name, role in roles if name in frame.columns
+        column_dtype_finding(pd.Series([], dtype=frame.dtypes[name]), name, path, role)
+        for name, role in roles
+        if name in frame.columns
     ]
     return [f for f in findings if f is not None]

@@ -45,10 +45,12 @@ def position_findings(
     ``skip`` the columns already reported as corrupt.
     """
     findings: list[Finding] = []
-    sound = q[:, [j for j, name in enumerate(names) if name not in skip]]
-    if not sound.size:
+    # column by column: a copy of all of them would double a long log in memory
+    sound = [column for _, _, column in _sound_columns(q, names, skip)]
+    if not sound or not sound[0].size:
         return findings
-    degrees_like = position_unit == "rad" and bool(np.max(np.abs(sound)) > thresholds.degrees_above)
+    largest_value = max(float(np.max(np.abs(column))) for column in sound)
+    degrees_like = position_unit == "rad" and largest_value > thresholds.degrees_above
     for j, name, column in _sound_columns(q, names, skip):
         if not np.any(column):
             findings.append(
@@ -81,7 +83,7 @@ def position_findings(
         row = int(np.argmin(column)) if below >= above else int(np.argmax(column))
         side = f"lower limit {lower:.4g}" if below >= above else f"upper limit {upper:.4g}"
         hint = (
-            f"; values up to {np.max(np.abs(sound)):.4g} look like degrees: set data.position_unit=deg"
+            f"; values up to {largest_value:.4g} look like degrees: set data.position_unit=deg"
             if degrees_like
             else ""
         )
@@ -97,7 +99,7 @@ def position_findings(
                 f"by {excess:.3g} rad ({np.degrees(excess):.3g}°){hint}",
             )
         )
-    largest_range = float(np.max(np.ptp(sound, axis=0)))
+    largest_range = max(float(np.ptp(column)) for column in sound)
     if position_unit == "deg" and largest_range < np.radians(2 * np.pi):  # raw values span less than 2π
         findings.append(
             Finding(

@@ -1,13 +1,15 @@
-"""Log files read into frames of columns: CSV, Parquet, NumPy ``.npz`` and ROS 2 bags.
+"""Log files read as tables of columns: CSV, Parquet, NumPy ``.npz`` and ROS 2 bags.
 
-:func:`read_frame` gives the columns as the file holds them and the schema → column mapping to read
-them with; :func:`lwrlab.io.logs.load_log` validates, converts and resamples them (formats and schema
-in :mod:`lwrlab.io.logs`).
+:func:`read_frame` gives the columns as the file holds them (a :class:`LogTable`) and the schema →
+column mapping to read them with; :func:`lwrlab.io.logs.load_log` validates, converts and resamples
+them (formats and schema in :mod:`lwrlab.io.logs`). A Parquet file's columns are read one at a time
+when asked, and a CSV file's only where the schema names them: an hour-long log is never held twice
+(as the file's table and as a frame) beside the arrays it becomes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -20,12 +22,89 @@ FORMATS = (".csv", ".txt", ".parquet", ".pq", ".npz", "ROS 2 bag folder (.db3 / 
 _BLOCKS = ("q", "dq", "tau", "current")
 
 
+class LogTable:
+    """A log's columns by name, each handed out as a :class:`pandas.Series` when asked.
+
+    What :func:`lwrlab.io.logs.load_log` reads of a :class:`pandas.DataFrame` (``columns``,
+    ``dtypes``, ``len``, ``table[name]``), without the frame: a column lives in memory only while
+    it is converted.
+    """
+
+    def __init__(
+        self, columns: Sequence[str], n_rows: int, dtypes: pd.Series, read: Callable[[str], pd.Series]
+    ) -> None:
+        self.columns = pd.Index(list(columns))
+        """The file's column names, in its order."""
+        self.dtypes = dtypes
+        """Type of each column as pandas reads it (name → dtype), for the type checks."""
+        self._n_rows = n_rows
+        self._read = read
+
+    def __len__(self) -> int:
+        return self._n_rows
+
+    def __getitem__(self, name: str) -> pd.Series:
+        if name not in self.columns:
+            raise KeyError(name)
+        return self._read(name)
+
+    @classmethod
+    def of_frame(cls, frame: pd.DataFrame, columns: Sequence[str] | None = None) -> LogTable:
+        """A frame's columns (``columns``: all the file's names, when the frame holds only some)."""
+        return cls(
+            list(frame.columns) if columns is None else columns, len(frame), frame.dtypes, frame.__getitem__
+        )
+
+    @classmethod
+    def of_arrays(cls, arrays: Mapping[str, np.ndarray]) -> LogTable:
+        """Equally long 1-D arrays by name, not copied."""
+        n_rows = len(next(iter(arrays.values()))) if arrays else 0
+        dtypes = pd.Series({name: array.dtype for name, array in arrays.items()}, dtype=object)
+        return cls(list(arrays), n_rows, dtypes, lambda name: pd.Series(arrays[name], name=name, copy=False))
+
+
+def _parquet_table(path: Path) -> LogTable:
+    """A Parquet file's columns, each read from the file when asked (its types from the schema)."""
+    import pyarrow as pa  # type: ignore[import-untyped]
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    try:
+        parquet = pq.ParquetFile(path)
+        schema = parquet.schema_arrow
+        dtypes = schema.empty_table().to_pandas().dtypes  # as pandas would read them, metadata applied
+    except (pa.ArrowException, OSError) as error:
+        raise LogError(f"{path}: not a readable Parquet file ({error})") from error
+    index_columns = {c for c in (schema.pandas_metadata or {}).get("index_columns", []) if isinstance(c, str)}
+    names = [name for name in schema.names if name not in index_columns]
+
+    def read(name: str) -> pd.Series:
+        column = parquet.read(columns=[name], use_pandas_metadata=False).column(0).to_pandas().rename(name)
+        pa.default_memory_pool().release_unused()  # the column's buffers, which Arrow's pool would keep
+        return column
+
+    return LogTable(names, parquet.metadata.num_rows, dtypes[names], read)
+
+
+def _csv_table(path: Path, wanted: set[str]) -> LogTable:
+    """A CSV file's columns that the schema (or ``column_map``) names, parsed in C.
+
+    A column with a cell that is no number stays text; its reader reports the cell.
+    """
+    try:
+        header = list(pd.read_csv(path, nrows=0).columns)
+    except pd.errors.EmptyDataError as error:
+        raise LogError(f"{path}: empty file, no header row and no samples") from error
+    used = [c for c in header if c in wanted] or header[:1]  # one column at least: the row count
+    frame = pd.read_csv(path, keep_default_na=False, usecols=used)
+    return LogTable.of_frame(frame, header)
+
+
 def _is_bag(path: Path) -> bool:
     return (path.is_dir() and (path / "metadata.yaml").is_file()) or path.suffix.lower() in (".db3", ".mcap")
 
 
-def _npz_frame(path: Path, mapping: dict[str, str], n_joints: int) -> tuple[pd.DataFrame, dict[str, str]]:
-    """An npz file as a frame: 2-D arrays split into one column per joint (``positions[:, 0]``)."""
+def _npz_table(path: Path, mapping: dict[str, str], n_joints: int) -> tuple[LogTable, dict[str, str]]:
+    """An npz file as a table: 2-D arrays split into one column per joint (``positions[:, 0]``)."""
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {key: data[key] for key in data.files}
@@ -62,13 +141,13 @@ def _npz_frame(path: Path, mapping: dict[str, str], n_joints: int) -> tuple[pd.D
             f"{path}: no arrays named by the schema or column_map; the file has {sorted(arrays)} "
             "(map them: data.column_map)"
         )
-    return pd.DataFrame(columns), names
+    return LogTable.of_arrays(columns), names
 
 
-def _bag_frame(
+def _bag_table(
     path: Path, joint_names: Sequence[str] | None, topic: str | None, n_joints: int
-) -> tuple[pd.DataFrame, dict[str, str]]:
-    """A ROS 2 bag's JointState messages as a frame in the schema (joints matched by name)."""
+) -> tuple[LogTable, dict[str, str]]:
+    """A ROS 2 bag's JointState messages as a table in the schema (joints matched by name)."""
     from lwrlab.io.rosbag import read_joint_states
 
     if joint_names is None or len(joint_names) != n_joints:
@@ -80,15 +159,15 @@ def _bag_frame(
     for prefix, block in (("q", states.q), ("dq", states.dq), ("tau", states.tau)):
         if block is not None:
             data.update({f"{prefix}{j + 1}": block[:, j] for j in range(n_joints)})
-    return pd.DataFrame(data), {}
+    return LogTable.of_arrays(data), {}
 
 
 def read_frame(
     path: Path, mapping: dict[str, str], n_joints: int, joint_names: Sequence[str] | None, topic: str | None
-) -> tuple[pd.DataFrame, dict[str, str]]:
-    """The log as a frame of columns, and the schema → column mapping to read it with."""
+) -> tuple[LogTable, dict[str, str]]:
+    """The log as a table of columns, and the schema → column mapping to read it with."""
     if _is_bag(path):
-        return _bag_frame(path.parent if path.is_file() else path, joint_names, topic, n_joints)
+        return _bag_table(path.parent if path.is_file() else path, joint_names, topic, n_joints)
     if path.is_dir():
         raise LogError(
             f"{path}: a directory, not a log file (nor a ROS 2 bag folder with metadata.yaml); "
@@ -98,12 +177,10 @@ def read_frame(
         raise LogError(f"{path}: no such log file")
     suffix = path.suffix.lower()
     if suffix == ".npz":
-        return _npz_frame(path, mapping, n_joints)
+        return _npz_table(path, mapping, n_joints)
     if suffix in (".parquet", ".pq"):
-        return pd.read_parquet(path), mapping
+        return _parquet_table(path), mapping
     if suffix in (".csv", ".txt"):
-        try:  # numbers parsed in C; a column with a bad cell stays text, and its reader reports the cell
-            return pd.read_csv(path, keep_default_na=False), mapping
-        except pd.errors.EmptyDataError as error:
-            raise LogError(f"{path}: empty file, no header row and no samples") from error
+        schema = ["t", *(f"{block}{j + 1}" for block in _BLOCKS for j in range(n_joints))]
+        return _csv_table(path, {mapping.get(c, c) for c in schema}), mapping
     raise LogError(f"{path}: unknown log format {path.suffix!r}; formats: {', '.join(FORMATS)}")

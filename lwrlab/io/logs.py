@@ -57,7 +57,7 @@ import pandas as pd
 
 from lwrlab.io.column_types import check_column_dtypes
 from lwrlab.io.log_findings import LogColumns, raise_for_errors
-from lwrlab.io.log_formats import read_frame
+from lwrlab.io.log_formats import LogTable, read_frame
 from lwrlab.io.log_schema import POSITION_UNITS, TIME_UNITS, LogError, joint_columns, row_location
 from lwrlab.io.plausibility import check_plausibility
 from lwrlab.model.robot import JointLimits
@@ -113,7 +113,7 @@ class RecordedLog:
         )
 
 
-def _numeric_column(frame: pd.DataFrame, name: str, schema_name: str, path: Path) -> np.ndarray:
+def _numeric_column(frame: LogTable, name: str, schema_name: str, path: Path) -> np.ndarray:
     if name not in frame.columns:
         mapped = f" (schema column {schema_name!r}, mapped by column_map)" if name != schema_name else ""
         raise LogError(f"{path}: missing column {name!r}{mapped}; the file has {list(frame.columns)}")
@@ -216,10 +216,13 @@ def load_log(
     if len(frame) < min_samples:
         raise LogError(f"{path}: {len(frame)} rows, too short (at least {min_samples} samples needed)")
 
-    def block(prefix: str) -> np.ndarray:
-        return np.column_stack(
-            [_numeric_column(frame, name(c), c, path) for c in joint_columns(prefix, n_joints)]
-        )
+    def block(prefix: str, scale: float | np.ndarray = 1.0) -> np.ndarray:
+        # filled column by column: only one column beside the block, whatever the log's length
+        values = np.empty((len(frame), n_joints))
+        for j, column in enumerate(joint_columns(prefix, n_joints)):
+            values[:, j] = _numeric_column(frame, name(column), column, path)
+        values *= scale
+        return values
 
     has_velocity = all(name(c) in frame.columns for c in joint_columns("dq", n_joints))
     columns_used = LogColumns(
@@ -250,9 +253,9 @@ def load_log(
             f"{path}: column {name('t')!r}, {row_location(path, row)}: "
             f"gap of {steps[row - 1]:.6g} s (> {max_gap} × median period {median:.6g} s)"
         )
-    q = block("q") * POSITION_UNITS[position_unit]
-    tau = block("tau") if drive_gains is None else block("current") * np.asarray(drive_gains, dtype=float)
-    columns = [q, tau] + ([block("dq") * POSITION_UNITS[position_unit]] if has_velocity else [])
+    q = block("q", POSITION_UNITS[position_unit])
+    tau = block("tau") if drive_gains is None else block("current", np.asarray(drive_gains, dtype=float))
+    columns = [q, tau] + ([block("dq", POSITION_UNITS[position_unit])] if has_velocity else [])
     warnings = raise_for_errors(
         check_plausibility(
             t,

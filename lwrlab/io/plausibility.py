@@ -219,7 +219,8 @@ def check_plausibility(
     # a corrupt cell would only be reported again by the checks below, with a misleading hint
 
     def clean(values: np.ndarray) -> np.ndarray:
-        return np.where(np.isfinite(values), values, 0.0)
+        finite = np.isfinite(values)
+        return values if finite.all() else np.where(finite, values, 0.0)  # no copy of a sound log
 
     if columns.t not in corrupt:
         findings += _period_findings(path, t, columns.t, time_unit, thresholds)

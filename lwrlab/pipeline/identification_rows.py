@@ -95,16 +95,12 @@ def identification_rows(
         return base.base_regressor(regressor(robot, q, dq, ddq))
 
     for data in processed:
-        for w, tau in data.row_blocks(base_regressor):
-            accumulator.add(w, tau)
+        for block in data.row_blocks(base_regressor):
+            accumulator.add(block.w, block.tau)
             if keep:
-                kept.append((w, tau))
-        if data.index.size == 0:
-            continue
-        for block in data.state_blocks(int(data.index[0]), int(data.index[-1]) + 1):
-            rows = data.index[(data.index >= block.start) & (data.index < block.start + len(block.t))]
+                kept.append((block.w, block.tau))
             for values, part in zip(states, (block.q, block.dq, block.ddq), strict=True):
-                values.append(part[rows - block.start])
+                values.append(part)
     return IdentificationRows(
         statistics=accumulator.result(),
         w_base=np.vstack([w for w, _ in kept]) if keep else None,

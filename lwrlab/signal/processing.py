@@ -52,6 +52,9 @@ TRIM_PER_CUTOFF_PERIOD = 2.0
 VELOCITY_SOURCES = ("auto", "logged", "differentiated")
 DEFAULT_BLOCK_S = 60.0
 """Seconds of log processed at a time (the regressor of a block at the working rate, filtered)."""
+REGRESSOR_SAMPLES = 4096
+"""Samples whose regressor is built at a time within a block (the full regressor of a block's
+samples before its base columns are taken would be several times the block's rows)."""
 STATE_HALO = 32
 """Working samples computed beyond a block on each side for its differences and the logged velocity's
 shift (at most :data:`lwrlab.signal.velocity.MAX_DELAY_SAMPLES` plus two centred differences)."""
@@ -76,6 +79,22 @@ class States:
     """(n, N_J) accelerations (rad/s²)."""
     tau: np.ndarray
     """(n, N_J) filtered torques (N·m)."""
+
+
+@dataclass(frozen=True)
+class RowBlock:
+    """The identification rows of one block of a log, and the joint states they were built at."""
+
+    w: np.ndarray
+    """(rows·N_J, P) filtered regressor rows, sample-major."""
+    tau: np.ndarray
+    """(rows·N_J,) filtered torques (N·m)."""
+    q: np.ndarray
+    """(rows, N_J) filtered positions at the rows (rad)."""
+    dq: np.ndarray
+    """(rows, N_J) velocities at the rows (rad/s)."""
+    ddq: np.ndarray
+    """(rows, N_J) accelerations at the rows (rad/s²)."""
 
 
 def _window(n: int, start: int, stop: int, overlap: int, padlen: int) -> tuple[int, int, int, int]:
@@ -236,8 +255,8 @@ class ProcessedData:
         for first in range(start, stop, self.block_samples):
             yield self.states(first, min(stop, first + self.block_samples))
 
-    def row_blocks(self, regressor: Regressor) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-        """The identification rows ``(W, τ)`` block by block (see :meth:`rows`), in the order of ``index``."""
+    def row_blocks(self, regressor: Regressor) -> Iterator[RowBlock]:
+        """The identification rows block by block (see :meth:`rows`), in the order of ``index``."""
         if self.index.size == 0:
             return
         n = self.n_working
@@ -253,17 +272,30 @@ class ProcessedData:
             rows = self.index[(self.index >= start) & (self.index < stop)]
             if rows.size == 0:
                 continue
-            lo, hi, before, after = _window(n, start, stop, overlap, padlen)
-            states = self.states(lo, hi)
-            w = regressor(states.q, states.dq, states.ddq)
-            n_joints, columns = states.q.shape[1], w.shape[1]
-            w = w.reshape(hi - lo, n_joints * columns)
-            if sos is not None:
-                w = sosfiltfilt_window(sos, w, before, after)
-            yield (
-                w[rows - lo].reshape(rows.size * n_joints, columns),
-                states.tau[rows - lo].ravel(),
-            )
+            # built in a call of its own: a block's regressor is freed before the next one is built
+            yield self._row_block(regressor, rows, sos, _window(n, start, stop, overlap, padlen))
+
+    def _row_block(
+        self,
+        regressor: Regressor,
+        rows: np.ndarray,
+        sos: np.ndarray | None,
+        window: tuple[int, int, int, int],
+    ) -> RowBlock:
+        """The rows ``rows`` (working samples) of the block filtered from ``window`` (see :func:`_window`)."""
+        lo, hi, before, after = window
+        states = self.states(lo, hi)
+        w, columns = _block_regressor(regressor, states)
+        if sos is not None:
+            w = sosfiltfilt_window(sos, w, before, after, overwrite_x=True)
+        kept = rows - lo
+        return RowBlock(
+            w[kept].reshape(-1, columns),
+            states.tau[kept].ravel(),
+            states.q[kept],
+            states.dq[kept],
+            states.ddq[kept],
+        )
 
     def rows(self, regressor: Regressor) -> tuple[np.ndarray, np.ndarray]:
         """The identification rows ``(W, τ)``: ``regressor`` at every working sample, filtered like τ.
@@ -277,7 +309,7 @@ class ProcessedData:
         W : (M·N_J, P) filtered regressor rows; tau : (M·N_J,) filtered torques.
         """
         blocks = list(self.row_blocks(regressor))
-        return np.vstack([w for w, _ in blocks]), np.concatenate([tau for _, tau in blocks])
+        return np.vstack([b.w for b in blocks]), np.concatenate([b.tau for b in blocks])
 
     def describe(self) -> str:
         """One line saying what was chosen (cut-off, rates, velocity source)."""
@@ -294,6 +326,25 @@ class ProcessedData:
 
 
 _STATE_NAMES = ("t", "q", "dq", "ddq", "tau")
+
+
+def _block_regressor(regressor: Regressor, states: States) -> tuple[np.ndarray, int]:
+    """``(W, P)``: the regressor at every sample of ``states`` as one row per sample (n, N_J·P),
+    built :data:`REGRESSOR_SAMPLES` at a time, column-major: the filter reads and writes its
+    columns as contiguous runs (row-major, a few columns taken at a time cost it a third more)."""
+    n, n_joints = states.q.shape
+
+    def part(first: int) -> np.ndarray:
+        chosen = slice(first, first + REGRESSOR_SAMPLES)
+        rows = regressor(states.q[chosen], states.dq[chosen], states.ddq[chosen])
+        return rows.reshape(-1, n_joints * rows.shape[1])
+
+    head = part(0)
+    w = np.empty((n, head.shape[1]), order="F")
+    w[: head.shape[0]] = head
+    for first in range(REGRESSOR_SAMPLES, n, REGRESSOR_SAMPLES):
+        w[first : first + REGRESSOR_SAMPLES] = part(first)
+    return w, head.shape[1] // n_joints
 
 
 def lowpass(x: np.ndarray, rate_hz: float, cutoff_hz: float, order: int) -> np.ndarray:

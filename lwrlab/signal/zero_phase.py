@@ -147,13 +147,17 @@ def sosfiltfilt(sos: np.ndarray, x: np.ndarray, padlen: int) -> np.ndarray:
     return sosfiltfilt_window(sos, x, padlen, padlen)
 
 
-def sosfiltfilt_window(sos: np.ndarray, x: np.ndarray, pad_before: int, pad_after: int) -> np.ndarray:
+def sosfiltfilt_window(
+    sos: np.ndarray, x: np.ndarray, pad_before: int, pad_after: int, overwrite_x: bool = False
+) -> np.ndarray:
     """:func:`sosfiltfilt` of a window of a longer signal: odd extension only at the signal's own ends.
 
     A window that starts (ends) where the signal starts (ends) is extended there as the whole signal
     is (``pad_before`` or ``pad_after`` = the whole signal's ``padlen``); an edge inside the signal gets
     no extension (0) and starts its pass at the steady state of its edge sample, a transient that
     has died out after :func:`settling_samples` — the overlap a window needs around the samples kept.
+    ``overwrite_x``: filter a float64 ``x`` in place (a long block's copy is saved); column-major
+    (Fortran-ordered), its columns are read and written as contiguous runs.
     """
     sos = np.asarray(sos, dtype=float)
     if sos.ndim != 2 or sos.shape[1] != 6 or not np.all(sos[:, 3] == 1.0):
@@ -169,14 +173,19 @@ def sosfiltfilt_window(sos: np.ndarray, x: np.ndarray, pad_before: int, pad_afte
             f"the signal must be longer than padlen = {max(pad_before, pad_after)} samples, got {n} samples"
         )
     columns = signal.reshape(n, -1)
-    filtered = np.empty_like(columns, order="C")
+    # A column that is zero throughout filters to exactly zero (zero steady state, zero input): about
+    # half of a stacked regressor's columns are (the links beyond a joint do not move its torque).
+    in_place = overwrite_x and signal is x and (columns.flags.c_contiguous or columns.flags.f_contiguous)
+    filtered = columns if in_place else np.zeros_like(columns, order="C")
+    moving = np.flatnonzero(np.any(columns != 0.0, axis=0))
     # A few columns at a time (see CHUNK_VALUES): 1.5 × faster than all at once on 20 000 × 600.
     width = max(1, CHUNK_VALUES // (n + pad_before + pad_after))
-    for start in range(0, columns.shape[1], width):
-        extended = _odd_extension(columns[:, start : start + width], pad_before, pad_after)
+    for start in range(0, moving.size, width):
+        chunk = moving[start : start + width]
+        extended = _odd_extension(columns[:, chunk], pad_before, pad_after)
         forward = _cascade(sos, extended, extended[0], backward=False)
         backward = _cascade(sos, forward, forward[-1], backward=True)
-        filtered[:, start : start + width] = backward[pad_before : pad_before + n]
+        filtered[:, chunk] = backward[pad_before : pad_before + n]
     return filtered.reshape(signal.shape)
 
 
