@@ -309,11 +309,6 @@ KNOWN_CYCLES: dict[str, tuple[frozenset[str], str]] = {
         "model (io.artifacts → identification → model); to be broken by moving the one below model "
         "or the other above identification",
     ),
-    "lwrlab.excitation": (
-        frozenset({"collision_check", "collision_scene", "sphere_distances"}),
-        "the exact collision check and the sphere distances still call each other (function-level "
-        "imports); to be broken by a value module below both",
-    ),
     "lwrlab.pipeline": (
         frozenset({"painting", "painting_report"}),
         "the painting report reads PaintingReport from the stage that calls it; to be broken by "

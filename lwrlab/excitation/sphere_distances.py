@@ -25,10 +25,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.excitation.exact_geometry import ExactGeometry
 from lwrlab.kinematics.tree import point_jacobians
 
 if TYPE_CHECKING:
-    from lwrlab.excitation.collision_check import ExactGeometry
     from lwrlab.excitation.collision_scene import CollisionScene
 
 CHUNK = 2000
@@ -186,8 +186,6 @@ class SphereDistances:
     # --- refinement by convex hulls -------------------------------------------------------------
 
     def _exact_geometry(self) -> ExactGeometry:
-        from lwrlab.excitation.collision_check import ExactGeometry
-
         if self._exact is None:
             self._exact = ExactGeometry(self.scene)
         return self._exact
