@@ -309,11 +309,6 @@ KNOWN_CYCLES: dict[str, tuple[frozenset[str], str]] = {
         "model (io.artifacts → identification → model); to be broken by moving the one below model "
         "or the other above identification",
     ),
-    "lwrlab.pipeline": (
-        frozenset({"painting", "painting_report"}),
-        "the painting report reads PaintingReport from the stage that calls it; to be broken by "
-        "moving the report type below both",
-    ),
 }
 """Cycles the rule found outside ``lwrlab.io`` and ``lwrlab.tracking``, left for their owners: a cycle
 listed here is tolerated, any other fails, and a listed one that is gone fails too (remove it)."""

@@ -7,14 +7,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
 
 from lwrlab.figures.painting import normal_force, path_on_wall
-from lwrlab.pipeline.painting import PaintingReport
 from lwrlab.pipeline.painting_runs import ScoredRun
+
+if TYPE_CHECKING:  # the stage calls this writer; the writer only reads the stage's report type
+    from lwrlab.pipeline.painting import PaintingReport
 
 CONTACT_DECIMATION = 10
 """Every 10th sample of a run goes to ``contact_*.npz``: 100 Hz, the figures' resolution, a few MB per run."""
