@@ -302,17 +302,6 @@ def test_code_under_type_checking_else_still_counts() -> None:
 
 Graph = dict[str, set[str]]
 
-KNOWN_CYCLES: dict[str, tuple[frozenset[str], str]] = {
-    "lwrlab": (
-        frozenset({"dynamics", "identification", "io", "model", "plants", "trajectory"}),
-        "io holds both a helper the model reads (io.yaml_files) and what is saved of an identified "
-        "model (io.artifacts → identification → model); to be broken by moving the one below model "
-        "or the other above identification",
-    ),
-}
-"""Cycles the rule found outside ``lwrlab.io`` and ``lwrlab.tracking``, left for their owners: a cycle
-listed here is tolerated, any other fails, and a listed one that is gone fails too (remove it)."""
-
 
 def _child(module: str, package: str) -> str | None:
     """The child of ``package`` that ``module`` lies in (``__init__`` for the package itself)."""
@@ -397,17 +386,9 @@ def test_every_package_is_checked() -> None:
 @pytest.mark.parametrize("package", PACKAGE_NAMES)
 def test_no_import_cycle_inside_a_package(package: str) -> None:
     graph = package_graph(package, SOURCES)
-    tolerated = KNOWN_CYCLES.get(package, (frozenset(), ""))[0]
-    found = [cycle for cycle in cycles(graph) if cycle != tolerated]
+    found = cycles(graph)
     assert not found, f"import cycle(s) among the children of {package} (make one arrow point down):\n" + (
         "\n".join(_cycle_text(graph, cycle) for cycle in found)
-    )
-
-
-@pytest.mark.parametrize("package", sorted(KNOWN_CYCLES))
-def test_a_known_cycle_is_still_there(package: str) -> None:
-    assert KNOWN_CYCLES[package][0] in cycles(package_graph(package, SOURCES)), (
-        f"the cycle of {package} is gone: remove it from KNOWN_CYCLES"
     )
 
 

@@ -60,12 +60,12 @@ from typing import Any
 import numpy as np
 
 from lwrlab.errors import ConfigError, MissingFileError
-from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.model.collision import build_collision_spheres
 from lwrlab.model.collision_geometry import CollisionSource
 from lwrlab.model.dh import ModifiedDH, build_dh_model
 from lwrlab.model.inertia import standard_parameters, to_pin_inertia
 from lwrlab.model.robot import Friction, JointLimits, RobotModel
+from lwrlab.yaml_files import read_yaml_mapping
 
 
 def _array(values: Sequence[float], n: int, what: str) -> np.ndarray:

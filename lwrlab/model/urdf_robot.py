@@ -29,10 +29,10 @@ import numpy as np
 import pinocchio as pin
 
 from lwrlab.errors import ConfigError, MissingFileError, UnknownNameError
-from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.model.collision_geometry import CollisionSource
 from lwrlab.model.description import build_friction, gravity_vector
 from lwrlab.model.robot import JointLimits, RobotModel
+from lwrlab.yaml_files import read_yaml_mapping
 
 _FLOATING_JOINTS = ("JointModelFreeFlyer", "JointModelPlanar")
 

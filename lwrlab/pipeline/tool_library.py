@@ -37,10 +37,10 @@ from hydra.errors import InstantiationException
 from hydra.utils import instantiate
 
 from lwrlab.errors import MissingFileError, UnknownNameError
-from lwrlab.io.yaml_files import read_yaml_mapping
 from lwrlab.resources import config_group
 from lwrlab.tools.library import ToolLibrary
 from lwrlab.tools.model import Tool
+from lwrlab.yaml_files import read_yaml_mapping
 
 LIBRARY_GROUP = "tool"
 """The config group holding the shipped library (``conf/tool/``, shipped in the package ``lwrlab.conf``)."""
