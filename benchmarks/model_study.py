@@ -37,7 +37,12 @@ import pandas as pd
 REPOSITORY = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPOSITORY))
 
-from benchmarks.processing_study import DEFAULTS, real_lwr4_runs, second_simulator  # noqa: E402
+from benchmarks.processing_study import (  # noqa: E402
+    DEFAULTS,
+    real_lwr4_runs,
+    second_simulator,
+    simulated_lwr4,
+)
 from lwrlab.dynamics.base_parameters import compute_base_parameters  # noqa: E402
 from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.identification.context import IdentificationContext  # noqa: E402
@@ -103,17 +108,9 @@ def real_lwr4() -> list[Split]:
 
 def ours(seed: int) -> list[Split]:
     """lwrlab's simulated LWR4: the shipped optimal motion → a multisine, and → a slower multisine."""
-    from hydra import compose, initialize_config_dir
     from hydra.utils import instantiate
 
-    import lwrlab.conf  # noqa: F401  (registers the schemas the YAML files link)
-
-    with initialize_config_dir(config_dir=str(REPOSITORY / "conf"), version_base=None):
-        cfg = compose(
-            "config", overrides=["task=identification", f"seed={seed}", "plant.show_progress=false"]
-        )
-    robot = instantiate(cfg.robot)
-    plant = instantiate(cfg.plant)(robot=robot)
+    cfg, robot, plant = simulated_lwr4(seed)
     fit = plant.measure(instantiate(cfg.trajectory).sample(robot, cfg.measurement.rate_hz))
     multisine = plant.measure(instantiate(cfg.validation).sample(robot, cfg.measurement.rate_hz))
     slower = instantiate(cfg.validation, harmonics=6, seed=2002).sample(robot, cfg.measurement.rate_hz)

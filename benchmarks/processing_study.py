@@ -169,8 +169,8 @@ def evaluate(data_set: DataSet, setting: Setting) -> dict[str, float]:
     return row
 
 
-def ours(seed: int) -> DataSet:
-    """lwrlab's simulated LWR4 with the shipped optimal motion and the 20 s validation motion."""
+def simulated_lwr4(seed: int) -> tuple[Any, RobotModel, Any]:
+    """Our simulated LWR4 as ``task=identification`` configures it with ``seed``: config, robot, plant."""
     from hydra import compose, initialize_config_dir
     from hydra.utils import instantiate
 
@@ -181,7 +181,14 @@ def ours(seed: int) -> DataSet:
             "config", overrides=["task=identification", f"seed={seed}", "plant.show_progress=false"]
         )
     robot = instantiate(cfg.robot)
-    plant = instantiate(cfg.plant)(robot=robot)
+    return cfg, robot, instantiate(cfg.plant)(robot=robot)
+
+
+def ours(seed: int) -> DataSet:
+    """lwrlab's simulated LWR4 with the shipped optimal motion and the 20 s validation motion."""
+    from hydra.utils import instantiate
+
+    cfg, robot, plant = simulated_lwr4(seed)
     fit = plant.measure(instantiate(cfg.trajectory).sample(robot, cfg.measurement.rate_hz))
     validation = plant.measure(instantiate(cfg.validation).sample(robot, cfg.measurement.rate_hz))
     return DataSet(
