@@ -127,13 +127,16 @@ def free_port() -> int:
 
 
 @contextlib.contextmanager
-def mlflow_server(uri: str, log: Path, timeout_s: float = 120.0) -> Iterator[str]:
-    """Serve the store with ``mlflow server`` on 127.0.0.1 only; yield its base URL, stop it after."""
-    port = free_port()
+def mlflow_server(
+    uri: str, log: Path, timeout_s: float = 120.0, port: int | None = None, subcommand: str = "server"
+) -> Iterator[str]:
+    """Serve the store with ``mlflow server`` (or ``mlflow ui``: ``subcommand``) on 127.0.0.1 only, on
+    ``port`` (None: a free one); yield its base URL, stop it and its workers after."""
+    port = free_port() if port is None else port
     mlflow = Path(sys.executable).with_name("mlflow")
     command = [
         str(mlflow),
-        "server",
+        subcommand,
         "--host",
         "127.0.0.1",
         "--port",

@@ -13,18 +13,10 @@ pipe by ``docs/screenshots.py``'s driver: no browser is downloaded, no debugging
 
 from __future__ import annotations
 
-import contextlib
 import importlib.util
 import json
-import os
 import re
 import shutil
-import socket
-import subprocess
-import sys
-import time
-import urllib.request
-from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -57,40 +49,6 @@ def _driver() -> ModuleType:
     return module
 
 
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
-@contextlib.contextmanager
-def mlflow_ui(uri: str, port: int, log: Path) -> Iterator[str]:
-    """``mlflow ui`` on 127.0.0.1:``port`` over ``uri``; yields its URL, stops it (and its workers) after."""
-    command = [sys.executable, "-m", "mlflow", "ui", "--host", "127.0.0.1", "--port", str(port)]
-    command += ["--workers", "1", "--backend-store-uri", uri]
-    with log.open("w") as output:
-        process = subprocess.Popen(command, stdout=output, stderr=subprocess.STDOUT, start_new_session=True)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + STARTUP_TIMEOUT_S
-        while True:
-            try:
-                with urllib.request.urlopen(url + "/health", timeout=2):
-                    break
-            except OSError:
-                if process.poll() is not None or time.monotonic() > deadline:
-                    pytest.fail(f"mlflow ui did not start:\n{log.read_text()[-3000:]}")
-                time.sleep(0.5)
-        yield url
-    finally:
-        os.killpg(process.pid, 15)
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, 9)
-            process.wait()
-
-
 @pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium on PATH (apt-get install chromium)")
 def test_a_sweep_and_its_comparison_read_at_a_glance_in_the_runs_table(tmp_path: Path) -> None:
     assert CHROMIUM is not None
@@ -99,7 +57,8 @@ def test_a_sweep_and_its_comparison_read_at_a_glance_in_the_runs_table(tmp_path:
         None, *SWEEP, f"hydra.sweep.dir={tmp_path / 'sweep'}", store=tmp_path, multirun=True, timeout=600
     )
     assert swept.returncode == 0, swept.stderr[-3000:]
-    port = _free_port()
+    driver = _driver()  # docs/screenshots.py: the browser and the server it looks at
+    port = driver.free_port()
     compared = run_app(
         None,
         "compare",
@@ -132,8 +91,7 @@ def test_a_sweep_and_its_comparison_read_at_a_glance_in_the_runs_table(tmp_path:
         next(run.data.metrics["accuracy/rms_mean"] for run in jobs if run.data.params["estimator"] == "wls")
     )
 
-    driver = _driver()
-    with mlflow_ui(uri, port, tmp_path / "ui.log"):
+    with driver.mlflow_server(uri, tmp_path / "ui.log", STARTUP_TIMEOUT_S, port=port, subcommand="ui"):
         browser = driver.HeadlessChromium(CHROMIUM, tmp_path / "profile")
         try:
             browser.open_page()
