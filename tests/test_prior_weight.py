@@ -90,10 +90,10 @@ def test_prior_share_is_zero_where_the_data_decide_and_one_where_they_see_nothin
     w, _, context = _rows(lwr4, 4.0, 2)
     metric = entropic_metric(context.prior, context.n_links)
     gram = w.T @ w
-    assert prior_share(context.regrouping, gram, metric, 0.0).max() < 1e-6
+    assert prior_share(posterior_covariance(context.regrouping, gram, metric, 0.0, 1.0), gram).max() < 1e-6
     blind = gram.copy()
     blind[:, 0] = blind[0, :] = 0.0  # the data never see the first base parameter
-    share = prior_share(context.regrouping, blind, metric, 1e-9)
+    share = prior_share(posterior_covariance(context.regrouping, blind, metric, 1e-9, 1.0), blind)
     assert share[0] == pytest.approx(1.0, abs=1e-6) and np.median(share[1:]) < 1e-3
     # and its posterior spread is the prior's, finite
     covariance = posterior_covariance(context.regrouping, blind, metric, 1e-9, 0.01)

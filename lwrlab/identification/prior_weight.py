@@ -80,17 +80,6 @@ def information_scale(regrouping: np.ndarray, gram: np.ndarray, metric: np.ndarr
     return float(np.trace(np.linalg.pinv(metric, hermitian=True) @ information)) / regrouping.shape[0]
 
 
-def prior_share(regrouping: np.ndarray, gram: np.ndarray, metric: np.ndarray, weight: float) -> np.ndarray:
-    """(N_B,) share of each base parameter's estimate that comes from the prior (0 = all from the data).
-
-    ``1 − diag(K·(KᵀGK + λS)⁺·KᵀG)`` for the ridge form ``‖Wβ − τ‖² + λ·ΔφᵀSΔφ`` with ``β = Kφ``
-    (clipped to [0, 1]; the consistency constraints, not in this form, may pull further).
-    """
-    information = regrouping.T @ gram @ regrouping + weight * metric
-    resolution = regrouping @ np.linalg.pinv(information, hermitian=True) @ regrouping.T @ gram
-    return np.clip(1.0 - np.diag(resolution), 0.0, 1.0)
-
-
 def posterior_covariance(
     regrouping: np.ndarray, gram: np.ndarray, metric: np.ndarray, weight: float, sigma2: float
 ) -> np.ndarray:
@@ -101,6 +90,16 @@ def posterior_covariance(
     """
     information = regrouping.T @ gram @ regrouping + weight * metric
     return sigma2 * regrouping @ np.linalg.pinv(information, hermitian=True) @ regrouping.T
+
+
+def prior_share(unit_covariance: np.ndarray, gram: np.ndarray) -> np.ndarray:
+    """(N_B,) share of each base parameter's estimate that comes from the prior (0 = all from the data).
+
+    ``1 − diag(K·(KᵀGK + λS)⁺·KᵀG)`` for the ridge form ``‖Wβ − τ‖² + λ·ΔφᵀSΔφ`` with ``β = Kφ``: the
+    model resolution matrix is the :func:`posterior_covariance` at σ² = 1 (``unit_covariance``) times
+    ``G``. Clipped to [0, 1]; the consistency constraints, not in this form, may pull further.
+    """
+    return np.clip(1.0 - np.einsum("ij,ji->i", unit_covariance, gram), 0.0, 1.0)
 
 
 def prior_doubts(prior: np.ndarray, n_links: int) -> list[str]:

@@ -423,9 +423,9 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         sigma2 = float(statistics.residual_squares(beta).sum()) / max(
             1, statistics.rows - statistics.n_columns
         )
-        covariance = posterior_covariance(regrouping, gram, metric, compressed.rows * weight, sigma2)
-        set_learned_attributes_from_statistics(self, beta, covariance, statistics)
-        self.prior_share_ = prior_share(regrouping, gram, metric, compressed.rows * weight)
+        unit_covariance = posterior_covariance(regrouping, gram, metric, compressed.rows * weight, 1.0)
+        set_learned_attributes_from_statistics(self, beta, sigma2 * unit_covariance, statistics)
+        self.prior_share_ = prior_share(unit_covariance, gram)
         return standard
 
     @dense_algebra()
