@@ -4,6 +4,8 @@
 Used by ``benchmarks/own_robot_motion.py`` and by the slow tests of ``tests/test_own_robot_motion.py``
 (loaded by path). Pairs are chosen as MoveIt's setup assistant does: an SRDF's disabled pairs, links
 on one joint or on neighbouring joints, and pairs in contact in 95 % of random poses are not checked.
+A continuous joint stays Pinocchio's own ``RevoluteUnbounded`` joint here, configured by the cosine and
+sine of the motion's angle (lwrlab reads it as a revolute joint, one angle).
 """
 
 from __future__ import annotations
@@ -29,6 +31,36 @@ def surface_points(geometry: object) -> np.ndarray:
             [geometry.radius * circle + [0.0, 0.0, z] for z in (-geometry.halfLength, geometry.halfLength)]
         )
     return geometry.radius * np.vstack([circle[:, order] for order in ([0, 1, 2], [0, 2, 1], [2, 0, 1])])
+
+
+def configuration(model: pin.Model, angles: np.ndarray) -> np.ndarray:
+    """Pinocchio's configuration of one angle (or position) per degree of freedom: (cos, sin) for an
+    unbounded revolute joint (nq = 2, nv = 1)."""
+    if model.nq == model.nv:
+        return angles
+    q = np.empty(model.nq)
+    for joint in model.joints[1:]:
+        value = angles[joint.idx_v]
+        if joint.nq == 2 and joint.nv == 1:
+            q[joint.idx_q : joint.idx_q + 2] = np.cos(value), np.sin(value)
+        else:
+            q[joint.idx_q] = value
+    return q
+
+
+def random_angles(model: pin.Model, rng: np.random.Generator) -> np.ndarray:
+    """One angle per degree of freedom, uniform in the limits (one turn for an unbounded joint)."""
+    if model.nq == model.nv:
+        return rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
+    angles = np.empty(model.nv)
+    for joint in model.joints[1:]:
+        if joint.nq == 2 and joint.nv == 1:
+            angles[joint.idx_v] = rng.uniform(-np.pi, np.pi)
+        else:
+            angles[joint.idx_v] = rng.uniform(
+                model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+            )
+    return angles
 
 
 def independent_check(
@@ -64,7 +96,7 @@ def independent_check(
     rng = np.random.default_rng(1)
     always = np.zeros(len(geometry.collisionPairs))
     for _ in range(100):  # the robot's own structure
-        pose = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
+        pose = configuration(model, random_angles(model, rng))
         pin.computeCollisions(model, data, geometry, geometry_data, pose, False)
         always += [r.isCollision() for r in geometry_data.collisionResults]
     for k in reversed(np.flatnonzero(always >= 95)):
@@ -80,7 +112,7 @@ def independent_check(
     in_contact = below = 0
     lowest = np.inf
     for k in range(q.shape[0]):
-        pin.computeCollisions(model, data, geometry, geometry_data, q[k], False)
+        pin.computeCollisions(model, data, geometry, geometry_data, configuration(model, q[k]), False)
         in_contact += any(r.isCollision() for r in geometry_data.collisionResults)
         low = np.inf
         for i, local in points.items():

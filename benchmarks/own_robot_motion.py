@@ -1,8 +1,9 @@
 """Exciting motions for robots nobody here wrote, each checked independently against its own meshes.
 
 For every arm of ``example-robot-data`` that ``robot=example_robot`` loads (Panda with hand and SRDF,
-UR3/UR5/UR10, xArm7, Z1) it optimises the default 10 s ``logdet`` exciting motion with every
-constraint (limits, torques, self-collision, the mounting surface), one start, and reports:
+UR3/UR5/UR10, xArm7, Z1, Kinova Gen2 with its continuous joints) it optimises the default 10 s
+``logdet`` exciting motion with every constraint (limits, torques, self-collision, the mounting
+surface), one start, and reports:
 
 * the optimiser's wall time and cond(W_b) of the optimum;
 * the same motion optimised **without** collision constraints (self_collision off, no world): its

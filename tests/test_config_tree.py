@@ -92,6 +92,7 @@ BUILDERS: dict[str, tuple[Callable[[Any, Inputs], Any], Callable[[Any], bool]]] 
     "optimizer": (lambda node, inputs: instantiate(node), _has("solve")),
     "plant": (lambda node, inputs: instantiate(node)(robot=inputs.robot), _has("measure", "truth")),
     "estimator": (lambda node, inputs: instantiate(node), _has("fit", "predict", "get_params")),
+    "friction": (lambda node, inputs: instantiate(node), _has("coulomb_shape", "candidates", "settings")),
     "classifier": (lambda node, inputs: instantiate(node).fit(inputs.library), _has("predict", "distances")),
     "tool": (lambda node, inputs: instantiate(node), _has("parameters", "geometry")),
     "controller": (lambda node, inputs: instantiate(node), _has("uses_force_feedback", "desired_force")),

@@ -234,6 +234,8 @@ def test_joint_excitation_table():
     assert table.loc[1, "q_range_fraction"] == pytest.approx(0.5, rel=1e-3)
     assert table.loc[1, "dq_peak_fraction"] == pytest.approx(0.5)
     assert table.loc[1, "ddq_peak_fraction"] == pytest.approx(2 * np.pi**2 / 100, rel=1e-3)
-    assert table.loc[2, "q_range_fraction"] == 0.0  # a continuous joint has no range to use up
+    # a continuous joint's range is one turn (every angle it can take), not an infinite one of which
+    # any motion would use 0 % and be named weak
+    assert table.loc[2, "q_range_fraction"] == pytest.approx(table.loc[2, "q_range"] / (2 * np.pi))
     assert list(table["still"]) == [False, True]
     assert "q_range_fraction" not in joint_excitation(q, dq, ddq).columns

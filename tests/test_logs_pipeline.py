@@ -7,6 +7,7 @@ where they are, never copied; without them those tests skip.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ import pytest
 from composing import compose_config
 from omegaconf import DictConfig
 
-from lwrlab.io.logs import load_log, write_log
+from lwrlab.io.logs import LogError, load_log, write_log
 from lwrlab.io.rosbag import write_joint_states
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
@@ -234,3 +235,52 @@ def test_real_lwr4_defaults_predict_a_new_faster_motion() -> None:
     report = _real_lwr4([2], [3])
     assert report.metrics["validation_rel_error"] <= 0.05
     assert report.metrics["prior_weight"] > 1e-8  # thin data: the cross-validation leans on the prior
+
+
+def test_a_joint_whose_effort_is_no_torque_is_left_out(
+    lwr4: RobotModel, recorded: dict, tmp_path: Path
+) -> None:
+    """Joint 7's effort is no torque (zeros, or a constant command): with ``data.fitted_joints``
+    naming the others, their fit is the one of the true torques, and joint 7 counts in no error."""
+    processing = {"cutoff_hz": "auto"}
+
+    def effort(measurement: Measurement, value: float) -> Measurement:
+        tau = measurement.tau.copy()
+        tau[:, 6] = value
+        return replace(measurement, tau=tau)
+
+    paths: dict[str, str] = {}
+    for name in ("fit_a", "check_a"):
+        paths[name] = str(write_log(recorded[name], tmp_path / f"{name}.csv"))
+        for label, value in (("zero", 0.0), ("command", 3.0)):
+            paths[f"{name}_{label}"] = str(
+                write_log(effort(recorded[name], value), tmp_path / f"{name}_{label}.csv")
+            )
+
+    def identified(label: str, fitted_joints: list[str] | None = None) -> IdentificationReport:
+        suffix = f"_{label}" if label else ""
+        plant = LogPlant(
+            lwr4,
+            paths=[paths[f"fit_a{suffix}"]],
+            validation_paths=[paths[f"check_a{suffix}"]],
+            fitted_joints=fitted_joints,
+        )
+        return identify(lwr4, None, None, plant, build("estimator", "ols"), processing=processing)
+
+    six = list(lwr4.joint_names[:6])
+    truth = identified("")
+    left_out = identified("zero", six)
+    fitted_in = identified("command")  # fitted as a torque: spoils the other joints
+    # joints 1–6 as well predicted as from the true torques of all seven
+    assert left_out.validation.loc[1:6, "rms"].max() < 1.5 * truth.validation.loc[1:6, "rms"].max()
+    assert fitted_in.validation.loc[1:6, "rms"].max() > 2 * left_out.validation.loc[1:6, "rms"].max()
+    np.testing.assert_allclose(
+        identified("command", six).validation.loc[1:6, "rms"], left_out.validation.loc[1:6, "rms"], rtol=1e-6
+    )
+    assert not left_out.validation.loc[7, "fitted"]
+    assert "FC7" not in left_out.base.names  # joint 7's own friction: never seen, not needed
+    assert any("joints left out" in note and lwr4.joint_names[6] in note for note in left_out.notes)
+    with pytest.raises(LogError, match="tau7"):  # all zeros is no torque: said unless left out
+        identified("zero")
+    with pytest.raises(LogError, match="not a joint"):
+        LogPlant(lwr4, paths=[paths["fit_a"]], fitted_joints=["elbow"])

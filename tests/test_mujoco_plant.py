@@ -70,7 +70,7 @@ def test_rejects_non_chain_robot(lwr4):
     model = pin.buildSampleModelManipulator()
     with pytest.raises(ValueError, match="revolute-z"):
         mujoco_xml(
-            replace(lwr4, model=model, rotor_inertia=None, limits=lwr4.limits),
+            replace(lwr4, model=model, rotor_inertia=None, limits=lwr4.limits, drive=None),
             timestep=1e-3,
             with_armature=True,
         )

@@ -168,7 +168,7 @@ def test_the_shipped_panda_motion_clears_the_panda_meshes_hand_and_srdf(tmp_path
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["panda", "ur3", "ur5", "ur10", "xarm7", "z1"])
+@pytest.mark.parametrize("name", ["panda", "ur3", "ur5", "ur10", "xarm7", "z1", "kinova"])
 def test_every_example_robot_gets_a_motion_its_own_meshes_clear(name: str) -> None:
     """Each arm robot=example_robot loads: the default 10 s motion passes lwrlab's check, and an
     independent Pinocchio/coal check of its URDF meshes finds no self-contact (SRDF pairs aside) and

@@ -29,6 +29,7 @@ PLUGIN_MODULES = {
     "controller": "plugins.controllers.",
     "criterion": "plugins.criteria.",
     "estimator": "plugins.estimators.",
+    "friction": "plugins.friction.",
     "optimizer": "lwrlab.excitation.solver.",
     "robot": "plugins.robots.",
     "trajectory": "plugins.trajectories.",
@@ -41,6 +42,7 @@ RUNTIME_INPUTS: dict[str, dict[str, str]] = {
     "controller": {},  # model, plant, path and force feedback arrive at law() and in the contact loop
     "criterion": {},  # the scaled base regressor arrives at value_and_gradient(W_b)
     "estimator": {},  # W, τ and the identification context arrive at fit(W, tau, context=...)
+    "friction": {},  # drive speeds arrive at coulomb_shape(v), the logs' speed noise at candidates()
     "optimizer": {},  # the excitation problem arrives at solve(problem)
     "robot": {},  # a robot is built from its description alone
     "trajectory": {},  # the robot and the rate arrive at sample(robot, rate_hz)

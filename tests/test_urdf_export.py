@@ -67,10 +67,16 @@ def test_mujoco_reads_back_the_identified_model(identified: RobotModel, tmp_path
     np.testing.assert_allclose(model.dof_damping, identified.friction.viscous, rtol=1e-12)
 
 
-def test_export_rejects_prismatic_joints(tmp_path: Path) -> None:
+def test_export_names_each_joint_type_and_refuses_those_urdf_lacks() -> None:
+    """Prismatic joints are written as prismatic (tests/test_continuous_joints.py reads one back); a
+    joint URDF has no type for is refused by name (the report then goes without its URDF)."""
+    from lwrlab.io.urdf_export import UnexportableJointError, joint_type_and_axis
+
     model = pin.Model()
     model.addJoint(0, pin.JointModelPX(), pin.SE3.Identity(), "slide")
-    from lwrlab.io.urdf_export import _joint_axis
-
-    with pytest.raises(ValueError, match="revolute joints only"):
-        _joint_axis(model.joints[1])
+    model.addJoint(1, pin.JointModelRUBZ(), pin.SE3.Identity(), "wheel")
+    model.addJoint(2, pin.JointModelPlanar(), pin.SE3.Identity(), "base")
+    assert joint_type_and_axis(model.joints[1]) == ("prismatic", (1.0, 0.0, 0.0))
+    assert joint_type_and_axis(model.joints[2]) == ("continuous", (0.0, 0.0, 1.0))
+    with pytest.raises(UnexportableJointError, match="not a JointModelPlanar"):
+        joint_type_and_axis(model.joints[3])

@@ -66,6 +66,9 @@ class LogReaderSettings:
     """Fewest samples a log may have."""
     topic: str | None
     """ROS 2 bags: the JointState topic (null = the bag's only one)."""
+    fitted_joints: list[Any] | None
+    """Joints whose torques are fitted and scored (names or 1-based numbers); null: every joint. A
+    joint whose effort signal is no torque (a gripper, a wrist reading zero) is left out."""
 
 
 @schema

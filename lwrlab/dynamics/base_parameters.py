@@ -28,6 +28,7 @@ import numpy as np
 import scipy.linalg
 
 from lwrlab.dynamics.regressor import regressor
+from lwrlab.model.position_ranges import finite_range
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
 
@@ -80,9 +81,10 @@ class BaseParameters:
 def random_states(
     robot: RobotModel, n_samples: int, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Random joint states: positions uniform in the limits, velocities and accelerations in ± limits."""
+    """Random joint states: positions uniform in the limits (one turn for a continuous joint),
+    velocities and accelerations in ± limits."""
     lim = robot.limits
-    q = rng.uniform(lim.position_lower, lim.position_upper, size=(n_samples, robot.n_joints))
+    q = rng.uniform(*finite_range(lim.position_lower, lim.position_upper), size=(n_samples, robot.n_joints))
     dq = rng.uniform(-lim.velocity, lim.velocity, size=(n_samples, robot.n_joints))
     # unknown (infinite) acceleration limits, as from a URDF: any scale shows the same structure
     bound = np.where(np.isfinite(lim.acceleration), lim.acceleration, 10.0)

@@ -19,12 +19,16 @@ Both agree to round-off (~1e-15 relative); ``benchmarks/regressor.py`` measures 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import numpy as np
 
 from lwrlab.dynamics.chain_regressor import fill_chain_regressor
 from lwrlab.dynamics.friction_regressor import fill_friction_regressor
 from lwrlab.dynamics.pinocchio_regressor import loop_inertial_regressor
 from lwrlab.dynamics.serial_chain import serial_chain
+from lwrlab.model.friction_laws import has_memory, history_columns
 from lwrlab.model.robot import RobotModel
 
 SMALL_BATCH = 48
@@ -54,7 +58,13 @@ def joint_states(
 
 
 def regressor(
-    robot: RobotModel, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, *, stacked: bool = True
+    robot: RobotModel,
+    q: np.ndarray,
+    dq: np.ndarray,
+    ddq: np.ndarray,
+    *,
+    stacked: bool = True,
+    history: dict[str, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The full regressor ``W`` so that ``W @ robot.parameters`` is the joint torque (N·m).
 
@@ -63,6 +73,8 @@ def regressor(
     robot : the robot (its friction terms select the friction columns).
     q, dq, ddq : joint positions (rad), velocities (rad/s), accelerations (rad/s²), shape (N, N_J).
     stacked : if True return (N·N_J, P) sample-major; otherwise (N, N_J, P).
+    history : for a friction law with memory, its columns at these samples, by term
+        (:class:`LogRegressor` slices them from the whole log's); None: memoryless.
 
     Examples
     --------
@@ -81,5 +93,56 @@ def regressor(
         fill_chain_regressor(chain, q, dq, ddq, full[:, :, :n_inertial])
     else:
         loop_inertial_regressor(robot.model, q, dq, ddq, out=full[:, :, :n_inertial])
-    fill_friction_regressor(dq, robot.friction_terms, full, first=n_inertial)
+    fill_friction_regressor(
+        dq,
+        robot.friction_terms,
+        full,
+        first=n_inertial,
+        law=robot.friction_law,
+        drive=robot.drive,
+        ddq=ddq,
+        history=history,
+    )
     return full.reshape(-1, full.shape[2]) if stacked else full
+
+
+def log_history(robot: RobotModel, dq: np.ndarray, rate_hz: float) -> dict[str, np.ndarray] | None:
+    """The friction law's columns over a whole log's consecutive velocities ``dq`` (N, N_J) at
+    ``rate_hz``, for a law with memory; None for a memoryless law."""
+    if not has_memory(robot.friction_law):
+        return None
+    return history_columns(robot.friction_law, robot.drive_train.drive_values(dq), 1.0 / rate_hz)
+
+
+@dataclass(frozen=True)
+class LogRegressor:
+    """The regressor of one log's working samples, called on consecutive runs of them.
+
+    A friction law with memory (a Coulomb level held at rest) needs the motion before each sample:
+    its columns are computed once over the whole log (:func:`log_history`) and read here by the
+    index ``start`` of the run's first sample, which the block processing passes
+    (:attr:`takes_start`). ``columns``: keep only these columns (the base ones), or all.
+    """
+
+    robot: RobotModel
+    history: dict[str, np.ndarray] | None = None
+    columns: np.ndarray | None = None
+    takes_start: ClassVar[bool] = True
+    """Called as ``(q, q̇, q̈, start=…)`` by :meth:`lwrlab.signal.processing.ProcessedData.row_blocks`."""
+
+    @classmethod
+    def of(
+        cls, robot: RobotModel, dq: np.ndarray, rate_hz: float, columns: np.ndarray | None = None
+    ) -> LogRegressor:
+        """The regressor of a log whose consecutive velocities (all of them) are ``dq`` at ``rate_hz``."""
+        return cls(robot, log_history(robot, dq, rate_hz), columns)
+
+    def __call__(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, start: int = 0) -> np.ndarray:
+        """Stacked rows ``(N·N_J, P)`` of the samples ``start … start + N − 1`` of the log."""
+        part = (
+            None
+            if self.history is None
+            else {term: values[start : start + len(q)] for term, values in self.history.items()}
+        )
+        full = regressor(self.robot, q, dq, ddq, history=part)
+        return full if self.columns is None else np.take(full, self.columns, axis=-1)

@@ -8,7 +8,8 @@ column, aggregates each column over time windows (the window's smallest slack) a
 derivatives to the trajectory parameters. Boundary conditions (rest at both ends) hold by
 construction of the parameterisations and are not constraints here.
 
-* position, velocity, acceleration: ``x⁺_j·(1 − margin) ∓ x_j``, two columns per joint;
+* position, velocity, acceleration: ``x⁺_j·(1 − margin) ∓ x_j``, two columns per joint (position:
+  per joint with position limits; a continuous joint turns freely and has none);
 * torque: ``Γ⁺_j·(1 − margin) ∓ Γ_j`` with Γ the CAD model's inverse dynamics with friction;
 * world: ``d − clearance − margin`` for each (body, world object) pair of the collision scene (the
   mounting surface, obstacles, the URDF's fixed links), d the distance of the body's enclosing
@@ -33,6 +34,7 @@ import pinocchio as pin
 
 from lwrlab.excitation.collision_scene import CollisionScene, build_scene
 from lwrlab.excitation.sphere_distances import SphereDistances
+from lwrlab.model.position_ranges import range_center, range_span, unbounded
 from lwrlab.model.robot import RobotModel
 from lwrlab.model.world import WorldObject, build_world
 
@@ -135,9 +137,17 @@ class ConstraintSet:
         self.distances.use_hulls = True
         lim = robot.limits
         keep = 1.0 - settings.limit_margin
-        middle = 0.5 * (lim.position_lower + lim.position_upper)
-        half = 0.5 * (lim.position_upper - lim.position_lower)
-        self.position_bounds = (middle - keep * half, middle + keep * half)
+        free = unbounded(lim.position_lower, lim.position_upper)
+        self.bounded_joints = np.flatnonzero(~free)
+        """Indices of the joints with position limits: the columns of the position family."""
+        middle = range_center(lim.position_lower, lim.position_upper)
+        half = 0.5 * range_span(lim.position_lower, lim.position_upper)
+        self.position_bounds = (
+            np.where(free, -np.inf, middle - keep * half),
+            np.where(free, np.inf, middle + keep * half),
+        )
+        """(low, high) rad: the positions the motion keeps within, ±inf for a continuous joint."""
+        self._position_half_range = half
         self._friction_viscous = (
             robot.friction.viscous if "viscous" in robot.friction_terms else np.zeros(robot.n_joints)
         )
@@ -147,7 +157,8 @@ class ConstraintSet:
 
     def families(self) -> list[str]:
         """The active families, in order."""
-        active = ["position", "velocity", "acceleration"]
+        active = ["position"] if self.bounded_joints.size else []
+        active += ["velocity", "acceleration"]
         if self.settings.torque:
             active.append("torque")
         if self.scene.world_pairs:
@@ -159,7 +170,9 @@ class ConstraintSet:
     def column_labels(self, family: str) -> list[str]:
         """What each slack column of a family is, e.g. ``joint 3 upper`` or ``elbow–flange``."""
         n = self.robot.n_joints
-        if family in ("position", "velocity", "acceleration", "torque"):
+        if family == "position":
+            return [f"joint {j + 1} {side}" for side in ("lower", "upper") for j in self.bounded_joints]
+        if family in ("velocity", "acceleration", "torque"):
             return [f"joint {j + 1} {side}" for side in ("lower", "upper") for j in range(n)]
         return [self.scene.pair_label(family, pair) for pair in self._pairs(family)]
 
@@ -170,7 +183,7 @@ class ConstraintSet:
         """Per-column scale dividing the slacks (the limit, or 1 m for distances), so all are O(1)."""
         lim = self.robot.limits
         per_joint = {
-            "position": 0.5 * (lim.position_upper - lim.position_lower),
+            "position": self._position_half_range[self.bounded_joints],
             "velocity": lim.velocity,
             "acceleration": lim.acceleration,
             "torque": lim.torque,
@@ -203,9 +216,10 @@ class ConstraintSet:
         ``torque`` (N, N_J) may be passed when already known (e.g. ``W·φ``); otherwise it is computed.
         """
         lim, keep = self.robot.limits, 1.0 - self.settings.limit_margin
-        low, high = self.position_bounds
-        out = {
-            "position": np.hstack([q - low, high - q]),
+        low, high = (bound[self.bounded_joints] for bound in self.position_bounds)
+        bounded = q[:, self.bounded_joints]
+        out = {"position": np.hstack([bounded - low, high - bounded])} if self.bounded_joints.size else {}
+        out |= {
             "velocity": np.hstack([keep * lim.velocity + dq, keep * lim.velocity - dq]),
             "acceleration": np.hstack([keep * lim.acceleration + ddq, keep * lim.acceleration - ddq]),
         }
@@ -238,7 +252,8 @@ class ConstraintSet:
         m = len(samples)
         zeros = np.zeros((m, n))
         if family in ("position", "velocity", "acceleration"):
-            joint, sign = columns % n, np.where(columns < n, 1.0, -1.0)
+            joints = self.bounded_joints if family == "position" else np.arange(n)
+            joint, sign = joints[columns % joints.size], np.where(columns < joints.size, 1.0, -1.0)
             d = zeros.copy()
             d[np.arange(m), joint] = sign
             return (

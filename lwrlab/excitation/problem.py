@@ -30,6 +30,7 @@ from lwrlab.dynamics.regressor_vjp import regressor_vjp
 from lwrlab.errors import ConfigError
 from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
 from lwrlab.excitation.criteria import Criterion
+from lwrlab.model.position_ranges import finite_range, range_center
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.parameterisation import LinearParameterisation
 
@@ -160,22 +161,23 @@ class ExcitationProblem:
         return np.asarray(x, dtype=float).reshape(self.coefficient_shape)
 
     def bounds(self) -> list[tuple[float | None, float | None]] | None:
-        """Box bounds of the variables if the parameterisation's coefficients are positions (B-spline)."""
+        """Box bounds of the variables if the parameterisation's coefficients are positions (B-spline);
+        None for a continuous joint's."""
         if not self.parameterisation.coefficients_are_positions:
             return None
         low, high = self.constraint_set.position_bounds
-        return [
-            (float(low[j]), float(high[j]))
-            for _ in range(self.coefficient_shape[0])
-            for j in range(self.robot.n_joints)
+        joint_bounds = [
+            (float(lo) if np.isfinite(lo) else None, float(hi) if np.isfinite(hi) else None)
+            for lo, hi in zip(low, high, strict=True)
         ]
+        return [joint_bounds[j] for _ in range(self.coefficient_shape[0]) for j in range(self.robot.n_joints)]
 
     # --- starting points ------------------------------------------------------------------------
 
     @property
     def middle_pose(self) -> np.ndarray:
-        """(N_J,) the middle of every joint's position range (rad)."""
-        return 0.5 * (self.robot.limits.position_lower + self.robot.limits.position_upper)
+        """(N_J,) the middle of every joint's position range (rad), 0 for a continuous joint."""
+        return range_center(self.robot.limits.position_lower, self.robot.limits.position_upper)
 
     def still_motion(self, pose: np.ndarray) -> np.ndarray:
         """The flat coefficients of the motion that stays at ``pose`` (least squares on the grid: exact
@@ -185,13 +187,13 @@ class ExcitationProblem:
         return np.linalg.lstsq(b, target, rcond=None)[0].ravel()
 
     def safe_pose(self, n_candidates: int = 500, seed: int = 0) -> np.ndarray:
-        """The random pose (within the position bounds) farthest from violating any constraint at rest:
-        the largest smallest scaled slack over every family, distances in metres. Found once per
-        problem (every start of an optimiser asks for it)."""
+        """The random pose (within the position bounds; one turn around 0 for a continuous joint) farthest
+        from violating any constraint at rest: the largest smallest scaled slack over every family,
+        distances in metres. Found once per problem (every start of an optimiser asks for it)."""
         if (n_candidates, seed) in self._safe_poses:
             return self._safe_poses[(n_candidates, seed)]
         rng = np.random.default_rng(seed)
-        low, high = self.constraint_set.position_bounds
+        low, high = finite_range(*self.constraint_set.position_bounds)
         poses = np.vstack(
             [self.middle_pose, rng.uniform(low, high, size=(n_candidates, self.robot.n_joints))]
         )

@@ -16,7 +16,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters
-from lwrlab.model.robot import FRICTION_TERMS, RobotModel
+from lwrlab.model.friction_laws import term_definitions
+from lwrlab.model.robot import RobotModel
 
 
 @dataclass(frozen=True)
@@ -37,6 +38,9 @@ class IdentificationContext:
     """Names of the standard parameters."""
     base_names: tuple[str, ...]
     """Names of the base parameters."""
+    nonnegative_terms: tuple[str, ...] = ("coulomb", "viscous")
+    """The per-drive terms a physically consistent estimate keeps ≥ 0 (friction dissipates, rotor
+    inertias are masses)."""
     reference_regressor: np.ndarray | None = None
     """Base regressor of the commanded (reference) motion at the same rows as the measured one, or
     None when the motion is unknown (recorded logs): the instruments of closed-loop estimators."""
@@ -50,6 +54,9 @@ class IdentificationContext:
             n_joints=robot.n_joints,
             n_links=robot.n_links,
             friction_terms=tuple(robot.friction_terms),
+            nonnegative_terms=tuple(
+                name for name, term in term_definitions(robot.friction_law).items() if term.nonnegative
+            ),
             regrouping=base.regrouping,
             prior=robot.parameters,
             standard_names=robot.parameter_names,
@@ -69,13 +76,16 @@ class IdentificationContext:
         return replace(self, reference_regressor=self.reference_regressor[rows])
 
     def friction_indices(self, term: str) -> np.ndarray:
-        """Indices of friction ``term``'s parameters in the standard vector (empty if not modelled)."""
-        if term not in FRICTION_TERMS:
-            raise KeyError(f"unknown friction term {term!r}; valid: {sorted(FRICTION_TERMS)}")
+        """Indices of per-drive ``term``'s parameters in the standard vector (empty if not modelled)."""
         if term not in self.friction_terms:
             return np.zeros(0, dtype=int)
         start = 10 * self.n_links + self.friction_terms.index(term) * self.n_joints
         return np.arange(start, start + self.n_joints)
+
+    def nonnegative_indices(self) -> np.ndarray:
+        """Indices of the per-drive parameters that are ≥ 0 physically (:attr:`nonnegative_terms`)."""
+        parts = [self.friction_indices(t) for t in self.nonnegative_terms]
+        return np.concatenate(parts).astype(int) if parts else np.zeros(0, dtype=int)
 
 
 def row_joints(n_rows: int, n_joints: int, offset: int = 0) -> np.ndarray:

@@ -51,6 +51,7 @@ from typing import Protocol
 import numpy as np
 import pandas as pd
 
+from lwrlab.model.position_ranges import range_span
 from lwrlab.model.robot import FRICTION_TERMS, MotionLimits
 
 STATUSES = ("good", "poor", "rank_deficient")
@@ -206,8 +207,9 @@ def joint_excitation(
     table["still"] = (table["q_range"] < still_range) & (table["dq_peak"] < still_velocity)
     if limits is not None:
         with np.errstate(divide="ignore", invalid="ignore"):  # an infinite limit gives fraction 0
-            table["q_range_fraction"] = table["q_range"] / (
-                np.asarray(limits.position_upper) - np.asarray(limits.position_lower)
+            # positions: a continuous joint's range is one turn (every angle it can take)
+            table["q_range_fraction"] = table["q_range"] / range_span(
+                limits.position_lower, limits.position_upper
             )
             table["dq_peak_fraction"] = table["dq_peak"] / np.asarray(limits.velocity)
             table["ddq_peak_fraction"] = table["ddq_peak"] / np.asarray(limits.acceleration)

@@ -17,6 +17,7 @@ import numpy as np
 
 from lwrlab.io.log_findings import Finding
 from lwrlab.io.log_schema import row_location
+from lwrlab.model.position_ranges import unbounded
 
 if TYPE_CHECKING:
     from lwrlab.io.plausibility import LogLimits, PlausibilityThresholds
@@ -49,7 +50,16 @@ def position_findings(
     sound = [column for _, _, column in _sound_columns(q, names, skip)]
     if not sound or not sound[0].size:
         return findings
-    largest_value = max(float(np.max(np.abs(column))) for column in sound)
+    # a continuous joint (no position limits) may have turned beyond 2π in radians: not a sign of degrees
+    free = (
+        np.zeros(len(names), dtype=bool)
+        if limits is None
+        else unbounded(limits.position_lower, limits.position_upper)
+    )
+    largest_value = max(
+        (float(np.max(np.abs(column))) for j, _, column in _sound_columns(q, names, skip) if not free[j]),
+        default=0.0,
+    )
     degrees_like = position_unit == "rad" and largest_value > thresholds.degrees_above
     for j, name, column in _sound_columns(q, names, skip):
         if not np.any(column):
@@ -73,7 +83,7 @@ def position_findings(
                     "its friction cannot be identified from this log",
                 )
             )
-        if limits is None:
+        if limits is None or free[j]:  # a continuous joint has no position limits
             continue
         lower, upper = float(limits.position_lower[j]), float(limits.position_upper[j])
         below, above = lower - column.min(), column.max() - upper

@@ -28,6 +28,14 @@ column                  unit      content
                                   torque constant × gear ratio), ``τ_j = gain_j · i_j``
 ======================  ========  ===========================================================
 
+Logs measured at the motors: with the robot's drive train (``robot.drive``,
+:mod:`lwrlab.model.drive_train`) saying ``position_side: motor``, the ``q``/``dq`` columns hold motor
+angles and speeds (rad, rad/s at the motor shaft); with ``torque_side: motor``, the ``tau`` columns
+hold motor torques (N·m at the motor shaft); with ``torque_constants`` (N·m/A) the ``current``
+columns are motor currents (A), motor-side whatever ``torque_side`` says. They are converted to the
+joint side on reading (``q = R⁻¹·θ``, ``τ = Rᵀ·τ_motor``), before the checks against the joint
+limits; the measurement says which side each signal came from.
+
 Other columns are ignored. A log whose columns are named differently is read with
 ``column_map`` (schema name → name in the file), e.g. ``{"t": "timestamp", "q1": "pos_0"}``.
 
@@ -60,6 +68,7 @@ from lwrlab.io.log_findings import LogColumns, raise_for_errors
 from lwrlab.io.log_formats import LogTable, read_frame
 from lwrlab.io.log_schema import POSITION_UNITS, TIME_UNITS, LogError, joint_columns, row_location
 from lwrlab.io.plausibility import check_plausibility
+from lwrlab.model.drive_train import DriveTrain
 from lwrlab.model.robot import JointLimits
 from lwrlab.plants.core import Measurement
 
@@ -86,6 +95,8 @@ class RecordedLog:
     """(M, N_J) torques as logged (N·m), when resampled."""
     warnings: tuple[str, ...] = ()
     """Plausibility warnings (:mod:`lwrlab.io.plausibility`): printed and tagged by the pipeline."""
+    sides: tuple[str, str] = ("joint", "joint")
+    """Where the positions and the torques were measured (``joint`` or ``motor``), before conversion."""
 
     @property
     def name(self) -> str:
@@ -109,6 +120,8 @@ class RecordedLog:
                 "rate_hz": rate,
                 "resampled": self.resampled,
                 "warnings": list(self.warnings),
+                "position_side": self.sides[0],
+                "torque_side": self.sides[1],
             },
         )
 
@@ -167,6 +180,8 @@ def load_log(
     joint_names: Sequence[str] | None = None,
     topic: str | None = None,
     limits: JointLimits | None = None,
+    drive: DriveTrain | None = None,
+    fitted_joints: np.ndarray | None = None,
 ) -> RecordedLog:
     """Read, validate and (if needed) resample a log (formats and schema in the module docstring).
 
@@ -187,6 +202,10 @@ def load_log(
     topic : the JointState topic of a ROS 2 bag (None: its only one).
     limits : the robot's joint limits: the log is checked against them before anything is fitted
         (:func:`lwrlab.io.plausibility.check_plausibility`); None checks units and values only.
+    drive : the robot's drive train: which side positions and torques were measured on, and the
+        torque constants of motor currents (module docstring); None: joint side.
+    fitted_joints : (N_J,) bool, the joints whose torques are fitted; the others' torque columns are
+        read but not checked (None: every joint).
 
     Raises
     ------
@@ -200,6 +219,14 @@ def load_log(
         raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
     if drive_gains is not None and len(drive_gains) != n_joints:
         raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
+    drive = DriveTrain.direct(n_joints) if drive is None else drive
+    if drive.torque_constants is not None:
+        if drive_gains is not None:
+            raise LogError(
+                f"{path}: data.drive_gains and robot.drive.torque_constants both convert currents: give one"
+            )
+        # a current is a motor's: its torque k_t·i, made joint torques (Rᵀ·τ_motor) below
+        drive_gains = list(drive.torque_constants)
     frame, mapping = read_frame(path, dict(column_map or {}), n_joints, joint_names, topic)
 
     def name(schema: str) -> str:
@@ -256,6 +283,11 @@ def load_log(
     q = block("q", POSITION_UNITS[position_unit])
     tau = block("tau") if drive_gains is None else block("current", np.asarray(drive_gains, dtype=float))
     columns = [q, tau] + ([block("dq", POSITION_UNITS[position_unit])] if has_velocity else [])
+    if drive.position_side == "motor":
+        columns = [drive.joint_positions(columns[0]), columns[1], *map(drive.joint_positions, columns[2:])]
+    if drive.torque_side == "motor" or drive.torque_constants is not None:
+        columns[1] = drive.joint_torques(columns[1])
+    q, tau = columns[0], columns[1]
     warnings = raise_for_errors(
         check_plausibility(
             t,
@@ -267,6 +299,7 @@ def load_log(
             dq=columns[2] if has_velocity else None,
             time_unit=time_unit,
             position_unit=position_unit,
+            unfitted=() if fitted_joints is None else np.flatnonzero(~np.asarray(fitted_joints)).tolist(),
         )
     )
     logged_t, logged_tau = t, tau
@@ -281,6 +314,7 @@ def load_log(
         logged_t=logged_t if resampled else None,
         logged_tau=logged_tau if resampled else None,
         warnings=tuple(str(w) for w in warnings),
+        sides=(drive.position_side, "motor" if drive.torque_constants is not None else drive.torque_side),
     )
 
 

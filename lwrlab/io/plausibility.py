@@ -17,7 +17,9 @@ check                  severity  when
                                  |q̇| > 1e5 rad/s, |t| > 1e12 s) or non-finite: names the row
 ``sampling_period``    error     median period outside [1e-5, 0.5] s: names the likely time unit
 ``position_limit``     error     beyond a joint limit by more than 0.05 rad, or values up to more
-                                 than 2π (degrees? ``data.position_unit=deg``); warning when less
+                                 than 2π (degrees? ``data.position_unit=deg``); warning when less.
+                                 A continuous joint (no position limits) is not checked, nor
+                                 counted for the 2π test: it may turn several times
 ``position_unit``      warning   declared degrees, but no joint moves more than 2π/180 rad (radians?)
 ``zero_position``      warning   a position column all zero (encoder not recorded?)
 ``still_joint``        warning   a joint whose position range stays below 1e-3 rad
@@ -147,6 +149,7 @@ def check_plausibility(
     time_unit: str = "s",
     position_unit: str = "rad",
     thresholds: PlausibilityThresholds = PlausibilityThresholds(),
+    unfitted: Sequence[int] = (),
 ) -> list[Finding]:
     """Every implausibility of a loaded log, errors first.
 
@@ -161,6 +164,8 @@ def check_plausibility(
     dq : (N, N_J) joint velocities (rad/s) if the log has them.
     time_unit, position_unit : the units the user declared (for the hints).
     thresholds : where the checks draw their lines.
+    unfitted : 0-based joints whose torques are not fitted (``data.fitted_joints``): their torque
+        columns are not checked (their effort signal need be no torque).
 
     Examples
     --------
@@ -225,9 +230,14 @@ def check_plausibility(
     if columns.t not in corrupt:
         findings += _period_findings(path, t, columns.t, time_unit, thresholds)
     findings += position_findings(path, clean(q), columns.q, limits, position_unit, thresholds, corrupt)
-    findings += torque_findings(
-        path, clean(tau), columns.tau, limits, columns.torque_from_current, thresholds, corrupt
-    )
+    unchecked = {columns.tau[j] for j in unfitted}
+    findings += [
+        f
+        for f in torque_findings(
+            path, clean(tau), columns.tau, limits, columns.torque_from_current, thresholds, corrupt
+        )
+        if f.column not in unchecked
+    ]
     if dq is not None and limits is not None:
         findings += velocity_findings(
             path,

@@ -3,7 +3,10 @@
 Each moving segment becomes a link whose ``<inertial>`` carries its mass, centre of mass and
 inertia about the centre of mass (from the standard parameters about the joint frame); each joint
 keeps its placement (``<origin xyz rpy>``), axis and limits, and its friction goes into
-``<dynamics damping="FV" friction="FC"/>`` (viscous N·m·s/rad, Coulomb N·m). Constant torque
+``<dynamics damping="FV" friction="FC"/>`` (viscous N·m·s/rad, Coulomb N·m; N·s/m and N for a
+prismatic joint). A revolute joint without position limits is written back as ``continuous`` (no
+``lower``/``upper``), a prismatic one as ``prismatic``; a joint of any other kind cannot be written
+(:class:`UnexportableJointError`, and the identification report then goes without its URDF). Constant torque
 offsets (FO) and drive rotor inertia have no URDF field and are left out (a warning says so when
 they are non-zero). Numbers are written with 17 significant digits, so Pinocchio and MuJoCo read
 back the same model to round-off. Gravity is not part of URDF: both engines default to
@@ -24,7 +27,23 @@ from lwrlab.model.robot import RobotModel
 
 log = logging.getLogger(__name__)
 
-_AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0), "JointModelRZ": (0.0, 0.0, 1.0)}
+_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+_ALIGNED = {
+    **{f"JointModelR{axis}": ("revolute", direction) for axis, direction in _AXES.items()},
+    **{f"JointModelRUB{axis}": ("continuous", direction) for axis, direction in _AXES.items()},
+    **{f"JointModelP{axis}": ("prismatic", direction) for axis, direction in _AXES.items()},
+}
+"""Pinocchio's joints along an axis of their frame: (URDF type, axis)."""
+_UNALIGNED = {
+    "JointModelRevoluteUnaligned": "revolute",
+    "JointModelRevoluteUnboundedUnaligned": "continuous",
+    "JointModelPrismaticUnaligned": "prismatic",
+}
+"""Pinocchio's joints along any axis (read from the joint): their URDF type."""
+
+
+class UnexportableJointError(ValueError):
+    """A joint URDF has no type for (planar, spherical, floating, …); the message names it."""
 
 
 def _number(value: float) -> str:
@@ -55,17 +74,27 @@ def inertial_element(phi: np.ndarray) -> ET.Element:
     return inertial
 
 
-def _joint_axis(joint: pin.JointModel) -> tuple[float, ...]:
+def joint_type_and_axis(joint: pin.JointModel) -> tuple[str, tuple[float, ...]]:
+    """The URDF type (``revolute``, ``continuous``, ``prismatic``) and axis of a Pinocchio joint;
+    :class:`UnexportableJointError` for any other joint."""
     name = joint.shortname()
-    if name in _AXES:
-        return _AXES[name]
-    if name == "JointModelRevoluteUnaligned":
-        return tuple(np.asarray(joint.extract().axis, dtype=float))
-    raise ValueError(f"URDF export supports revolute joints only, got {name}")
+    if name in _ALIGNED:
+        return _ALIGNED[name]
+    if name in _UNALIGNED:
+        return _UNALIGNED[name], tuple(float(x) for x in np.asarray(joint.extract().axis, dtype=float))
+    raise UnexportableJointError(
+        f"URDF export writes revolute, continuous and prismatic joints, not a {name}"
+    )
 
 
 def robot_urdf(robot: RobotModel, name: str | None = None) -> str:
-    """The URDF document (a string) of ``robot``: links, inertials, joints, limits, friction."""
+    """The URDF document (a string) of ``robot``: links, inertials, joints, limits, friction.
+
+    Raises
+    ------
+    UnexportableJointError
+        For a joint URDF cannot describe (neither revolute, continuous nor prismatic with limits).
+    """
     model = robot.model
     root = ET.Element("robot", name=name or robot.name)
     ET.SubElement(root, "link", name="base_link")
@@ -76,7 +105,16 @@ def robot_urdf(robot: RobotModel, name: str | None = None) -> str:
         link = ET.SubElement(root, "link", name=links[j])
         link.append(inertial_element(from_pin_inertia(model.inertias[j])))
         k = j - 1
-        joint = ET.SubElement(root, "joint", name=model.names[j], type="revolute")
+        lim = robot.limits
+        kind, axis = joint_type_and_axis(model.joints[j])
+        free = not (np.isfinite(lim.position_lower[k]) and np.isfinite(lim.position_upper[k]))
+        if kind == "revolute" and free:
+            kind = "continuous"  # a continuous joint of the URDF, read as a revolute one
+        elif kind == "prismatic" and free:
+            raise UnexportableJointError(
+                f"{robot.name}: prismatic joint {model.names[j]!r} has no position limits (URDF needs them)"
+            )
+        joint = ET.SubElement(root, "joint", name=model.names[j], type=kind)
         placement = model.jointPlacements[j]
         ET.SubElement(
             joint,
@@ -86,16 +124,13 @@ def robot_urdf(robot: RobotModel, name: str | None = None) -> str:
         )
         ET.SubElement(joint, "parent", link=links[model.parents[j]])
         ET.SubElement(joint, "child", link=links[j])
-        ET.SubElement(joint, "axis", xyz=_text(_joint_axis(model.joints[j])))
-        lim = robot.limits
-        ET.SubElement(
-            joint,
-            "limit",
-            lower=_number(lim.position_lower[k]),
-            upper=_number(lim.position_upper[k]),
-            effort=_number(lim.torque[k]),
-            velocity=_number(lim.velocity[k]),
-        )
+        ET.SubElement(joint, "axis", xyz=_text(axis))
+        limit = ET.SubElement(joint, "limit")
+        if kind != "continuous":  # a continuous joint has no position limits
+            limit.set("lower", _number(lim.position_lower[k]))
+            limit.set("upper", _number(lim.position_upper[k]))
+        limit.set("effort", _number(lim.torque[k]))
+        limit.set("velocity", _number(lim.velocity[k]))
         damping = robot.friction.viscous[k] if "viscous" in robot.friction_terms else 0.0
         coulomb = robot.friction.coulomb[k] if "coulomb" in robot.friction_terms else 0.0
         ET.SubElement(joint, "dynamics", damping=_number(damping), friction=_number(coulomb))
@@ -104,7 +139,7 @@ def robot_urdf(robot: RobotModel, name: str | None = None) -> str:
 
 
 def export_urdf(robot: RobotModel, path: str | Path, name: str | None = None) -> Path:
-    """Write :func:`robot_urdf` of ``robot`` to ``path``."""
+    """Write :func:`robot_urdf` of ``robot`` to ``path`` (nothing is written if it raises)."""
     path = Path(path)
     path.write_text(robot_urdf(robot, name))
     return path

@@ -3,7 +3,8 @@
 The URDF's ``<collision>`` elements become coal geometries (through Pinocchio's geometry parser) fixed
 to the robot's joints: each element keeps the URDF link it belongs to (the unit of an SRDF and of the
 collision pairs) and its placement in the frame of the joint that moves it (joint 0: the fixed base,
-so the base link and any fixed link such as a table or a stand are *world*).
+so the base link and any fixed link such as a table or a stand are *world*). Continuous joints are
+read as revolute ones, one angle, as the robot's model reads them (:mod:`lwrlab.model.urdf_description`).
 
 Mesh file names resolve as ROS resolves them:
 
@@ -35,6 +36,12 @@ import numpy as np
 import pinocchio as pin
 
 from lwrlab.errors import UserError
+from lwrlab.model.urdf_description import (
+    check_srdf_names,
+    description_names,
+    reduced_model,
+    revolute_for_continuous,
+)
 
 log = logging.getLogger(__name__)
 
@@ -168,13 +175,17 @@ def urdf_path(source: CollisionSource) -> Path:
     return path
 
 
-def _resolved_urdf(source: CollisionSource) -> str:
-    """The URDF text with every collision mesh made an absolute path; missing meshes raise or drop."""
+def _resolved_urdf(source: CollisionSource) -> tuple[str, tuple[str, ...], tuple[str, ...]]:
+    """The URDF text with every collision mesh made an absolute path (missing meshes raise or drop) and
+    its continuous joints made revolute, as the robot's model reads them; and the names of its links
+    and joints."""
     urdf = urdf_path(source)
     try:
         tree = ElementTree.parse(urdf)
     except (ElementTree.ParseError, OSError) as error:
         raise CollisionGeometryError(f"{urdf}: cannot read the URDF ({error})") from error
+    revolute_for_continuous(tree.getroot())
+    links, joints = description_names(tree.getroot())
     folders = package_search_path(source.package_dirs)
     missing = []
     for link in tree.getroot().iter("link"):
@@ -204,7 +215,7 @@ def _resolved_urdf(source: CollisionSource) -> str:
             urdf,
             "; ".join(missing),
         )
-    return ElementTree.tostring(tree.getroot(), encoding="unicode")
+    return ElementTree.tostring(tree.getroot(), encoding="unicode"), links, joints
 
 
 def disabled_pairs_from_srdf(srdf: Path) -> frozenset[frozenset[str]]:
@@ -333,7 +344,7 @@ def _check_same_frames(
 def load_robot_geometry(source: CollisionSource, robot_model: pin.Model) -> RobotGeometry:
     """The collision shapes of ``source`` fixed to the joints of ``robot_model``."""
     locked_joints = dict(source.locked_joints)
-    text = _resolved_urdf(source)
+    text, urdf_links, urdf_joints = _resolved_urdf(source)
     urdf = urdf_path(source)
     try:
         urdf_model = pin.buildModelFromXML(text)
@@ -349,9 +360,9 @@ def load_robot_geometry(source: CollisionSource, robot_model: pin.Model) -> Robo
             joint_id = urdf_model.getJointId(name)
             q_reference[urdf_model.joints[joint_id].idx_q] = position
             ids.append(joint_id)
-        urdf_model, geometry_model = pin.buildReducedModel(
-            urdf_model, geometry_model, sorted(ids), q_reference
-        )
+        urdf_model, reduced_geometry = reduced_model(urdf_model, ids, q_reference, geometry_model)
+        assert reduced_geometry is not None
+        geometry_model = reduced_geometry
     joints = _joint_map(urdf_model, robot_model, urdf)
     _check_same_frames(urdf_model, robot_model, joints, urdf)
     shapes = []
@@ -376,6 +387,7 @@ def load_robot_geometry(source: CollisionSource, robot_model: pin.Model) -> Robo
         srdf = resolve_mesh(str(source.srdf), urdf.parent, package_search_path(source.package_dirs))
         if srdf is None:
             raise CollisionGeometryError(f"SRDF {source.srdf} not found")
+        check_srdf_names(srdf, urdf, urdf_links, urdf_joints, "the collision SRDF")
     disabled = disabled_pairs_from_srdf(srdf) if srdf is not None else frozenset()
     described = f"{urdf}" + (f" + {srdf}" if srdf is not None else "")
     urdf_names = {r: str(urdf_model.names[u]) for u, r in joints.items() if r}

@@ -29,15 +29,24 @@ The keys, as in the robot configs (``conf/robot/<name>.yaml``) or any YAML file 
     collision_spheres:                      # self-collision spheres (lwrlab/model/collision.py); null: none
       # link 0 = base; center in the joint frame (m)
       - {name: elbow, link: 4, center: [0, 0, 0], radius: 0.08}
+    drive:                                  # optional: lwrlab/model/drive_train.py; null: direct drives
+      gear_ratios: [...]                    # motor turns per joint turn
+      coupling: [[6, 5, 0.5]]               # [motor, joint, factor] off the diagonal, or a full N×N matrix
+      torque_constants: [...]               # N·m/A at the motor (logs of currents); null: logs hold torques
+      position_side: joint                  # joint | motor: where logged positions are measured
+      torque_side: joint                    # joint | motor: where logged torques/currents are measured
+      rotor_inertia: auto                   # reflected rotor-inertia columns: true | false | auto
+    friction_law: null                      # optional: {_target_: plugins.friction.…}; null: sign law
     collision_urdf:                         # optional: a URDF whose <collision> geometry is this robot's
       path: package://my_arm_description/urdf/my_arm.urdf   # its joint frames must be the table's
       srdf: null                            # MoveIt SRDF (disabled pairs)
       package_dirs: []                      # folders holding ROS packages (before ROS_PACKAGE_PATH)
       locked_joints: {}                     # URDF joints merged into their parent (a gripper's fingers)
 
-Every top-level key but ``collision_urdf`` is required (null where the robot has none): the description
-is the one place of its values. With ``collision_urdf``, exciting motions are kept clear of that URDF's
-collision meshes (when it can be found; else of the collision spheres, with a warning). ``build_robot``
+Every top-level key but ``drive``, ``friction_law`` and ``collision_urdf`` is required (null where
+the robot has none): the description is the one place of its values. With ``collision_urdf``,
+exciting motions are kept clear of that URDF's collision meshes (when it can be found; else of the
+collision spheres, with a warning). ``build_robot``
 takes these keys as keyword arguments (what Hydra's ``instantiate`` passes through the robot plugin
 ``plugins.robots.mdh``); ``load_robot_yaml`` reads them from a file. ``build_limits`` and
 ``build_friction`` serve every robot loader (the URDF plugin too).
@@ -63,6 +72,8 @@ from lwrlab.errors import ConfigError, MissingFileError
 from lwrlab.model.collision import build_collision_spheres
 from lwrlab.model.collision_geometry import CollisionSource
 from lwrlab.model.dh import ModifiedDH, build_dh_model
+from lwrlab.model.drive_train import build_drive_train
+from lwrlab.model.friction_laws import FrictionLaw, SignCoulomb, law_from_mapping
 from lwrlab.model.inertia import standard_parameters, to_pin_inertia
 from lwrlab.model.robot import Friction, JointLimits, RobotModel
 from lwrlab.yaml_files import read_yaml_mapping
@@ -97,12 +108,11 @@ def build_limits(limits: Mapping[str, Sequence[float]], n: int, robot: str) -> J
 def build_friction(friction: Mapping[str, Sequence[float]] | None, n: int, robot: str) -> Friction:
     """Friction values; a missing term is zero."""
     friction = friction or {}
-    return Friction(
-        **{
-            k: _array(friction.get(k, [0.0] * n), n, f"robot {robot!r} friction.{k}")
-            for k in ("coulomb", "viscous", "offset")
-        }
-    )
+
+    def values(term: str) -> np.ndarray:
+        return _array(friction.get(term, [0.0] * n), n, f"robot {robot!r} friction.{term}")
+
+    return Friction(coulomb=values("coulomb"), viscous=values("viscous"), offset=values("offset"))
 
 
 def build_robot(
@@ -118,6 +128,8 @@ def build_robot(
     rotor_inertia: Sequence[float] | None,
     collision_spheres: Sequence[Mapping[str, Any]] | None,
     collision_urdf: Mapping[str, Any] | None,
+    drive: Mapping[str, Any] | None,
+    friction_law: FrictionLaw | Mapping[str, Any] | None,
     **documentation: Any,
 ) -> RobotModel:
     """Build a :class:`RobotModel` from a modified-DH description (keys in the module docstring).
@@ -160,7 +172,19 @@ def build_robot(
         else _array(rotor_inertia, n, f"robot {name!r} rotor_inertia"),
         collision_spheres=build_collision_spheres(collision_spheres, n, name),
         collision_source=None if collision_urdf is None else collision_source_of(collision_urdf, name),
+        drive=build_drive_train(drive, n, name),
+        friction_law=friction_law_of(friction_law),
     )
+
+
+def friction_law_of(law: FrictionLaw | Mapping[str, Any] | None) -> FrictionLaw:
+    """A description's ``friction_law``: a built law, its mapping (``_target_`` and settings), or None
+    (the paper's sign law)."""
+    if law is None:
+        return SignCoulomb()
+    if isinstance(law, Mapping):
+        return law_from_mapping(law)
+    return law
 
 
 def collision_source_of(entry: Mapping[str, Any], robot: str) -> CollisionSource:
@@ -188,14 +212,20 @@ DESCRIPTION_KEYS = tuple(
 
 
 def load_robot_yaml(path: str | Path, **overrides: Any) -> RobotModel:
-    """Build a robot from a modified-DH YAML file; keyword arguments override the file's keys."""
+    """Build a robot from a modified-DH YAML file; keyword arguments override the file's keys (a
+    mapping updates the keys it names: ``drive={"rotor_inertia": False}`` keeps the rest of the
+    file's ``drive`` block)."""
     path = Path(path)
     if not path.is_file():
         raise MissingFileError(f"robot.path={path}: the robot description does not exist")
     description = read_yaml_mapping(path, "robot")
     description.pop("_target_", None)
-    description.setdefault("collision_urdf", None)
-    description.update(overrides)
+    for optional in ("collision_urdf", "drive", "friction_law"):
+        description.setdefault(optional, None)
+    for key, value in overrides.items():  # a mapping updates the file's mapping (+robot.drive.x=…)
+        current = description.get(key)
+        merge = isinstance(value, Mapping) and isinstance(current, Mapping)
+        description[key] = {**current, **value} if merge else value  # type: ignore[dict-item]
     missing = [key for key in DESCRIPTION_KEYS if key not in description]
     if missing:
         raise ConfigError(

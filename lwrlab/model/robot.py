@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -11,13 +12,24 @@ import pinocchio as pin
 from lwrlab.errors import ConfigError
 from lwrlab.model.collision import CollisionSphere
 from lwrlab.model.collision_geometry import CollisionSource
+from lwrlab.model.drive_train import DriveTrain
+from lwrlab.model.friction_laws import (
+    STANDARD_TERMS,
+    FrictionLaw,
+    SignCoulomb,
+    drive_basis,
+    term_definitions,
+)
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, from_pin_inertia, to_pin_inertia
 
-FRICTION_TERMS: dict[str, str] = {"coulomb": "FC", "viscous": "FV", "offset": "FO"}
-"""Friction terms a joint may carry, with the prefix of their parameter names.
+FRICTION_TERMS: dict[str, str] = {name: term.prefix for name, term in STANDARD_TERMS.items()}
+"""Per-drive terms every robot may carry, with the prefix of their parameter names.
 
-Coulomb: ``FC_j·sign(q̇_j)`` (N·m); viscous: ``FV_j·q̇_j`` (N·m·s/rad); offset: ``FO_j`` (N·m), a
-constant torque-sensor or current offset.
+Coulomb: ``FC_j·s(v_j)`` (N·m, ``s`` the friction law's shape, ``sign`` by default); viscous:
+``FV_j·v_j`` (N·m·s/rad); offset: ``FO_j`` (N·m), a constant torque-sensor or current offset; rotor:
+``IA_j·a_j`` (kg·m²), the reflected rotor inertia. ``v`` and ``a`` are the drives' joint-side speeds
+and accelerations (the joint's own when the drives are not coupled). A friction law may add terms
+(:mod:`lwrlab.model.friction_laws`).
 """
 
 
@@ -62,7 +74,7 @@ class JointLimits:
 
 @dataclass(frozen=True)
 class Friction:
-    """Joint friction values (arrays of length N_J); the model is ``Σ_term value·basis(q̇)``."""
+    """Drive friction values (arrays of length N_J); the model is ``Σ_term value·basis(v)``."""
 
     coulomb: np.ndarray
     """Coulomb friction FC (N·m)."""
@@ -70,13 +82,29 @@ class Friction:
     """Viscous friction FV (N·m·s/rad)."""
     offset: np.ndarray
     """Constant offset FO (N·m)."""
+    other: Mapping[str, np.ndarray] = field(default_factory=dict)
+    """Values of the other per-drive terms (``rotor`` in kg·m², a law's own terms), by term; a term
+    absent here is zero."""
+
+    def value(self, term: str) -> np.ndarray:
+        """The values of one term (zeros for a term without values)."""
+        if term in ("coulomb", "viscous", "offset"):
+            return np.asarray(getattr(self, term), dtype=float)
+        return np.asarray(self.other.get(term, np.zeros_like(self.coulomb)), dtype=float)
 
     def values(self, terms: tuple[str, ...]) -> np.ndarray:
         """Stacked friction parameters for ``terms``, e.g. ``[FC_1..FC_n, FV_1..FV_n]``."""
-        return np.concatenate([getattr(self, term) for term in terms]) if terms else np.zeros(0)
+        return np.concatenate([self.value(term) for term in terms]) if terms else np.zeros(0)
+
+    def with_values(self, values: Mapping[str, np.ndarray]) -> Friction:
+        """A copy with the values of the terms in ``values`` replaced."""
+        standard = {k: v for k, v in values.items() if k in ("coulomb", "viscous", "offset")}
+        other = {**self.other, **{k: v for k, v in values.items() if k not in standard}}
+        return replace(self, **standard, other=other)
 
     def torque(self, dq: np.ndarray, terms: tuple[str, ...]) -> np.ndarray:
-        """Friction torque (N·m) for joint velocities ``dq`` (..., N_J) with the chosen terms."""
+        """Friction torque (N·m) of the paper's law (sign Coulomb) at joint velocities ``dq`` (..., N_J),
+        drives uncoupled; :meth:`RobotModel.drive_torque` evaluates the robot's own law and drive train."""
         tau = np.zeros_like(dq, dtype=float)
         if "coulomb" in terms:
             tau = tau + self.coulomb * np.sign(dq)
@@ -116,12 +144,26 @@ class RobotModel:
     collision_source: CollisionSource | None = None
     """Where the robot's exact collision geometry comes from (its URDF's ``<collision>`` elements and
     SRDF), loaded when a motion is optimised or checked; None: the collision spheres are the model."""
+    drive: DriveTrain | None = None
+    """Gear ratios, coupling and torque constants of the drives (:mod:`lwrlab.model.drive_train`);
+    None: direct drives measured at the joints."""
+    friction_law: FrictionLaw = field(default_factory=SignCoulomb)
+    """How the drives' friction depends on their speed (:mod:`lwrlab.model.friction_laws`): the
+    paper's sign Coulomb by default."""
 
     def __post_init__(self) -> None:
-        unknown = set(self.friction_terms) - set(FRICTION_TERMS)
+        valid = term_definitions(self.friction_law)
+        unknown = set(self.friction_terms) - set(valid)
         if unknown:
             raise ConfigError(
-                f"robot.friction_terms: unknown terms {sorted(unknown)}; valid: {sorted(FRICTION_TERMS)}"
+                f"robot.friction_terms: unknown terms {sorted(unknown)}; valid with the "
+                f"{self.friction_law.name} friction law: {sorted(valid)}"
+            )
+        if self.drive is None:
+            object.__setattr__(self, "drive", DriveTrain.direct(self.model.nv))
+        elif self.drive.n_drives != self.model.nv:
+            raise ConfigError(
+                f"{self.name}: robot.drive describes {self.drive.n_drives} drives for {self.model.nv} joints"
             )
         if not self.link_labels:
             object.__setattr__(self, "link_labels", tuple(str(j) for j in range(1, self.n_joints + 1)))
@@ -157,9 +199,44 @@ class RobotModel:
         return np.array(self.model.gravity.linear)
 
     @property
+    def drive_train(self) -> DriveTrain:
+        """The drive train (direct drives when the description gives none)."""
+        assert self.drive is not None  # set by __post_init__
+        return self.drive
+
+    @property
     def n_friction(self) -> int:
-        """Number of friction parameters."""
+        """Number of per-drive parameters (friction, offsets, rotor inertias)."""
         return len(self.friction_terms) * self.n_joints
+
+    def with_friction_law(self, law: FrictionLaw, rotor_inertia: bool | None = None) -> RobotModel:
+        """A copy using friction ``law``: the law's own terms replace the former law's; the robot's
+        ``coulomb``, ``viscous`` and ``offset`` stay as configured; ``rotor_inertia`` adds or drops the
+        rotor-inertia columns (None: as now)."""
+        own = {t.name for t in self.friction_law.extra_terms}
+        terms = [t for t in self.friction_terms if t not in own and t != "rotor"]
+        terms += [t.name for t in law.extra_terms]
+        rotor = ("rotor" in self.friction_terms) if rotor_inertia is None else rotor_inertia
+        friction = self.friction
+        if rotor:
+            terms.append("rotor")
+            if "rotor" not in friction.other and self.rotor_inertia is not None:
+                friction = friction.with_values({"rotor": np.asarray(self.rotor_inertia, dtype=float)})
+        return replace(self, friction_law=law, friction_terms=tuple(terms), friction=friction)
+
+    def drive_torque(self, dq: np.ndarray, ddq: np.ndarray | None = None) -> np.ndarray:
+        """Torque (N·m) of the per-drive terms (friction law, offsets, rotor inertias) at joint
+        velocities ``dq`` and accelerations ``ddq`` (..., N_J), through the coupling."""
+        drive = self.drive_train
+        dq = np.asarray(dq, dtype=float)
+        v = drive.drive_values(dq)
+        a = None if ddq is None else drive.drive_values(np.asarray(ddq, dtype=float))
+        tau = np.zeros_like(v)
+        for term in self.friction_terms:
+            if term == "rotor" and a is None:
+                continue
+            tau = tau + self.friction.value(term) * drive_basis(self.friction_law, term, v, a)
+        return tau if drive.is_direct else tau @ drive.coupling
 
     @property
     def n_parameters(self) -> int:
@@ -170,9 +247,8 @@ class RobotModel:
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the standard parameters, e.g. ``("M1", "MSX1", …, "FC1", …, "FV7")``."""
         inertial = [f"{p}{label}" for label in self.link_labels for p in LINK_PARAMETER_NAMES]
-        friction = [
-            f"{FRICTION_TERMS[t]}{j}" for t in self.friction_terms for j in range(1, self.n_joints + 1)
-        ]
+        prefixes = {name: term.prefix for name, term in term_definitions(self.friction_law).items()}
+        friction = [f"{prefixes[t]}{j}" for t in self.friction_terms for j in range(1, self.n_joints + 1)]
         return tuple(inertial + friction)
 
     @property
@@ -199,16 +275,17 @@ class RobotModel:
         friction = self.friction
         if parameters.shape[0] == self.n_parameters:
             values = parameters[n_inertial:].reshape(len(self.friction_terms), self.n_joints)
-            friction = replace(friction, **dict(zip(self.friction_terms, values, strict=True)))
+            friction = friction.with_values(dict(zip(self.friction_terms, values, strict=True)))
         return replace(self, model=model, friction=friction)
 
     def inverse_dynamics(
         self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, with_friction: bool = True
     ) -> np.ndarray:
-        """Joint torques (N·m) for N samples (arrays (N, N_J)) by Pinocchio's RNEA, plus friction."""
+        """Joint torques (N·m) for N samples (arrays (N, N_J)) by Pinocchio's RNEA, plus the drive terms
+        (friction, offsets, rotor inertias) when ``with_friction``."""
         q, dq, ddq = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq))
         data = self.model.createData()
         tau = np.stack([pin.rnea(self.model, data, q[k], dq[k], ddq[k]) for k in range(q.shape[0])])
         if with_friction:
-            tau += self.friction.torque(dq, self.friction_terms)
+            tau += self.drive_torque(dq, ddq)
         return tau

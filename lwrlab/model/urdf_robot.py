@@ -8,10 +8,21 @@ Pinocchio merges every ``fixed`` joint into its parent body (the child's inertia
 parent segment, its frames are kept as operational frames). A ``mimic`` joint is loaded as an
 independent joint (Pinocchio's default); lock it, or lock the whole gripper, with ``locked_joints``:
 the locked subtrees are merged into their parent segment at the given positions
-(``pin.buildReducedModel``).
+(``pin.buildReducedModel``, also where a link and a joint share a name, as the SO-100's ``gripper``).
 
-Only fixed-base trees of one-degree-of-freedom joints with ``nq == nv`` are supported (revolute and
-prismatic, aligned or not); floating, planar, spherical and continuous joints are refused.
+Supported: fixed-base trees of one-degree-of-freedom joints, revolute, prismatic (aligned with an axis
+of their frame or not) and continuous. A ``continuous`` joint (a revolute joint without position limits:
+a wheel, a Kinova wrist) is read as a revolute joint, one angle in rad, with infinite position limits
+(:mod:`lwrlab.model.urdf_description`; Pinocchio's own ``RevoluteUnbounded`` joint would carry cos and
+sin of the angle); motions and checks treat it as a joint that may turn freely
+(:mod:`lwrlab.model.position_ranges`). Floating and planar joints are refused, unless locked (a mobile
+manipulator's base). Joints are checked after locking, so whatever ``locked_joints`` removes may be of
+any kind.
+
+A MoveIt ``joint_limits.yaml`` naming joints the URDF lacks (a file of another robot) is refused in one
+line naming them (it may name joints the robot locks); so is an SRDF whose disabled collision pairs
+name links the URDF lacks, or which the URDF lacks most names of (a stray name in its MoveIt groups is a
+warning: :func:`lwrlab.model.urdf_description.check_srdf_names`).
 
 The URDF's ``<collision>`` geometry (meshes found through ``package_dirs`` and ``ROS_PACKAGE_PATH``)
 and an SRDF's disabled pairs are what exciting motions are kept clear of
@@ -22,16 +33,30 @@ identifying from logs needs neither. Acceleration limits, which a URDF lacks, co
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import xml.etree.ElementTree as ElementTree
+from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from lwrlab.errors import ConfigError, MissingFileError, UnknownNameError
-from lwrlab.model.collision_geometry import CollisionSource
-from lwrlab.model.description import build_friction, gravity_vector
+from lwrlab.model.collision_geometry import CollisionSource, package_search_path, resolve_mesh
+from lwrlab.model.description import build_friction, friction_law_of, gravity_vector
+from lwrlab.model.drive_train import build_drive_train
+from lwrlab.model.friction_laws import FrictionLaw
 from lwrlab.model.robot import JointLimits, RobotModel
+from lwrlab.model.urdf_description import (
+    check_joint_limit_names,
+    check_srdf_names,
+    description_names,
+    frame_id,
+    read_urdf_document,
+    reduced_model,
+    revolute_for_continuous,
+    transmission_reductions,
+)
 from lwrlab.yaml_files import read_yaml_mapping
 
 _FLOATING_JOINTS = ("JointModelFreeFlyer", "JointModelPlanar")
@@ -42,7 +67,8 @@ class URDFNotFoundError(MissingFileError):
 
 
 def _check_joints(model: pin.Model, path: Path) -> None:
-    """Refuse a floating base and any joint that is not a 1-DoF joint with nq == nv."""
+    """Refuse a floating base and any joint that is not a 1-DoF joint with nq == nv (after locking:
+    a locked joint may be of any kind)."""
     for j in range(1, model.njoints):
         joint = model.joints[j]
         kind = joint.shortname()
@@ -56,7 +82,8 @@ def _check_joints(model: pin.Model, path: Path) -> None:
             raise ConfigError(
                 f"{path}: joint {model.names[j]!r} is a {kind} (nq={joint.nq}, nv={joint.nv}); "
                 "only one-degree-of-freedom joints with nq == nv are supported "
-                "(revolute with limits, prismatic), not continuous, planar, spherical or floating joints"
+                "(revolute, continuous, prismatic), not planar, spherical or floating joints "
+                "(lock it with robot.locked_joints if the arm does not need it)"
             )
 
 
@@ -78,19 +105,27 @@ def _locked_configuration(
     ids = []
     for name, position in positions.items():
         joint_id = model.getJointId(name)
-        q_reference[model.joints[joint_id].idx_q] = float(position)
+        joint = model.joints[joint_id]
+        if joint.nq == 1:
+            q_reference[joint.idx_q] = float(position)
+        elif float(position) != 0.0:
+            raise ConfigError(
+                f"{path}: robot.locked_joints: {name!r} is a {joint.shortname()} with {joint.nq} "
+                "coordinates, locked at its neutral configuration: give it no position"
+            )
         ids.append(joint_id)
     return sorted(ids), q_reference
 
 
-def _check_limits(model: pin.Model, path: Path) -> None:
-    """URDF joints without limits come out of Pinocchio as zero (or infinite) limits: refuse them."""
+def _check_limits(model: pin.Model, path: Path, unbounded: Collection[str]) -> None:
+    """URDF joints without limits come out of Pinocchio as zero (or infinite) limits: refuse them.
+    The ``unbounded`` (continuous) joints have no position limits by definition."""
     names = list(model.names)[1:]
     problems = []
     for i, name in enumerate(names):
         lower, upper = model.lowerPositionLimit[i], model.upperPositionLimit[i]
         velocity, effort = model.velocityLimit[i], model.effortLimit[i]
-        if not (np.isfinite(lower) and np.isfinite(upper) and lower < upper):
+        if name not in unbounded and not (np.isfinite(lower) and np.isfinite(upper) and lower < upper):
             problems.append(f"{name}: position limits [{lower}, {upper}]")
         if not (np.isfinite(velocity) and velocity > 0):
             problems.append(f"{name}: velocity limit {velocity}")
@@ -99,7 +134,8 @@ def _check_limits(model: pin.Model, path: Path) -> None:
     if problems:
         raise ConfigError(
             f"{path}: missing joint limits (every joint needs <limit lower upper velocity effort> "
-            f"with lower < upper and positive velocity and effort): {'; '.join(problems)}"
+            f"with lower < upper and positive velocity and effort, a continuous joint <limit velocity "
+            f"effort>): {'; '.join(problems)}"
         )
 
 
@@ -120,14 +156,18 @@ def _acceleration_limits(
     return values
 
 
-def _moveit_limits(path: Path, names: Sequence[str], urdf: Path) -> dict[str, np.ndarray]:
+def _moveit_limits(
+    path: Path, names: Sequence[str], urdf: Path, urdf_joints: Collection[str]
+) -> dict[str, np.ndarray]:
     """Velocity and acceleration limits of a MoveIt ``joint_limits.yaml`` (``has_*_limits: true`` only),
-    NaN where a joint has none."""
+    NaN where a joint has none. Every joint it names must be one of the URDF's ``urdf_joints``
+    (locked ones included)."""
     if not path.is_file():
         raise MissingFileError(f"{urdf}: robot.joint_limits file {path} does not exist")
     joints = read_yaml_mapping(path, "joint limits").get("joint_limits")
     if not isinstance(joints, dict):
         raise ConfigError(f"{path}: no `joint_limits:` mapping (MoveIt's joint_limits.yaml format)")
+    check_joint_limit_names(path, [str(name) for name in joints], urdf, urdf_joints)
     out = {key: np.full(len(names), np.nan) for key in ("velocity", "acceleration")}
     for i, name in enumerate(names):
         entry = joints.get(name) or {}
@@ -151,7 +191,7 @@ def _add_flange(model: pin.Model, flange_frame: str, path: Path) -> None:
             f"{path}: the URDF already has a frame named 'flange'; "
             "drop robot.flange_frame or set it to 'flange'"
         )
-    frame = model.frames[model.getFrameId(flange_frame)]
+    frame = model.frames[frame_id(model, flange_frame)]
     model.addFrame(pin.Frame("flange", frame.parentJoint, frame.placement, pin.FrameType.OP_FRAME))
 
 
@@ -164,12 +204,14 @@ def load_urdf_robot(
     friction_terms: Sequence[str],
     gravity: Sequence[float],
     flange_frame: str | None,
-    locked_joints: Sequence[str] | Mapping[str, float],
+    locked_joints: Sequence[str] | Mapping[str, float] | None,
     package_dirs: Sequence[str],
     srdf: str | None,
     joint_limits: str | None,
     collision_geometry: bool,
     missing_meshes: str,
+    drive: Mapping[str, Any] | None,
+    friction_law: FrictionLaw | Mapping[str, Any] | None,
 ) -> RobotModel:
     """Build a fixed-base :class:`RobotModel` from a URDF file.
 
@@ -190,22 +232,29 @@ def load_urdf_robot(
     flange_frame : name of a URDF frame (a link or a fixed joint, e.g. ``panda_link8``) where an
         operational frame named ``flange`` is added, or None.
     locked_joints : joints removed from the model and merged into their parent segment, a list of
-        names (locked at 0) or a mapping name → position (rad or m), e.g. the fingers of a gripper.
+        names (locked at 0) or a mapping name → position (rad or m), e.g. the fingers of a gripper
+        or a mobile base's wheels; None or empty: none.
     package_dirs : folders holding the ROS packages that ``package://NAME/…`` mesh names refer to
         (``DIR/NAME/``), searched before ``ROS_PACKAGE_PATH``.
-    srdf : a MoveIt SRDF whose ``disable_collisions`` pairs are never checked, or None.
+    srdf : a MoveIt SRDF whose ``disable_collisions`` pairs are never checked, or None. The links of
+        its pairs, and most names it gives, must be the URDF's.
     joint_limits : a MoveIt ``joint_limits.yaml``: its ``max_acceleration`` (where
         ``has_acceleration_limits``) gives the acceleration limits ``acceleration_limits`` leaves
-        unset, its ``max_velocity`` lowers the URDF's velocity limits.
+        unset, its ``max_velocity`` lowers the URDF's velocity limits. The joints it names must be
+        the URDF's (locked ones included).
     collision_geometry : keep exciting motions clear of the URDF's ``<collision>`` geometry (read
         when a motion is optimised or checked); False: no collision model.
     missing_meshes : ``error`` or ``drop`` (leave out, with a warning) collision meshes not found.
+    drive : the drive train (:func:`lwrlab.model.drive_train.build_drive_train`'s ``drive`` block:
+        gear ratios, coupling, torque constants, measured sides); its gear ratios default to the
+        URDF's ros_control ``<transmission>`` ``mechanicalReduction`` (1 where a joint has none).
+    friction_law : the description's friction law (a law or its mapping); None: the paper's.
 
     Returns
     -------
     RobotModel
         Joints in URDF tree order, link labels "1" … "n", position/velocity/torque limits from the
-        URDF ``<limit>`` tags.
+        URDF ``<limit>`` tags (position limits ±inf for a continuous joint).
 
     Raises
     ------
@@ -213,23 +262,31 @@ def load_urdf_robot(
         If ``path`` is not a file (a subclass of both ``FileNotFoundError`` and ``ValueError``).
     ConfigError
         (a ``ValueError``) For an unreadable URDF, a URDF without moving joints, a floating base,
-        an unsupported joint, missing limits, unknown locked or flange frames, or wrongly sized
-        acceleration limits; the message names the file and the key.
+        an unsupported joint, missing limits, unknown locked or flange frames, an SRDF or
+        ``joint_limits.yaml`` naming what the URDF lacks, or wrongly sized acceleration limits; the
+        message names the file and the key.
     """
     path = Path(path)
     if not path.is_file():
         raise URDFNotFoundError(f"robot.path={path}: the URDF file does not exist")
-    try:
-        model = pin.buildModelFromUrdf(str(path))  # fixed base: no root joint
+    document = read_urdf_document(path)
+    continuous = revolute_for_continuous(document)
+    urdf_links, urdf_joints = description_names(document)
+    try:  # fixed base: no root joint
+        model = pin.buildModelFromXML(ElementTree.tostring(document, encoding="unicode"))
     except (ValueError, RuntimeError) as error:
         raise ConfigError(f"{path}: Pinocchio could not parse the URDF ({error})") from error
+    if locked_joints:
+        ids, q_reference = _locked_configuration(model, locked_joints, path)
+        model, _ = reduced_model(model, ids, q_reference)
     _check_joints(model, path)
     if model.nv == 0:
         raise ConfigError(f"{path}: the URDF has no joint that moves (a robot needs at least one)")
-    if locked_joints:
-        ids, q_reference = _locked_configuration(model, locked_joints, path)
-        model = pin.buildReducedModel(model, ids, q_reference)
-    _check_limits(model, path)
+    _check_limits(model, path, continuous)
+    for joint_name in continuous:  # no position limits (the parser was given placeholders)
+        if model.existJointName(joint_name):
+            index = model.joints[model.getJointId(joint_name)].idx_q
+            model.lowerPositionLimit[index], model.upperPositionLimit[index] = -np.inf, np.inf
     model.gravity = pin.Motion(gravity_vector(gravity), np.zeros(3))
     if flange_frame is not None:
         _add_flange(model, flange_frame, path)
@@ -238,7 +295,7 @@ def load_urdf_robot(
     velocity = np.array(model.velocityLimit, dtype=float)
     acceleration = _acceleration_limits(acceleration_limits, n, path)
     if joint_limits is not None:
-        moveit = _moveit_limits(Path(joint_limits), list(model.names)[1:], path)
+        moveit = _moveit_limits(Path(joint_limits), list(model.names)[1:], path, urdf_joints)
         velocity = np.fmin(velocity, moveit["velocity"])  # NaN (no MoveIt limit) keeps the URDF's
         if acceleration_limits is None:
             acceleration = np.where(np.isnan(moveit["acceleration"]), np.inf, moveit["acceleration"])
@@ -251,10 +308,16 @@ def load_urdf_robot(
     )
     if missing_meshes not in ("error", "drop"):
         raise ConfigError(f"{path}: robot.missing_meshes must be error or drop, got {missing_meshes!r}")
+    if srdf is not None:
+        srdf_file = resolve_mesh(str(srdf), Path.cwd(), package_search_path(package_dirs))
+        if srdf_file is not None:
+            check_srdf_names(srdf_file, path, urdf_links, urdf_joints)
     source = None
     if collision_geometry:
         locked = (
-            dict(locked_joints) if isinstance(locked_joints, Mapping) else {j: 0.0 for j in locked_joints}
+            dict(locked_joints)
+            if isinstance(locked_joints, Mapping)
+            else {j: 0.0 for j in locked_joints or ()}
         )
         if srdf is not None and not str(srdf).startswith("package://") and not Path(srdf).is_file():
             raise MissingFileError(f"{path}: robot.srdf file {srdf} does not exist")
@@ -270,6 +333,8 @@ def load_urdf_robot(
             missing_meshes="drop" if missing_meshes == "drop" else "error",
             locked_joints=tuple((k, float(v)) for k, v in locked.items()),
         )
+    reductions = transmission_reductions(document)
+    gears = [reductions.get(joint, 1.0) for joint in list(model.names)[1:]] if reductions else None
     return RobotModel(
         name=robot_name,
         model=model,
@@ -277,4 +342,6 @@ def load_urdf_robot(
         friction=build_friction(friction, n, robot_name),
         friction_terms=tuple(friction_terms),
         collision_source=source,
+        drive=build_drive_train(drive, n, robot_name, gear_ratios=gears),
+        friction_law=friction_law_of(friction_law),
     )

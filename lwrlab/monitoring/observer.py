@@ -31,14 +31,12 @@ from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
-from scipy.signal import lfilter
 
 from lwrlab.model.robot import RobotModel
+from lwrlab.numerics.recursion import first_order_recursion
 
 CHUNK_SAMPLES = 4096
 """Samples whose Coriolis matrices are held at once by :meth:`MomentumObserver.observe`."""
-MAX_DECAY_EXPONENT = 300.0
-"""Largest K·(t − t_start) of one block of the closed-form recursion: e^300 is far below overflow."""
 
 
 class _StepScratch(NamedTuple):
@@ -95,6 +93,12 @@ class MomentumObserver:
     """(N_J,) K per joint (1/s)."""
     friction_coefficients: tuple[np.ndarray, np.ndarray, np.ndarray] = field(init=False, repr=False)
     """FC, FV, FO per joint (zero for a term the model leaves out)."""
+    rotor_inertia: np.ndarray | None = field(init=False, repr=False)
+    """(N_J, N_J) ``Cᵀ·diag(IA)·C``, the drives' rotor inertia reflected to the joints (kg·m²), or None
+    when the model has no rotor-inertia columns: it adds to M(q), constant, so to p only."""
+    own_friction_law: bool = field(init=False, repr=False)
+    """True when the model's friction is not the paper's law on uncoupled drives (a smooth, Stribeck,
+    direction-dependent law, a coupled wrist): the model's own drive torque is used, as identified."""
     data: pin.Data = field(init=False, repr=False, compare=False)
     """Pinocchio scratch, rewritten by every call."""
     _scratch: _StepScratch = field(init=False, repr=False, compare=False)
@@ -114,6 +118,14 @@ class MomentumObserver:
         )
         object.__setattr__(self, "gains", gains)
         object.__setattr__(self, "friction_coefficients", coefficients)
+        drive = self.robot.drive_train
+        rotor = None
+        if "rotor" in terms:
+            rotor = drive.coupling.T @ (friction.value("rotor")[:, None] * drive.coupling)
+        object.__setattr__(self, "rotor_inertia", rotor)
+        own = self.robot.friction_law.name != "sign" or not drive.is_direct
+        own = own or bool(set(terms) - {"coulomb", "viscous", "offset", "rotor"})
+        object.__setattr__(self, "own_friction_law", own)
         data = self.robot.model.createData()
         object.__setattr__(self, "data", data)
         scratch = _StepScratch(
@@ -126,7 +138,9 @@ class MomentumObserver:
         object.__setattr__(self, "_scratch", scratch)
 
     def friction_torque(self, dq: np.ndarray) -> np.ndarray:
-        """τ_f (N·m) at velocities ``dq`` (…, N_J), Coulomb smoothed."""
+        """τ_f (N·m) at velocities ``dq`` (…, N_J), Coulomb smoothed (or the model's own law)."""
+        if self.own_friction_law:
+            return self.robot.drive_torque(dq)
         coulomb, viscous, offset = self.friction_coefficients
         return coulomb * np.tanh(dq / self.coulomb_smoothing) + viscous * dq + offset
 
@@ -144,6 +158,11 @@ class MomentumObserver:
         known = scratch.coriolis_transposed.dot(dq)
         known += tau
         known -= gravity
+        if self.rotor_inertia is not None:
+            momentum += self.rotor_inertia.dot(dq)
+        if self.own_friction_law:
+            known -= self.robot.drive_torque(dq)  # without ddq: the rotor inertia is in p
+            return momentum, known
         friction = np.multiply(dq, scratch.inverse_smoothing)
         np.tanh(friction, out=friction)
         friction *= coulomb
@@ -205,6 +224,8 @@ class MomentumObserver:
             )
             if progress is not None:
                 progress(last, n_samples)
+        if self.rotor_inertia is not None:  # the rotors' momentum (a constant inertia: no Coriolis term)
+            momentum += dq @ self.rotor_inertia
         return momentum, tau + correction - self.friction_torque(dq)
 
     def observe(
@@ -287,36 +308,3 @@ def observer_step(
     r *= alpha
     r += interval_torque
     return r, ObserverState(t, momentum, known, r)
-
-
-def first_order_recursion(
-    alpha: np.ndarray, decay: np.ndarray, inputs: np.ndarray, initial: np.ndarray
-) -> np.ndarray:
-    """``r_k = α_k·r_{k−1} + u_k`` over a whole log (N, N_J), from ``r_{−1} = initial``.
-
-    ``decay`` = −log α (K·Δt). On a uniform grid (α the same for every sample) one IIR filter per
-    joint; otherwise the closed form ``r_k = e^{−S_k}·(r_s + Σ_{j≤k} e^{S_j}·u_j)`` with
-    ``S_k = Σ decay`` since the block's start ``s``, in blocks short enough that ``e^{S}`` stays far from
-    overflow.
-    """
-    n_samples = inputs.shape[0]
-    out = np.empty_like(inputs)
-    if n_samples == 0:
-        return out
-    if np.allclose(alpha, alpha[:1], rtol=1e-13, atol=0):
-        for j in range(inputs.shape[1]):
-            a = float(alpha[0, j])
-            out[:, j] = lfilter([1.0], [1.0, -a], inputs[:, j], zi=[a * initial[j]])[0]
-        return out
-    cumulative = np.cumsum(decay, axis=0)
-    total = cumulative.max(axis=1)
-    previous, first = np.asarray(initial, dtype=float), 0
-    while first < n_samples:
-        base = total[first - 1] if first else 0.0
-        last = int(np.searchsorted(total, base + MAX_DECAY_EXPONENT, side="right"))
-        last = max(last, first + 1)
-        exponent = cumulative[first:last] - (cumulative[first - 1] if first else 0.0)
-        weights = np.exp(exponent)
-        out[first:last] = (previous + np.cumsum(weights * inputs[first:last], axis=0)) / weights
-        previous, first = out[last - 1], last
-    return out

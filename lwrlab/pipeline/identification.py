@@ -30,6 +30,7 @@ from lwrlab.identification.extrapolation import (
     likely_causes,
     validation_warning,
 )
+from lwrlab.identification.friction_choice import FrictionChoice, choose_friction
 from lwrlab.identification.identifiability import (
     IdentifiabilityReport,
     assess_identifiability,
@@ -37,6 +38,7 @@ from lwrlab.identification.identifiability import (
 )
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
 from lwrlab.identification.prior_weight import prior_doubts
+from lwrlab.model.position_ranges import finite_range, range_span
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
 from lwrlab.pipeline.identification_report import format_report, write_report
@@ -78,6 +80,9 @@ class IdentificationReport:
     """What the data can determine (rank, cond, weak directions, still joints)."""
     extrapolation: ExtrapolationReport | None = None
     """How uncertain the predictions are on motions within the limits (None: not assessed)."""
+    friction_choice: FrictionChoice | None = None
+    """The friction law and rotor columns the data chose, with every candidate's held-out error
+    (None: the law was fixed)."""
     notes: list[str] = field(default_factory=list)
     """What the processing chose per log, and the warnings to print with the result (identifiability,
     implausible logs)."""
@@ -208,14 +213,23 @@ def identify(
     """
     processing = dict(processing or {})
     base = compute_base_parameters(robot)
-    log.info("%s: %d base parameters", robot.name, base.count)
     motion, validation_motion, measurements, validation_measurements = _measurements(
         robot, motion_source, validation_source, plant, rate_hz
     )
 
     processed = [process_measurement(m, processing) for m in measurements]
+    fitted = getattr(plant, "fitted_joints", None)  # (N_J,) bool, or None: every joint
+    chosen, friction_choice = choose_friction(robot, base, processed, joints=fitted)
+    if chosen.friction_terms != robot.friction_terms:  # a law's own terms, rotor inertias
+        base = compute_base_parameters(chosen)
+    robot = chosen
+    if fitted is not None:
+        base = _seen_by(base, robot, fitted)
+    log.info("%s: %d base parameters", robot.name, base.count)
     bootstrap = statistics is not None and statistics["resamples"] > 0
     rows = identification_rows(robot, base, processed, estimator, keep_rows=bootstrap)
+    if fitted is not None:
+        rows = rows.only_joints(fitted)
     q, dq, ddq = rows.q, rows.dq, rows.ddq  # the joint states at the rows
     identifiability = assess_identifiability(
         rows.statistics.factor()[: base.count, : base.count],
@@ -251,6 +265,7 @@ def identify(
         replace(
             predict_measurement(robot, base, estimator.phi_, m, _as_chosen(processing, data), covariance),
             role="identification",
+            joints=fitted,
         )
         for m, data in zip(measurements, processed, strict=True)
     ]
@@ -262,7 +277,9 @@ def identify(
     validation_predictions = [
         band.around(
             replace(
-                predict_measurement(robot, base, estimator.phi_, m, processing, covariance), role="validation"
+                predict_measurement(robot, base, estimator.phi_, m, processing, covariance),
+                role="validation",
+                joints=fitted,
             )
         )
         for m in validation_measurements
@@ -279,6 +296,8 @@ def identify(
     )
     if noise is not None:
         validation["noise_std"] = noise
+    scored = np.ones(robot.n_joints, dtype=bool) if fitted is None else fitted
+    validation["fitted"] = scored
 
     parameters = pd.DataFrame(
         {
@@ -312,8 +331,8 @@ def identify(
     metrics = {
         "cond_W_b": float(estimator.cond_),
         "residual_std": float(estimator.residual_std_),
-        "rms_mean": float(errors["rms"].mean()),
-        "nrms_mean": float(np.nanmean(errors["nrms"])),
+        "rms_mean": float(errors["rms"][scored].mean()),
+        "nrms_mean": float(np.nanmean(errors["nrms"][scored])),
         "fit_rel_error": ResidualSums.of(fit_predictions).relative_error,
         "validation_rel_error": float(np.mean([p.relative_error for p in validation_predictions])),
         "validation_interval_coverage": ResidualSums.of(validation_predictions).coverage,
@@ -325,6 +344,7 @@ def identify(
         "min_pseudo_inertia_eigenvalue": float(min_pseudo_inertia_eigenvalues(standard, robot.n_links).min()),
         **identifiability.metrics(),
         **{key: float(value) for key, value in getattr(estimator, "diagnostics_", {}).items()},
+        **_friction_metrics(friction_choice),
         **{f"rms_joint{j}": float(v) for j, v in enumerate(errors["rms"], start=1)},
         **{f"nrms_joint{j}": float(v) for j, v in enumerate(errors["nrms"], start=1)},
     }
@@ -343,6 +363,17 @@ def identify(
     notes = [
         f"processing of {m.name}: {data.describe()}" for m, data in zip(measurements, processed, strict=True)
     ]
+    notes += (
+        []
+        if robot.drive_train.is_direct and not robot.drive_train.motor_side
+        else [f"drive train: {robot.drive_train.describe()}"]
+    )
+    notes += [friction_choice.describe()] if friction_choice is not None else []
+    if fitted is not None:
+        notes.append(
+            "joints left out of the fit and the errors (data.fitted_joints): "
+            + ", ".join(name for name, kept in zip(robot.joint_names, fitted, strict=True) if not kept)
+        )
     notes += [] if identifiability.ok else [identifiability.warning_text()]
     notes += [
         extrapolation.warning_text(),
@@ -368,6 +399,7 @@ def identify(
         identified=identified,
         identifiability=identifiability,
         extrapolation=extrapolation,
+        friction_choice=friction_choice,
         notes=[n for n in notes if n],
         motion=motion,
         validation_motion=validation_motion,
@@ -380,6 +412,38 @@ def identify(
     )
 
 
+def _seen_by(base: BaseParameters, robot: RobotModel, fitted: np.ndarray) -> BaseParameters:
+    """``base`` without the per-drive parameters of drives that load only joints left out of the fit
+    (their friction cannot be seen, and is not needed to predict the fitted joints: it stays at the
+    robot's values)."""
+    coupling = robot.drive_train.coupling
+    unseen_drives = ~np.any((coupling != 0.0) & fitted[None, :], axis=1)
+    first = 10 * robot.n_links
+    unseen = {
+        first + t * robot.n_joints + m
+        for t in range(len(robot.friction_terms))
+        for m in np.flatnonzero(unseen_drives)
+    }
+    keep = np.array([column not in unseen for column in base.columns])
+    return replace(
+        base,
+        columns=base.columns[keep],
+        regrouping=base.regrouping[keep],
+        names=tuple(name for name, kept in zip(base.names, keep, strict=True) if kept),
+    )
+
+
+def _friction_metrics(choice: FrictionChoice | None) -> dict[str, float]:
+    """The chosen candidate's held-out NRMS (%) and whether it has rotor inertias, when the data chose."""
+    if choice is None:
+        return {}
+    return {
+        "friction_cv_nrms": float(100.0 * np.sqrt(choice.scores[choice.chosen])),
+        "friction_candidates": float(len(choice.candidates)),
+        "rotor_inertia_columns": float(choice.candidate.rotor),
+    }
+
+
 def _likely_causes(
     robot: RobotModel, measurements: list[Measurement], q: np.ndarray, dq: np.ndarray
 ) -> tuple[str, ...]:
@@ -388,7 +452,7 @@ def _likely_causes(
         q,
         dq,
         duration_s=float(sum(m.t[-1] - m.t[0] for m in measurements)),
-        position_range=limits.position_upper - limits.position_lower,
+        position_range=range_span(limits.position_lower, limits.position_upper),  # continuous: 2π
         velocity_limit=limits.velocity,
     )
 
@@ -406,8 +470,7 @@ def _extrapolation(
         base.names,
         np.asarray(estimator.covariance_),
         float(estimator.residual_std_),
-        limits.position_lower,
-        limits.position_upper,
+        *finite_range(limits.position_lower, limits.position_upper),  # continuous: one turn
         velocity,
         acceleration,
         causes=causes,
@@ -448,11 +511,23 @@ def _prior_note(names: tuple[str, ...] | list[str], share: np.ndarray | None, th
     )
 
 
+def configured_robot(cfg: Any) -> RobotModel:
+    """The robot ``cfg.robot`` builds, with the friction law of ``cfg.friction`` (``auto``: the
+    candidates :func:`identify` chooses from); a robot description that names its own law keeps it."""
+    from hydra.utils import instantiate
+
+    robot: RobotModel = instantiate(cfg.robot)
+    law = cfg.get("friction")
+    if law is None or cfg.robot.get("friction_law") is not None:
+        return robot
+    return robot.with_friction_law(instantiate(law))
+
+
 def identify_configured(cfg: Any) -> IdentificationReport:
     """:func:`identify` with the objects ``cfg`` configures (robot, motions, plant, estimator, processing)."""
     from hydra.utils import instantiate
 
-    robot = instantiate(cfg.robot)
+    robot = configured_robot(cfg)
     plant = instantiate(cfg.plant)(robot=robot)
     recorded = is_recorded(plant)  # logs: no motion is sampled, optimised or checked
     return identify(

@@ -10,17 +10,21 @@ here knows about MLflow or Hydra.
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lwrlab.figures.residuals import residuals_per_log
 from lwrlab.figures.torques import error_per_joint, torque_overlay
 from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory
-from lwrlab.io.urdf_export import export_urdf
+from lwrlab.io.urdf_export import UnexportableJointError, export_urdf
+from lwrlab.model.friction_laws import law_mapping
 from lwrlab.pipeline.log_predictions import prediction_table, write_predicted_torque
 
 if TYPE_CHECKING:  # the identification module runs this writer: its report type only annotates here
     from lwrlab.pipeline.identification import IdentificationReport
+
+log = logging.getLogger(__name__)
 
 RUN_TAGS_FILE = "tags.json"
 """Tags a run carries beside its metrics: what a reader must know before trusting the numbers."""
@@ -120,15 +124,29 @@ def write_report(
         files["validation_measurement"] = save_measurement(
             report.validation_measurement, output_dir / "validation_measurement.npz"
         )
+    # the law and the columns the model was identified with, so that it predicts as it was fitted
+    robot_config = {
+        **robot_config,
+        "friction_terms": list(report.robot.friction_terms),
+        "friction_law": law_mapping(report.robot.friction_law),
+    }
     files["identified_model"] = save_identified_model(
         report.identified, robot_config, output_dir / "identified_model.yaml"
     )
-    # URDF only for real rigid bodies (e.g. estimator=sdp)
+    if report.friction_choice is not None:
+        files["friction_choice"] = output_dir / "friction_choice.csv"
+        report.friction_choice.table().to_csv(files["friction_choice"], index=False)
+    # URDF only for real rigid bodies (e.g. estimator=sdp), and joints URDF can describe
+    urdf_note = ""
     if report.metrics["min_pseudo_inertia_eigenvalue"] >= 0.0:
         identified_robot = report.robot.with_parameters(report.identified.standard_values)
-        files["urdf"] = export_urdf(
-            identified_robot, output_dir / "identified_model.urdf", f"{report.robot.name}_identified"
-        )
+        try:
+            files["urdf"] = export_urdf(
+                identified_robot, output_dir / "identified_model.urdf", f"{report.robot.name}_identified"
+            )
+        except UnexportableJointError as error:  # the run and its metrics stand without it
+            urdf_note = f"WARNING: the identified model is not exported as URDF: {error}"
+            log.warning("%s", urdf_note)
     files["parameters"] = output_dir / "base_parameters.csv"
     report.parameters.to_csv(files["parameters"])
     files["validation"] = output_dir / "cross_validation.csv"
@@ -138,7 +156,7 @@ def write_report(
     files["predicted_torque"] = output_dir / "predicted_torque.parquet"
     write_predicted_torque(report.predictions, files["predicted_torque"])
     files["summary"] = output_dir / "summary.md"
-    files["summary"].write_text(format_report(report) + "\n")
+    files["summary"].write_text(format_report(report) + (f"\n\n{urdf_note}" if urdf_note else "") + "\n")
     files["metrics"] = output_dir / "metrics.json"
     files["metrics"].write_text(json.dumps(report.metrics, indent=2))
     files["tags"] = output_dir / RUN_TAGS_FILE  # the tracking callback tags the run with these

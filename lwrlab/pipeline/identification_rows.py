@@ -9,15 +9,15 @@ bootstrap get the stacked rows too, up to :data:`MAX_STACKED_VALUES`.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters
-from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.regressor import LogRegressor
 from lwrlab.errors import ConfigError
-from lwrlab.identification.context import IdentificationContext
+from lwrlab.identification.context import IdentificationContext, row_joints
 from lwrlab.identification.core import Estimator
 from lwrlab.identification.row_statistics import RowAccumulator, RowStatistics
 from lwrlab.model.robot import RobotModel
@@ -44,6 +44,15 @@ class IdentificationRows:
     """(samples, N_J) velocities at the rows (rad/s)."""
     ddq: np.ndarray
     """(samples, N_J) accelerations at the rows (rad/s²)."""
+
+    def only_joints(self, joints: np.ndarray) -> IdentificationRows:
+        """The rows with those of the joints outside ``joints`` (N_J,) bool set to zero: left out of
+        the fit (their torque is no torque, or not wanted), the sample-major layout kept."""
+        statistics = replace(self.statistics, factors=self.statistics.factors * joints[None, :, None, None])
+        if self.w_base is None or self.tau is None:
+            return replace(self, statistics=statistics)
+        kept = joints[row_joints(len(self.tau), len(joints))]
+        return replace(self, statistics=statistics, w_base=self.w_base * kept[:, None], tau=self.tau * kept)
 
     def fit(self, estimator: Estimator, context: IdentificationContext) -> None:
         """Fit ``estimator`` from the statistics when it can, else from the stacked rows."""
@@ -91,10 +100,8 @@ def identification_rows(
     kept: list[tuple[np.ndarray, np.ndarray]] = []
     states: list[list[np.ndarray]] = [[], [], []]
 
-    def base_regressor(q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-        return base.base_regressor(regressor(robot, q, dq, ddq))
-
     for data in processed:
+        base_regressor = LogRegressor.of(robot, data.dq, data.working_rate_hz, base.columns)
         for block in data.row_blocks(base_regressor):
             accumulator.add(block.w, block.tau)
             if keep:

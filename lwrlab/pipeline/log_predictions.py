@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.dynamics.base_parameters import BaseParameters
-from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.regressor import log_history, regressor
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
 from lwrlab.plants.core import Measurement
@@ -51,6 +51,8 @@ class LogPrediction:
     :meth:`PredictionInterval.around` has turned it into :attr:`half_width`)."""
     half_width: np.ndarray | None = None
     """(M, N_J) half-width of the prediction interval ``τ̂ ± half_width`` (N·m), or None."""
+    joints: np.ndarray | None = None
+    """(N_J,) the joints scored (``data.fitted_joints``), or None: every joint."""
 
     @property
     def interval_coverage(self) -> float:
@@ -102,14 +104,15 @@ class ResidualSums:
         measured, residual = np.zeros(n_joints), np.zeros(n_joints)
         samples = inside = with_interval = 0
         for p in predictions:
+            scored = np.ones(n_joints, dtype=bool) if p.joints is None else p.joints  # fitted joints only
             for tau, tau_hat, half_width in p.scored_blocks():
-                error = tau - tau_hat
-                measured += np.sum(tau**2, axis=0)
+                error = (tau - tau_hat) * scored
+                measured += np.sum((tau * scored) ** 2, axis=0)
                 residual += np.sum(error**2, axis=0)
                 samples += tau.shape[0]
                 if half_width is not None:
-                    inside += int(np.count_nonzero(np.abs(error) <= half_width))
-                    with_interval += error.size
+                    inside += int(np.count_nonzero((np.abs(error) <= half_width)[:, scored]))
+                    with_interval += tau.shape[0] * int(scored.sum())
         return cls(measured, residual, samples, inside, with_interval)
 
     @property
@@ -187,11 +190,20 @@ def predict_measurement(
     variance = None if covariance is None else np.empty_like(predicted)
     # Block by block: the full regressor of every sample of a long log would not fit in memory.
     # One BLAS thread: products of this size lose to a second thread on a busy core.
+    history = log_history(robot, data.dq, data.working_rate_hz)  # a friction law's memory, or None
     with dense_algebra():
         for block in data.state_blocks():
             for first in range(0, len(block.t), REGRESSOR_BLOCK_SAMPLES):
                 part = slice(first, first + REGRESSOR_BLOCK_SAMPLES)
-                full = regressor(robot, block.q[part], block.dq[part], block.ddq[part], stacked=False)
+                at = slice(block.start + first, block.start + first + len(block.t[part]))
+                full = regressor(
+                    robot,
+                    block.q[part],
+                    block.dq[part],
+                    block.ddq[part],
+                    stacked=False,
+                    history=None if history is None else {term: v[at] for term, v in history.items()},
+                )
                 samples = slice(block.start + first, block.start + first + full.shape[0])
                 predicted[samples] = base.torques(full, phi)
                 if covariance is not None and variance is not None:

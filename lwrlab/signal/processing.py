@@ -336,7 +336,12 @@ def _block_regressor(regressor: Regressor, states: States) -> tuple[np.ndarray, 
 
     def part(first: int) -> np.ndarray:
         chosen = slice(first, first + REGRESSOR_SAMPLES)
-        rows = regressor(states.q[chosen], states.dq[chosen], states.ddq[chosen])
+        if getattr(regressor, "takes_start", False):  # a friction law's memory: the samples' index
+            rows = regressor(  # type: ignore[call-arg]
+                states.q[chosen], states.dq[chosen], states.ddq[chosen], start=states.start + first
+            )
+        else:
+            rows = regressor(states.q[chosen], states.dq[chosen], states.ddq[chosen])
         return rows.reshape(-1, n_joints * rows.shape[1])
 
     head = part(0)

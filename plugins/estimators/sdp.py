@@ -5,7 +5,7 @@ friction); the data are fitted through the base parameters ``φ_B = K·φ``:
 
     minimise    ‖W_b·K·φ − τ‖ / √rows  +  weight · D(φ, φ_CAD)
     subject to  J_i(φ) ⪰ ε·1  for every segment i        (pseudo-inertia, Wensing et al. 2017)
-                FC_j ≥ 0, FV_j ≥ 0                        (friction dissipates)
+                FC_j, FV_j, FS_j ≥ 0, IA_j ≥ 0            (friction dissipates; rotor inertias)
                 m_lo·M_i^CAD ≤ M_i ≤ m_hi·M_i^CAD         (optional mass bounds)
 
 so the result is a full standard parameter set of real rigid bodies whose base parameters fit the
@@ -129,7 +129,8 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         base parameter in the metric S, in increasing order.
     selection : ``"min"`` or ``"one_se"``, how ``weight: auto`` picks among the candidates.
     min_eigenvalue : ε, the smallest eigenvalue asked of every pseudo-inertia (kg·m²).
-    friction_nonnegative : constrain Coulomb and viscous friction to be ≥ 0.
+    friction_nonnegative : constrain Coulomb, viscous and Stribeck friction and rotor inertias to be ≥ 0
+        (the per-drive terms the context names ``nonnegative_terms``).
     mass_bounds : ``[low, high]`` factors of each segment's CAD mass, or None.
     compress : QR-compress the regressor before the solver (False only to measure the gain).
     solver, fallback_solver : cvxpy solver names.
@@ -249,9 +250,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     def _constraints(self, phi: cp.Expression, context: IdentificationContext) -> list[cp.Constraint]:
         constraints = consistency_constraints(phi, context.n_links, margin=self.min_eigenvalue)
         if self.friction_nonnegative:
-            dissipative = np.concatenate(
-                [context.friction_indices("coulomb"), context.friction_indices("viscous")]
-            )
+            dissipative = context.nonnegative_indices()
             if dissipative.size:
                 constraints.append(phi[dissipative] >= 0)
         if self.mass_bounds is not None:
@@ -337,9 +336,8 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
                     (vectors * np.maximum(values, self.min_eigenvalue)) @ vectors.T
                 )
         if self.friction_nonnegative:
-            for term in ("coulomb", "viscous"):
-                index = context.friction_indices(term)
-                standard[index] = np.maximum(standard[index], 0.0)
+            index = context.nonnegative_indices()
+            standard[index] = np.maximum(standard[index], 0.0)
         return standard
 
     def _programme(self, context: IdentificationContext, metric: np.ndarray) -> _WeightedProgramme:

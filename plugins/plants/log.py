@@ -14,10 +14,33 @@ from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
+import numpy as np
+
 from lwrlab.io.logs import LogError, load_log
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
+
+
+def joint_mask(robot: RobotModel, joints: Sequence[str | int]) -> np.ndarray:
+    """(N_J,) True for the joints named (by name or 1-based number); a ``LogError`` for any other."""
+    names = robot.joint_names
+    mask = np.zeros(robot.n_joints, dtype=bool)
+    for joint in joints:
+        if isinstance(joint, int) or str(joint).isdigit():
+            index = int(joint) - 1
+            if not 0 <= index < robot.n_joints:
+                raise LogError(f"data.fitted_joints: joint {joint} is not in 1…{robot.n_joints}")
+        elif joint in names:
+            index = names.index(str(joint))
+        else:
+            raise LogError(
+                f"data.fitted_joints: {joint!r} is not a joint of {robot.name}; joints: {list(names)}"
+            )
+        mask[index] = True
+    if not mask.any():
+        raise LogError("data.fitted_joints names no joint: at least one joint's torques must be fitted")
+    return mask
 
 
 def _as_list(single: str | None, several: Sequence[str] | None) -> list[Path]:
@@ -38,6 +61,9 @@ class LogPlant:
     validation_fraction : share of each identification log held out when there is no validation log.
     column_map, time_unit, position_unit, drive_gains, rate_hz, min_samples, topic : see
         :func:`lwrlab.io.logs.load_log`.
+    fitted_joints : the joints whose torques are fitted and scored, by name or 1-based number; None:
+        every joint. The others' torques (a gripper's, a wrist whose effort reads zero) are read but
+        left out of the fit and the errors.
     """
 
     recorded = True
@@ -58,10 +84,13 @@ class LogPlant:
         rate_hz: float | None = None,
         min_samples: int = 100,
         topic: str | None = None,
+        fitted_joints: Sequence[str | int] | None = None,
     ) -> None:
         if not 0.0 < validation_fraction < 1.0:
             raise ValueError(f"data.validation_fraction must lie in (0, 1), got {validation_fraction}")
         self.robot = robot
+        self.fitted_joints = None if fitted_joints is None else joint_mask(robot, fitted_joints)
+        """(N_J,) bool: the joints whose torques are fitted and scored, or None: every joint."""
         self.paths = _as_list(path, paths)
         if not self.paths:
             raise LogError(
@@ -83,6 +112,8 @@ class LogPlant:
             joint_names=robot.joint_names,
             topic=topic,
             limits=robot.limits,
+            drive=robot.drive,
+            fitted_joints=self.fitted_joints,
         )
         self._loaded: dict[Path, Measurement] = {}
 

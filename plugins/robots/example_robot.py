@@ -7,13 +7,15 @@ frame; the robot is then loaded as any URDF (:func:`plugins.robots.urdf.load_urd
 limits are not in these descriptions: a robot's entry gives the manufacturer's where they are published
 (Panda: libfranka), else ``acceleration_limits`` must be set.
 
-Kinova's Gen2 arm is left out: its continuous joints (``nq ≠ nv``) are not supported.
+Kinova's Gen2 arm (``kinova``, the six-joint JACO² j2s6s200) has continuous joints 1, 4 and 6: they are
+read as revolute joints without position limits (:mod:`lwrlab.model.urdf_robot`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from lwrlab.errors import ConfigError
 from lwrlab.model.collision_geometry import package_search_path
@@ -50,6 +52,11 @@ ROBOTS: dict[str, ExampleRobot] = {
     "z1": ExampleRobot(
         "z1_description/urdf/z1.urdf", "z1_description/srdf/z1.srdf", "link06", {"jointGripper": 0.0}
     ),
+    "kinova": ExampleRobot(
+        "kinova_description/robots/kinova.urdf",
+        "kinova_description/srdf/kinova.srdf",
+        "j2s6s200_end_effector",
+    ),
 }
 """The arms this plugin loads by name."""
 
@@ -73,6 +80,8 @@ def load_example_robot(
     friction: Mapping[str, Sequence[float]] | None,
     friction_terms: Sequence[str],
     gravity: Sequence[float],
+    drive: Mapping[str, Any] | None,
+    friction_law: Mapping[str, Any] | None,
 ) -> RobotModel:
     """The arm ``robot_name`` (a key of :data:`ROBOTS`) from ``example-robot-data``, with its collision
     meshes and SRDF.
@@ -81,9 +90,10 @@ def load_example_robot(
 
     Parameters
     ----------
-    robot_name : panda, ur3, ur5, ur10, xarm7 or z1.
+    robot_name : panda, ur3, ur5, ur10, xarm7, z1 or kinova.
     acceleration_limits : rad/s², one per joint or a scalar; None: the manufacturer's, where known.
-    friction, friction_terms, gravity : as for :func:`plugins.robots.urdf.load_urdf_robot`.
+    friction, friction_terms, gravity, drive, friction_law : as for
+        :func:`plugins.robots.urdf.load_urdf_robot`.
     """
     if robot_name not in ROBOTS:
         raise ConfigError(f"robot.robot_name={robot_name!r} is not one of {sorted(ROBOTS)}")
@@ -104,4 +114,6 @@ def load_example_robot(
         joint_limits=None,
         collision_geometry=True,
         missing_meshes="error",
+        drive=drive,
+        friction_law=friction_law,
     )

@@ -30,6 +30,7 @@ RunArtifactFetcher = Callable[[str, str, str | None], str | Path]
 """(run id, artifact path, tracking URI) → local path of the downloaded artifact."""
 
 _ALLOWED_TARGET_PREFIX = "plugins.robots."
+_ALLOWED_LAW_PREFIX = ("plugins.friction.", "lwrlab.model.friction_laws.")
 
 
 def _is_file_reference(source: str) -> bool:
@@ -49,7 +50,7 @@ def _locate(source: str, tracking_uri: str | None, fetch_run_artifact: RunArtifa
 
 
 _KEYS_ADDED_SINCE: dict[str, dict[str, object]] = {
-    "build_robot": {"collision_urdf": None},
+    "build_robot": {"collision_urdf": None, "drive": None, "friction_law": None},
     "load_robot_yaml": {},
     "load_urdf_robot": {
         "package_dirs": [],
@@ -57,7 +58,10 @@ _KEYS_ADDED_SINCE: dict[str, dict[str, object]] = {
         "joint_limits": None,
         "collision_geometry": True,
         "missing_meshes": "error",
+        "drive": None,
+        "friction_law": None,
     },
+    "load_example_robot": {"drive": None, "friction_law": None},
 }
 """Robot settings added after a model may have been saved, with the value that keeps its behaviour:
 an ``identified_model.yaml`` written before them still loads."""
@@ -103,6 +107,13 @@ def load_identified_robot(
     if not target.startswith(_ALLOWED_TARGET_PREFIX):
         raise ConfigError(
             f"{path}: robot _target_ {target!r} is not a robot plugin ({_ALLOWED_TARGET_PREFIX}*)"
+        )
+    law = robot_config.get("friction_law") or {}
+    law_target = str(law.get("_target_", "")) if isinstance(law, Mapping) else ""
+    if law and not law_target.startswith(_ALLOWED_LAW_PREFIX):
+        raise ConfigError(
+            f"{path}: friction_law _target_ {law_target!r} is not a friction law plugin "
+            f"({' or '.join(p + '*' for p in _ALLOWED_LAW_PREFIX)})"
         )
     defaults = _KEYS_ADDED_SINCE.get(target.rsplit(".", 1)[-1], {})
     description = {**defaults, **robot_config}

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import BSpline
 
+from lwrlab.model.position_ranges import range_center, range_span
 from lwrlab.model.robot import RobotModel
 from lwrlab.resources import resolve_data_path
 from lwrlab.trajectory.parameterisation import LinearParameterisation
@@ -109,10 +110,11 @@ class BSplineMotion(LinearParameterisation):
     def initial_coefficients(
         self, robot: RobotModel, rng: np.random.Generator, amplitude: float
     ) -> np.ndarray:
-        """Via points uniform in ``middle ± amplitude·half-range`` per joint (rad)."""
+        """Via points uniform in ``middle ± amplitude·half-range`` per joint (rad); a continuous joint:
+        around 0, as if its range were one turn."""
         lim = robot.limits
-        middle = 0.5 * (lim.position_lower + lim.position_upper)
-        half = 0.5 * (lim.position_upper - lim.position_lower)
+        middle = range_center(lim.position_lower, lim.position_upper)
+        half = 0.5 * range_span(lim.position_lower, lim.position_upper)
         return middle + amplitude * half * rng.uniform(-1.0, 1.0, size=(self.n_coefficients, robot.n_joints))
 
     def settings(self) -> dict[str, Any]:

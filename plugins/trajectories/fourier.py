@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from lwrlab.model.position_ranges import range_center, range_span
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.parameterisation import LinearParameterisation
 
@@ -80,10 +81,11 @@ class FourierMotion(LinearParameterisation):
     def initial_coefficients(
         self, robot: RobotModel, rng: np.random.Generator, amplitude: float
     ) -> np.ndarray:
-        """Constant term at the middle of each range; harmonics decaying as 1/k (rad)."""
+        """Constant term at the middle of each range; harmonics decaying as 1/k (rad). A continuous joint:
+        around 0, as if its range were one turn."""
         lim = robot.limits
-        middle = 0.5 * (lim.position_lower + lim.position_upper)
-        half = 0.5 * (lim.position_upper - lim.position_lower)
+        middle = range_center(lim.position_lower, lim.position_upper)
+        half = 0.5 * range_span(lim.position_lower, lim.position_upper)
         k = np.arange(1, self.harmonics + 1)[:, None]
         scale = amplitude * half / (2.0 * np.sqrt(self.harmonics))
         a = scale * rng.uniform(-1.0, 1.0, size=(self.harmonics, robot.n_joints)) / k

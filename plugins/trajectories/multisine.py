@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from lwrlab.model.position_ranges import range_center
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.core import Trajectory
 
@@ -39,7 +40,8 @@ class MultisineMotion:
     seed : seed of the coefficients.
     limit_fraction : fraction (0, 1] of the position room around ``center``, of the velocity and of
         the acceleration limits the motion may reach.
-    center : start/end posture (rad per joint); None: the middle of each position range.
+    center : start/end posture (rad per joint); None: the middle of each position range (0 for a
+        continuous joint, whose motion only its velocity and acceleration limits bound).
     """
 
     def __init__(
@@ -82,9 +84,9 @@ class MultisineMotion:
         center = (
             np.asarray(self.center, dtype=float)
             if self.center is not None
-            else 0.5 * (lim.position_lower + lim.position_upper)
+            else range_center(lim.position_lower, lim.position_upper)
         )
-        room = np.minimum(center - lim.position_lower, lim.position_upper - center)
+        room = np.minimum(center - lim.position_lower, lim.position_upper - center)  # inf: continuous
         if np.any(room <= 0):
             raise ValueError(f"center {center} is outside the position limits of {robot.name}")
         scale = self.limit_fraction * np.min(

@@ -1,0 +1,298 @@
+"""The friction law, its shape and the rotor-inertia columns, chosen by block cross-validation.
+
+``friction=auto`` offers candidate laws (each point of their shape grids) and, with the robot's
+``drive.rotor_inertia: auto``, each with and without the rotor-inertia columns. Which predicts the
+robot best is a question for data it was not fitted on, so every candidate is scored on contiguous
+held-out blocks of the identification rows, as the prior's weight is
+(:mod:`lwrlab.identification.prior_weight`).
+
+One pass over the logs serves every candidate: the rows are built once with the inertial base
+columns and the union of every candidate's drive columns (:func:`_families`), filtered as the
+identification filters its rows, and reduced to one Gram matrix per fold and joint. A candidate's
+fit on four folds and its error on the fifth are then small dense solves on a subset of that
+matrix's rows and columns. The fits are least squares with each joint's rows scaled by its torque
+level (so a wrist counts as much as a shoulder) and a small ridge toward the CAD values
+(:data:`RIDGE`); the score is the held-out squared error relative to each joint's torque energy,
+averaged over the joints.
+The choice is the simplest candidate (fewest columns) within one standard error of the best
+(:func:`_one_standard_error`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+
+from lwrlab.dynamics.base_parameters import BaseParameters
+from lwrlab.dynamics.friction_regressor import fill_friction_regressor
+from lwrlab.dynamics.regressor import regressor
+from lwrlab.model.friction_laws import FrictionLaw, describe_law, has_memory, history_columns
+from lwrlab.model.robot import RobotModel
+from lwrlab.signal.processing import ProcessedData
+
+RIDGE = 1e-6
+"""Ridge of the cross-validation fits toward the robot's own (CAD) base parameters, relative to the
+diagonal of the Gram matrix: it holds the directions a few folds of a user's log barely excite,
+which least squares would otherwise extrapolate wildly into the held-out fold."""
+MAX_SAMPLES = 200_000
+"""Most identification samples scored (evenly thinned beyond): the choice needs the shape of the
+data, not every sample of an hour-long log."""
+
+
+@dataclass(frozen=True)
+class FrictionCandidate:
+    """A friction law with its shape fixed, with or without the rotor-inertia columns."""
+
+    law: FrictionLaw
+    rotor: bool
+
+    @property
+    def label(self) -> str:
+        """``smooth (width 0.01) + rotor``."""
+        return describe_law(self.law) + (" + rotor inertia" if self.rotor else "")
+
+
+@dataclass(frozen=True)
+class FrictionChoice:
+    """The candidates' held-out errors and the one chosen."""
+
+    candidates: tuple[FrictionCandidate, ...]
+    scores: np.ndarray
+    """(C,) held-out relative squared error of each candidate, mean over joints."""
+    chosen: int
+    speed_noise: np.ndarray
+    """(N_D,) speed noise of the drives in the logs (rad/s), what noise-width laws read."""
+
+    @property
+    def candidate(self) -> FrictionCandidate:
+        """The chosen candidate."""
+        return self.candidates[self.chosen]
+
+    def table(self) -> pd.DataFrame:
+        """One row per candidate: its held-out NRMS (%, root of the score) and whether it was chosen."""
+        return pd.DataFrame(
+            {
+                "candidate": [c.label for c in self.candidates],
+                "law": [c.law.name for c in self.candidates],
+                "rotor_inertia": [c.rotor for c in self.candidates],
+                "cv_nrms_percent": 100.0 * np.sqrt(self.scores),
+                "chosen": [k == self.chosen for k in range(len(self.candidates))],
+            }
+        )
+
+    def describe(self) -> str:
+        """One line for the report."""
+        best = 100.0 * np.sqrt(self.scores[self.chosen])
+        runner = np.argsort(self.scores)
+        others = [k for k in runner if k != self.chosen][:2]
+        rest = ", ".join(f"{self.candidates[k].label} {100 * np.sqrt(self.scores[k]):.2f} %" for k in others)
+        return (
+            f"friction chosen by {len(self.candidates)}-candidate block cross-validation: "
+            f"{self.candidate.label} (held-out NRMS {best:.2f} %; next: {rest})"
+        )
+
+
+def speed_noise(processed: Sequence[ProcessedData], robot: RobotModel) -> np.ndarray:
+    """(N_D,) noise of the processed drive speeds (rad/s): the encoder noise through the processing.
+
+    The position noise σ_q of each joint comes from the raw samples' third differences (blind to
+    motions up to quadratic in time: ``var(Δ³q) = 20·σ_q²``, a robust MAD estimate); the processing's
+    zero-phase low-pass at ``f_c`` and the differentiation make it a speed noise of
+    ``σ_q·2π·√(2·f_c³ / (3·f_s))`` (white noise through an ideal low-pass and a derivative), or
+    ``σ_q·f_s/√2`` without a filter (centred differences).
+    """
+    variances = []
+    for data in processed:
+        rate = data.working_rate_hz * data.step  # the raw rate
+        q = data.raw_q
+        if len(q) < 8:
+            continue
+        third = np.diff(q, n=3, axis=0)
+        sigma_q = 1.4826 * np.median(np.abs(third - np.median(third, axis=0)), axis=0) / np.sqrt(20.0)
+        if data.cutoff_hz is None:
+            gain = rate / np.sqrt(2.0)
+        else:
+            gain = 2 * np.pi * np.sqrt(2.0 * data.cutoff_hz**3 / (3.0 * rate))
+        variances.append((sigma_q * gain) ** 2)
+    joint_variance = np.mean(variances, axis=0) if variances else np.zeros(robot.n_joints)
+    coupling = robot.drive_train.coupling
+    return np.sqrt(np.square(coupling) @ joint_variance)
+
+
+def friction_candidates(robot: RobotModel, noise: np.ndarray) -> tuple[FrictionCandidate, ...]:
+    """The robot's law's candidates, with and without rotor inertias when its drive says ``auto``
+    and there is a choice to make at all."""
+    laws = robot.friction_law.candidates(noise)
+    rotor = robot.drive_train.rotor_inertia_columns
+    options = ((False, True) if len(laws) > 1 else (False,)) if rotor == "auto" else (bool(rotor),)
+    return tuple(FrictionCandidate(law, r) for law in laws for r in options)
+
+
+def _terms(robot: RobotModel, candidate: FrictionCandidate) -> tuple[str, ...]:
+    return robot.with_friction_law(candidate.law, candidate.rotor).friction_terms
+
+
+def _family_key(law: FrictionLaw, term: str) -> tuple[object, ...]:
+    """Columns that do not depend on the law (viscous, offset, rotor) are shared by every candidate."""
+    if term in ("viscous", "offset", "rotor"):
+        return (term,)
+    return (term, type(law).__qualname__, repr(sorted(law.settings().items())))
+
+
+def _families(
+    robot: RobotModel, candidates: Sequence[FrictionCandidate]
+) -> tuple[list[tuple[FrictionLaw, str]], list[list[int]]]:
+    """The distinct drive-column families of all candidates, and each candidate's families in order."""
+    keys: dict[tuple[object, ...], int] = {}
+    families: list[tuple[FrictionLaw, str]] = []
+    used = []
+    for candidate in candidates:
+        own = []
+        for term in _terms(robot, candidate):
+            key = _family_key(candidate.law, term)
+            if key not in keys:
+                keys[key] = len(families)
+                families.append((candidate.law, term))
+            own.append(keys[key])
+        used.append(own)
+    return families, used
+
+
+def _fold_grams(
+    robot: RobotModel,
+    inertial_columns: np.ndarray,
+    families: list[tuple[FrictionLaw, str]],
+    processed: Sequence[ProcessedData],
+    folds: int,
+) -> np.ndarray:
+    """(folds, N_J, P+1, P+1) Gram matrices of ``[W τ]`` per fold and joint, W = inertial base columns
+    then every family's N_D columns."""
+    n = robot.n_joints
+    bare = replace(robot, friction_terms=())
+    width = len(inertial_columns) + n * len(families)
+    drive = robot.drive_train
+
+    memory = any(has_memory(law) for law, _ in families)
+
+    class Rows:
+        """Every family's columns at a run of one log's samples (a law with memory: from the whole log)."""
+
+        takes_start = True
+
+        def __init__(self, data: ProcessedData) -> None:
+            v = drive.drive_values(data.dq) if memory else None
+            dt = 1.0 / data.working_rate_hz
+            self.history = [None if v is None else history_columns(law, v, dt) for law, _ in families]
+
+        def __call__(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, start: int = 0) -> np.ndarray:
+            full = np.zeros((q.shape[0], n, width))
+            inertial = regressor(bare, q, dq, ddq, stacked=False)
+            full[:, :, : len(inertial_columns)] = inertial[:, :, inertial_columns]
+            for f, (law, term) in enumerate(families):
+                history = self.history[f]
+                part = None if history is None else {k: c[start : start + len(q)] for k, c in history.items()}
+                first = len(inertial_columns) + f * n
+                fill_friction_regressor(dq, (term,), full, first, law=law, drive=drive, ddq=ddq, history=part)
+            return full.reshape(-1, width)
+
+    total = sum(len(d.index) for d in processed)
+    thin = max(1, int(np.ceil(total / MAX_SAMPLES)))
+    grams = np.zeros((folds, n, width + 1, width + 1))
+    seen = 0
+    for data in processed:
+        if thin > 1:
+            data = replace(data, index=data.index[::thin])
+        for block in data.row_blocks(Rows(data)):
+            samples = block.w.shape[0] // n
+            fold = np.minimum((seen + np.arange(samples)) * folds * thin // total, folds - 1)
+            seen += samples
+            stacked = np.column_stack([block.w, block.tau]).reshape(samples, n, width + 1)
+            for f in np.unique(fold):
+                part = stacked[fold == f]
+                grams[f] += np.einsum("sji,sjk->jik", part, part)
+    return grams
+
+
+def _fold_scores(gram: np.ndarray, columns: np.ndarray, prior: np.ndarray) -> np.ndarray:
+    """(folds,) held-out relative squared error of each fold, mean over joints, of least squares on
+    ``columns`` of the fold-and-joint Gram matrices ``gram`` (folds, N_J, P+1, P+1), fitted on the
+    other folds with a ridge toward ``prior`` (values of every column of the Gram matrices)."""
+    folds = gram.shape[0]
+    index = np.append(columns, gram.shape[-1] - 1)
+    sub = gram[:, :, index[:, None], index[None, :]]
+    # each joint's torque energy over the whole log: a fold where a joint barely moves (a rest) is
+    # scored against the joint's usual torque, not against its own small one
+    energy = sub[:, :, -1, -1].sum(axis=0)  # (N_J,)
+    scored = energy > 0.0  # a joint left out of the fit has no rows
+    energy = np.where(scored, energy, 1.0)
+    weights = 1.0 / energy
+    scores = np.zeros(folds)
+    for f in range(folds):
+        g = np.einsum("j,fjik->ik", weights, sub[np.delete(np.arange(folds), f)])
+        a, b = g[:-1, :-1], g[:-1, -1]
+        scale = np.sqrt(np.maximum(np.diag(a), 1e-300))
+        a_scaled = a / scale[:, None] / scale[None, :]
+        a_scaled[np.diag_indices_from(a_scaled)] += RIDGE
+        start = prior[columns] * scale  # the prior in scaled units
+        x = np.append(np.linalg.solve(a_scaled, b / scale + RIDGE * start) / scale, -1.0)
+        held_out = np.einsum("i,jik,k->j", x, sub[f], x) / (energy / folds)  # equal folds
+        scores[f] = np.mean(held_out[scored])
+    return scores
+
+
+def _one_standard_error(fold_scores: np.ndarray, sizes: np.ndarray) -> int:
+    """The simplest candidate (fewest columns, then the earliest) whose mean held-out score is within
+    one standard error of the best one's (Hastie et al.'s rule: block cross-validation within the
+    fitted motions favours extra columns that new motions do not reward)."""
+    means = fold_scores.mean(axis=1)
+    best = int(np.argmin(means))
+    difference = fold_scores - fold_scores[best]
+    standard_error = difference.std(axis=1, ddof=1) / np.sqrt(fold_scores.shape[1])
+    eligible = np.flatnonzero(means <= means[best] + standard_error)
+    return int(min(eligible, key=lambda k: (sizes[k], k)))
+
+
+def choose_friction(
+    robot: RobotModel,
+    base: BaseParameters,
+    processed: Sequence[ProcessedData],
+    folds: int = 5,
+    joints: np.ndarray | None = None,
+) -> tuple[RobotModel, FrictionChoice | None]:
+    """The robot with the friction law and rotor columns the data choose, and the choice (None: nothing
+    to choose — one law, rotor columns on or off as configured; the robot is returned with them).
+
+    ``joints`` (N_J,) bool: the joints whose torques are fitted and scored (None: all)."""
+    noise = speed_noise(processed, robot)
+    candidates = friction_candidates(robot, noise)
+    if len(candidates) == 1:
+        only = candidates[0]
+        return robot.with_friction_law(only.law, only.rotor), None
+    n_inertial = 10 * robot.n_links
+    inertial_columns = base.columns[base.columns < n_inertial]
+    families, used = _families(robot, candidates)
+    grams = _fold_grams(robot, inertial_columns, families, processed, folds)
+    if joints is not None:
+        grams[:, ~np.asarray(joints, dtype=bool)] = 0.0
+    n = robot.n_joints
+    n_base = len(inertial_columns)
+    prior = np.zeros(grams.shape[-1] - 1)  # friction, offsets and rotor inertias: 0
+    prior[:n_base] = base.base_values(robot.parameters)[base.columns < n_inertial]
+    fold_scores = np.array(
+        [
+            _fold_scores(
+                grams,
+                np.concatenate([np.arange(n_base), *[n_base + f * n + np.arange(n) for f in own]]).astype(
+                    int
+                ),
+                prior,
+            )
+            for own in used
+        ]
+    )
+    chosen = _one_standard_error(fold_scores, np.array([len(own) for own in used]))
+    choice = FrictionChoice(candidates, fold_scores.mean(axis=1), chosen, noise)
+    return robot.with_friction_law(choice.candidate.law, choice.candidate.rotor), choice

@@ -1,0 +1,113 @@
+"""Friction laws (config group ``friction``) and their choice by block cross-validation.
+
+One conformance check runs over every shipped law; the choice is checked on simulated data whose
+friction law is known: it must find a law that predicts held-out blocks as well as the truth.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from lwrlab.dynamics.base_parameters import compute_base_parameters
+from lwrlab.dynamics.regressor import regressor
+from lwrlab.identification.friction_choice import choose_friction, speed_noise
+from lwrlab.model.friction_laws import FrictionLaw, SignCoulomb, describe_law, law_from_mapping, law_mapping
+from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
+from lwrlab.pipeline.log_predictions import process_measurement
+from lwrlab.plants.core import Measurement
+from lwrlab.resources import config_group
+from plugins.friction.smooth import SmoothCoulomb
+
+LAWS = sorted(config_group("friction"))
+SPEEDS = np.linspace(-2.0, 2.0, 401)[:, None] * np.ones((1, 3))
+
+
+@pytest.mark.parametrize("option", LAWS)
+def test_every_law_keeps_the_protocol(option: str) -> None:
+    law = build("friction", option)
+    assert isinstance(law, FrictionLaw)
+    candidates = law.candidates(np.full(3, 1e-3))
+    assert candidates, f"{option} offers no candidate"
+    for candidate in candidates:
+        assert len(candidate.candidates(np.full(3, 1e-3))) == 1, "a candidate is a concrete law"
+        shape = candidate.coulomb_shape(SPEEDS)
+        assert shape.shape == SPEEDS.shape and np.all(np.abs(shape) <= 1.0)
+        np.testing.assert_allclose(shape, -candidate.coulomb_shape(-SPEEDS), atol=1e-15)  # odd
+        assert np.all(np.diff(shape, axis=0) >= 0)  # friction never falls as the speed rises
+        for term in candidate.extra_terms:
+            assert candidate.extra_basis(term.name, SPEEDS).shape == SPEEDS.shape
+        rebuilt = law_from_mapping(law_mapping(candidate))  # how an identified model stores it
+        np.testing.assert_array_equal(rebuilt.coulomb_shape(SPEEDS), shape)
+        assert describe_law(candidate).startswith(candidate.name)
+
+
+def test_the_default_law_is_the_papers() -> None:
+    assert isinstance(build("friction", "sign"), SignCoulomb)
+    np.testing.assert_array_equal(SignCoulomb().coulomb_shape(SPEEDS), np.sign(SPEEDS))
+
+
+def _motion(n: int, seconds: float, rate: float, rest_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Times and positions of a multisine (rad) whose clock stops for ``rest_s`` in the middle: its
+    speed ramps down to zero over 0.5 s (a raised cosine), stays there, and ramps up again."""
+    t = np.arange(int(seconds * rate)) / rate
+    ramp = np.clip((np.abs(t - seconds / 2) - rest_s / 2) / 0.5, 0.0, 1.0) if rest_s else np.ones_like(t)
+    clock = np.cumsum(0.5 - 0.5 * np.cos(np.pi * ramp)) / rate  # the multisine's own time (s)
+    phases = np.random.default_rng(0).uniform(0, 2 * np.pi, (n, 3))
+    q = sum(0.4 / k * np.sin(2 * np.pi * 0.25 * k * clock[:, None] + phases[:, k - 1]) for k in (1, 2, 3))
+    return t, np.asarray(q)
+
+
+def _measured(
+    robot: RobotModel, seconds: float = 12.0, rate: float = 500.0, noise_q: float = 2e-5, rest_s: float = 3.0
+) -> Measurement:
+    """The robot's torques (its law) along a motion, measured with encoder and torque noise."""
+    t, q = _motion(robot.n_joints, seconds, rate, rest_s)
+    dq = np.gradient(q, t, axis=0)
+    ddq = np.gradient(dq, t, axis=0)
+    tau = (regressor(robot, q, dq, ddq) @ robot.parameters).reshape(q.shape)
+    rng = np.random.default_rng(1)
+    return Measurement(t=t, q=q + rng.normal(0, noise_q, q.shape), tau=tau + rng.normal(0, 0.05, tau.shape))
+
+
+@pytest.fixture(scope="module")
+def strong_friction(lwr4: RobotModel) -> RobotModel:
+    values = lwr4.parameters.copy()
+    n = lwr4.n_joints
+    values[10 * lwr4.n_links :] = np.concatenate([np.full(n, 4.0), np.full(n, 1.0)])  # FC, FV
+    return lwr4.with_parameters(values)
+
+
+def test_speed_noise_is_the_encoder_noise_through_the_processing(lwr4: RobotModel) -> None:
+    quiet = process_measurement(_measured(lwr4, noise_q=2e-5), {"cutoff_hz": 10.0})
+    loud = process_measurement(_measured(lwr4, noise_q=2e-4), {"cutoff_hz": 10.0})
+    expected = 2e-5 * 2 * np.pi * np.sqrt(2 * 10.0**3 / (3 * 500.0))
+    np.testing.assert_allclose(speed_noise([quiet], lwr4), expected, rtol=0.2)
+    np.testing.assert_allclose(speed_noise([loud], lwr4) / speed_noise([quiet], lwr4), 10.0, rtol=0.2)
+
+
+def test_auto_finds_a_smooth_law_where_the_arm_rests(strong_friction: RobotModel) -> None:
+    """Truth: FC·tanh(v/0.05); an arm standing still 3 s of 12. The paper's sign law flips on the
+    encoder noise at rest; the choice must find a law with a smooth step."""
+    truth = strong_friction.with_friction_law(SmoothCoulomb(0.05))
+    data = [process_measurement(_measured(truth), {"cutoff_hz": 10.0})]
+    candidates = replace(strong_friction.with_friction_law(build("friction", "auto")))
+    base = compute_base_parameters(candidates)
+    chosen, choice = choose_friction(candidates, base, data)
+    assert choice is not None and len(choice.candidates) > 10
+    table = choice.table()
+    sign = table.loc[table.law == "sign", "cv_nrms_percent"].min()
+    assert choice.candidate.law.name != "sign"
+    assert table.cv_nrms_percent[choice.chosen] < 0.5 * sign
+    assert chosen.friction_law is choice.candidate.law
+    assert "rotor" not in chosen.friction_terms  # the truth has no rotor inertia: not worth its columns
+
+
+def test_a_fixed_law_is_not_cross_validated(strong_friction: RobotModel) -> None:
+    data = [process_measurement(_measured(strong_friction, seconds=4.0, rest_s=0.0), {"cutoff_hz": 10.0})]
+    robot = strong_friction.with_friction_law(SmoothCoulomb(0.02))
+    chosen, choice = choose_friction(robot, compute_base_parameters(robot), data)
+    assert choice is None and chosen.friction_terms == robot.friction_terms
