@@ -19,6 +19,7 @@ Both agree to round-off (~1e-15 relative); ``benchmarks/regressor.py`` measures 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -132,10 +133,16 @@ class LogRegressor:
 
     @classmethod
     def of(
-        cls, robot: RobotModel, dq: np.ndarray, rate_hz: float, columns: np.ndarray | None = None
+        cls,
+        robot: RobotModel,
+        velocities: Callable[[], np.ndarray],
+        rate_hz: float,
+        columns: np.ndarray | None = None,
     ) -> LogRegressor:
-        """The regressor of a log whose consecutive velocities (all of them) are ``dq`` at ``rate_hz``."""
-        return cls(robot, log_history(robot, dq, rate_hz), columns)
+        """The regressor of a log whose consecutive velocities (all of them, rad/s) ``velocities()``
+        gives at ``rate_hz``: read only for a friction law with memory."""
+        history = log_history(robot, velocities(), rate_hz) if has_memory(robot.friction_law) else None
+        return cls(robot, history, columns)
 
     def __call__(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, start: int = 0) -> np.ndarray:
         """Stacked rows ``(N·N_J, P)`` of the samples ``start … start + N − 1`` of the log."""

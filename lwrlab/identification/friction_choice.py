@@ -37,9 +37,13 @@ RIDGE = 1e-6
 """Ridge of the cross-validation fits toward the robot's own (CAD) base parameters, relative to the
 diagonal of the Gram matrix: it holds the directions a few folds of a user's log barely excite,
 which least squares would otherwise extrapolate wildly into the held-out fold."""
-MAX_SAMPLES = 200_000
-"""Most identification samples scored (evenly thinned beyond): the choice needs the shape of the
+MAX_SAMPLES = 120_000
+"""Most working samples (2 min at 1 kHz) whose rows are scored, the first of each log beyond: every
+candidate's columns are filtered at every working sample, and the choice needs the shape of the
 data, not every sample of an hour-long log."""
+CHOICE_BLOCK = 4096
+"""Working samples per block of the choice's rows: every candidate's columns side by side (~250)
+would make the usual blocks hundreds of megabytes."""
 
 
 @dataclass(frozen=True)
@@ -183,7 +187,9 @@ def _fold_grams(
         takes_start = True
 
         def __init__(self, data: ProcessedData) -> None:
-            v = drive.drive_values(data.dq) if memory else None
+            # the rows' windows end within a block (and its filter's padding) of the last row
+            stop = int(data.index[-1]) + 2 * data.block_samples if data.index.size else 0
+            v = drive.drive_values(data.velocities(stop)) if memory else None
             dt = 1.0 / data.working_rate_hz
             self.history = [None if v is None else history_columns(law, v, dt) for law, _ in families]
 
@@ -198,21 +204,26 @@ def _fold_grams(
                 fill_friction_regressor(dq, (term,), full, first, law=law, drive=drive, ddq=ddq, history=part)
             return full.reshape(-1, width)
 
-    total = sum(len(d.index) for d in processed)
-    thin = max(1, int(np.ceil(total / MAX_SAMPLES)))
+    share = min(1.0, MAX_SAMPLES / max(sum(d.n_working for d in processed), 1))  # long logs: their start
+    kept = [
+        replace(
+            d, index=d.index[d.index < max(share * d.n_working, d.index[0] + 1)], block_samples=CHOICE_BLOCK
+        )
+        for d in processed
+        if d.index.size
+    ]
+    total = sum(len(d.index) for d in kept)
     grams = np.zeros((folds, n, width + 1, width + 1))
     seen = 0
-    for data in processed:
-        if thin > 1:
-            data = replace(data, index=data.index[::thin])
+    for data in kept:
         for block in data.row_blocks(Rows(data)):
             samples = block.w.shape[0] // n
-            fold = np.minimum((seen + np.arange(samples)) * folds * thin // total, folds - 1)
+            fold = np.minimum((seen + np.arange(samples)) * folds // total, folds - 1)
             seen += samples
             stacked = np.column_stack([block.w, block.tau]).reshape(samples, n, width + 1)
             for f in np.unique(fold):
-                part = stacked[fold == f]
-                grams[f] += np.einsum("sji,sjk->jik", part, part)
+                part = stacked[fold == f].transpose(1, 0, 2)  # (N_J, samples, P+1)
+                grams[f] += part.transpose(0, 2, 1) @ part  # one BLAS product per joint
     return grams
 
 

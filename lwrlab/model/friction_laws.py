@@ -132,7 +132,7 @@ def describe_law(law: FrictionLaw) -> str:
 
     def value(v: Any) -> str:
         if isinstance(v, list | tuple) and len(v) > 3:  # one per drive: the range
-            return f"{min(v):.3g}…{max(v):.3g}"
+            return f"{min(v):.3g}" if min(v) == max(v) else f"{min(v):.3g}…{max(v):.3g}"
         if isinstance(v, list | tuple):
             return "[" + ", ".join(f"{x:.3g}" for x in v) + "]"
         return f"{v:.3g}" if isinstance(v, float) else str(v)

@@ -101,7 +101,7 @@ def identification_rows(
     states: list[list[np.ndarray]] = [[], [], []]
 
     for data in processed:
-        base_regressor = LogRegressor.of(robot, data.dq, data.working_rate_hz, base.columns)
+        base_regressor = LogRegressor.of(robot, data.velocities, data.working_rate_hz, base.columns)
         for block in data.row_blocks(base_regressor):
             accumulator.add(block.w, block.tau)
             if keep:

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.dynamics.base_parameters import BaseParameters
-from lwrlab.dynamics.regressor import log_history, regressor
+from lwrlab.dynamics.regressor import LogRegressor, regressor
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
 from lwrlab.plants.core import Measurement
@@ -190,7 +190,8 @@ def predict_measurement(
     variance = None if covariance is None else np.empty_like(predicted)
     # Block by block: the full regressor of every sample of a long log would not fit in memory.
     # One BLAS thread: products of this size lose to a second thread on a busy core.
-    history = log_history(robot, data.dq, data.working_rate_hz)  # a friction law's memory, or None
+    # a friction law's memory over the whole log, or None
+    history = LogRegressor.of(robot, data.velocities, data.working_rate_hz).history
     with dense_algebra():
         for block in data.state_blocks():
             for first in range(0, len(block.t), REGRESSOR_BLOCK_SAMPLES):

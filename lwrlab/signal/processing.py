@@ -255,6 +255,15 @@ class ProcessedData:
         for first in range(start, stop, self.block_samples):
             yield self.states(first, min(stop, first + self.block_samples))
 
+    def velocities(self, stop: int | None = None) -> np.ndarray:
+        """(stop, N_J) velocities (rad/s) of the working samples ``[0, stop)``, built block by block
+        (the whole states are not kept: a friction law's memory needs the velocities only)."""
+        stop = self.n_working if stop is None else min(stop, self.n_working)
+        out = np.empty((stop, self.raw_q.shape[1]))
+        for block in self.state_blocks(0, stop):
+            out[block.start : block.start + len(block.t)] = block.dq
+        return out
+
     def row_blocks(self, regressor: Regressor) -> Iterator[RowBlock]:
         """The identification rows block by block (see :meth:`rows`), in the order of ``index``."""
         if self.index.size == 0:
