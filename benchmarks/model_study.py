@@ -98,7 +98,7 @@ SETTINGS = [
         "sdp, fixed euclidean 1e-2 (previous sdp)", "sdp", {"regularization": "euclidean", "weight": 1e-2}
     ),
     Setting("sdp, no prior", "sdp", {"regularization": "none", "weight": 0.0}),
-    Setting("sdp auto, min (default)", "sdp"),
+    Setting("sdp auto, min (sign friction: previous default for logs)", "sdp"),
     Setting("sdp auto, one_se", "sdp", {"selection": "one_se"}),
     Setting("sdp auto, euclidean", "sdp", {"regularization": "euclidean"}),
     Setting("sdp auto, 3 folds", "sdp", {"folds": 3}),
