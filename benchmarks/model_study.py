@@ -59,7 +59,7 @@ from lwrlab.identification.friction_choice import choose_friction  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
 from lwrlab.pipeline.identification import prediction_interval  # noqa: E402
-from lwrlab.pipeline.log_predictions import predict_measurement  # noqa: E402
+from lwrlab.pipeline.identification.log_predictions import predict_measurement  # noqa: E402
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402
 

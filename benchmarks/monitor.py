@@ -2,7 +2,7 @@
 
 1. The observer's cost: the real-time step function (one sample, 7 joints) and the vectorised form
    over a log, µs per sample.
-2. The MuJoCo scenario (:mod:`lwrlab.pipeline.monitor_scenario`): a perturbed LWR4 identified from its
+2. The MuJoCo scenario (:mod:`lwrlab.pipeline.monitor.scenario`): a perturbed LWR4 identified from its
    contact-free logs, then ``--contact-free-s`` seconds of contact-free motion followed by pushes
    (5–50 N, 50–500 ms) and impacts on links 3–7 during ``--contact-s`` seconds. Thresholds from the
    identification logs. Scored for the identified and the CAD model, the momentum observer and the
@@ -55,7 +55,7 @@ from lwrlab.monitoring.scoring import (  # noqa: E402
     score_detections,
 )
 from lwrlab.pipeline.build import build  # noqa: E402
-from lwrlab.pipeline.monitor_scenario import identify_logs, write_scenario  # noqa: E402
+from lwrlab.pipeline.monitor.scenario import identify_logs, write_scenario  # noqa: E402
 
 REAL_LWR4 = REPOSITORY.parent / "shared" / "data" / "kuka_lwr4_hw"
 NPZ_MAP = {"t": "times", "q": "positions", "dq": "velocities", "tau": "torques"}

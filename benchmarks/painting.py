@@ -52,7 +52,7 @@ from lwrlab.control.joint_pd import ControlSetup
 from lwrlab.kinematics.swivel_ik import SwivelIK
 from lwrlab.pipeline.build import build
 from lwrlab.pipeline.painting import path_problem
-from lwrlab.pipeline.tool_library import load_tool
+from lwrlab.pipeline.tools.library import load_tool
 from lwrlab.planning.path_optimisation import GRADIENTS, optimise_path
 from lwrlab.plants.simulation import perturbed_robot
 from plugins.controllers.force_pi import ForcePIControl

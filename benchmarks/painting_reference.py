@@ -26,8 +26,8 @@ from lwrlab.kinematics.swivel_ik import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build, shipped_config
-from lwrlab.pipeline.painting_runs import CONTROL_RATE_HZ, contact_plant
-from lwrlab.pipeline.tool_library import load_tool
+from lwrlab.pipeline.painting.runs import CONTROL_RATE_HZ, contact_plant
+from lwrlab.pipeline.tools.library import load_tool
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path
 from lwrlab.plants.contact_batch import ContactPlantBatch
 from lwrlab.plants.mujoco_contact import MujocoContactPlant, Wall

@@ -13,8 +13,10 @@ Data sets (each with a fit and a validation split that plays motions the fit has
 Settings compared: the old processing (τ filtered at 10 Hz, regressor not; every 20th sample;
 weighted least squares; no offset friction), the new defaults (the same zero-phase filter on q, τ
 and every regressor column at an automatic cut-off, 5 × cut-off rows, velocity auto, offsets and OLS
-for logs), and one change at a time around the defaults. The score is ‖τ − τ̂‖/‖τ‖ (%) on the
-validation logs' raw torques at their logged samples; for simulators also the base-parameter error.
+for logs: the estimator is held at least squares here, the shipped estimator for logs, ``sdp``, was
+chosen afterwards by ``benchmarks/model_study.py``), and one change at a time around the defaults.
+The score is ‖τ − τ̂‖/‖τ‖ (%) on the validation logs' raw torques at their logged samples; for
+simulators also the base-parameter error.
 
     .venv/bin/python benchmarks/processing_study.py    # prints the table, writes outputs/processing_study.csv
 """
@@ -41,7 +43,7 @@ from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.io.logs import load_log  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
-from lwrlab.pipeline.log_predictions import predict_measurement  # noqa: E402
+from lwrlab.pipeline.identification.log_predictions import predict_measurement  # noqa: E402
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402
 
@@ -72,7 +74,8 @@ class Setting:
     parallel: bool = True
     """Filter the regressor's columns like τ (False: the old processing, τ only)."""
     estimator: str = "default"
-    """ols, wls, or default (ols for logs, wls for our simulator: the shipped configuration)."""
+    """ols, wls, or default (ols for logs, wls for our simulator): least squares, as when this study
+    chose the processing; the shipped estimator for logs is now ``sdp`` (``benchmarks/model_study.py``)."""
     offset: str = "default"
     """on, off, or default (on for logs)."""
 

@@ -1,13 +1,13 @@
-"""Rewrite the README's result tables from runs, so that no figure in them is typed by hand.
+"""Rewrite the site's result tables from runs, so that no figure in them is typed by hand.
 
-Each generated table sits between ``<!-- generated: <name> -->`` and ``<!-- /generated -->`` in
-README.md. For every name this script runs the command that produces it (a preset and
-``lwrlab report``, or a benchmark), in a temporary folder with its own MLflow store, takes the table
-from the output and writes it between the markers::
+Each generated table sits between ``<!-- generated: <name> -->`` and ``<!-- /generated -->`` in a page
+of the documentation site (``docs/**/*.md``) or in README.md. For every name this script runs the
+command that produces it (a preset and ``lwrlab report``, or a benchmark), in a temporary folder
+with its own MLflow store, takes the table from the output and writes it between the markers::
 
     .venv/bin/python docs/readme_tables.py                    # every table (about 20 minutes on 2 cores)
     .venv/bin/python docs/readme_tables.py table2 fig6       # some of them
-    .venv/bin/python docs/readme_tables.py table2 --check    # exit 1 if the README differs from a new run
+    .venv/bin/python docs/readme_tables.py table2 --check    # exit 1 if the page differs from a new run
 
 ``--check`` compares numbers to 3 significant figures (BLAS builds differ in the last digits); the
 slow test suite runs it on Table II.
@@ -28,6 +28,7 @@ from pathlib import Path
 
 REPOSITORY = Path(__file__).resolve().parents[1]
 README = REPOSITORY / "README.md"
+DOCS = REPOSITORY / "docs"
 BIN = Path(sys.executable).parent
 BLOCK = re.compile(r"(<!-- generated: (?P<name>\w+) -->\n)(?P<body>.*?)(<!-- /generated -->)", re.S)
 NUMBER = re.compile(r"−?-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
@@ -35,7 +36,7 @@ NUMBER = re.compile(r"−?-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 
 @dataclass(frozen=True)
 class Source:
-    """How one README table is produced."""
+    """How one generated table is produced."""
 
     commands: tuple[tuple[str, ...], ...]
     """Commands run in order in a fresh folder (``lwrlab`` and ``python`` from this environment)."""
@@ -44,7 +45,7 @@ class Source:
     minutes: float
     """About how long it takes on 2 cores."""
     figures: tuple[tuple[str, str], ...] = ()
-    """(glob in the run folder, path in the repository) of figures the README shows beside the table."""
+    """(glob in the run folder, path in the repository) of figures the page shows beside the table."""
 
 
 def _report_table(heading: str) -> Callable[[str, Path], str]:
@@ -111,7 +112,7 @@ SOURCES = {
         5.0,
     ),
 }
-"""Every generated README table, by the name in its marker."""
+"""Every generated table of the site, by the name in its marker."""
 
 
 def first_table(text: str) -> str:
@@ -162,8 +163,18 @@ def same_figures(a: str, b: str, significant: int = 3) -> bool:
 
 
 def blocks(text: str) -> dict[str, str]:
-    """The README's generated tables by name."""
+    """The generated tables of one page by name."""
     return {m.group("name"): m.group("body") for m in BLOCK.finditer(text)}
+
+
+def pages() -> list[Path]:
+    """The files that may hold generated tables: the README and the site's pages."""
+    return [README, *sorted(DOCS.rglob("*.md"))]
+
+
+def site_blocks() -> dict[str, tuple[Path, str]]:
+    """Every generated table of the README and the site by name, with the file holding it."""
+    return {name: (page, body) for page in pages() for name, body in blocks(page.read_text()).items()}
 
 
 def replace(text: str, name: str, table: str) -> str:
@@ -176,28 +187,27 @@ def replace(text: str, name: str, table: str) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", help=f"tables to rewrite (default all: {', '.join(SOURCES)})")
-    parser.add_argument("--check", action="store_true", help="compare with the README, change nothing")
+    parser.add_argument("--check", action="store_true", help="compare with the pages, change nothing")
     args = parser.parse_args(argv)
-    text = README.read_text()
-    present = blocks(text)
+    present = site_blocks()
     names = args.names or list(SOURCES)
     for name in names:
         if name not in SOURCES or name not in present:
-            raise SystemExit(f"unknown table {name!r}: the README's generated tables are {sorted(present)}")
+            raise SystemExit(f"unknown table {name!r}: the site's generated tables are {sorted(present)}")
     stale, tables = [], {}
     for name in names:
         print(f"{name}: running (about {SOURCES[name].minutes:g} min)", flush=True)
         tables[name] = produce(name)
-        if args.check and not same_figures(present[name], tables[name]):
+        page, body = present[name]
+        if args.check and not same_figures(body, tables[name]):
             stale.append(name)
-            print(f"{name}: the README differs from a new run:\n{tables[name]}")
+            print(f"{name}: {page.relative_to(REPOSITORY)} differs from a new run:\n{tables[name]}")
     if args.check:
         return 1 if stale else 0
-    text = README.read_text()  # again: the README may have been edited while the runs ran
     for name, table in tables.items():
-        text = replace(text, name, table)
-    README.write_text(text)
-    print(f"rewrote {', '.join(names)} in {README}")
+        page = present[name][0]
+        page.write_text(replace(page.read_text(), name, table))  # read again: edits made while runs ran
+        print(f"rewrote {name} in {page.relative_to(REPOSITORY)}")
     return 0
 
 

@@ -10,7 +10,7 @@ from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.tool_library import load_library
+from lwrlab.pipeline.tools.library import load_library
 from lwrlab.tools.recognition import UNKNOWN_TOOL, interpolate_geometry, noise_distance, recognise
 
 CLASSIFIERS = sorted(Path(__file__).resolve().parents[1].joinpath("conf", "classifier").glob("*.yaml"))

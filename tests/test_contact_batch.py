@@ -16,8 +16,8 @@ from lwrlab.control.joint_pd import ControlSetup
 from lwrlab.kinematics import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.pipeline.build import build, shipped_config
-from lwrlab.pipeline.painting_runs import contact_plant
-from lwrlab.pipeline.tool_library import load_tool
+from lwrlab.pipeline.painting.runs import contact_plant
+from lwrlab.pipeline.tools.library import load_tool
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path
 from lwrlab.plants.contact_batch import ContactPlantBatch
 from lwrlab.plants.mujoco_contact import Wall

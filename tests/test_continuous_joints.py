@@ -297,7 +297,7 @@ def test_a_prismatic_and_continuous_arm_is_identified_and_exported(
     need a revolute chain) writes its identified URDF with the prismatic and continuous joints; were a
     joint not exportable, the report would go without the URDF, with a warning, and keep its metrics."""
     from lwrlab.io.urdf_export import UnexportableJointError
-    from lwrlab.pipeline import identification_report
+    from lwrlab.pipeline.identification import report as identification_report
     from lwrlab.pipeline.config_nodes import resolved_mapping
     from lwrlab.pipeline.identification import identify_configured
 

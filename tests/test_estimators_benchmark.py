@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from composing import compose_config
 
-from lwrlab.pipeline.estimator_benchmark import run_estimator_benchmark
+from lwrlab.pipeline.studies.estimator_benchmark import run_estimator_benchmark
 from lwrlab.tracking.reports.benchmark_tables import METRICS, collect, write_summary
 
 

@@ -18,7 +18,7 @@ from lwrlab.excitation.solver import InfeasibleExcitationError, SlsqpOptimizer, 
 from lwrlab.io.exciting_motion import load_motion_description
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.duration_study import knee_duration, recommended_duration
+from lwrlab.pipeline.studies.duration_study import knee_duration, recommended_duration
 from lwrlab.pipeline.excitation import regressor_condition
 from plugins.criteria.logdet import LogDet
 from plugins.trajectories.fourier import FourierMotion

@@ -13,8 +13,8 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig
 from test_end_to_end import only_run, run_lwrlab
 
-from lwrlab.pipeline.criteria_comparison import run_criteria_comparison
-from lwrlab.pipeline.duration_study import run_duration_study
+from lwrlab.pipeline.studies.criteria_comparison import run_criteria_comparison
+from lwrlab.pipeline.studies.duration_study import run_duration_study
 
 SMALL = ["optimizer.max_iterations=40", "optimizer.show_progress=false", "plant.show_progress=false"]
 

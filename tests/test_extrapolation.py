@@ -16,7 +16,7 @@ from lwrlab.identification.extrapolation import assess_extrapolation, likely_cau
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
 from lwrlab.pipeline.identification import identify
-from lwrlab.pipeline.identification_report import run_tags
+from lwrlab.pipeline.identification.report import run_tags
 from plugins.plants.simulated import SimulatedPlant
 
 SLOW = {"duration": 30.0, "harmonics": 2, "seed": 5}

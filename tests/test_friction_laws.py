@@ -17,7 +17,7 @@ from lwrlab.identification.friction_choice import choose_friction, speed_noise
 from lwrlab.model.friction_laws import FrictionLaw, SignCoulomb, describe_law, law_from_mapping, law_mapping
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.log_predictions import process_measurement
+from lwrlab.pipeline.identification.log_predictions import process_measurement
 from lwrlab.plants.core import Measurement
 from lwrlab.resources import config_group
 from plugins.friction.holding import HoldingFriction

@@ -11,10 +11,13 @@
 
 Inside a package the arrows point down too: no import cycle among a package's modules and
 sub-packages (every package of ``lwrlab`` and ``plugins``), and the parts of ``lwrlab.tracking``
-import only the parts below them::
+and of ``lwrlab.pipeline`` import only the parts below them::
 
     companion ──► lifecycle ──► runs ──► store ──► job_config
     reports ────────────────────► runs, store, job_config
+
+    chain ──► studies, painting, monitor ──► tools ──► identification ──► config_nodes, config_checks, build
+              studies, painting ──────────► excitation ─────────────────► config_nodes, config_checks, build
 
 Every ``import`` counts, at module level or inside a function (the whole syntax tree is walked),
 except under ``if TYPE_CHECKING:`` (annotations only, never executed). Relative imports are resolved
@@ -221,8 +224,8 @@ FORBIDDEN_IMPORTS = [  # (module, its source, the forbidden import the checker m
     ("plugins.robots.identified", "def f():\n    import mlflow.artifacts\n", "mlflow.artifacts"),
     (
         "lwrlab.tracking.reports.benchmark_summary",
-        "from lwrlab.pipeline.estimator_benchmark import write_summary\n",
-        "lwrlab.pipeline.estimator_benchmark.write_summary",
+        "from lwrlab.pipeline.studies.estimator_benchmark import write_summary\n",
+        "lwrlab.pipeline.studies.estimator_benchmark.write_summary",
     ),
     ("lwrlab.tracking.reports.benchmark_summary", "from lwrlab import pipeline\n", "lwrlab.pipeline"),
     (
@@ -244,7 +247,7 @@ FORBIDDEN_IMPORTS = [  # (module, its source, the forbidden import the checker m
     ),
     ("lwrlab.model.robot", "import omegaconf\n", "omegaconf"),
     ("lwrlab.pipeline.painting", "from lwrlab.cli import main\n", "lwrlab.cli.main"),
-    ("lwrlab.pipeline.estimator_benchmark", "import matplotlib\n", "matplotlib"),
+    ("lwrlab.pipeline.studies.estimator_benchmark", "import matplotlib\n", "matplotlib"),
     ("plugins.criteria.cond", "from lwrlab.pipeline.identification import identify\n", "lwrlab.pipeline"),
     ("lwrlab.model", "from .. import tracking\n", "lwrlab.tracking"),
 ]
@@ -449,19 +452,24 @@ TRACKING_PARTS: dict[str, SubPackage] = {
 """The arrows between the parts of :mod:`lwrlab.tracking`; the package's ``__init__`` may name any."""
 
 
-def tracking_part_violations(graph: Graph) -> list[str]:
-    """Messages for every arrow between tracking's parts that :data:`TRACKING_PARTS` does not allow."""
+def part_violations(package: str, parts: dict[str, SubPackage], graph: Graph) -> list[str]:
+    """Messages for every arrow between ``package``'s parts that ``parts`` does not allow."""
     found = []
     for part, targets in sorted(graph.items()):
         if part == "__init__":
             continue
-        rule = TRACKING_PARTS.get(part)
+        rule = parts.get(part)
         if rule is None:
-            found.append(f"{TRACKING}.{part}: a part with no rule in TRACKING_PARTS (declare its arrows)")
+            found.append(f"{package}.{part}: a part with no rule (declare its arrows)")
             continue
         for target in sorted(targets - set(rule.may_import)):
-            found.append(f"{TRACKING}.{part} imports {TRACKING}.{target} ({rule.why})")
+            found.append(f"{package}.{part} imports {package}.{target} ({rule.why})")
     return found
+
+
+def tracking_part_violations(graph: Graph) -> list[str]:
+    """Messages for every arrow between tracking's parts that :data:`TRACKING_PARTS` does not allow."""
+    return part_violations(TRACKING, TRACKING_PARTS, graph)
 
 
 def test_tracking_is_made_of_sub_packages_that_say_what_they_own() -> None:
@@ -537,3 +545,75 @@ def test_the_checker_finds_an_arrow_up_between_tracking_parts() -> None:
     found = tracking_part_violations(package_graph(TRACKING, sources))
     assert len(found) == 1 and found[0].startswith(f"{TRACKING}.runs imports {TRACKING}.lifecycle"), found
     assert [frozenset({"runs", "lifecycle"})] == cycles(package_graph(TRACKING, sources))
+
+
+# --- lwrlab.pipeline's parts: one sub-package per task, shared modules below, the chain on top -----
+
+PIPELINE = "lwrlab.pipeline"
+_SHARED = ("config_nodes", "config_checks", "build")
+PIPELINE_PARTS: dict[str, SubPackage] = {
+    part.name: part
+    for part in (
+        SubPackage("config_nodes", (), "reading config nodes is the bottom: every task uses it"),
+        SubPackage("config_checks", ("config_nodes",), "checking a config needs no task"),
+        SubPackage("build", (), "the configured objects of a job need no task"),
+        SubPackage(
+            "identification",
+            _SHARED,
+            "identification is the base the other tasks build on: it knows none of them",
+        ),
+        SubPackage("excitation", _SHARED, "an exciting motion is designed before anything is identified"),
+        SubPackage(
+            "tools", (*_SHARED, "identification"), "tools build on identification, not on the uses of tools"
+        ),
+        SubPackage(
+            "monitor",
+            (*_SHARED, "identification", "tools"),
+            "monitoring reads models and logs; no task reads monitoring",
+        ),
+        SubPackage(
+            "painting",
+            (*_SHARED, "identification", "tools", "excitation"),
+            "the painting chain uses identification and tools; no task uses painting",
+        ),
+        SubPackage(
+            "studies",
+            (*_SHARED, "identification", "excitation", "tools"),
+            "studies repeat the tasks below them; no task depends on a study",
+        ),
+        SubPackage(
+            "chain",
+            (*_SHARED, "identification", "excitation", "tools", "monitor", "painting", "studies"),
+            "the paper chain runs the tasks in turn: the top",
+        ),
+    )
+}
+"""The arrows between the parts of :mod:`lwrlab.pipeline`; the package's ``__init__`` may name any."""
+
+
+def test_pipeline_is_grouped_by_task_in_sub_packages_that_say_what_they_own() -> None:
+    folder = REPOSITORY / "lwrlab" / "pipeline"
+    modules = {path.stem for path in folder.glob("*.py") if path.name != "__init__.py"}
+    parts = {path.parent.name for path in folder.glob("*/__init__.py")}
+    assert modules | parts == set(PIPELINE_PARTS), "every part of the pipeline has a rule, every rule a part"
+    assert modules <= {"chain", *_SHARED}, "a task's modules live in its sub-package"
+    for part in parts:
+        docstring = ast.get_docstring(ast.parse((folder / part / "__init__.py").read_text()))
+        assert docstring and len(docstring) > 80, f"{PIPELINE}.{part}/__init__.py: say what the part owns"
+
+
+def test_pipeline_parts_import_only_the_parts_below() -> None:
+    found = part_violations(PIPELINE, PIPELINE_PARTS, package_graph(PIPELINE, SOURCES))
+    assert not found, "\n".join(found)
+
+
+def test_the_checker_finds_an_arrow_up_between_pipeline_parts() -> None:
+    module = f"{PIPELINE}.identification.rows"
+    sources = {
+        **SOURCES,
+        module: (SOURCES[module][0] + "\n\ndef f():\n    from lwrlab.pipeline.tools import bench\n", False),
+    }
+    found = part_violations(PIPELINE, PIPELINE_PARTS, package_graph(PIPELINE, sources))
+    assert len(found) == 1 and found[0].startswith(f"{PIPELINE}.identification imports {PIPELINE}.tools"), (
+        found
+    )

@@ -21,7 +21,7 @@ from lwrlab.io.rosbag import write_joint_states
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
 from lwrlab.pipeline.identification import IdentificationReport, identify, identify_configured
-from lwrlab.pipeline.identification_report import write_report
+from lwrlab.pipeline.identification.report import write_report
 from lwrlab.plants.core import Measurement
 from plugins.plants.log import LogPlant
 from plugins.plants.simulated import SimulatedPlant

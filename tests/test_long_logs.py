@@ -26,7 +26,7 @@ from lwrlab.identification.row_statistics import RowAccumulator, RowStatistics
 from lwrlab.io.logs import LogError, load_log, log_frame, write_log
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.log_predictions import (
+from lwrlab.pipeline.identification.log_predictions import (
     SUMMARY_BLOCK_SAMPLES,
     LogPrediction,
     PredictionInterval,

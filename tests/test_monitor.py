@@ -299,7 +299,7 @@ def test_monitor_task_end_to_end(lwr4: RobotModel, tmp_path: Path) -> None:
 def test_mujoco_scenario_meets_the_figures(tmp_path: Path) -> None:
     """Identified model: every contact of ≥ 10 N whose true torque crosses the thresholds detected,
     median delay ≤ 20 ms, no false alarm, external torque error within 2 σ_τ; the CAD model does worse."""
-    from lwrlab.pipeline.monitor_scenario import write_scenario
+    from lwrlab.pipeline.monitor.scenario import write_scenario
 
     files = write_scenario(tmp_path / "scenario", contact_free_s=120.0, contact_s=60.0)
     results = {}

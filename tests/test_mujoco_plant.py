@@ -9,8 +9,8 @@ from omegaconf import OmegaConf
 from lwrlab.kinematics import Branch, SwivelIK
 from lwrlab.model.payload import attach_payload
 from lwrlab.pipeline.build import shipped_config
-from lwrlab.pipeline.painting_runs import contact_plant
-from lwrlab.pipeline.tool_library import load_tool
+from lwrlab.pipeline.painting.runs import contact_plant
+from lwrlab.pipeline.tools.library import load_tool
 from lwrlab.plants.mujoco_contact import (
     ContactTool,
     Wall,

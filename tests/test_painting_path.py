@@ -9,7 +9,7 @@ from scipy.interpolate import BPoly
 
 from lwrlab.pipeline.build import shipped_config
 from lwrlab.pipeline.painting import path_problem
-from lwrlab.pipeline.tool_library import load_tool
+from lwrlab.pipeline.tools.library import load_tool
 from lwrlab.planning.coverage import painted_fraction
 from lwrlab.planning.painting_path import PaintingPathParameters, sample_path, way_point_times
 from lwrlab.planning.path_optimisation import InfeasiblePath, optimise_path

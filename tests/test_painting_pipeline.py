@@ -15,9 +15,9 @@ from omegaconf import OmegaConf
 from lwrlab.control.contact_loop import ContactRun
 from lwrlab.kinematics.swivel_ik import Branch
 from lwrlab.pipeline.painting import run_painting
-from lwrlab.pipeline.painting_report import format_table4
-from lwrlab.pipeline.painting_runs import RollerPlan, force_errors, score_run
-from lwrlab.pipeline.tool_library import load_tool
+from lwrlab.pipeline.painting.report import format_table4
+from lwrlab.pipeline.painting.runs import RollerPlan, force_errors, score_run
+from lwrlab.pipeline.tools.library import load_tool
 from lwrlab.planning.painting_path import PaintingPathParameters
 from lwrlab.planning.path_optimisation import PathSolution
 from lwrlab.plants.mujoco_contact import Wall

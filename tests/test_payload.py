@@ -11,7 +11,7 @@ from lwrlab.identification.payload import identify_payload, identify_payload_onl
 from lwrlab.model.inertia import is_physically_consistent
 from lwrlab.model.payload import flange_to_joint_matrix, payload_in_joint_frame
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.tool_library import load_tool
+from lwrlab.pipeline.tools.library import load_tool
 from lwrlab.signal.processing import process
 from plugins.plants.simulated import SimulatedPlant
 

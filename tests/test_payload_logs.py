@@ -24,7 +24,7 @@ from lwrlab.io.logs import joint_columns, log_frame, write_log
 from lwrlab.model.inertia import standard_parameters
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.tool_library import load_tool
+from lwrlab.pipeline.tools.library import load_tool
 from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
 from plugins.plants.simulated import SimulatedPlant

@@ -1,4 +1,4 @@
-"""Every command the README shows is exercised: a README that drifts from the code fails here.
+"""Every command the README and the manual show is exercised: docs that drift from the code fail here.
 
 Commands are read from the README's fenced bash blocks and from inline code that starts like a
 command. A job command (``make run ARGS="…"``, ``lwrlab …``) composes with its overrides and passes
@@ -30,6 +30,14 @@ from lwrlab.pipeline.config_checks import violations
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+DOCUMENTS = [README, *sorted((ROOT / "docs").rglob("*.md"))]
+"""The README and the manual's pages (docs/): every command either shows is checked."""
+
+
+def documents_text() -> str:
+    """The README and every page of the manual, one after the other."""
+    return "\n\n".join(path.read_text() for path in DOCUMENTS)
+
 
 AS_IS = {
     "make test": "CI runs it (.ci/run)",
@@ -76,7 +84,7 @@ def _inline_commands(text: str) -> Iterator[str]:
 
 
 def readme_commands() -> list[str]:
-    text = README.read_text()
+    text = documents_text()
     return sorted(set(_fenced_commands(text)) | set(_inline_commands(text)))
 
 
@@ -178,8 +186,9 @@ def test_readme_command_is_exercised(command: str, tmp_path: Path) -> None:
 
 
 def _write_readme_files(root: Path) -> None:
-    """The files the README's python and yaml blocks ask the reader to write, under ``root``."""
-    text = README.read_text()
+    """The files the README's and the manual's python and yaml blocks ask the reader to write, under
+    ``root``."""
+    text = documents_text()
     for body in re.findall(r"```(?:python|yaml)\n(.*?)```", text, flags=re.S):
         match = re.match(r"# (?:~/my_lab/)?((?:conf|plugins)/\S+|\w+\.py)\n", body)
         if match:
@@ -198,7 +207,7 @@ def _tables_script():  # docs/ is not a package: load the script by path
 
 def test_every_generated_table_has_a_source() -> None:
     tables = _tables_script()
-    assert set(tables.blocks(README.read_text())) == set(tables.SOURCES)
+    assert set(tables.site_blocks()) == set(tables.SOURCES)
 
 
 def test_the_table_check_compares_figures() -> None:

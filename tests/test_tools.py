@@ -16,7 +16,7 @@ from lwrlab.model.payload import (
     payload_in_joint_frame,
 )
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.tool_library import build_tool, load_library, load_tool, tool_names
+from lwrlab.pipeline.tools.library import build_tool, load_library, load_tool, tool_names
 from lwrlab.tools.library import PAPER_TOOLS
 from lwrlab.tools.model import composite_tool
 from lwrlab.tools.shapes import Box, Cylinder, Sphere
@@ -194,7 +194,7 @@ def test_tool_motion_candidates_start_at_the_yaml_seed_and_need_one(lwr4) -> Non
     from functools import partial
 
     from lwrlab.errors import ConfigError
-    from lwrlab.pipeline.tools import tool_motion
+    from lwrlab.pipeline.tools.bench import tool_motion
     from plugins.trajectories.multisine import MultisineMotion
 
     settings = build("trajectory", "multisine", duration=2.0, harmonics=3)

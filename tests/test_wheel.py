@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from lwrlab.pipeline.tool_library import tool_names
+from lwrlab.pipeline.tools.library import tool_names
 from lwrlab.resources import CONFIG_SEARCH_PATH, config_group, resolve_data_path
 
 REPOSITORY = Path(__file__).resolve().parents[1]
@@ -168,7 +168,7 @@ def test_installed_wheel_runs_the_identification_and_loads_the_tool_library_in_a
 ) -> None:
     env_dir, environment = installed["env"], installed["environment"]
     probe = (
-        "import json, lwrlab, lwrlab.conf, plugins; from lwrlab.pipeline.tool_library import load_library; library = load_library(); "
+        "import json, lwrlab, lwrlab.conf, plugins; from lwrlab.pipeline.tools.library import load_library; library = load_library(); "
         "print(json.dumps({'modules': [lwrlab.__file__, lwrlab.conf.__file__, plugins.__file__], "
         "'tools': list(library.names), 'large_roller_mass': library['large_roller'].mass}))"
     )

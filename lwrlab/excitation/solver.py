@@ -6,123 +6,34 @@ Each start is a random motion around the middle of the joint ranges; the best fe
 A progress bar follows the iterations. The report gives the final criterion, the constraints active
 at the optimum and the worst slack of every family; a problem no start can satisfy raises
 :class:`InfeasibleExcitationError` naming the violated constraints.
+
+What a solve reports lives in :mod:`lwrlab.excitation.solver_report`, the final check at the playing
+rate in :mod:`lwrlab.excitation.motion_check` (both re-exported here).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import OptimizeResult, minimize
 from tqdm.auto import tqdm
 
-from lwrlab.errors import InfeasibleProblemError
-from lwrlab.excitation.collision_check import CollisionCheck, check_collisions
-from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
+from lwrlab.excitation.motion_check import MotionCheck, check_motion, check_motion_at, verify_motion
 from lwrlab.excitation.problem import ExcitationProblem
-from lwrlab.model.robot import RobotModel
+from lwrlab.excitation.solver_report import (
+    ACTIVE_TOLERANCE,
+    FEASIBILITY_TOLERANCE,
+    ExcitationResult,
+    FamilyReport,
+    InfeasibleExcitationError,
+    RejectedMotionError,
+    describe_violations,
+    family_reports,
+)
 from lwrlab.numerics.slsqp import vector_inequality
 from lwrlab.numerics.threads import blas_threads
-from lwrlab.trajectory.parameterisation import LinearParameterisation
-
-FEASIBILITY_TOLERANCE = 1e-4
-"""Largest accepted violation of a scaled constraint on the optimisation grid (fraction of the limit,
-or m), SLSQP's own feasibility accuracy at its default ``ftol``. The margins of the constraint
-settings are far larger, and the final check at 1 kHz has no tolerance."""
-ACTIVE_TOLERANCE = 1e-4
-"""A scaled constraint with less slack than this counts as active."""
-
-
-class InfeasibleExcitationError(InfeasibleProblemError, RuntimeError):
-    """No start of the optimiser satisfied every constraint; the message names the violated ones."""
-
-
-class RejectedMotionError(InfeasibleExcitationError):
-    """A motion failed its final check (limits, torques, contacts at the playing rate); the message
-    says which constraint, where, when and by how much."""
-
-
-@dataclass(frozen=True)
-class FamilyReport:
-    """Worst slack of one constraint family on a sample grid."""
-
-    family: str
-    worst_slack: float
-    """Smallest slack (physical unit, negative = violated)."""
-    unit: str
-    where: str
-    """Column (joint and side, sphere or pair) of the worst slack."""
-    time_s: float
-    """Time of the worst slack (s)."""
-    active_windows: int = 0
-    """Aggregated constraints of this family active at the optimum (slack < ACTIVE_TOLERANCE)."""
-
-    @property
-    def violated(self) -> bool:
-        return self.worst_slack < 0.0
-
-
-def family_reports(
-    constraint_set: ConstraintSet, t: np.ndarray, slacks: dict[str, np.ndarray], scaled_tolerance: float = 0.0
-) -> list[FamilyReport]:
-    """Worst slack of each family over samples at times t (s).
-
-    Violations beyond ``scaled_tolerance`` count.
-    """
-    reports = []
-    for family, slack in slacks.items():
-        scaled = slack / constraint_set.scales(family)
-        k, c = np.unravel_index(np.argmin(scaled), scaled.shape)
-        worst = float(slack[k, c]) if scaled[k, c] < -scaled_tolerance else max(float(slack[k, c]), 0.0)
-        labels = constraint_set.column_labels(family)
-        reports.append(FamilyReport(family, worst, ConstraintSet.UNITS[family], labels[c], float(t[k])))
-    return reports
-
-
-def describe_violations(reports: list[FamilyReport]) -> str:
-    """One line per violated family: which constraint, where, when, by how much."""
-    return "\n  ".join(
-        f"{r.family} constraint {r.where} violated by {-r.worst_slack:.4g} {r.unit} at t = {r.time_s:.3f} s"
-        for r in reports
-        if r.violated
-    )
-
-
-@dataclass
-class ExcitationResult:
-    """The optimum of an excitation problem."""
-
-    coefficients: np.ndarray
-    """(n_coefficients, N_J) optimal coefficients (via points, rad, for the B-spline)."""
-    cost: float
-    """Criterion at the optimum (unit-free)."""
-    reports: list[FamilyReport]
-    """Worst slack of each family on the optimisation grid."""
-    iterations: int
-    evaluations: int
-    seconds: float
-    """Wall time of the whole multi-start optimisation (s)."""
-    start_costs: list[float] = field(default_factory=list)
-    """Final cost of every start (inf for infeasible ones)."""
-    message: str = ""
-
-    def summary(self) -> str:
-        """The report as Markdown lines."""
-        lines = [
-            f"criterion {self.cost:.6g} after {self.iterations} iterations "
-            f"({self.evaluations} criterion evaluations, "
-            f"{self.seconds:.1f} s, best of {len(self.start_costs)} start(s))",
-            "",
-            "| constraint | worst slack | unit | where | t [s] | active windows |",
-            "|---|---|---|---|---|---|",
-        ]
-        lines += [
-            f"| {r.family} | {r.worst_slack:.4g} | {r.unit} | {r.where} "
-            f"| {r.time_s:.2f} | {r.active_windows} |"
-            for r in self.reports
-        ]
-        return "\n".join(lines)
 
 
 @dataclass
@@ -386,82 +297,18 @@ class SlsqpOptimizer:
         ]
 
 
-@dataclass(frozen=True)
-class MotionCheck:
-    """The final check of a motion: the worst slack of every family, and its exact collision check."""
-
-    reports: list[FamilyReport]
-    collisions: CollisionCheck | None
-    """The exact check of contacts (None: the robot has no collision model)."""
-
-    @property
-    def passed(self) -> bool:
-        return not any(r.violated for r in self.reports)
-
-    def describe(self) -> str:
-        """The violated families, one line each, then every pair in contact."""
-        lines = [describe_violations(self.reports)]
-        if self.collisions is not None and self.collisions.contacts:
-            lines.append(self.collisions.describe())
-        return "\n  ".join(line for line in lines if line)
-
-
-def _collision_reports(check: CollisionCheck) -> list[FamilyReport]:
-    """The world and self-collision families from the exact check: the closest approach minus the
-    clearance, where and when."""
-    reports = []
-    for family, kind in (("world", "world"), ("self_collision", "self")):
-        closest = check.closest(kind)
-        if closest is None:
-            continue
-        reports.append(
-            FamilyReport(
-                family,
-                closest.distance - closest.clearance,
-                "m",
-                f"{closest.body_a}–{closest.body_b}",
-                closest.t,
-            )
-        )
-    return reports
-
-
-def check_motion_at(
-    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float
-) -> MotionCheck:
-    """Every constraint at ``rate_hz`` against the robot's true limits and its exact geometry.
-
-    The check a robot needs before playing the motion: no margin, the exact Coulomb ``sign(q̇)`` in
-    the torques (Pinocchio's RNEA plus friction), every sample of the resampled motion; contacts with
-    itself and the world by :func:`~lwrlab.excitation.collision_check.check_collisions` on the
-    robot's own geometry (its collision meshes and primitives, or its hand-written spheres).
-    """
-    exact = ConstraintSet(robot, replace(settings, limit_margin=0.0, distance_margin=0.0))
-    t = motion.times(rate_hz)
-    q, dq, ddq = motion.evaluate(t)
-    reports = family_reports(exact, t, exact.slacks(q, dq, ddq, collisions=False))
-    collisions = None
-    if exact.scene.checked_self_pairs or exact.scene.checked_world_pairs:
-        collisions = check_collisions(exact.scene, t, q, settings.clearance)
-        reports += _collision_reports(collisions)
-    return MotionCheck(reports, collisions)
-
-
-def verify_motion(
-    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float
-) -> list[FamilyReport]:
-    """Worst slack of every constraint family at ``rate_hz`` (:func:`check_motion_at`)."""
-    return check_motion_at(robot, motion, settings, rate_hz).reports
-
-
-def check_motion(
-    robot: RobotModel, motion: LinearParameterisation, settings: ConstraintSettings, rate_hz: float
-) -> list[FamilyReport]:
-    """:func:`check_motion_at`, raising :class:`RejectedMotionError` naming any violated constraint."""
-    check = check_motion_at(robot, motion, settings, rate_hz)
-    if not check.passed:
-        raise RejectedMotionError(
-            f"the exciting motion violates constraints of {robot.name} at {rate_hz:g} Hz:\n  "
-            + check.describe()
-        )
-    return check.reports
+__all__ = [
+    "ACTIVE_TOLERANCE",
+    "FEASIBILITY_TOLERANCE",
+    "ExcitationResult",
+    "FamilyReport",
+    "InfeasibleExcitationError",
+    "MotionCheck",
+    "RejectedMotionError",
+    "SlsqpOptimizer",
+    "check_motion",
+    "check_motion_at",
+    "describe_violations",
+    "family_reports",
+    "verify_motion",
+]

@@ -41,7 +41,7 @@ def duration_figure(
     """(a) optimal cost vs T_F, (b) successive differences, per criterion (like Fig. 5).
 
     ``costs``: columns criterion, duration_s, cost, relative_cost, relative_step (see
-    :func:`lwrlab.pipeline.duration_study.knee_duration`). The criteria have unrelated scales, so (a)
+    :func:`lwrlab.pipeline.studies.duration_study.knee_duration`). The criteria have unrelated scales, so (a)
     shows each one's cost rescaled to [0, 1] over the durations, and (b) each one's successive
     differences over its total decrease, with the knee threshold ``fraction``.
     """

@@ -1,7 +1,7 @@
 """The direct residual τ − τ̂(q, q̇, q̈) and the joint motion it needs, from a log.
 
 The model's torque needs the acceleration: the positions are low-passed by a zero-phase Butterworth
-(:func:`lwrlab.signal.processing.lowpass`) and differentiated twice by centred differences, and the
+(:func:`lwrlab.signal.filters.lowpass`) and differentiated twice by centred differences, and the
 measured torque goes through the same filter so that both sides of the residual see the same band
 (Gautier's parallel filtering). Zero-phase filtering looks ahead: the direct residual is an offline
 comparison. The observer (:mod:`lwrlab.monitoring.observer`) needs no acceleration, and its velocity
@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
-from lwrlab.signal.processing import central_difference, lowpass
+from lwrlab.signal.filters import central_difference, lowpass
 
 FILTER_ORDER = 4
 """Order of the zero-phase Butterworth on positions and torques."""

@@ -17,7 +17,7 @@ from typing import Any
 
 from lwrlab.pipeline.config_nodes import resolved_mapping
 from lwrlab.pipeline.identification import identify_configured
-from lwrlab.pipeline.identification_report import format_report, write_report
+from lwrlab.pipeline.identification.report import format_report, write_report
 
 log = logging.getLogger(__name__)
 

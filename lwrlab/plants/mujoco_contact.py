@@ -240,7 +240,7 @@ class MujocoContactPlant:
     seed : seed of the sensor noise.
 
     The settings are the painting task's ``contact`` (conf/task/painting.yaml), the one place of
-    their values; :func:`lwrlab.pipeline.painting_runs.contact_plant` builds the plant from them.
+    their values; :func:`lwrlab.pipeline.painting.runs.contact_plant` builds the plant from them.
     The joint friction's Coulomb term is smoothed with the plants' constant
     :data:`~lwrlab.plants.simulation.COULOMB_SMOOTHING`.
     """

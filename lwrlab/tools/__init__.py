@@ -4,7 +4,7 @@
 - :mod:`lwrlab.tools.model` the :class:`Tool` (geometry + 10 flange-frame parameters);
 - :mod:`lwrlab.tools.painting` parametric rollers and brushes;
 - :mod:`lwrlab.tools.library` the :class:`ToolLibrary` (read from ``conf/tool/``, one YAML per tool, by
-  :mod:`lwrlab.pipeline.tool_library`: ``load_tool(name)``);
+  :mod:`lwrlab.pipeline.tools.library`: ``load_tool(name)``);
 - :mod:`lwrlab.tools.recognition` the classifier protocol and the ``Recognition`` result.
 """
 

@@ -2,7 +2,7 @@
 
 The shipped library is one YAML file per tool in ``conf/tool/`` (config group ``tool``); building it
 from those files is the config's business (Hydra's ``instantiate``), in
-:mod:`lwrlab.pipeline.tool_library` (``load_tool(name)``, ``load_library()``).
+:mod:`lwrlab.pipeline.tools.library` (``load_tool(name)``, ``load_library()``).
 """
 
 from __future__ import annotations

@@ -38,7 +38,7 @@ class PCALookup(DistanceClassifier):
 
     Examples
     --------
-    >>> from lwrlab.pipeline.tool_library import load_library
+    >>> from lwrlab.pipeline.tools.library import load_library
     >>> library = load_library()
     >>> from lwrlab.pipeline.build import build  # conf/classifier/pca_lookup.yaml's settings
     >>> pca = build("classifier", "pca_lookup").fit(library)

@@ -45,7 +45,6 @@ import logging
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Self
 
 import cvxpy as cp
@@ -53,10 +52,17 @@ import numpy as np
 
 from lwrlab.identification.compression import CompressedLeastSquares, compress
 from lwrlab.identification.consistency import (
-    consistency_constraints,
     min_pseudo_inertia_eigenvalues,
-    pseudo_inertia_expression,
-    segment_slices,
+)
+from lwrlab.identification.consistent_programme import (
+    REGULARIZATIONS,
+    WeightedProgramme,
+    chosen_weight,
+    divergence,
+    divergence_metric,
+    made_consistent,
+    physical_constraints,
+    weighted_programme,
 )
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.core import LearnedAttributes
@@ -67,46 +73,16 @@ from lwrlab.identification.least_squares import (
     set_learned_attributes_from_statistics,
 )
 from lwrlab.identification.prior_weight import (
-    entropic_metric,
     information_scale,
     posterior_covariance,
     prior_share,
 )
 from lwrlab.identification.row_statistics import RowStatistics
-from lwrlab.model.inertia import from_pseudo_inertia, pseudo_inertia
 from lwrlab.numerics.threads import dense_algebra
 
 log = logging.getLogger(__name__)
 
-REGULARIZATIONS = ("none", "euclidean", "entropic")
 _ACCEPTED = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
-
-
-@dataclass(frozen=True)
-class _WeightedProgramme:
-    """A compiled prior-weighted programme: its variable and the parameters a re-solve sets."""
-
-    problem: cp.Problem
-    phi: cp.Variable
-    factor: cp.Parameter
-    target: cp.Parameter
-    weight: cp.Parameter
-
-
-def _chosen_weight(fold_scores: np.ndarray, selection: str) -> int:
-    """Index of the chosen candidate, the candidates sorted by increasing weight.
-
-    ``min``: the smallest held-out error. ``one_se``: the largest weight whose error is within one
-    standard error of the smallest (Breiman's rule: the simplest model the data cannot tell from the
-    best), the standard error taken over the folds.
-    """
-    totals = fold_scores.sum(axis=0)
-    best = int(np.argmin(totals))
-    if selection == "min":
-        return best
-    folds = fold_scores.shape[0]
-    standard_error = float(np.std(fold_scores[:, best], ddof=1)) * np.sqrt(folds)
-    return int(np.flatnonzero(totals <= totals[best] + standard_error).max())
 
 
 class SolverFailure(RuntimeError):
@@ -226,41 +202,14 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
                 )
         return context
 
-    def _regularizer(self, phi: cp.Variable, context: IdentificationContext) -> cp.Expression:
-        n_inertial = 10 * context.n_links
-        if self.regularization == "euclidean":
-            return cp.sum_squares(phi[:n_inertial] - context.prior[:n_inertial])
-        terms = []
-        for part in segment_slices(context.n_links):
-            j_prior_inv = np.linalg.inv(pseudo_inertia(context.prior[part]))
-            j = pseudo_inertia_expression(phi[part])
-            terms.append(-cp.log_det(j) + cp.trace(j_prior_inv @ j))
-        return cp.sum(cp.hstack(terms))
-
-    def _metric(self, context: IdentificationContext) -> np.ndarray:
-        """(P, P) quadratic form of the regularisation at the prior (zero on friction)."""
-        n_inertial = 10 * context.n_links
-        if self.regularization == "entropic":
-            return entropic_metric(context.prior, context.n_links)
-        metric = np.zeros((context.n_parameters, context.n_parameters))
-        if self.regularization == "euclidean":
-            metric[np.arange(n_inertial), np.arange(n_inertial)] = 1.0
-        return metric
-
     def _constraints(self, phi: cp.Expression, context: IdentificationContext) -> list[cp.Constraint]:
-        constraints = consistency_constraints(phi, context.n_links, margin=self.min_eigenvalue)
-        if self.friction_nonnegative:
-            dissipative = context.nonnegative_indices()
-            if dissipative.size:
-                constraints.append(phi[dissipative] >= 0)
-        if self.mass_bounds is not None:
-            masses = np.array([part.start for part in segment_slices(context.n_links)])
-            low, high = self.mass_bounds
-            constraints += [
-                phi[masses] >= low * context.prior[masses],
-                phi[masses] <= high * context.prior[masses],
-            ]
-        return constraints
+        return physical_constraints(
+            phi,
+            context,
+            min_eigenvalue=self.min_eigenvalue,
+            friction_nonnegative=self.friction_nonnegative,
+            mass_bounds=self.mass_bounds,
+        )
 
     def _problem(
         self, W: np.ndarray, tau: np.ndarray, context: IdentificationContext
@@ -289,7 +238,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     ) -> tuple[cp.Problem, cp.Variable]:
         objective = fit
         if self.regularization != "none" and float(self.weight) > 0:
-            objective = fit + float(self.weight) * self._regularizer(phi, context)
+            objective = fit + float(self.weight) * divergence(phi, context, self.regularization)
         return cp.Problem(cp.Minimize(objective), self._constraints(phi, context)), phi
 
     def _solve(self, problem: cp.Problem) -> None:
@@ -325,40 +274,20 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         )
 
     def _clean(self, standard: np.ndarray, context: IdentificationContext) -> np.ndarray:
-        """Undo the solver's tolerance (eigenvalues ~ −1e-9): clip every pseudo-inertia's eigenvalues
-        at ``min_eigenvalue`` and dissipative friction at 0, so the result is consistent exactly;
-        the base parameters move by about the solver tolerance."""
-        standard = standard.copy()
-        for part in segment_slices(context.n_links):
-            values, vectors = np.linalg.eigh(pseudo_inertia(standard[part]))
-            if values[0] < self.min_eigenvalue:
-                standard[part] = from_pseudo_inertia(
-                    (vectors * np.maximum(values, self.min_eigenvalue)) @ vectors.T
-                )
-        if self.friction_nonnegative:
-            index = context.nonnegative_indices()
-            standard[index] = np.maximum(standard[index], 0.0)
-        return standard
+        return made_consistent(
+            standard,
+            context,
+            min_eigenvalue=self.min_eigenvalue,
+            friction_nonnegative=self.friction_nonnegative,
+        )
 
-    def _programme(self, context: IdentificationContext, metric: np.ndarray) -> _WeightedProgramme:
-        """``‖R·K·φ − y‖² + λ·ΔφᵀSΔφ`` under the constraints, compiled once for every fold and weight."""
-        n_base = context.regrouping.shape[0]
+    def _programme(self, context: IdentificationContext, metric: np.ndarray) -> WeightedProgramme:
         phi = cp.Variable(context.n_parameters, name="phi")
-        factor = cp.Parameter((n_base, n_base), name="R")
-        target = cp.Parameter(n_base, name="y")
-        weight = cp.Parameter(nonneg=True, name="weight")
-        objective = cp.sum_squares(factor @ (context.regrouping @ phi) - target)
-        values, vectors = np.linalg.eigh(metric)
-        kept = values > 1e-12 * max(float(values.max()), 1e-300)
-        if kept.any():
-            root = (vectors[:, kept] * np.sqrt(values[kept])).T  # S = rootᵀ·root
-            objective = objective + weight * cp.sum_squares(root @ (phi - context.prior))
-        problem = cp.Problem(cp.Minimize(objective), self._constraints(phi, context))
-        return _WeightedProgramme(problem, phi, factor, target, weight)
+        return weighted_programme(context, metric, self._constraints(phi, context), phi)
 
     def _solve_weighted(
         self,
-        programme: _WeightedProgramme,
+        programme: WeightedProgramme,
         compressed: CompressedLeastSquares,
         weight: float,
         context: IdentificationContext,
@@ -382,7 +311,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
 
     def _fit_auto(self, statistics: RowStatistics, context: IdentificationContext) -> np.ndarray:
         """Cross-validate the weight over contiguous blocks, then fit all rows with the winner."""
-        metric = self._metric(context)
+        metric = divergence_metric(context, self.regularization)
         grid = np.asarray(self.weight_grid, dtype=float) if metric.any() else np.zeros(1)
         programme = self._programme(context, metric)
         regrouping, n_joints = context.regrouping, context.n_joints
@@ -406,7 +335,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
                 squares = statistics.residual_squares(regrouping @ standard)[fold]
                 scores[fold, index] = squares.sum()
                 joint_squares[fold, index] = squares
-        best = _chosen_weight(scores, self.selection)
+        best = chosen_weight(scores, self.selection)
         self.weight_ = float(grid[best])
         self.cv_scores_ = scores.sum(axis=0)
         chosen = joint_squares[:, best]  # (folds, N_J)

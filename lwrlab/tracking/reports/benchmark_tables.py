@@ -1,6 +1,6 @@
 """The estimator benchmark's sweep summarised: job rows collected, mean and spread per estimator and preset.
 
-Pure pandas over the files the jobs wrote (:mod:`lwrlab.pipeline.estimator_benchmark` names and
+Pure pandas over the files the jobs wrote (:mod:`lwrlab.pipeline.studies.estimator_benchmark` names and
 documents them): :class:`lwrlab.tracking.reports.benchmark_summary.EstimatorBenchmarkSummary` calls
 :func:`write_summary` at the end of the sweep;
 ``python -m lwrlab.tracking.reports.benchmark_tables <sweep_dir>`` re-aggregates an earlier one.

@@ -1,0 +1,179 @@
+"""Task ``identification``: motion → plant → processing → base-parameter estimation → cross-validation.
+
+:func:`identify` is pure computation on configured objects and returns an
+:class:`~lwrlab.pipeline.identification.result.IdentificationReport`, a sequence of stages each with
+one job: :func:`~lwrlab.pipeline.identification.measuring.measure` and
+:func:`~lwrlab.pipeline.identification.measuring.process_measurements`;
+:func:`~lwrlab.pipeline.identification.fitting.choose_drive_terms`,
+:func:`~lwrlab.pipeline.identification.fitting.accumulate_rows`,
+:func:`~lwrlab.pipeline.identification.fitting.assess` and
+:func:`~lwrlab.pipeline.identification.fitting.fit`;
+:func:`~lwrlab.pipeline.identification.scoring.predict`,
+:func:`~lwrlab.pipeline.identification.scoring.tabulate`,
+:func:`~lwrlab.pipeline.identification.scoring.extrapolate` and
+:func:`~lwrlab.pipeline.identification.scoring.score`; then
+:func:`~lwrlab.pipeline.identification.notes.notes`.
+:mod:`lwrlab.pipeline.identification.report` puts its tables, arrays and figures on disk. The
+tracking callback logs the output directory to MLflow, so nothing here knows about MLflow or Hydra
+(``hydra.utils.instantiate`` is imported only by the configured entry points).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from lwrlab.identification.core import Estimator
+from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
+from lwrlab.pipeline.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
+from lwrlab.pipeline.identification.measuring import measure, process_measurements
+from lwrlab.pipeline.identification.notes import notes
+from lwrlab.pipeline.identification.report import format_report, write_report
+from lwrlab.pipeline.identification.result import IdentificationReport
+from lwrlab.pipeline.identification.scoring import (
+    extrapolate,
+    likely_causes_of_poor_validation,
+    predict,
+    score,
+    tabulate,
+)
+from lwrlab.plants.core import Plant, is_recorded
+from lwrlab.trajectory.core import MotionSource
+
+
+def identify(
+    robot: RobotModel,
+    motion_source: MotionSource | None,
+    validation_source: MotionSource | None,
+    plant: Plant,
+    estimator: Estimator,
+    rate_hz: float = 1000.0,
+    processing: dict[str, Any] | None = None,
+    statistics: dict[str, Any] | None = None,
+) -> IdentificationReport:
+    """Identify the base parameters of the robot behind ``plant`` and validate them.
+
+    Parameters
+    ----------
+    robot : the nominal (CAD) model: its structure gives the base parameters, its torques check
+        the motions against the limits, its values are the prior of the standard set.
+    motion_source, validation_source : the exciting motion and the validation motion; not used
+        (may be None) for a plant that replays recorded logs: the logs are the motions.
+    plant : the robot (simulated, or recorded logs) that executes them.
+    estimator : fits base parameters to the processed data, as ``estimator.fit(W_b, τ, context=...)``
+        with the :class:`IdentificationContext` of this identification.
+    rate_hz : sampling rate of a simulated measurement (Hz).
+    processing : keyword arguments of :func:`lwrlab.signal.processing.process`.
+    statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k}`` (the ``statistics``
+        group's settings, all four): with n > 0, block bootstrap confidence intervals
+        (:func:`lwrlab.identification.bootstrap.block_bootstrap`) are added to the parameter table.
+    """
+    processing = dict(processing or {})
+    measured = measure(robot, motion_source, validation_source, plant, rate_hz)
+    processed = process_measurements(measured, processing)
+    fitted = getattr(plant, "fitted_joints", None)  # (N_J,) bool, or None: every joint
+    robot, base, friction_choice = choose_drive_terms(robot, processed, fitted)
+    bootstrap = statistics is not None and statistics["resamples"] > 0
+    rows = accumulate_rows(robot, base, processed, estimator, fitted, keep_rows=bootstrap)
+    has_prior = bool(getattr(estimator, "uses_prior", False))
+    identifiability = assess(robot, base, rows, has_prior)
+    fitting = fit(robot, base, rows, estimator, measured.motion, processed[0])
+    predictions = predict(robot, base, estimator, measured, processed, processing, rows, fitted)
+    tables = tabulate(
+        robot,
+        base,
+        estimator,
+        measured,
+        predictions,
+        rows,
+        processed[0],
+        fitting.context,
+        plant,
+        statistics,
+        fitted,
+    )
+    causes = likely_causes_of_poor_validation(robot, measured, rows)
+    extrapolation = extrapolate(robot, base, estimator, causes)
+    metrics = score(
+        robot,
+        base,
+        estimator,
+        rows,
+        fitting,
+        predictions,
+        tables,
+        identifiability,
+        friction_choice,
+        extrapolation,
+    )
+    share = getattr(estimator, "prior_share_", None)
+    return IdentificationReport(
+        robot=robot,
+        base=base,
+        identified=fitting.identified,
+        identifiability=identifiability,
+        extrapolation=extrapolation,
+        friction_choice=friction_choice,
+        notes=notes(
+            robot,
+            base,
+            measured,
+            processed,
+            friction_choice,
+            fitted,
+            identifiability,
+            extrapolation,
+            metrics,
+            causes,
+            has_prior,
+            share,
+        ),
+        motion=measured.motion,
+        validation_motion=measured.validation_motion,
+        measurements=measured.measurements,
+        validation_measurements=measured.validation_measurements,
+        parameters=tables.parameters,
+        validation=tables.validation,
+        predictions=predictions.all,
+        metrics=metrics,
+    )
+
+
+def configured_robot(cfg: Any) -> RobotModel:
+    """The robot ``cfg.robot`` builds, with the friction law of ``cfg.friction`` (``auto``: the
+    candidates :func:`identify` chooses from); a robot description that names its own law keeps it."""
+    from hydra.utils import instantiate
+
+    robot: RobotModel = instantiate(cfg.robot)
+    law = cfg.get("friction")
+    if law is None or cfg.robot.get("friction_law") is not None:
+        return robot
+    return robot.with_friction_law(instantiate(law))
+
+
+def identify_configured(cfg: Any) -> IdentificationReport:
+    """:func:`identify` with the objects ``cfg`` configures (robot, motions, plant, estimator, processing)."""
+    from hydra.utils import instantiate
+
+    robot = configured_robot(cfg)
+    plant = instantiate(cfg.plant)(robot=robot)
+    recorded = is_recorded(plant)  # logs: no motion is sampled, optimised or checked
+    return identify(
+        robot=robot,
+        motion_source=None if recorded else instantiate(cfg.trajectory),
+        validation_source=None if recorded else instantiate(cfg.validation),
+        plant=plant,
+        estimator=instantiate(cfg.estimator),
+        rate_hz=cfg.measurement.rate_hz,
+        processing=processing_settings(cfg),
+        statistics=statistics_settings(cfg),
+    )
+
+
+def run_identification(cfg: Any, output_dir: Path, motion_format: str = "parquet") -> dict[str, float]:
+    """Task ``identification``: build the configured objects, identify, write and print the report."""
+    report = identify_configured(cfg)
+    write_report(report, output_dir, resolved_mapping(cfg.robot, "robot"), motion_format)
+    print(format_report(report))
+    return report.metrics

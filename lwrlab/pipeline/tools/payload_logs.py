@@ -1,0 +1,282 @@
+"""Task ``payload``: a payload's 10 parameters from recorded logs, recognised against the tool library.
+
+An unloaded log (or an earlier run's ``identified_model.yaml``) plus a loaded log give the payload's
+10 parameters by eq. (7) (:mod:`lwrlab.identification.payload`), recognised against the tool library,
+written in the flange frame (``payload.yaml``, ``payload_inertial.urdf.xml``)::
+
+    lwrlab task=payload plant=log 'task.unloaded_paths=[u.csv]' 'task.loaded_paths=[l.csv]'
+
+The logs are read and processed as :mod:`lwrlab.pipeline.tools.log_rows` says (the ``plant=log`` reader,
+the identification's processing).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+import warnings
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from lwrlab.errors import ConfigError
+from lwrlab.identification.core import relative_std
+from lwrlab.identification.payload import PayloadEstimate
+from lwrlab.io.artifacts import identified_model_path, load_identified_model
+from lwrlab.io.urdf_export import inertial_element
+from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
+from lwrlab.pipeline.config_nodes import processing_settings
+from lwrlab.pipeline.tools.bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
+from lwrlab.pipeline.tools.library import load_library, load_tool
+from lwrlab.pipeline.tools.log_rows import log_rows, read_logs
+from lwrlab.tools.model import Tool
+from lwrlab.tools.recognition import UNKNOWN_TOOL, Recognition, ToolClassifier, UnknownToolWarning
+
+log = logging.getLogger(__name__)
+
+
+def earlier_robot_base(bench: ToolBench, model_path: str | Path) -> np.ndarray:
+    """The robot's base parameters from an earlier run's ``identified_model.yaml`` (or its folder).
+
+    Raises a ``ValueError`` when its base parameters are not this robot's (another robot, other
+    friction terms).
+    """
+    path = identified_model_path(model_path)
+    model, _ = load_identified_model(path)
+    if tuple(model.base_names) != tuple(bench.base.names):
+        raise ConfigError(
+            f"{path}: its base parameters {list(model.base_names)} are not those of {bench.robot.name} with "
+            f"friction terms {list(bench.robot.friction_terms)} ({list(bench.base.names)}); "
+            "identify the unloaded robot with the same robot and robot.friction_terms"
+        )
+    return np.asarray(model.base_values, dtype=float)
+
+
+def identify_payload_from_rows(
+    bench: ToolBench,
+    loaded: ToolData,
+    unloaded: ToolData | None = None,
+    robot_base: np.ndarray | None = None,
+    method: str | None = None,
+    weighted: bool = True,
+    consistent: bool = False,
+) -> PayloadEstimate:
+    """The payload's parameters from loaded rows and either unloaded rows or known robot base parameters.
+
+    ``method``: ``joint`` (eq. (7), needs ``unloaded``), ``payload_only`` (the robot first, from
+    ``unloaded`` or ``robot_base``), or None: ``joint`` with unloaded rows, else ``payload_only``.
+    """
+    if unloaded is not None and robot_base is None:
+        return identify_tool(bench, unloaded, loaded, _payload_method(method, "joint"), weighted, consistent)
+    if robot_base is not None and unloaded is None:
+        if _payload_method(method, "payload_only") == "joint":
+            raise ConfigError(
+                "method=joint (eq. (7)) needs unloaded logs; with an identified model use method=payload_only"
+            )
+        return identify_tool_given_robot(bench, loaded, robot_base, weighted, consistent)
+    raise ConfigError(
+        "give the unloaded robot either as unloaded logs (task.unloaded_paths) or as an "
+        "identified model (task.unloaded_model), not both"
+    )
+
+
+def _payload_method(method: str | None, default: str) -> str:
+    """``method``, or ``default`` when None; a :data:`METHODS` name."""
+    chosen = method or default
+    if chosen not in METHODS:
+        raise ConfigError(f"unknown payload method {chosen!r}; valid: {list(METHODS)}")
+    return chosen
+
+
+def inertial_snippet(phi_flange: np.ndarray) -> str:
+    """A URDF ``<inertial>`` element of a payload (flange frame), for a link whose frame is the flange.
+
+    Origin at the centre of mass, axes of the flange; inertia about the centre of mass (kg·m²).
+    """
+    inertial = inertial_element(np.asarray(phi_flange, dtype=float))
+    ET.indent(inertial)
+    text = ET.tostring(inertial, encoding="unicode")
+    if not is_physically_consistent(phi_flange):
+        text = "<!-- not a physically consistent rigid body: identify with task.consistent=true -->\n" + text
+    return "<!-- payload in the flange frame (lwrlab task=payload) -->\n" + text + "\n"
+
+
+def payload_document(estimate: PayloadEstimate, recognition: Recognition | None) -> dict[str, Any]:
+    """``payload.yaml``: mass, CoM, inertia about the CoM and the 10 standard parameters (flange frame)."""
+    phi = estimate.phi_flange
+    std = np.sqrt(np.diag(estimate.covariance_flange))
+    mass, com, inertia = mass_com_inertia(phi)
+    document: dict[str, Any] = {
+        "frame": "flange (origin on the mounting face); SI units: kg, m, kg·m²",
+        "method": estimate.method,
+        "mass": float(mass),
+        "center_of_mass": [float(c) for c in com],
+        "inertia_about_com": {
+            k: float(inertia[i, j])
+            for k, (i, j) in zip(
+                ("xx", "yy", "zz", "xy", "xz", "yz"),
+                ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)),
+                strict=True,
+            )
+        },
+        "parameters": {name: float(v) for name, v in zip(LINK_PARAMETER_NAMES, phi, strict=True)},
+        "std": {name: float(s) for name, s in zip(LINK_PARAMETER_NAMES, std, strict=True)},
+        "relative_std_pct": {
+            name: float(s) for name, s in zip(LINK_PARAMETER_NAMES, relative_std(phi, std), strict=True)
+        },
+        "physically_consistent": bool(is_physically_consistent(phi)),
+        "cond": float(estimate.cond),
+    }
+    if recognition is not None:
+        document["recognised"] = {
+            "tool": recognition.tool,  # "unknown" when far from every library tool
+            "nearest": recognition.nearest,
+            "kind": recognition.kind,  # kind and geometry: the nearest tool's
+            "confidence": float(recognition.confidence),
+            "noise_distance_sigma": float(recognition.noise_distance),
+            "unknown_above_sigma": float(recognition.unknown_distance),
+            "geometry": dict(recognition.geometry),
+        }
+    return document
+
+
+def _payload_metrics(
+    estimate: PayloadEstimate, recognition: Recognition | None, truth: Tool | None
+) -> dict[str, float]:
+    mass, com, _ = mass_com_inertia(estimate.phi_flange)
+    metrics = {
+        "mass": float(mass),
+        **{f"com_{axis}": float(c) for axis, c in zip("xyz", com, strict=True)},
+        "cond": float(estimate.cond),
+    }
+    if recognition is not None:
+        metrics |= {
+            "recognition_confidence": float(recognition.confidence),
+            "recognition_noise_distance": float(recognition.noise_distance),
+            f"recognised_{recognition.tool}": 1.0,  # recognised_unknown: far from every library tool
+        }
+    if truth is not None:
+        true_phi = truth.parameters
+        scale = np.where(
+            true_phi != 0, np.abs(true_phi), np.abs(true_phi[4:7]).max()
+        )  # zero products: relative to the inertia
+        metrics |= {
+            "mass_error_pct": float(100 * (mass / truth.mass - 1)),
+            "com_error_mm": float(1000 * np.linalg.norm(com - truth.center_of_mass)),
+            **{
+                f"relative_error_{name}": float(e)
+                for name, e in zip(
+                    LINK_PARAMETER_NAMES, np.abs(estimate.phi_flange - true_phi) / scale, strict=True
+                )
+            },
+        }
+        if recognition is not None:
+            metrics["recognised_correct"] = float(recognition.tool == truth.name)
+    return metrics
+
+
+def format_payload(document: dict[str, Any], truth: Tool | None = None) -> str:
+    """The payload as Markdown: mass, CoM, recognition and the 10 parameters (with the truth if known)."""
+    com = ", ".join(f"{1000 * c:.2f}" for c in document["center_of_mass"])
+    lines = [
+        f"## Payload identified from logs ({document['method']}), flange frame",
+        "",
+        f"mass {document['mass']:.5g} kg, centre of mass ({com}) mm, physically consistent: "
+        f"{document['physically_consistent']}",
+    ]
+    if "recognised" in document:
+        r = document["recognised"]
+        nearness = f"{r['noise_distance_sigma']:.3g} σ, unknown above {r['unknown_above_sigma']:.3g} σ"
+        if r["tool"] == UNKNOWN_TOOL:
+            lines.append(
+                f"WARNING: unknown tool: the payload is far from every library tool; nearest "
+                f"{r['nearest']} ({r['kind']}) at {nearness}"
+            )
+        else:
+            lines.append(
+                f"recognised: {r['tool']} ({r['kind']}, confidence {r['confidence']:.3f}, {nearness}, "
+                f"length {r['geometry']['length']} m, width {r['geometry']['width']} m)"
+            )
+    header = "| parameter | value | std | %σ |" + (" truth |" if truth is not None else "")
+    lines += ["", header, "|---|---|---|---|" + ("---|" if truth is not None else "")]
+    for i, name in enumerate(LINK_PARAMETER_NAMES):
+        row = (
+            f"| {name} | {document['parameters'][name]:.6g} | {document['std'][name]:.3g} | "
+            f"{document['relative_std_pct'][name]:.3g} |"
+        )
+        lines.append(row + (f" {truth.parameters[i]:.6g} |" if truth is not None else ""))
+    return "\n".join(lines)
+
+
+def run_payload(
+    cfg: Any,
+    output_dir: Path,
+    unloaded_paths: Sequence[str] | None = None,
+    loaded_paths: Sequence[str] | None = None,
+    unloaded_model: str | None = None,
+    method: str | None = None,
+    weighted: bool = True,
+    consistent: bool = False,
+    library: Sequence[str] | None = None,
+    truth: str | None = None,
+) -> dict[str, float]:
+    """Task ``payload``: a payload's 10 parameters from logs, recognised against the tool library.
+
+    Parameters (the task config's, conf/task/payload.yaml)
+    ----------
+    unloaded_paths : logs of the robot without the payload (or ``unloaded_model``).
+    loaded_paths : logs of the robot carrying it.
+    unloaded_model : an earlier run's ``identified_model.yaml`` (or its folder) standing for the
+        unloaded robot (payload-only method).
+    method : ``joint`` (eq. (7)), ``payload_only``, or None (joint with unloaded logs, payload_only
+        with a model).
+    weighted, consistent : Gautier's weighting per (motion, joint); the SDP with J(Φ_L) ⪰ 0.
+    library : the tools of the look-up (None: every tool of conf/tool/); the ``classifier`` config
+        recognises the payload.
+    truth : a library tool name known to be the payload (simulated logs): relative errors are added.
+
+    Writes ``payload.yaml``, ``payload_inertial.urdf.xml``, ``summary.md`` and ``metrics.json``.
+    """
+    from hydra.utils import instantiate
+
+    output_dir.mkdir(parents=True, exist_ok=True)
+    if not loaded_paths:
+        raise ConfigError("task=payload needs the loaded log(s): 'task.loaded_paths=[loaded.csv]'")
+    if not unloaded_paths and not unloaded_model:
+        raise ConfigError(
+            "task=payload needs the unloaded robot: 'task.unloaded_paths=[unloaded.csv]' or "
+            "task.unloaded_model=<run>/identified_model.yaml"
+        )
+    robot = instantiate(cfg.robot)
+    bench = ToolBench.for_robot(robot, processing_settings(cfg))
+    if unloaded_paths and unloaded_model:
+        log.warning("both unloaded logs and an unloaded model given: the logs are used")
+    # before reading logs: fail fast
+    robot_base = earlier_robot_base(bench, unloaded_model) if unloaded_model and not unloaded_paths else None
+    start = time.perf_counter()
+    loaded = log_rows(bench, read_logs(cfg, robot, loaded_paths, "loaded"))
+    unloaded = log_rows(bench, read_logs(cfg, robot, unloaded_paths, "unloaded")) if unloaded_paths else None
+    estimate = identify_payload_from_rows(bench, loaded, unloaded, robot_base, method, weighted, consistent)
+    seconds = time.perf_counter() - start
+    tools = load_library(list(library) if library else None)
+    classifier: ToolClassifier = instantiate(cfg.classifier).fit(tools)
+    recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
+    if not recognition.known:
+        warnings.warn(recognition.describe(), UnknownToolWarning, stacklevel=1)
+    true_tool = (tools[truth] if truth in tools.names else load_tool(truth)) if truth else None
+
+    document = payload_document(estimate, recognition)
+    (output_dir / "payload.yaml").write_text(yaml.safe_dump(document, sort_keys=False, allow_unicode=True))
+    snippet = inertial_snippet(estimate.phi_flange)
+    (output_dir / "payload_inertial.urdf.xml").write_text(snippet)
+    metrics = _payload_metrics(estimate, recognition, true_tool) | {"identification_s": seconds}
+    text = format_payload(document, true_tool) + "\n\nURDF inertial (flange frame):\n\n" + snippet
+    (output_dir / "summary.md").write_text(text)
+    (output_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    print(text)
+    return metrics
