@@ -212,9 +212,11 @@ def test_sdp_regularisations_give_consistent_models(regularization: str, problem
 
 def test_sdp_compressed_and_uncompressed_agree(problem: dict) -> None:
     noisy = problem["tau"] + 0.2 * np.random.default_rng(2).normal(size=problem["tau"].shape)
-    compressed = _estimator("sdp").fit(problem["w"], noisy, context=problem["context"])
-    full = _estimator("sdp", compress=False).fit(problem["w"], noisy, context=problem["context"])
+    compressed = _estimator("sdp", weight=1e-4).fit(problem["w"], noisy, context=problem["context"])
+    full = _estimator("sdp", weight=1e-4, compress=False).fit(problem["w"], noisy, context=problem["context"])
     assert _relative_error(compressed.phi_, full.phi_) < 1e-5
+    with pytest.raises(ValueError, match="compress=False needs a fixed weight"):
+        _estimator("sdp", compress=False).fit(problem["w"], noisy, context=problem["context"])
 
 
 def test_sdp_mass_bounds_hold(problem: dict) -> None:

@@ -193,6 +193,10 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
                 f"weight: auto needs folds ≥ 2, a weight_grid and selection min|one_se, got "
                 f"folds={self.folds}, weight_grid={list(self.weight_grid)}, selection={self.selection!r}"
             )
+        if self.weight == "auto" and not self.compress:
+            raise ValueError(
+                "compress=False needs a fixed weight: weight: auto always fits from the rows' QR factors"
+            )
         if self.mass_bounds is not None:
             low, high = self.mass_bounds
             if not 0.0 <= low <= high:
