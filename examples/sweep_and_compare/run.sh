@@ -19,15 +19,7 @@
 set -euo pipefail
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-absolute() { if [[ "$1" == /* ]]; then echo "$1"; else echo "$PWD/$1"; fi; }
-LWRLAB="$(command -v "${LWRLAB:-lwrlab}")" || { echo "lwrlab not found: set LWRLAB" >&2; exit 127; }
-LWRLAB="$(absolute "$LWRLAB")"
-PYTHON="${PYTHON:-$(sed -n '1s/^#!//p' "$LWRLAB")}"  # by default the interpreter lwrlab runs on
-if [[ "$PYTHON" == */* ]]; then PYTHON="$(absolute "$PYTHON")"; fi
-[[ -x "$PYTHON" ]] || PYTHON=python3
-OUT="${1:-$(mktemp -d "${TMPDIR:-/tmp}/lwrlab_sweep.XXXXXX")}"
-mkdir -p "$OUT"
-OUT="$(cd "$OUT" && pwd)"
+source "$HERE/../environment.sh" lwrlab_sweep "${1:-}"  # LWRLAB, PYTHON, OUT, absolute
 cd "$OUT"  # nothing lands in the folder the script was started from
 STORE="sqlite:///$OUT/mlflow.db"
 EXPERIMENT=example_sweep

@@ -29,7 +29,7 @@ from lwrlab.dynamics.chain_regressor import fill_chain_regressor
 from lwrlab.dynamics.friction_regressor import fill_friction_regressor
 from lwrlab.dynamics.pinocchio_regressor import loop_inertial_regressor
 from lwrlab.dynamics.serial_chain import serial_chain
-from lwrlab.model.friction_laws import has_memory, history_columns
+from lwrlab.model.friction_laws import has_memory, history_columns, history_window
 from lwrlab.model.robot import RobotModel
 
 SMALL_BATCH = 48
@@ -144,12 +144,11 @@ class LogRegressor:
         history = log_history(robot, velocities(), rate_hz) if has_memory(robot.friction_law) else None
         return cls(robot, history, columns)
 
-    def __call__(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, start: int = 0) -> np.ndarray:
-        """Stacked rows ``(N·N_J, P)`` of the samples ``start … start + N − 1`` of the log."""
-        part = (
-            None
-            if self.history is None
-            else {term: values[start : start + len(q)] for term, values in self.history.items()}
-        )
-        full = regressor(self.robot, q, dq, ddq, history=part)
+    def __call__(
+        self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, start: int = 0, *, stacked: bool = True
+    ) -> np.ndarray:
+        """Rows of the samples ``start … start + N − 1`` of the log: stacked ``(N·N_J, P)``, or
+        ``(N, N_J, P)`` with ``stacked=False``."""
+        part = history_window(self.history, start, len(q))
+        full = regressor(self.robot, q, dq, ddq, stacked=stacked, history=part)
         return full if self.columns is None else np.take(full, self.columns, axis=-1)

@@ -29,7 +29,7 @@ import pandas as pd
 from lwrlab.dynamics.base_parameters import BaseParameters
 from lwrlab.dynamics.friction_regressor import fill_friction_regressor
 from lwrlab.dynamics.regressor import regressor
-from lwrlab.model.friction_laws import FrictionLaw, describe_law, has_memory, history_columns
+from lwrlab.model.friction_laws import FrictionLaw, describe_law, has_memory, history_columns, history_window
 from lwrlab.model.robot import RobotModel
 from lwrlab.signal.processing import ProcessedData
 
@@ -198,8 +198,7 @@ def _fold_grams(
             inertial = regressor(bare, q, dq, ddq, stacked=False)
             full[:, :, : len(inertial_columns)] = inertial[:, :, inertial_columns]
             for f, (law, term) in enumerate(families):
-                history = self.history[f]
-                part = None if history is None else {k: c[start : start + len(q)] for k, c in history.items()}
+                part = history_window(self.history[f], start, len(q))
                 first = len(inertial_columns) + f * n
                 fill_friction_regressor(dq, (term,), full, first, law=law, drive=drive, ddq=ddq, history=part)
             return full.reshape(-1, width)

@@ -192,6 +192,15 @@ def history_columns(law: FrictionLaw, v: np.ndarray, dt: float) -> dict[str, np.
     return columns
 
 
+def history_window(
+    history: dict[str, np.ndarray] | None, start: int, count: int
+) -> dict[str, np.ndarray] | None:
+    """The columns of :func:`history_columns` at the ``count`` samples from ``start`` (None: None)."""
+    if history is None:
+        return None
+    return {term: values[start : start + count] for term, values in history.items()}
+
+
 def drive_basis(
     law: FrictionLaw,
     term: str,

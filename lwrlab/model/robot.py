@@ -102,18 +102,6 @@ class Friction:
         other = {**self.other, **{k: v for k, v in values.items() if k not in standard}}
         return replace(self, **standard, other=other)
 
-    def torque(self, dq: np.ndarray, terms: tuple[str, ...]) -> np.ndarray:
-        """Friction torque (N·m) of the paper's law (sign Coulomb) at joint velocities ``dq`` (..., N_J),
-        drives uncoupled; :meth:`RobotModel.drive_torque` evaluates the robot's own law and drive train."""
-        tau = np.zeros_like(dq, dtype=float)
-        if "coulomb" in terms:
-            tau = tau + self.coulomb * np.sign(dq)
-        if "viscous" in terms:
-            tau = tau + self.viscous * dq
-        if "offset" in terms:
-            tau = tau + self.offset
-        return tau
-
 
 @dataclass(frozen=True)
 class RobotModel:

@@ -32,6 +32,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.model.friction_laws import SignCoulomb
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.recursion import first_order_recursion
 
@@ -123,7 +124,7 @@ class MomentumObserver:
         if "rotor" in terms:
             rotor = drive.coupling.T @ (friction.value("rotor")[:, None] * drive.coupling)
         object.__setattr__(self, "rotor_inertia", rotor)
-        own = self.robot.friction_law.name != "sign" or not drive.is_direct
+        own = not isinstance(self.robot.friction_law, SignCoulomb) or not drive.is_direct
         own = own or bool(set(terms) - {"coulomb", "viscous", "offset", "rotor"})
         object.__setattr__(self, "own_friction_law", own)
         data = self.robot.model.createData()

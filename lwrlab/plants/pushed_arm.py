@@ -231,7 +231,7 @@ class PushedArm:
     ) -> np.ndarray:
         """Inverse-dynamics feedforward of the nominal model at the reference, plus joint PD."""
         feedforward = pin.rnea(nominal, nominal_data, motion.q[k], motion.dq[k], motion.ddq[k])
-        feedforward = feedforward + self.nominal.friction.torque(motion.dq[k], self.nominal.friction_terms)
+        feedforward = feedforward + self.nominal.drive_torque(motion.dq[k])
         if self.nominal.rotor_inertia is not None:  # the drives accelerate their rotors too
             feedforward = feedforward + self.nominal.rotor_inertia * motion.ddq[k]
         return feedforward + self.kp * (motion.q[k] - data.qpos) + self.kd * (motion.dq[k] - data.qvel)

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.dynamics.base_parameters import BaseParameters
-from lwrlab.dynamics.regressor import LogRegressor, regressor
+from lwrlab.dynamics.regressor import LogRegressor
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
 from lwrlab.plants.core import Measurement
@@ -190,20 +190,14 @@ def predict_measurement(
     variance = None if covariance is None else np.empty_like(predicted)
     # Block by block: the full regressor of every sample of a long log would not fit in memory.
     # One BLAS thread: products of this size lose to a second thread on a busy core.
-    # a friction law's memory over the whole log, or None
-    history = LogRegressor.of(robot, data.velocities, data.working_rate_hz).history
+    # a friction law with memory reads its columns from the whole log, by sample index
+    log_regressor = LogRegressor.of(robot, data.velocities, data.working_rate_hz)
     with dense_algebra():
         for block in data.state_blocks():
             for first in range(0, len(block.t), REGRESSOR_BLOCK_SAMPLES):
                 part = slice(first, first + REGRESSOR_BLOCK_SAMPLES)
-                at = slice(block.start + first, block.start + first + len(block.t[part]))
-                full = regressor(
-                    robot,
-                    block.q[part],
-                    block.dq[part],
-                    block.ddq[part],
-                    stacked=False,
-                    history=None if history is None else {term: v[at] for term, v in history.items()},
+                full = log_regressor(
+                    block.q[part], block.dq[part], block.ddq[part], block.start + first, stacked=False
                 )
                 samples = slice(block.start + first, block.start + first + full.shape[0])
                 predicted[samples] = base.torques(full, phi)
