@@ -56,10 +56,15 @@ from lwrlab.dynamics.base_parameters import compute_base_parameters  # noqa: E40
 from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.identification.context import IdentificationContext  # noqa: E402
 from lwrlab.identification.friction_choice import choose_friction  # noqa: E402
+from lwrlab.identification.prediction_error import FRICTION_DRIFT, drift_parameters  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
 from lwrlab.pipeline.identification import prediction_interval  # noqa: E402
-from lwrlab.pipeline.identification.log_predictions import predict_measurement  # noqa: E402
+from lwrlab.pipeline.identification.log_predictions import (  # noqa: E402
+    LogPrediction,
+    joint_coverage,
+    predict_measurement,
+)
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402
 
@@ -89,6 +94,8 @@ class Setting:
     friction: str = "sign"
     """``sign``: the robot's friction law (the paper's); ``auto``: ``conf/friction/auto.yaml``, the law
     and the rotor-inertia columns chosen on the fit rows by block cross-validation."""
+    friction_drift: float = FRICTION_DRIFT
+    """ρ of the prediction interval (``statistics.friction_drift``)."""
 
 
 SETTINGS = [
@@ -104,6 +111,9 @@ SETTINGS = [
     Setting("sdp auto, 3 folds", "sdp", {"folds": 3}),
     Setting("ols, friction auto", "ols", friction="auto"),
     Setting("sdp auto, friction auto (default for logs)", "sdp", friction="auto"),
+    Setting("sdp auto, friction auto, interval drift 0", "sdp", friction="auto", friction_drift=0.0),
+    Setting("sdp auto, friction auto, interval drift 0.3", "sdp", friction="auto", friction_drift=0.3),
+    Setting("sdp auto, friction auto, interval drift 0.7", "sdp", friction="auto", friction_drift=0.7),
 ]
 
 
@@ -184,17 +194,23 @@ def evaluate(split: Split, setting: Setting) -> dict[str, float]:
         warnings.simplefilter("ignore")
         estimator.fit(w, tau, context=IdentificationContext.from_robot(robot, base))
     seconds = time.process_time() - started
-    fitted = [predict_measurement(robot, base, estimator.phi_, m, DEFAULTS) for m in split.fit]
-    in_sample = np.mean((tau - w @ estimator.phi_).reshape(-1, robot.n_joints) ** 2, axis=0)
-    interval = prediction_interval(estimator, fitted, in_sample)
     covariance = np.asarray(estimator.covariance_)
-    predictions = [
-        interval.around(predict_measurement(robot, base, estimator.phi_, m, DEFAULTS, covariance))
-        for m in split.validation
-    ]
+    drift = setting.friction_drift
+    friction = drift_parameters(base.names, estimator.phi_) if drift > 0 else None
+
+    def predicted(m: Measurement) -> LogPrediction:
+        return predict_measurement(robot, base, estimator.phi_, m, DEFAULTS, covariance, friction)
+
+    in_sample = np.mean((tau - w @ estimator.phi_).reshape(-1, robot.n_joints) ** 2, axis=0)
+    interval = prediction_interval(estimator, [predicted(m) for m in split.fit], in_sample, drift)
+    predictions = [interval.around(predicted(m)) for m in split.validation]
+    joints = joint_coverage(predictions)
     row = {
         "validation_%": float(np.mean([100 * p.relative_error for p in predictions])),
         "coverage_%": float(np.mean([100 * p.interval_coverage for p in predictions])),
+        "worst_joint_coverage_%": float(100 * np.nanmin(joints)),
+        "worst_joint": float(np.nanargmin(joints) + 1),
+        **{f"coverage_joint{j}_%": float(100 * c) for j, c in enumerate(joints, start=1)},
         "fit_cpu_s": seconds,
         "prior_weight": float(getattr(estimator, "weight_", np.nan)),
     }
@@ -214,6 +230,7 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
     out = pd.DataFrame({"new-motion mean %": grouped.mean(), "new-motion worst %": grouped.max()})
     out["score %"] = (out["new-motion mean %"] + out["new-motion worst %"]) / 2
     out["coverage %"] = new.groupby("setting", sort=False)["coverage_%"].mean()
+    out["worst-joint coverage %"] = new.groupby("setting", sort=False)["worst_joint_coverage_%"].min()
     if "base_error_%" in table and table["base_error_%"].notna().any():
         out["ours base error %"] = table.groupby("setting", sort=False)["base_error_%"].max()
     out["fit CPU s (mean)"] = table.groupby("setting", sort=False)["fit_cpu_s"].mean()

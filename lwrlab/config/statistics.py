@@ -17,3 +17,6 @@ class StatisticsSettings:
     """Level of the percentile intervals, in (0, 1)."""
     seed: int
     """Seed of the resampling."""
+    friction_drift: float
+    """ρ: share of the friction torque by which the prediction intervals allow friction to differ on
+    another motion (0: intervals from the fit's held-out error alone)."""

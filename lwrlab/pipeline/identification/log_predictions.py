@@ -53,6 +53,10 @@ class LogPrediction:
     """(M, N_J) half-width of the prediction interval ``τ̂ ± half_width`` (N·m), or None."""
     joints: np.ndarray | None = None
     """(N_J,) the joints scored (``data.fitted_joints``), or None: every joint."""
+    friction_torque: np.ndarray | None = None
+    """(M, N_J) the model's friction torque at every sample (N·m; its dissipative drive terms, see
+    :func:`~lwrlab.identification.prediction_error.drift_parameters`), or None: what the interval's
+    friction drift scales with."""
 
     @property
     def interval_coverage(self) -> float:
@@ -135,16 +139,42 @@ class ResidualSums:
 class PredictionInterval:
     """What makes a prediction on a new motion uncertain beyond its parameters: the model's error.
 
-    The interval of τ̂_j at a sample is ``τ̂_j ± z·√(wᵀ·Σ·w + s_j²)``: ``wᵀ·Σ·w`` the parameters'
-    part (:attr:`LogPrediction.parameter_variance`, from the base parameters' covariance Σ at the
-    sample's regressor row w), ``s_j`` the torque error the model makes on joint j beyond its
-    parameters (sensor noise, unmodelled dynamics), and ``z`` the normal quantile of ``level``.
+    The interval of τ̂_j at a sample x is ``τ̂_j ± z·c_j·√(wᵀ·Σ·w + s_j² + (ρ·τ̂_f,j(x))²)``:
+    ``wᵀ·Σ·w`` the parameters' part (:attr:`LogPrediction.parameter_variance`, from the base
+    parameters' covariance Σ at the sample's regressor row w), ``s_j`` the torque error the model makes
+    on joint j on samples it was not fitted on (sensor noise, unmodelled dynamics), ``ρ·τ̂_f,j(x)`` the
+    friction drift (friction changes between motions with temperature and speed range by a share ρ of
+    the friction torque τ̂_f at the state, :attr:`LogPrediction.friction_torque`), ``z`` the normal
+    quantile of ``level`` and ``c_j ≥ 1`` the conformal scale that makes the identification logs'
+    residuals fall inside at ``level`` (heavy tails).
     """
 
     error_std: np.ndarray
     """(N_J,) model error per joint (N·m)."""
     level: float = 0.95
     """Probability the interval is meant to cover."""
+    friction_drift: float = 0.0
+    """ρ: share of the friction torque by which friction may differ on another motion."""
+    scale: np.ndarray | None = None
+    """(N_J,) conformal scale c_j ≥ 1, or None: 1."""
+
+    @property
+    def z(self) -> float:
+        """The normal quantile of :attr:`level` (two-sided)."""
+        from scipy.special import ndtri
+
+        return float(ndtri(0.5 + self.level / 2))
+
+    def variance(self, prediction: LogPrediction, out: np.ndarray | None = None) -> np.ndarray:
+        """(M, N_J) ``wᵀ·Σ·w + s_j² + (ρ·τ̂_f)²`` of ``prediction`` (written into ``out`` if given)."""
+        if prediction.parameter_variance is None:
+            raise ValueError(f"{prediction.name}: predicted without the parameters' covariance")
+        variance = np.add(prediction.parameter_variance, self.error_std**2, out=out)
+        if self.friction_drift > 0 and prediction.friction_torque is not None:
+            for first in range(0, len(variance), SUMMARY_BLOCK_SAMPLES):  # no copy of a long log
+                part = slice(first, first + SUMMARY_BLOCK_SAMPLES)
+                variance[part] += (self.friction_drift * prediction.friction_torque[part]) ** 2
+        return variance
 
     def around(self, prediction: LogPrediction) -> LogPrediction:
         """``prediction`` with the interval's half-width at every sample.
@@ -152,15 +182,25 @@ class PredictionInterval:
         The parameters' variance becomes the half-width in place (a long log's array is not copied):
         ``prediction`` itself is not to be used afterwards.
         """
-        from scipy.stats import norm
-
-        if prediction.parameter_variance is None:
-            raise ValueError(f"{prediction.name}: predicted without the parameters' covariance")
-        half_width = prediction.parameter_variance
-        half_width += self.error_std**2
+        half_width = self.variance(prediction, out=prediction.parameter_variance)
         np.sqrt(half_width, out=half_width)
-        half_width *= float(norm.ppf(0.5 + self.level / 2))
-        return replace(prediction, parameter_variance=None, half_width=half_width)
+        half_width *= self.z if self.scale is None else self.z * self.scale
+        return replace(prediction, parameter_variance=None, half_width=half_width, friction_torque=None)
+
+
+def joint_coverage(predictions: Sequence[LogPrediction]) -> np.ndarray:
+    """(N_J,) share of each joint's scored samples inside its interval, over ``predictions`` (NaN: a
+    joint not scored, or no interval)."""
+    n_joints = predictions[0].measured.shape[1] if predictions else 0
+    inside, counted = np.zeros(n_joints), np.zeros(n_joints)
+    for p in predictions:
+        scored = np.ones(n_joints, dtype=bool) if p.joints is None else p.joints
+        for tau, tau_hat, half_width in p.scored_blocks():
+            if half_width is not None:
+                inside += np.count_nonzero(np.abs(tau - tau_hat) <= half_width, axis=0) * scored
+                counted += tau.shape[0] * scored
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(counted > 0, inside / np.maximum(counted, 1), np.nan)
 
 
 def process_measurement(
@@ -179,15 +219,18 @@ def predict_measurement(
     measurement: Measurement,
     processing: dict[str, Any],
     covariance: np.ndarray | None = None,
+    friction: np.ndarray | None = None,
 ) -> LogPrediction:
     """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit).
 
-    With the base parameters' ``covariance``, also the variance it gives τ̂ at every sample
-    (:class:`PredictionInterval` turns it into an interval).
+    With the base parameters' ``covariance``, also the variance it gives τ̂ at every sample, and with
+    ``friction`` (base values of the friction terms alone), the friction torque at every sample
+    (:class:`PredictionInterval` turns both into an interval).
     """
     data = process_measurement(measurement, processing, every_sample=True)
     predicted = np.empty((data.n_working, robot.n_joints))
     variance = None if covariance is None else np.empty_like(predicted)
+    friction_torque = None if friction is None else np.empty_like(predicted)
     # Block by block: the full regressor of every sample of a long log would not fit in memory.
     # One BLAS thread: products of this size lose to a second thread on a busy core.
     # a friction law with memory reads its columns from the whole log, by sample index
@@ -203,11 +246,17 @@ def predict_measurement(
                 predicted[samples] = base.torques(full, phi)
                 if covariance is not None and variance is not None:
                     variance[samples] = _parameter_variance(base.base_regressor(full), covariance)
+                if friction is not None and friction_torque is not None:
+                    friction_torque[samples] = base.torques(full, friction)
     t, measured = measurement.as_logged()
     if t is not measurement.t:  # resampled log: back to the logged samples
         predicted = np.column_stack([np.interp(t, data.t, predicted[:, j]) for j in range(robot.n_joints)])
         if variance is not None:
             variance = np.column_stack([np.interp(t, data.t, variance[:, j]) for j in range(robot.n_joints)])
+        if friction_torque is not None:
+            friction_torque = np.column_stack(
+                [np.interp(t, data.t, friction_torque[:, j]) for j in range(robot.n_joints)]
+            )
     span = data.row_times
     scored = (t >= span[0] - 1e-9) & (t <= span[-1] + 1e-9)
     cutoff = "no filter" if data.cutoff_hz is None else f"{data.cutoff_hz:.3g} Hz"
@@ -221,6 +270,7 @@ def predict_measurement(
         scored,
         f"{cutoff}, {velocity}",
         None if variance is None else np.clip(variance, 0.0, None, out=variance),
+        friction_torque=friction_torque,
     )
 
 

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from lwrlab.identification.core import Estimator
+from lwrlab.identification.prediction_error import FRICTION_DRIFT
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
 from lwrlab.pipeline.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
@@ -32,6 +33,7 @@ from lwrlab.pipeline.identification.notes import notes
 from lwrlab.pipeline.identification.report import format_report, write_report
 from lwrlab.pipeline.identification.result import IdentificationReport
 from lwrlab.pipeline.identification.scoring import (
+    coverage_checks,
     extrapolate,
     likely_causes_of_poor_validation,
     predict,
@@ -65,9 +67,11 @@ def identify(
         with the :class:`IdentificationContext` of this identification.
     rate_hz : sampling rate of a simulated measurement (Hz).
     processing : keyword arguments of :func:`lwrlab.signal.processing.process`.
-    statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k}`` (the ``statistics``
-        group's settings, all four): with n > 0, block bootstrap confidence intervals
-        (:func:`lwrlab.identification.bootstrap.block_bootstrap`) are added to the parameter table.
+    statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k, "friction_drift": ρ}``
+        (the ``statistics`` group's settings): with n > 0, block bootstrap confidence intervals
+        (:func:`lwrlab.identification.bootstrap.block_bootstrap`) are added to the parameter table;
+        ρ widens the prediction intervals with the friction torque
+        (:mod:`lwrlab.identification.prediction_error`; default :data:`FRICTION_DRIFT`).
     """
     processing = dict(processing or {})
     measured = measure(robot, motion_source, validation_source, plant, rate_hz)
@@ -79,7 +83,8 @@ def identify(
     has_prior = bool(getattr(estimator, "uses_prior", False))
     identifiability = assess(robot, base, rows, has_prior)
     fitting = fit(robot, base, rows, estimator, measured.motion, processed[0])
-    predictions = predict(robot, base, estimator, measured, processed, processing, rows, fitted)
+    drift = float(statistics.get("friction_drift", FRICTION_DRIFT)) if statistics else FRICTION_DRIFT
+    predictions = predict(robot, base, estimator, measured, processed, processing, rows, fitted, drift)
     tables = tabulate(
         robot,
         base,
@@ -128,7 +133,8 @@ def identify(
             causes,
             has_prior,
             share,
-        ),
+        )
+        + coverage_checks(measured, predictions),
         motion=measured.motion,
         validation_motion=measured.validation_motion,
         measurements=measured.measurements,

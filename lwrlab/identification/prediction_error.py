@@ -1,0 +1,84 @@
+"""The error a model makes on a motion it was not fitted on: the parts of its prediction interval.
+
+On a new motion a model errs beyond its fit's noise, and mostly in its friction: on the real LWR4+ the
+error of a model fitted on one motion and used on another is, joint by joint, mostly a viscous or
+Coulomb level off by 30–60 % of the joint's friction torque (friction changes with temperature and the
+speed range; the fit's own held-out blocks, taken from the same motion, never see it). So the interval
+of a prediction widens with the friction torque the model predicts at the state, by a share ρ (the
+``friction drift``), and a joint whose fit found almost no friction is given the median level of the
+robot's joints (:func:`drift_parameters`): it found none because friction traded against another term,
+not because the joint has none. :func:`conformal_scale` then widens a joint whose residuals have
+heavier tails than a normal law, so that the identification logs fall inside at the stated level.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+FRICTION_DRIFT = 0.5
+"""ρ by default (``statistics.friction_drift``): chosen on motions unlike the fit's in
+``benchmarks/model_study.py``."""
+DRIFTING_TERMS = ("FC", "FV", "FS", "FB")
+"""Drive terms whose torque drifts between motions: Coulomb, viscous, Stribeck, breakaway (not the
+offsets FO, the direction asymmetry FA or the rotor inertias IA)."""
+FLOORED_TERMS = ("FC", "FV")
+"""Terms raised to the median of the robot's joints where a joint's fit found less."""
+
+
+def _term_indices(names: Sequence[str], term: str) -> np.ndarray:
+    """Indices of ``names`` that are the per-drive parameters of ``term`` (``FC1``, ``FC2`` …)."""
+    pattern = re.compile(rf"^{term}\d+$")
+    return np.array([i for i, name in enumerate(names) if pattern.match(name)], dtype=int)
+
+
+def drift_parameters(names: Sequence[str], phi: np.ndarray) -> np.ndarray | None:
+    """Base values of the drifting friction terms alone (others zero), each per-drive level of
+    :data:`FLOORED_TERMS` at least the median over the drives; None when the model has none.
+
+    Examples
+    --------
+    >>> drift_parameters(["XX1", "FC1", "FC2", "FC3", "FV1", "FO1"], np.array([9.0, 0.5, 0.0, 0.3, 0.1, 7.0]))
+    array([0. , 0.5, 0.3, 0.3, 0.1, 0. ])
+    """
+    values = np.zeros_like(np.asarray(phi, dtype=float))
+    found = False
+    for term in DRIFTING_TERMS:
+        index = _term_indices(names, term)
+        if index.size == 0:
+            continue
+        found = True
+        level = np.asarray(phi, dtype=float)[index]
+        if term in FLOORED_TERMS:
+            level = np.maximum(level, np.median(np.abs(level)))
+        values[index] = level
+    return values if found else None
+
+
+def conformal_scale(scores: Iterable[np.ndarray], n_joints: int, level: float) -> np.ndarray:
+    """(N_J,) c_j ≥ 1: the ``level`` quantile of each joint's normalised scores, at least 1.
+
+    ``scores`` are blocks (n, N_J) of |τ − τ̂| / half-width on samples the interval must hold on (NaN:
+    not scored); the quantile is the split-conformal one, ⌈(n + 1)·level⌉-th smallest of n.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> heavy = np.abs(rng.standard_t(2, size=(20_000, 1))) / 1.96  # heavier tails than a normal law
+    >>> normal = np.abs(rng.normal(size=(20_000, 1))) / 1.96
+    >>> scale = conformal_scale([np.hstack([heavy, normal])], 2, 0.95)
+    >>> bool(scale[0] > 1.5), bool(abs(scale[1] - 1.0) < 0.03)
+    (True, True)
+    """
+    blocks = [np.asarray(s, dtype=float).reshape(-1, n_joints) for s in scores]
+    stacked = np.vstack(blocks) if blocks else np.empty((0, n_joints))
+    scale = np.ones(n_joints)
+    for j in range(n_joints):
+        column = stacked[:, j][np.isfinite(stacked[:, j])]
+        if column.size == 0:
+            continue
+        rank = min(column.size, int(np.ceil((column.size + 1) * level)))
+        scale[j] = max(1.0, float(np.partition(column, rank - 1)[rank - 1]))
+    return scale
