@@ -179,6 +179,7 @@ def _validation_table(
         validation["noise_std"] = noise
     scored = np.ones(robot.n_joints, dtype=bool) if fitted is None else fitted
     validation["fitted"] = scored
+    validation["coverage"] = joint_coverage(predictions.validation)  # of the 95 % interval
     return validation, errors, scored
 
 
