@@ -4,25 +4,27 @@ The script follows the walk-through as a reader would:
 
 1. runs the README's sweep ``lwrlab -m hydra/launcher=parallel task=identification
    estimator=ols,wls,sdp seed=0,1`` into a temporary SQLite store (shortened motions unless
-   ``--full``), then ``lwrlab compare --experiment identification`` on it;
-2. starts ``mlflow server`` on 127.0.0.1 and a free port;
-3. drives headless Chromium over the DevTools protocol on a pipe (no debugging port is opened) and
-   captures, at 1400×900:
+   ``--full``), then ``lwrlab compare --experiment identification --ui-port <port>`` on it, which
+   saves its view of the runs on the experiment and prints the link that opens it;
+2. starts ``mlflow server`` on 127.0.0.1 and that port;
+3. drives headless Chromium over the DevTools protocol on a pipe (no debugging port is opened), with
+   a new profile, and captures, at 1400×900, what the printed link opens without a click:
 
-   - ``mlflow_runs.png``: the experiment's runs table, the sweep expanded, with the Dataset column and
-     ``estimator``, ``seed``, ``accuracy/rms_mean``,
-     ``accuracy/base_parameter_error``, the sweep's ``summary/best_rms_mean`` and the comparison run's
-     ``estimator:wls/rms_mean``;
-   - ``mlflow_runs_grouped.png``: the same runs grouped by ``estimator`` (averages over seeds);
+   - ``mlflow_runs_grouped.png``: the runs table grouped by ``estimator`` (averages over seeds,
+     the best estimator first), the swept ``estimator`` and ``seed`` and the headline metrics
+     (``accuracy/rms_mean``, ``accuracy/nrms_mean``, …, the sweep's ``summary/best_rms_mean``);
+   - ``mlflow_charts.png``: the chart view of the same link, the ``accuracy`` section first;
    - ``mlflow_compare.png``: the compare-runs page of the six job runs;
 
 4. stops the server and writes the PNGs into ``docs/images/``.
 
-MLflow's UI keeps the runs page's columns, widths, sort and grouping per experiment in the browser's
-local storage; the script merges its choices into that state (the store is only read). MLflow 3's
-sidebar switch (GenAI | Model training) is set by ``?workflowType=machine_learning``: without it, a
-fresh browser opens an experiment on the GenAI overview whatever ``mlflow.experimentKind`` says.
-The compare page is shown as it opens (its plot's axes are chosen in the page).
+Nothing is written into the browser's local storage: the columns, sort and grouping come from the view
+``lwrlab compare`` saved (:mod:`lwrlab.tracking.runs.runs_view`), as they would in a colleague's
+browser. With ``--tracking-uri`` the sweep is skipped and ``lwrlab compare --no-log`` saves the view
+on the existing store (its only write there). The link carries ``workflowType=machine_learning``:
+without it, a new browser opens an experiment on MLflow 3's GenAI overview whatever
+``mlflow.experimentKind`` says. The compare page is shown as it opens (its plot's axes are chosen in
+the page).
 
 Needs ``chromium`` on PATH (Debian: ``apt-get install chromium``)::
 
@@ -39,6 +41,7 @@ import contextlib
 import fcntl
 import json
 import os
+import re
 import select
 import shutil
 import socket
@@ -59,14 +62,8 @@ SWEEP = ["hydra/launcher=parallel", "task=identification", "estimator=ols,wls,sd
 SHORT_MOTIONS = ["trajectory=multisine", "trajectory.duration=4", "validation.duration=4"]
 WINDOW = (1400, 900)
 MAX_PNG_BYTES = 300_000
-COLUMNS = [
-    "params.`estimator`",
-    "params.`seed`",
-    "metrics.`accuracy/rms_mean`",
-    "metrics.`accuracy/base_parameter_error`",
-    "metrics.`summary/best_rms_mean`",
-    "metrics.`estimator:wls/rms_mean`",
-]
+CHARTS_DRAWN = "document.querySelectorAll('.js-plotly-plot .bars').length >= 3"
+"""True once the chart view has drawn the bars of its first row of charts."""
 
 
 def run_sweep(store: Path, full: bool) -> str:
@@ -99,8 +96,11 @@ def run_sweep(store: Path, full: bool) -> str:
     return uri
 
 
-def run_compare(uri: str, output: Path) -> None:
-    """``lwrlab compare --experiment identification`` on the store; prints its table."""
+def run_compare(uri: str, output: Path, ui_port: int, log_run: bool) -> str:
+    """``lwrlab compare --experiment identification`` on the store; prints its table, returns its link.
+
+    ``log_run``: log the comparison as a run (``False``: ``--no-log``, for an existing store).
+    """
     command = [
         sys.executable,
         "-m",
@@ -112,11 +112,18 @@ def run_compare(uri: str, output: Path) -> None:
         uri,
         "--output",
         str(output),
+        "--ui-port",
+        str(ui_port),
+        *([] if log_run else ["--no-log"]),
     ]
     completed = subprocess.run(command, cwd=REPO_ROOT, capture_output=True, text=True)
     if completed.returncode != 0:
         raise SystemExit(f"lwrlab compare failed:\n{completed.stderr[-3000:]}")
     print(completed.stdout, flush=True)
+    link = re.search(r"^MLflow UI: .*then open (http://\S+)$", completed.stdout, flags=re.M)
+    if link is None:
+        raise SystemExit(f"lwrlab compare printed no link to MLflow's UI:\n{completed.stdout[-3000:]}")
+    return link.group(1)
 
 
 def free_port() -> int:
@@ -252,29 +259,30 @@ class HeadlessChromium:
         """Open a tab of the window's size and attach to it."""
         target = self.send("Target.createTarget", {"url": "about:blank"})["targetId"]
         self.session = self.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
-        self.send(
-            "Emulation.setDeviceMetricsOverride",
-            {"width": WINDOW[0], "height": WINDOW[1], "deviceScaleFactor": 1, "mobile": False},
-        )
+        self.resize()
 
     def evaluate(self, expression: str) -> object:
         """The value of a JavaScript expression in the page."""
         result = self.send("Runtime.evaluate", {"expression": expression, "returnByValue": True})
         return result.get("result", {}).get("value")
 
-    def show(self, url: str, ready_texts: list[str], timeout_s: float = 90.0) -> None:
-        """Load ``url`` and wait until the page's text holds every one of ``ready_texts``."""
+    def show(
+        self, url: str, ready_texts: list[str], timeout_s: float = 90.0, ready_script: str = "true"
+    ) -> None:
+        """Load ``url`` and wait until the page's text holds every one of ``ready_texts`` and the
+        JavaScript expression ``ready_script`` is true (charts drawn, say)."""
         self.send("Page.navigate", {"url": "about:blank"})  # a real load, not a hash change
         self.send("Page.navigate", {"url": url})
         condition = " && ".join(
-            f"document.body.innerText.includes({json.dumps(text)})" for text in ready_texts
+            [f"document.body.innerText.includes({json.dumps(text)})" for text in ready_texts] or ["true"]
         )
         deadline = time.monotonic() + timeout_s
-        while not self.evaluate(f"Boolean(document.body) && {condition}"):
+        while not self.evaluate(f"Boolean(document.body) && {condition} && Boolean({ready_script})"):
             if time.monotonic() > deadline:
-                text = self.evaluate("document.body ? document.body.innerText.slice(0, 2000) : ''")
+                text = self.evaluate("document.body ? document.body.innerText.slice(-4000) : ''")
                 raise SystemExit(
-                    f"{url} did not show {ready_texts} within {timeout_s:.0f} s; it shows:\n{text}"
+                    f"{url} did not show {ready_texts} ({ready_script}) within {timeout_s:.0f} s; "
+                    f"its text ends:\n{text}"
                 )
             time.sleep(0.5)
         # MLflow 3 opens its assistant panel beside the page: close it to leave the room to the runs.
@@ -283,11 +291,11 @@ class HeadlessChromium:
         )
         time.sleep(2.0)  # let the grid lay its columns out and charts finish animating
 
-    def update_local_storage(self, key: str, values: dict) -> None:
-        """Merge ``values`` into the JSON object kept under ``key`` in the page's local storage."""
-        self.evaluate(
-            f"localStorage.setItem({json.dumps(key)}, JSON.stringify("
-            f"Object.assign(JSON.parse(localStorage.getItem({json.dumps(key)}) || '{{}}'), {json.dumps(values)})))"
+    def resize(self, width: int = WINDOW[0], height: int = WINDOW[1]) -> None:
+        """Lay the page out at ``width`` × ``height`` pixels (the window's size by default)."""
+        self.send(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
         )
 
     def screenshot(self, path: Path) -> None:
@@ -309,11 +317,6 @@ class HeadlessChromium:
         os.close(self._read_fd)
 
 
-def view_state_key(experiment_id: str) -> str:
-    """The local-storage key under which MLflow's UI keeps an experiment's runs-page view."""
-    return f'MLflowLocalStorage-1.1-ExperimentPage-["{experiment_id}"]-ReactComponentState'
-
-
 def shrink_png(path: Path) -> None:
     """Quantise a screenshot to a 256-colour palette when it is over the size limit."""
     if path.stat().st_size <= MAX_PNG_BYTES:
@@ -324,8 +327,9 @@ def shrink_png(path: Path) -> None:
         image.convert("RGB").quantize(colors=256).save(path, optimize=True)
 
 
-def take_screenshots(uri: str, browser: HeadlessChromium, base_url: str, output: Path) -> list[Path]:
-    """Capture the runs table, the grouped runs and the compare page of the experiment."""
+def take_screenshots(uri: str, browser: HeadlessChromium, link: str, output: Path) -> list[Path]:
+    """Capture what ``link`` (printed by ``lwrlab compare``) opens: the runs, their charts; and the
+    compare page of the experiment's job runs."""
     from mlflow import MlflowClient
 
     client = MlflowClient(tracking_uri=uri)
@@ -334,51 +338,19 @@ def take_screenshots(uri: str, browser: HeadlessChromium, base_url: str, output:
         raise SystemExit(f"no experiment {EXPERIMENT!r} in {uri}")
     runs = client.search_runs([experiment.experiment_id], "attributes.status = 'FINISHED'")
     jobs = [run for run in runs if "estimator" in run.data.params and "accuracy/rms_mean" in run.data.metrics]
-    parents = {run.data.tags.get("mlflow.parentRunId") for run in jobs} - {None}
     if not jobs:
         raise SystemExit(f"no finished identification run in {EXPERIMENT!r}")
-    runs_url = f"{base_url}/#/experiments/{experiment.experiment_id}/runs?workflowType=machine_learning"
-    estimators = sorted({run.data.params["estimator"] for run in jobs})
+    best = min(jobs, key=lambda run: run.data.metrics["accuracy/rms_mean"]).data.params["estimator"]
     browser.open_page()
-    # The first visit lets the UI write its own view state (its default columns, Dataset among them);
-    # the views below are merged into it.
-    browser.show(runs_url, ["matching runs"])
-    key = view_state_key(experiment.experiment_id)
-    default = browser.evaluate(f"JSON.parse(localStorage.getItem({json.dumps(key)}) || '{{}}')")
-    # Of the default columns only Dataset says something here (Source, Models and Duration are empty or
-    # noise): the headline metrics then fit in the window beside it.
-    default_columns = [c for c in (default or {}).get("selectedColumns") or [] if "Dataset" in c]
-    table_view = {
-        "selectedColumns": default_columns + COLUMNS,
-        "runsExpanded": {parent: True for parent in parents},
-        "orderByKey": "params.`estimator`",
-        "orderByAsc": True,
-    }
-    grouped_view = {
-        **table_view,
-        "groupBy": {
-            "aggregateFunction": "average",
-            "groupByKeys": [{"mode": "param", "groupByData": "estimator"}],
-        },
-    }
-    table_view["groupBy"] = None
     written = []
-    for name, view, ready in [
-        (
-            "mlflow_runs.png",
-            table_view,
-            ["matching runs", "accuracy/base_parameter_error", jobs[0].info.run_name[:12]],
-        ),
-        (
-            "mlflow_runs_grouped.png",
-            grouped_view,
-            ["matching runs", "accuracy/base_parameter_error", f"Group: {estimators[0]}"],
-        ),
+    for name, url, ready, drawn in [
+        ("mlflow_runs_grouped.png", link, ["matching runs", "accuracy/rms_mean", f"Group: {best}"], "true"),
+        ("mlflow_charts.png", f"{link}&compareRunsMode=CHART", ["accuracy/nrms_mean"], CHARTS_DRAWN),
     ]:
-        browser.update_local_storage(key, view)
-        browser.show(runs_url, ready)
+        browser.show(url, ready, ready_script=drawn)
         browser.screenshot(output / name)
         written.append(output / name)
+    base_url = link.split("/#/", 1)[0]
     run_ids = json.dumps([run.info.run_id for run in sorted(jobs, key=lambda run: run.info.run_name)])
     compare_url = (
         f"{base_url}/#/compare-runs?runs={urllib.parse.quote(run_ids)}"
@@ -416,11 +388,12 @@ def main(argv: list[str] | None = None) -> None:
         uri = args.tracking_uri
         if uri is None:
             uri = run_sweep(scratch_dir / "store", args.full)
-            run_compare(uri, scratch_dir / "compare")
-        with mlflow_server(uri, scratch_dir / "server.log") as base_url:
-            browser = HeadlessChromium(args.chromium, scratch_dir / "profile")
+        port = free_port()
+        link = run_compare(uri, scratch_dir / "compare", port, log_run=args.tracking_uri is None)
+        with mlflow_server(uri, scratch_dir / "server.log", port=port):
+            browser = HeadlessChromium(args.chromium, scratch_dir / "profile")  # a new profile
             try:
-                written = take_screenshots(uri, browser, base_url, args.output)
+                written = take_screenshots(uri, browser, link, args.output)
             finally:
                 browser.close()
     for path in written:

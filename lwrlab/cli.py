@@ -1,9 +1,10 @@
 """Command-line entry point: ``lwrlab [group=option ...] [key=value ...]`` (a Hydra app).
 
-Three subcommands work on the MLflow store instead of running a job (dispatched before Hydra starts):
+Four subcommands work on the MLflow store instead of running a job (dispatched before Hydra starts):
 ``lwrlab report --help`` (the paper's tables and figures rebuilt from logged runs),
-``lwrlab compare --help`` (headline metrics grouped by what was swept, seeds as replication) and
-``lwrlab sync --help`` (upload runs kept on disk while the store was unreachable).
+``lwrlab compare --help`` (headline metrics grouped by what was swept, seeds as replication),
+``lwrlab sync --help`` (upload runs kept on disk while the store was unreachable) and
+``lwrlab model --help`` (registered identified models: aliases such as ``champion``, versions).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from lwrlab.pipeline.config_checks import check_config
 from lwrlab.resources import CONFIG_SEARCH_PATH
 from lwrlab.tracking.companion import early_companion
 from lwrlab.tracking.lifecycle import job_state
+from lwrlab.tracking.models import resolve
 from lwrlab.tracking.runs.processes import JobInterrupted
 
 log = logging.getLogger("lwrlab")
@@ -39,6 +41,7 @@ SUBCOMMANDS = {
     "report": "lwrlab.tracking.reports.report",
     "compare": "lwrlab.tracking.reports.compare",
     "sync": "lwrlab.tracking.runs.sync",
+    "model": "lwrlab.tracking.models.registry",
 }
 """``lwrlab <name> ...`` runs ``<module>.main(argv)`` instead of a Hydra job."""
 
@@ -60,7 +63,12 @@ def _user_error(error: BaseException) -> UserError | None:
 
 
 def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
-    """Run the pipeline stage selected by ``cfg.task`` (a function ``(cfg, output_dir) -> metrics``)."""
+    """Run the pipeline stage selected by ``cfg.task`` (a function ``(cfg, output_dir) -> metrics``).
+
+    The models the stage read (``task.model``, ``robot.source``, …) are written into the output
+    folder (:data:`~lwrlab.tracking.models.resolve.MODEL_INPUTS_FILE`), failed or not: the tracking
+    callback tags the run with them.
+    """
     finished = job_state.completed_metrics()
     if finished is not None:  # a re-launched sweep: the tracking callback found this config FINISHED
         log.info(
@@ -68,8 +76,12 @@ def run(cfg: DictConfig, output_dir: Path) -> dict[str, float]:
         )
         return finished
     check_config(cfg)  # a wrong type or range fails here, naming the key, before anything is built
-    stage = instantiate(cfg.task)
-    metrics = stage(cfg, output_dir)
+    resolve.forget_models_used()
+    try:
+        stage = instantiate(cfg.task)
+        metrics = stage(cfg, output_dir)
+    finally:
+        resolve.write_models_used(output_dir)
     log.info("artifacts written to %s", output_dir)
     return metrics
 

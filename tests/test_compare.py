@@ -1,18 +1,26 @@
-"""`lwrlab compare` on synthetic run tables: groups, replication and statistics computed independently."""
+"""`lwrlab compare` on synthetic run tables: groups, replication and statistics computed independently;
+the view of the runs it saves on the experiment for MLflow's UI, read back without lwrlab's decoder."""
 
 from __future__ import annotations
 
+import base64
+import json
+import re
+import zlib
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from mlflow.exceptions import MlflowException
+from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.job_config.metric_sections import sectioned_name
 from lwrlab.tracking.reports.compare import (
     compare_runs,
     comparison_metrics,
     group_key,
+    main,
     runs_view_hint,
     to_markdown,
     write_comparison,
@@ -20,6 +28,8 @@ from lwrlab.tracking.reports.compare import (
 from lwrlab.tracking.reports.report import pooling_refusal, unseparated_parameters
 from lwrlab.tracking.reports.run_groups import swept_parameters
 from lwrlab.tracking.reports.run_selection import plain_metric_columns
+from lwrlab.tracking.runs.runs_view import SHARED_VIEW_TAG_PREFIX, runs_view_link
+from lwrlab.tracking.runs.view_state import runs_view_state
 
 ESTIMATORS = ("ols", "sdp", "wls")
 SEEDS = (0, 1, 2)
@@ -142,3 +152,115 @@ def test_tables_refuse_to_pool_what_their_columns_do_not_tell_apart(runs: pd.Dat
     ) == ["plant.torque_noise_std"]
     message = pooling_refusal(runs, ["estimator"])
     assert "estimator (ols, sdp, wls)" in message and "--param estimator=" in message
+
+
+def test_the_ui_view_puts_the_headline_columns_first_best_first_grouped_by_what_was_swept() -> None:
+    metrics = ["fit_cpu_s", "base_parameter_error", "rms_mean", "nrms_mean", "fit_rel_error", "rms_joint1"]
+    state = runs_view_state(metrics, ["estimator"], ["seed"])
+    assert state["selectedColumns"] == [
+        "params.`estimator`",
+        "params.`seed`",
+        "metrics.`accuracy/rms_mean`",  # the headline metrics present, in their order
+        "metrics.`accuracy/nrms_mean`",
+        "metrics.`accuracy/base_parameter_error`",
+        "metrics.`summary/best_rms_mean`",  # the sweep's row
+        "attributes.`Dataset`",
+    ]
+    assert state["columnOrder"] == state["selectedColumns"]
+    assert (state["orderByKey"], state["orderByAsc"]) == ("metrics.`accuracy/rms_mean`", True)
+    assert state["groupBy"] == {
+        "aggregateFunction": "average",
+        "groupByKeys": [{"mode": "param", "groupByData": "estimator"}],
+    }
+    assert state["groupsExpanded"] == {"param.estimator": True}  # the runs without an estimator: shown
+    sections = [section["name"] for section in state["compareRunSections"]]
+    assert sections == ["accuracy", "Model metrics", "System metrics"]
+    assert [chart["metricKey"] for chart in state["compareRunCharts"]] == [
+        "accuracy/rms_mean",
+        "accuracy/nrms_mean",
+        "accuracy/base_parameter_error",
+        "accuracy/fit_rel_error",
+    ]
+    assert {chart["metricSectionId"] for chart in state["compareRunCharts"]} == {
+        state["compareRunSections"][0]["uuid"]
+    }
+    # Nothing swept: grouped by the run kind, so that a sweep's jobs still show without a click.
+    unswept = runs_view_state(["rms_mean"], [])
+    assert unswept["groupBy"]["groupByKeys"] == [{"mode": "tag", "groupByData": "run_kind"}]
+    painting = runs_view_state(["painted_fraction"], ["seed"])  # no headline metric: no sort, no charts
+    assert "orderByKey" not in painting and "compareRunCharts" not in painting
+    assert painting["selectedColumns"] == ["params.`seed`", "attributes.`Dataset`"]
+
+
+def _stored_views(client: MlflowClient, experiment_id: str) -> dict[str, str]:
+    tags = client.get_experiment(experiment_id).tags
+    return {key: value for key, value in tags.items() if key.startswith(SHARED_VIEW_TAG_PREFIX)}
+
+
+def _stored_state(value: str) -> dict:
+    """A saved view's state as MLflow's UI reads it: a JSON envelope, its state deflated (``deflate;``)."""
+    envelope = json.loads(value)
+    assert set(envelope) == {"name", "createdAt", "updatedAt", "state"}
+    assert isinstance(envelope["createdAt"], int) and envelope["updatedAt"] >= envelope["createdAt"]
+    prefix, _, payload = envelope["state"].partition(";")
+    assert prefix == "deflate"
+    return json.loads(zlib.decompress(base64.b64decode(payload)).decode("utf-8"))
+
+
+def test_compare_saves_its_view_on_the_experiment_once_and_prints_the_link_that_opens_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    client = MlflowClient(tracking_uri=uri)
+    experiment_id = client.create_experiment("shared_view", str(tmp_path / "artifacts"))
+    for estimator, seed, rms in (("ols", 0, 0.2), ("ols", 1, 0.3), ("wls", 0, 0.1), ("wls", 1, 0.15)):
+        run = client.create_run(experiment_id, tags={"run_kind": "job"})
+        client.log_param(run.info.run_id, "estimator", estimator)
+        client.log_param(run.info.run_id, "seed", str(seed))
+        client.log_metric(run.info.run_id, "accuracy/rms_mean", rms)
+        client.log_metric(run.info.run_id, "accuracy/base_parameter_error", rms / 10)
+        client.set_terminated(run.info.run_id, "FINISHED")
+
+    links, values = [], []
+    for extra in (["--no-log"], [], []):  # the comparison run logged in between changes nothing
+        assert main(["--tracking-uri", uri, "--experiment", "shared_view", "--output", "out", *extra]) == 0
+        printed = capsys.readouterr().out
+        links.append(next(line for line in printed.splitlines() if line.startswith("MLflow UI: ")))
+        values.append(_stored_views(client, experiment_id))
+    key = re.search(r"[?&]viewStateShareKey=([0-9a-f]{32})&workflowType=machine_learning$", links[0])
+    assert key is not None, links[0]
+    assert f"/#/experiments/{experiment_id}/runs?viewStateShareKey=" in links[0]
+    assert links[1] == links[2] == links[0] and values[1] == values[2] == values[0]  # written once
+    (tag,) = values[0]
+    assert tag == SHARED_VIEW_TAG_PREFIX + key.group(1)
+    state = _stored_state(values[0][tag])
+    assert state["selectedColumns"] == [
+        "params.`estimator`",
+        "params.`seed`",
+        "metrics.`accuracy/rms_mean`",
+        "metrics.`accuracy/base_parameter_error`",
+        "metrics.`summary/best_rms_mean`",
+        "attributes.`Dataset`",
+    ]
+    assert (state["orderByKey"], state["orderByAsc"]) == ("metrics.`accuracy/rms_mean`", True)
+    assert state["groupBy"]["groupByKeys"] == [{"mode": "param", "groupByData": "estimator"}]
+    assert json.loads(values[0][tag])["name"] == "lwrlab · runs by estimator"
+
+
+def test_a_store_that_refuses_the_view_still_gets_the_link_to_the_browsers_own_view(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    client = MlflowClient(tracking_uri=uri)
+    experiment_id = client.create_experiment("read_only")
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise MlflowException("permission denied")
+
+    monkeypatch.setattr(client, "set_experiment_tag", refuse)
+    link = runs_view_link(client, uri, experiment_id, ["rms_mean"], ["estimator"])
+    assert link is not None and link.endswith(
+        f"/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
+    )
+    assert runs_view_link(client, "postgresql://db/mlflow", experiment_id, ["rms_mean"], []) is None

@@ -20,7 +20,7 @@ WITHOUT_LOOKUP: dict[str, Any] = {
     "friction_terms": None,
     "tracking_uri": None,
     "build_robot": instantiate,
-    "fetch_run_artifact": None,
+    "locate_model": None,
 }
 """The plugin's edges, with no way to look a run up: a file or folder must be given."""
 
@@ -53,25 +53,28 @@ def test_the_config_rebuilds_the_identified_robot_from_a_run_folder(lwr4: RobotM
     assert not np.allclose(robot.parameters, lwr4.parameters)
 
 
-def test_a_run_id_is_fetched_through_the_given_lookup(lwr4: RobotModel, tmp_path: Path) -> None:
+@pytest.mark.parametrize("source", ["0123abcd", "runs:/0123abcd/model", "models:/kuka_lwr4@champion"])
+def test_a_model_uri_is_located_through_the_given_lookup(
+    lwr4: RobotModel, tmp_path: Path, source: str
+) -> None:
     standard = _identified_run(lwr4, tmp_path)
     calls = []
 
-    def fetch(run_id: str, artifact: str, uri: str | None) -> Path:
-        calls.append((run_id, artifact, uri))
-        return tmp_path / artifact
+    def locate(uri: str, tracking_uri: str | None) -> Path:
+        calls.append((uri, tracking_uri))
+        return tmp_path / "identified_model.yaml"
 
     robot = load_identified_robot(
-        "0123abcd",
+        source,
         friction_terms=None,
         tracking_uri="sqlite:///x.db",
         build_robot=instantiate,
-        fetch_run_artifact=fetch,
+        locate_model=locate,
     )
-    assert calls == [("0123abcd", "identified_model.yaml", "sqlite:///x.db")]
+    assert calls == [(source, "sqlite:///x.db")]
     np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)
-    with pytest.raises(FileNotFoundError, match="fetch_run_artifact"):
-        load_identified_robot("0123abcd", **WITHOUT_LOOKUP)
+    with pytest.raises(FileNotFoundError, match="locate_model"):
+        load_identified_robot(source, **WITHOUT_LOOKUP)
 
 
 def test_friction_terms_of_its_own_keep_the_identified_values(lwr4: RobotModel, tmp_path: Path) -> None:

@@ -13,8 +13,8 @@ Inside a package the arrows point down too: no import cycle among a package's mo
 sub-packages (every package of ``lwrlab`` and ``plugins``), and the parts of ``lwrlab.tracking``
 and of ``lwrlab.pipeline`` import only the parts below them::
 
-    companion ──► lifecycle ──► runs ──► store ──► job_config
-    reports ────────────────────► runs, store, job_config
+    companion ──► lifecycle ──► models ──► runs ──► store ──► job_config
+    reports ──────────────────────────────► runs, store, job_config
 
     chain ──► studies, painting, monitor ──► tools ──► identification ──► config_nodes, config_checks, build
               studies, painting ──────────► excitation ─────────────────► config_nodes, config_checks, build
@@ -430,14 +430,20 @@ TRACKING_PARTS: dict[str, SubPackage] = {
             "lifecycle and the reports, so they import neither",
         ),
         SubPackage(
-            "lifecycle",
+            "models",
             ("job_config", "store", "runs"),
+            "identified models as MLflow Models (logged, registered, resolved from a URI) are what a "
+            "job's run is given at its end and what a task reads: below the lifecycle, above the runs",
+        ),
+        SubPackage(
+            "lifecycle",
+            ("job_config", "store", "runs", "models"),
             "the hooks of a job and a sweep sequence the runs; the callback the configs name and its "
             "companion sit above them and hand in what they need (no arrow back up)",
         ),
         SubPackage(
             "companion",
-            ("job_config", "store", "runs", "lifecycle"),
+            ("job_config", "store", "runs", "models", "lifecycle"),
             "the top of the logging side: the configured callback chooses between the in-process "
             "lifecycle and the companion process; nothing below knows it exists",
         ),

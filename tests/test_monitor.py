@@ -287,6 +287,14 @@ def test_monitor_task_end_to_end(lwr4: RobotModel, tmp_path: Path) -> None:
         "monitored",
     } <= set(frame.columns)
     assert frame["detected"].any() and not frame.loc[frame["t"] < 1.9, "detected"].any()
+    # state thresholds (the default): one per sample, following the friction band, none below the floor
+    assert frame["threshold1"].nunique() > 100
+    calibration = pd.read_csv(out / "calibration.csv")
+    assert {"threshold_at_rest_observer", "friction_share_observer", "floor_residual"} <= set(
+        calibration.columns
+    )
+    assert np.all(frame["threshold1"] >= calibration["floor_observer"][0] - 1e-9)
+    assert np.all(frame["threshold_residual1"] >= calibration["floor_residual"][0] - 1e-9)
     detections = pd.read_csv(out / "detections.csv")
     observed = detections[detections.estimator == "observer"].iloc[0]
     assert 2.0 <= observed.raised <= 2.02 and observed.joint in range(1, 5)

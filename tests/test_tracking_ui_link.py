@@ -1,7 +1,8 @@
 """`lwrlab compare` says where its runs are in MLflow's model-training view (MLflow 3.17 opens on GenAI).
 
 The server URL must have the form the README documents; a local store gets the `mlflow ui` command and
-the same path. The command is checked end to end on a real SQLite store with one finished job run.
+the same path; the link `lwrlab compare` prints opens the view it saved on the experiment. The command
+is checked end to end on a real SQLite store with finished job runs.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import pytest
 from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.reports.compare import MLFLOW_UI_ADDRESS, main, runs_view_hint
+from lwrlab.tracking.runs.runs_view import share_key, view_name
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -62,9 +64,10 @@ def test_compare_prints_the_hint_after_its_table_with_the_experiment_id(
     hint = next(line for line in printed.splitlines() if line.startswith("MLflow UI: "))
     assert printed.index(hint) > table_end
     store = f"sqlite:///{(tmp_path / 'store' / 'mlflow.db').resolve()}"
+    key = share_key(view_name([]))  # the runs differ in the seed only: grouped by run kind
     assert hint == (
-        f"MLflow UI: mlflow ui --backend-store-uri {store}, "
-        f"then open {MLFLOW_UI_ADDRESS}/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
+        f"MLflow UI: mlflow ui --backend-store-uri {store}, then open {MLFLOW_UI_ADDRESS}"
+        f"/#/experiments/{experiment_id}/runs?viewStateShareKey={key}&workflowType=machine_learning"
     )
 
 

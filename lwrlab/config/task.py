@@ -88,7 +88,8 @@ class PayloadTask(LoggedPayloadInputs):
     """``task=payload``: a payload identified from logs and recognised in the tool library."""
 
     unloaded_model: str | None
-    """Or an earlier run's identified_model.yaml (or its folder) for the unloaded robot."""
+    """Or an earlier run's identified model for the unloaded robot: its identified_model.yaml (or
+    folder), or an MLflow model (``runs:/<run id>/model``, ``models:/<name>@<alias>``, a run id)."""
     method: str | None
     """``joint``, ``payload_only``, or null (joint with logs, payload_only with a model)."""
     consistent: bool
@@ -174,7 +175,8 @@ class MonitorTask(Instantiable):
     """``task=monitor``: external torques, contact forces and detected contacts of logs."""
 
     model: str | None
-    """An identified_model.yaml (or its run folder); null: the robot config's model."""
+    """An identified_model.yaml (or its run folder), or an MLflow model (``runs:/<run id>/model``,
+    ``models:/<name>/<version>``, ``models:/<name>@<alias>``, a run id); null: the robot config's model."""
     calibration_paths: list[str] | None
     """Contact-free logs for the thresholds; null: the logs the model's run identified from."""
     observer_gain: float
@@ -193,6 +195,11 @@ class MonitorTask(Instantiable):
     """s above threshold before a contact is raised."""
     release: float
     """Share of the threshold every joint must fall below to end a contact."""
+    thresholds: str
+    """``state`` (following the friction band, falling to the noise and the friction held at rest) or
+    ``constant`` (one per joint)."""
+    friction_drift: float
+    """``state`` only: share of its friction a run may differ by from the calibration's."""
     frame: str | None
     """Frame of the robot where the contact load is mapped; null: the flange, else the last link's."""
     point: list[float] | None

@@ -13,3 +13,6 @@ class TrackingStoreSettings:
     """MLflow tracking URI: ``sqlite:///…``, ``http://host:5000``, …"""
     artifact_location: str | None
     """Where new experiments keep their artifacts; null: the server decides."""
+    register_model: str | None
+    """Register each identified model as a new version of this registered model (``robot`` or
+    ``true``: the robot's name); null: logged with its run only."""

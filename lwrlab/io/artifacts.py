@@ -60,6 +60,9 @@ def save_measurement(measurement: Measurement, path: Path) -> Path:
 
 IDENTIFIED_MODEL_FILE = "identified_model.yaml"
 """File name of an identified model in a run folder (and as an MLflow artifact)."""
+MODEL_INPUT_EXAMPLE_FILE = "model_input_example.csv"
+"""A few consecutive states of the fit's motion (``t, q1…, dq1…, ddq1…``) beside the identified model:
+the input example of the model an identification logs to MLflow."""
 
 
 def identified_model_path(source: str | Path) -> Path:

@@ -5,14 +5,29 @@ false alarms, and the model's error, which follows the motion. For a rate of ``A
 hour over N_J joints at sampling period Δt, each joint may exceed its threshold on a share
 ``p = A·Δt / (3600·N_J)`` of the samples (an exceedance counted per sample: an upper bound on the
 alarms, which span several samples). A calibration log holds too few samples to see so rare an
-event, so the threshold is the largest of
+event, so the level is the largest of
 
 - the Gaussian level ``z(p)·rms`` (z the two-sided normal quantile, rms about zero: bias included),
 - the empirical ``1 − p`` quantile of |r| where the data hold at least :data:`MIN_TAIL_SAMPLES`
   samples beyond it, otherwise the largest |r| seen,
 
-times ``margin`` (≥ 1), which covers motions the calibration did not contain. The calibration data
-themselves then raise no alarm.
+times ``margin`` (≥ 1), which covers motions the calibration did not contain. Two kinds:
+
+- :func:`calibrate_thresholds`, **constant** thresholds: the level of |r| itself, one value per
+  joint whatever the robot does;
+- :func:`calibrate_state_thresholds`, **state** thresholds: the level of the normalised residual
+  ``(|r| − ε)/spread``, times the spread of each sample, ``spread² = a + (ρ·φ)²``, plus ε (φ the
+  friction band and ε the stamps' share, :mod:`lwrlab.monitoring.spread`: a computed error of the
+  estimate, not a random one, so added as it is rather than scaled by the level). ``a`` and ``ρ``
+  are fitted to the contact-free residual by maximum likelihood (``|r| − ε ~ |N(0, spread²)|``),
+  ρ no lower than
+  ``friction_drift / z(p)``: friction measured on one run may differ on the next by the share
+  ``friction_drift`` of itself, which no calibration log shows, and the threshold, at least
+  ``z(p)`` spreads, then covers it. At rest φ is the band of friction that holds still, which the
+  residual may fill whole: no threshold is lower than ``margin·√((level·√a)² + band²)``, the noise's
+  level and that band — not the error of the fastest motion calibrated on.
+
+Either way the calibration data themselves raise no alarm.
 """
 
 from __future__ import annotations
@@ -21,15 +36,39 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize
 from scipy.special import ndtri
 
 MIN_TAIL_SAMPLES = 10
 """Samples beyond an empirical quantile for it to be trusted; fewer: the largest |r| is used."""
 
 
+def exceedance_probability(false_alarm_rate: float, mean_period: float, n_joints: int) -> float:
+    """``p = A·Δt / (3600·N_J)``: the share of samples each joint may exceed its threshold (≤ 0.5)."""
+    return min(0.5, false_alarm_rate * mean_period / (3600.0 * n_joints))
+
+
+def tail_level(magnitudes: np.ndarray, probability: float) -> np.ndarray:
+    """(N_J,) the larger of the Gaussian level and the empirical quantile (or peak) of ``magnitudes``
+    (N, N_J, ≥ 0) for the exceedance share ``probability``."""
+    gaussian = -ndtri(probability / 2) * np.sqrt(np.mean(magnitudes**2, axis=0))
+    if probability * magnitudes.shape[0] >= MIN_TAIL_SAMPLES:
+        return np.maximum(gaussian, np.quantile(magnitudes, 1.0 - probability, axis=0))
+    return np.maximum(gaussian, magnitudes.max(axis=0))
+
+
+def _checked(false_alarm_rate: float, margin: float, residuals: Sequence[np.ndarray]) -> None:
+    if false_alarm_rate <= 0:
+        raise ValueError(f"false_alarm_rate must be positive (alarms per hour), got {false_alarm_rate}")
+    if margin < 1:
+        raise ValueError(f"margin must be at least 1, got {margin}")
+    if not residuals:
+        raise ValueError("no contact-free data to calibrate on")
+
+
 @dataclass(frozen=True)
 class Calibration:
-    """Thresholds per joint and what they came from."""
+    """Constant thresholds per joint and what they came from."""
 
     thresholds: np.ndarray
     """(N_J,) |τ_ext| above which a joint is in contact (N·m)."""
@@ -48,6 +87,16 @@ class Calibration:
     duration_s: float
     """Contact-free time calibrated on (s)."""
 
+    kind = "constant"
+
+    def thresholds_at(self, friction: np.ndarray, stamps: np.ndarray) -> np.ndarray:
+        """(N, N_J) the thresholds at samples of (N, N_J) state terms: the same at every sample."""
+        return np.broadcast_to(self.thresholds, np.shape(friction)).copy()
+
+    def table(self) -> dict[str, np.ndarray]:
+        """Per joint: the threshold, the contact-free RMS and peak (N·m)."""
+        return {"threshold": self.thresholds, "rms": self.rms, "peak": self.peak}
+
 
 def calibrate_thresholds(
     residuals: Sequence[np.ndarray],
@@ -55,7 +104,7 @@ def calibrate_thresholds(
     false_alarm_rate: float,
     margin: float = 1.0,
 ) -> Calibration:
-    """Thresholds per joint from contact-free residuals (one (N, N_J) array per log).
+    """Constant thresholds per joint from contact-free residuals (one (N, N_J) array per log).
 
     Parameters
     ----------
@@ -71,32 +120,181 @@ def calibrate_thresholds(
     >>> bool(np.all(calibration.thresholds > 4))
     True
     """
-    if false_alarm_rate <= 0:
-        raise ValueError(f"false_alarm_rate must be positive (alarms per hour), got {false_alarm_rate}")
-    if margin < 1:
-        raise ValueError(f"margin must be at least 1, got {margin}")
-    if not residuals:
-        raise ValueError("no contact-free data to calibrate on")
+    _checked(false_alarm_rate, margin, residuals)
     stacked = np.abs(np.vstack([np.asarray(r, dtype=float) for r in residuals]))
     n_samples, n_joints = stacked.shape
     duration = float(sum(len(r) * period for r, period in zip(residuals, periods, strict=True)))
-    mean_period = duration / n_samples
-    probability = min(0.5, false_alarm_rate * mean_period / (3600.0 * n_joints))
-    rms = np.sqrt(np.mean(stacked**2, axis=0))
-    peak = stacked.max(axis=0)
-    gaussian = -ndtri(probability / 2) * rms
-    if probability * n_samples >= MIN_TAIL_SAMPLES:
-        empirical = np.quantile(stacked, 1.0 - probability, axis=0)
-    else:
-        empirical = peak
-    thresholds = margin * np.maximum(gaussian, empirical)
+    probability = exceedance_probability(false_alarm_rate, duration / n_samples, n_joints)
     return Calibration(
-        thresholds=thresholds,
-        rms=rms,
-        peak=peak,
+        thresholds=margin * tail_level(stacked, probability),
+        rms=np.sqrt(np.mean(stacked**2, axis=0)),
+        peak=stacked.max(axis=0),
         exceedance_probability=float(probability),
         false_alarm_rate=float(false_alarm_rate),
         margin=float(margin),
+        samples=int(n_samples),
+        duration_s=duration,
+    )
+
+
+@dataclass(frozen=True)
+class StateCalibration:
+    """State-dependent thresholds ``margin·level·spread`` and what they came from."""
+
+    noise: np.ndarray
+    """(N_J,) √a: the spread without friction (N·m)."""
+    friction_share: np.ndarray
+    """(N_J,) ρ: the spread's share of the friction band."""
+    level: np.ndarray
+    """(N_J,) level of the normalised residual |r|/spread for the stated rate."""
+    floor: np.ndarray
+    """(N_J,) the lowest threshold, ``margin·√((level·√a)² + band²)``: the noise's level and the
+    whole friction band at rest, which friction holding still may fill (N·m)."""
+    rest_band: np.ndarray
+    """(N_J,) the friction band at rest (N·m)."""
+    rms: np.ndarray
+    """(N_J,) RMS of the contact-free residual (N·m)."""
+    peak: np.ndarray
+    """(N_J,) largest contact-free |residual| (N·m)."""
+    exceedance_probability: float
+    """p: share of samples each joint may exceed its threshold."""
+    false_alarm_rate: float
+    """The stated rate (alarms per hour)."""
+    margin: float
+    """Safety factor on the levels."""
+    friction_drift: float
+    """Share of its friction by which a run may differ from the calibration's."""
+    samples: int
+    """Contact-free samples calibrated on."""
+    duration_s: float
+    """Contact-free time calibrated on (s)."""
+
+    kind = "state"
+
+    def spread(self, friction: np.ndarray) -> np.ndarray:
+        """(N, N_J) ``√(a + (ρ·φ)²)`` (N·m) of friction bands φ (N·m)."""
+        return np.sqrt(self.noise**2 + (self.friction_share * np.asarray(friction)) ** 2)
+
+    def thresholds_at(self, friction: np.ndarray, stamps: np.ndarray) -> np.ndarray:
+        """(N, N_J) the thresholds (N·m) at samples of friction bands φ and stamps' shares ε (N·m):
+        ``max(margin·level·spread, floor) + margin·ε``."""
+        spread = self.margin * self.level * self.spread(friction)
+        return np.maximum(spread, self.floor) + self.margin * np.asarray(stamps)
+
+    @property
+    def at_rest(self) -> np.ndarray:
+        """(N_J,) the threshold at rest, with regular stamps (N·m)."""
+        return self.thresholds_at(self.rest_band[None, :], np.zeros((1, self.rest_band.size)))[0]
+
+    def table(self) -> dict[str, np.ndarray]:
+        """Per joint: the threshold at rest and the floor (N·m), √a (N·m), ρ, the level, the friction
+        band at rest, the contact-free RMS and peak (N·m)."""
+        return {
+            "threshold_at_rest": self.at_rest,
+            "floor": self.floor,
+            "noise": self.noise,
+            "friction_share": self.friction_share,
+            "level": self.level,
+            "rest_band": self.rest_band,
+            "rms": self.rms,
+            "peak": self.peak,
+        }
+
+
+def fit_spread(residual: np.ndarray, friction: np.ndarray, min_share: float) -> tuple[float, float]:
+    """``(a, ρ)`` of one joint by maximum likelihood of ``r ~ N(0, a + (ρ·φ)²)``, ρ ≥ ``min_share``.
+
+    Residual and friction band are (N,) arrays (N·m); ``a`` is kept above 10⁻¹² of the mean square
+    residual (a spread never vanishes).
+    """
+    r2 = np.square(np.asarray(residual, dtype=float))
+    scale = max(float(np.mean(r2)), 1e-300)
+    phi2 = np.square(np.asarray(friction, dtype=float))
+    phi_scale = float(np.mean(phi2))
+    if phi_scale <= 1e-12 * scale:  # no friction in the model: the noise alone
+        return max(float(np.mean(r2)), 1e-12 * scale), float(min_share)
+    g = phi2 / phi_scale
+    rs2 = r2 / scale
+
+    def objective(x: np.ndarray) -> tuple[float, np.ndarray]:
+        s2 = x[0] + x[1] * g
+        common = 1.0 / s2 - rs2 / s2**2
+        return float(np.mean(np.log(s2) + rs2 / s2)), np.array([np.mean(common), np.mean(g * common)])
+
+    lower = min_share**2 * phi_scale / scale
+    start = np.array([0.5, max(lower, 0.5)])
+    bounds = [(1e-12, None), (lower, None)]
+    solution = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds).x
+    return float(solution[0] * scale), float(np.sqrt(solution[1] * scale / phi_scale))
+
+
+def calibrate_state_thresholds(
+    residuals: Sequence[np.ndarray],
+    frictions: Sequence[np.ndarray],
+    stamps: Sequence[np.ndarray],
+    periods: Sequence[float],
+    false_alarm_rate: float,
+    margin: float = 1.0,
+    friction_drift: float = 0.0,
+    rest_friction: np.ndarray | None = None,
+) -> StateCalibration:
+    """State-dependent thresholds from contact-free residuals and their state terms (see the module).
+
+    Parameters
+    ----------
+    residuals : external torque estimates of contact-free logs, one (N, N_J) array each (N·m).
+    frictions : the friction band φ of each log's samples, through the estimator's filter (N·m).
+    stamps : the stamps' share ε of each log's samples (N·m; zeros for regular stamps).
+    periods : each log's sampling period (s).
+    false_alarm_rate : the stated rate, alarms per hour (> 0).
+    margin : factor ≥ 1 on the levels.
+    friction_drift : share (≥ 0) of its friction by which a run may differ from the calibration's.
+    rest_friction : (N_J,) the friction band at rest (N·m), for the floor; None: the smallest φ seen.
+
+    Examples
+    --------
+    Noise whose spread grows with the friction band: the thresholds follow it.
+
+    >>> rng = np.random.default_rng(0)
+    >>> band = np.linspace(0.0, 2.0, 20_000)[:, None]
+    >>> r = rng.normal(size=(20_000, 1)) * np.sqrt(0.01 + (0.3 * band) ** 2)
+    >>> calibration = calibrate_state_thresholds([r], [band], [0 * band], [1e-3], 1.0)
+    >>> round(float(calibration.friction_share[0]), 1), round(float(calibration.noise[0]), 2)
+    (0.3, 0.1)
+    >>> thresholds = calibration.thresholds_at(np.array([[0.0], [2.0]]), np.zeros((2, 1)))
+    >>> bool(thresholds[1, 0] > 5 * thresholds[0, 0])
+    True
+    """
+    _checked(false_alarm_rate, margin, residuals)
+    if friction_drift < 0:
+        raise ValueError(f"friction_drift must be ≥ 0, got {friction_drift}")
+    r = np.vstack([np.asarray(x, dtype=float) for x in residuals])
+    phi = np.vstack([np.asarray(x, dtype=float) for x in frictions])
+    eps = np.vstack([np.asarray(x, dtype=float) for x in stamps])
+    if not r.shape == phi.shape == eps.shape:
+        raise ValueError(f"residuals {r.shape}, frictions {phi.shape} and stamps {eps.shape} disagree")
+    n_samples, n_joints = r.shape
+    duration = float(sum(len(x) * period for x, period in zip(residuals, periods, strict=True)))
+    probability = exceedance_probability(false_alarm_rate, duration / n_samples, n_joints)
+    min_share = friction_drift / -ndtri(probability / 2)
+    beyond = np.maximum(np.abs(r) - eps, 0.0)  # what the stamps do not explain
+    fitted = [fit_spread(beyond[:, j], phi[:, j], min_share) for j in range(n_joints)]
+    noise = np.sqrt([a for a, _ in fitted])
+    share = np.array([rho for _, rho in fitted])
+    level = tail_level(beyond / np.sqrt(noise**2 + (share * phi) ** 2), probability)
+    rest = phi.min(axis=0) if rest_friction is None else np.asarray(rest_friction, dtype=float)
+    return StateCalibration(
+        noise=noise,
+        friction_share=share,
+        level=level,
+        floor=margin * np.sqrt((level * noise) ** 2 + rest**2),
+        rest_band=rest,
+        rms=np.sqrt(np.mean(r**2, axis=0)),
+        peak=np.abs(r).max(axis=0),
+        exceedance_probability=float(probability),
+        false_alarm_rate=float(false_alarm_rate),
+        margin=float(margin),
+        friction_drift=float(friction_drift),
         samples=int(n_samples),
         duration_s=duration,
     )

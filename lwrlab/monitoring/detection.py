@@ -1,6 +1,7 @@
 """Contacts detected in external torque estimates: thresholds per joint, hysteresis, a minimum duration.
 
-A contact is *raised* once some joint's |τ_ext| has stayed above its threshold for ``min_duration``
+A contact is *raised* once some joint's |τ_ext| has stayed above its threshold (one per joint, or one
+per joint and sample where the thresholds follow the robot's state) for ``min_duration``
 (a noise spike or a short model glitch raises nothing); it *starts* at the first sample of that
 stretch and *ends* at the first sample where every joint is back below ``release`` × its threshold
 (the hysteresis: a residual hovering at the threshold does not toggle the alarm). A new contact can
@@ -60,7 +61,7 @@ def detect_contacts(
     ----------
     t : (N,) stamps (s).
     external_torque : (N, N_J) estimates (N·m).
-    thresholds : (N_J,) thresholds (N·m, > 0).
+    thresholds : (N_J,) thresholds, or (N, N_J) one per sample (state-dependent) (N·m, > 0).
     min_duration : time above threshold before an alarm is raised (s, ≥ 0; 0: the first sample).
     release : share (0, 1] of the threshold every joint must fall below to end a contact.
 

@@ -14,7 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from lwrlab.model.robot import RobotModel
-from lwrlab.monitoring.calibration import Calibration, calibrate_thresholds
+from lwrlab.monitoring.calibration import (
+    Calibration,
+    StateCalibration,
+    calibrate_state_thresholds,
+    calibrate_thresholds,
+)
 from lwrlab.monitoring.detection import Detection, detect_contacts
 from lwrlab.monitoring.direct_residual import (
     causal_velocity,
@@ -24,6 +29,7 @@ from lwrlab.monitoring.direct_residual import (
     uniform_period,
 )
 from lwrlab.monitoring.observer import MomentumObserver, first_order_recursion
+from lwrlab.monitoring.spread import first_order_lowpass, friction_band, regularised, stamp_deviation
 from lwrlab.plants.core import Measurement
 
 ESTIMATORS = ("observer", "residual")
@@ -32,6 +38,8 @@ SETTLING_TIME_CONSTANTS = 5.0
 """The observer's first 5/K seconds are its start-up (r starts at 0): not monitored."""
 FILTER_EDGE_PERIODS = 2.0
 """The zero-phase filter's first and last 2/f_c seconds are edge transients: not monitored."""
+THRESHOLD_KINDS = ("state", "constant")
+"""State-dependent thresholds (the friction band, the stamps) or one constant per joint."""
 
 
 @dataclass(frozen=True)
@@ -56,6 +64,15 @@ class MonitorSettings:
     residual_margin: float
     """Factor ≥ 1 on the direct residual's levels (its offline filter and q̈ make it noisier off the
     calibration's motions than the observer)."""
+    thresholds: str
+    """``state`` (thresholds follow the friction band and the stamps,
+    :func:`~lwrlab.monitoring.calibration.calibrate_state_thresholds`) or ``constant`` (one per joint)."""
+    friction_drift: float
+    """Share of its friction by which a run may differ from the calibration's (``state`` only)."""
+
+    def __post_init__(self) -> None:
+        if self.thresholds not in THRESHOLD_KINDS:
+            raise ValueError(f"thresholds must be one of {list(THRESHOLD_KINDS)}, got {self.thresholds!r}")
 
     def margin_of(self, estimator: str) -> float:
         """The margin of ``estimator`` (one of :data:`ESTIMATORS`)."""
@@ -90,12 +107,23 @@ class ExternalTorques:
     """(N,) False during the start-up and the filter's edges."""
     seconds: float
     """Wall time of the observer over the log (s)."""
+    friction: dict[str, np.ndarray]
+    """Per estimator, (N, N_J) the model's friction band through its filter (N·m)."""
+    stamps: dict[str, np.ndarray]
+    """Per estimator, (N, N_J) the stamps' share of the estimate (N·m; zero for regular stamps)."""
+    rest_friction: np.ndarray
+    """(N_J,) the friction band at rest (N·m)."""
 
     def estimate(self, estimator: str) -> np.ndarray:
         """The estimate named ``observer`` or ``residual``."""
         if estimator not in ESTIMATORS:
             raise ValueError(f"unknown estimator {estimator!r}; valid: {list(ESTIMATORS)}")
         return self.observer if estimator == "observer" else self.residual
+
+    def state_terms(self, estimator: str) -> tuple[np.ndarray, np.ndarray]:
+        """The friction band and the stamps' share (N, N_J) of ``observer`` or ``residual``."""
+        self.estimate(estimator)  # checks the name
+        return self.friction[estimator], self.stamps[estimator]
 
     @property
     def period(self) -> float:
@@ -108,13 +136,13 @@ class ExternalTorques:
         return float(np.count_nonzero(self.monitored) * self.period / 3600.0)
 
 
-def estimate_external_torques(
+def _estimates(
     robot: RobotModel,
     measurement: Measurement,
     settings: MonitorSettings,
     progress: Callable[[int, int], None] | None = None,
-) -> ExternalTorques:
-    """Both estimates of a measurement's external torques with the model ``robot``."""
+) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
+    """Observer, direct residual, the observer's wall time, the causal and the zero-phase velocity."""
     import time
 
     t = measurement.t
@@ -128,28 +156,77 @@ def estimate_external_torques(
     friction = observer.friction_torque(motion.dq)
     predicted = model_torque(robot.model, motion.q, motion.dq, motion.ddq, friction)
     residual = smooth(measurement.tau, period, settings.velocity_cutoff_hz) - predicted
+    return estimate, residual, seconds, velocity, motion.dq
+
+
+def estimate_external_torques(
+    robot: RobotModel,
+    measurement: Measurement,
+    settings: MonitorSettings,
+    progress: Callable[[int, int], None] | None = None,
+) -> ExternalTorques:
+    """Both estimates of a measurement's external torques with the model ``robot``, and their state
+    terms (:mod:`lwrlab.monitoring.spread`): the friction band through each estimator's filter, and
+    for a log resampled from irregular stamps, how far each estimate moves when read as regular."""
+    t = measurement.t
+    observer, residual, seconds, velocity, dq = _estimates(robot, measurement, settings, progress)
+    friction = {
+        "observer": first_order_lowpass(t, friction_band(robot, velocity), settings.observer_gain),
+        "residual": smooth(friction_band(robot, dq), uniform_period(t), settings.velocity_cutoff_hz),
+    }
+    stamps = {estimator: np.zeros_like(observer) for estimator in ESTIMATORS}
+    deviation = stamp_deviation(measurement)
+    if deviation is not None and np.any(deviation != 0):
+        regular = _estimates(robot, regularised(measurement, deviation), settings)
+        stamps = {"observer": np.abs(observer - regular[0]), "residual": np.abs(residual - regular[1])}
     elapsed = t - t[0]
     monitored = (elapsed >= settings.start_skip) & (elapsed <= elapsed[-1] - settings.end_skip)
-    return ExternalTorques(measurement.name, t, measurement.q, estimate, residual, monitored, seconds)
+    rest = friction_band(robot, np.zeros((1, robot.n_joints)))[0]
+    return ExternalTorques(
+        measurement.name, t, measurement.q, observer, residual, monitored, seconds, friction, stamps, rest
+    )
 
 
-def calibrate(contact_free: Sequence[ExternalTorques], settings: MonitorSettings) -> dict[str, Calibration]:
-    """Thresholds of each estimator from contact-free logs' monitored samples."""
+def calibrate(
+    contact_free: Sequence[ExternalTorques], settings: MonitorSettings
+) -> dict[str, Calibration | StateCalibration]:
+    """Thresholds of each estimator from contact-free logs' monitored samples (``settings.thresholds``)."""
     if not contact_free:
         raise ValueError("no contact-free log to calibrate on")
-    return {
-        estimator: calibrate_thresholds(
-            [e.estimate(estimator)[e.monitored] for e in contact_free],
-            [e.period for e in contact_free],
+    calibrations: dict[str, Calibration | StateCalibration] = {}
+    for estimator in ESTIMATORS:
+        residuals = [e.estimate(estimator)[e.monitored] for e in contact_free]
+        periods = [e.period for e in contact_free]
+        margin = settings.margin_of(estimator)
+        if settings.thresholds == "constant":
+            calibrations[estimator] = calibrate_thresholds(
+                residuals, periods, settings.false_alarm_rate, margin
+            )
+            continue
+        calibrations[estimator] = calibrate_state_thresholds(
+            residuals,
+            [e.friction[estimator][e.monitored] for e in contact_free],
+            [e.stamps[estimator][e.monitored] for e in contact_free],
+            periods,
             settings.false_alarm_rate,
-            settings.margin_of(estimator),
+            margin,
+            settings.friction_drift,
+            contact_free[0].rest_friction,
         )
-        for estimator in ESTIMATORS
-    }
+    return calibrations
+
+
+def thresholds_of(
+    estimates: ExternalTorques, calibrations: dict[str, Calibration | StateCalibration], estimator: str
+) -> np.ndarray:
+    """(N, N_J) ``estimator``'s thresholds at every sample of a log (N·m)."""
+    return calibrations[estimator].thresholds_at(*estimates.state_terms(estimator))
 
 
 def detect(
-    estimates: ExternalTorques, calibrations: dict[str, Calibration], settings: MonitorSettings
+    estimates: ExternalTorques,
+    calibrations: dict[str, Calibration | StateCalibration],
+    settings: MonitorSettings,
 ) -> dict[str, list[Detection]]:
     """Each estimator's contacts in a log, on its monitored samples."""
     found = {}
@@ -158,7 +235,7 @@ def detect(
         found[estimator] = detect_contacts(
             estimates.t,
             estimate,
-            calibrations[estimator].thresholds,
+            thresholds_of(estimates, calibrations, estimator),
             min_duration=settings.min_duration,
             release=settings.release,
         )

@@ -121,6 +121,7 @@ def detectable_contacts(
     A contact is detectable when, between its start and end, some joint's true |τ_ext| stays above
     its threshold for at least ``min_duration`` (s) without a break: what an estimator without
     error or lag would raise. The rest push along directions the joints feel below every threshold.
+    ``thresholds``: (N_J,), or (N, N_J) at every sample (state-dependent thresholds).
 
     Examples
     --------

@@ -36,3 +36,12 @@ def processing_settings(cfg: Any) -> dict[str, Any]:
 def statistics_settings(cfg: Any) -> dict[str, Any] | None:
     """The ``statistics`` group's settings (bootstrap resamples, block, confidence, seed); None without it."""
     return resolved_mapping(cfg.statistics, "statistics") if "statistics" in cfg else None
+
+
+def tracking_uri(cfg: Any) -> str | None:
+    """``tracking.uri``: the job's MLflow store, where a model URI setting is looked up (None without
+    tracking: ``MLFLOW_TRACKING_URI`` or MLflow's default)."""
+    from omegaconf import OmegaConf
+
+    value = OmegaConf.select(cfg, "tracking.uri", default=None) if OmegaConf.is_config(cfg) else None
+    return None if value in (None, "") else str(value)

@@ -1,14 +1,15 @@
 """A robot rebuilt from an earlier run's identified parameters (config group ``robot``).
 
-``source`` is the path of an ``identified_model.yaml`` (or of the run folder holding it), or the id
-of an MLflow run that logged one. The file carries the robot description it refined; the robot is
-rebuilt from it and given the identified standard parameters (inertial and friction), which
-reproduce the identified base parameters exactly.
+``source`` is the path of an ``identified_model.yaml`` (or of the run folder holding it), or an
+MLflow model: ``runs:/<run id>/model``, ``models:/<name>/<version>``, ``models:/<name>@<alias>``, a
+bare run id. The file carries the robot description it refined; the robot is rebuilt from it and
+given the identified standard parameters (inertial and friction), which reproduce the identified
+base parameters exactly.
 
-Building a description from its ``_target_`` and looking a run up in MLflow belong to the edges
+Building a description from its ``_target_`` and looking a model up in MLflow belong to the edges
 (Hydra, tracking): the config ``conf/robot/identified.yaml`` hands them in as ``build_robot``
-(``hydra.utils.instantiate``) and ``fetch_run_artifact``
-(:func:`lwrlab.tracking.store.run_artifacts.download_run_artifact`), so this plugin needs neither.
+(``hydra.utils.instantiate``) and ``locate_model``
+(:func:`lwrlab.tracking.models.resolve.identified_model_file`), so this plugin needs neither.
 """
 
 from __future__ import annotations
@@ -21,32 +22,37 @@ from typing import Any
 import numpy as np
 
 from lwrlab.errors import ConfigError, MissingFileError
-from lwrlab.io.artifacts import IDENTIFIED_MODEL_FILE, identified_model_path, load_identified_model
+from lwrlab.io.artifacts import identified_model_path, load_identified_model
 from lwrlab.model.robot import RobotModel
 
 RobotBuilder = Callable[[Mapping[str, Any]], RobotModel]
 """Builds a robot from a description with a ``_target_`` (``hydra.utils.instantiate``)."""
-RunArtifactFetcher = Callable[[str, str, str | None], str | Path]
-"""(run id, artifact path, tracking URI) → local path of the downloaded artifact."""
+ModelLocator = Callable[[str, str | None], str | Path]
+"""(model URI or run id, tracking URI) → local path of its downloaded ``identified_model.yaml``."""
 
 _ALLOWED_TARGET_PREFIX = "plugins.robots."
 _ALLOWED_LAW_PREFIX = ("plugins.friction.", "lwrlab.model.friction_laws.")
 
 
+_MODEL_URI_SCHEMES = ("runs:/", "models:/")
+
+
 def _is_file_reference(source: str) -> bool:
-    """A path (a separator or a YAML suffix) rather than an MLflow run id."""
+    """A path (a separator or a YAML suffix) rather than an MLflow model URI or run id."""
+    if source.startswith(_MODEL_URI_SCHEMES):
+        return Path(source).expanduser().exists()
     return "/" in source or Path(source).suffix in {".yaml", ".yml"} or Path(source).expanduser().exists()
 
 
-def _locate(source: str, tracking_uri: str | None, fetch_run_artifact: RunArtifactFetcher | None) -> Path:
+def _locate(source: str, tracking_uri: str | None, locate_model: ModelLocator | None) -> Path:
     if _is_file_reference(source):
         return identified_model_path(source)
-    if fetch_run_artifact is None:
+    if locate_model is None:
         raise MissingFileError(
             f"robot.source={source}: identified model {source!r} is not a file or run folder, "
-            "and no run look-up was given (fetch_run_artifact)"
+            "and no model look-up was given (locate_model)"
         )
-    return Path(fetch_run_artifact(source, IDENTIFIED_MODEL_FILE, tracking_uri))
+    return Path(locate_model(source, tracking_uri))
 
 
 _KEYS_ADDED_SINCE: dict[str, dict[str, object]] = {
@@ -73,7 +79,7 @@ def load_identified_robot(
     friction_terms: Sequence[str] | None,
     tracking_uri: str | None,
     build_robot: RobotBuilder,
-    fetch_run_artifact: RunArtifactFetcher | None,
+    locate_model: ModelLocator | None,
 ) -> RobotModel:
     """The robot identified by an earlier run.
 
@@ -81,13 +87,16 @@ def load_identified_robot(
 
     Parameters
     ----------
-    source : an ``identified_model.yaml``, the run folder holding it, or an MLflow run id.
+    source : an ``identified_model.yaml``, the run folder holding it, or an MLflow model URI
+        (``runs:/<run id>/model``, ``models:/<name>/<version>``, ``models:/<name>@<alias>``) or run id.
     friction_terms : the friction columns of the rebuilt robot (``None``: those it was identified
         with); a term it was not identified with starts at zero (e.g. ``plant=log`` adds ``offset``).
-    tracking_uri : the store a run id is looked up in (``None``: MLflow's default).
+    tracking_uri : the store a model URI is looked up in (``None``: ``MLFLOW_TRACKING_URI`` or MLflow's
+        default).
     build_robot : builds the robot description stored in the file (e.g. ``hydra.utils.instantiate``);
         only robot plugins (``_target_: plugins.robots.*``) are built.
-    fetch_run_artifact : downloads a run's artifact (needed for a run id only; None: no look-up).
+    locate_model : downloads a model URI's ``identified_model.yaml`` (needed for a URI only; None: no
+        look-up).
 
     Examples
     --------
@@ -97,10 +106,10 @@ def load_identified_robot(
     ...     friction_terms=None,
     ...     tracking_uri=None,
     ...     build_robot=hydra.utils.instantiate,
-    ...     fetch_run_artifact=None,
+    ...     locate_model=None,
     ... )  # doctest: +SKIP
     """
-    path = _locate(str(source), tracking_uri, fetch_run_artifact)
+    path = _locate(str(source).strip(), tracking_uri, locate_model)
     identified, robot_config = load_identified_model(path)
     target = str(robot_config.get("_target_", ""))
     # The description comes from a file that may be shared: build only known robot plugins.

@@ -1,7 +1,7 @@
 """Writes an identification (:class:`~lwrlab.pipeline.identification.IdentificationReport`) to disk.
 
-Tables (CSV, Markdown), predicted torques (Parquet), the identified model (YAML, URDF), figures and
-the run tags.
+Tables (CSV, Markdown), predicted torques (Parquet), the identified model (YAML, URDF) with a few
+states of its fit's motion (its input example as an MLflow Model), figures and the run tags.
 
 The tracking callback logs the folder to MLflow (and tags the run from ``tags.json``), so nothing
 here knows about MLflow or Hydra.
@@ -11,15 +11,28 @@ from __future__ import annotations
 
 import json
 import logging
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import pandas as pd
+
 from lwrlab.figures.residuals import residuals_per_log
 from lwrlab.figures.torques import error_per_joint, torque_overlay
-from lwrlab.io.artifacts import save_identified_model, save_measurement, save_trajectory
+from lwrlab.io.artifacts import (
+    MODEL_INPUT_EXAMPLE_FILE,
+    save_identified_model,
+    save_measurement,
+    save_trajectory,
+)
 from lwrlab.io.urdf_export import UnexportableJointError, export_urdf
 from lwrlab.model.friction_laws import law_mapping
-from lwrlab.pipeline.identification.log_predictions import prediction_table, write_predicted_torque
+from lwrlab.pipeline.identification.log_predictions import (
+    prediction_table,
+    process_measurement,
+    write_predicted_torque,
+)
+from lwrlab.plants.core import Measurement
 
 if TYPE_CHECKING:  # the identification module runs this writer: its report type only annotates here
     from lwrlab.pipeline.identification.result import IdentificationReport
@@ -99,16 +112,35 @@ def run_tags(report: IdentificationReport) -> dict[str, str]:
     }
 
 
+def model_input_example(
+    measurement: Measurement, processing: Mapping[str, Any], rows: int = 5
+) -> pd.DataFrame:
+    """``rows`` consecutive states from the middle of ``measurement``, processed as for predicting it:
+    columns ``t`` (s), ``q1…`` (rad), ``dq1…`` (rad/s), ``ddq1…`` (rad/s²), what the identified model
+    takes (:mod:`lwrlab.tracking.models.identified_pyfunc`)."""
+    data = process_measurement(measurement, dict(processing), every_sample=True)
+    first = max(0, data.n_working // 2 - rows // 2)
+    states = data.states(first, min(data.n_working, first + rows))
+    n = states.q.shape[1]
+    columns: dict[str, Any] = {"t": states.t}
+    for prefix, values in (("q", states.q), ("dq", states.dq), ("ddq", states.ddq)):
+        columns.update({f"{prefix}{j}": values[:, j - 1] for j in range(1, n + 1)})
+    return pd.DataFrame(columns)
+
+
 def write_report(
     report: IdentificationReport,
     output_dir: Path,
     robot_config: dict[str, Any],
     motion_format: str = "parquet",
+    processing: Mapping[str, Any] | None = None,
 ) -> dict[str, Path]:
     """Write tables (CSV, Markdown), predicted torques (Parquet), the identified model (YAML) and figures.
 
     ``motion_format``: ``parquet`` (default) or ``csv`` for the 1 kHz motions played (CSV: what a
-    robot controller reads).
+    robot controller reads). ``processing``: the identification's (``measurement.processing``),
+    with which a few states of the first identification log are written beside the model
+    (:func:`model_input_example`); None: not written.
     """
     if motion_format not in ("parquet", "csv"):
         raise ValueError(f"motion_format must be parquet or csv, got {motion_format!r}")
@@ -133,6 +165,10 @@ def write_report(
     files["identified_model"] = save_identified_model(
         report.identified, robot_config, output_dir / "identified_model.yaml"
     )
+    if processing is not None:
+        files["model_input_example"] = output_dir / MODEL_INPUT_EXAMPLE_FILE
+        example = model_input_example(report.measurement, processing)
+        example.to_csv(files["model_input_example"], index=False, float_format="%.17g")
     if report.friction_choice is not None:
         files["friction_choice"] = output_dir / "friction_choice.csv"
         report.friction_choice.table().to_csv(files["friction_choice"], index=False)

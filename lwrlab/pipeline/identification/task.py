@@ -180,6 +180,8 @@ def identify_configured(cfg: Any) -> IdentificationReport:
 def run_identification(cfg: Any, output_dir: Path, motion_format: str = "parquet") -> dict[str, float]:
     """Task ``identification``: build the configured objects, identify, write and print the report."""
     report = identify_configured(cfg)
-    write_report(report, output_dir, resolved_mapping(cfg.robot, "robot"), motion_format)
+    write_report(
+        report, output_dir, resolved_mapping(cfg.robot, "robot"), motion_format, processing_settings(cfg)
+    )
     print(format_report(report))
     return report.metrics

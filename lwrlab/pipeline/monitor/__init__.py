@@ -5,6 +5,8 @@ The modules, bottom up:
 - :mod:`~lwrlab.pipeline.monitor.task`: the observers and detection on logs read like ``plant=log``'s;
 - :mod:`~lwrlab.pipeline.monitor.scenario`: a simulated contact scenario that identifies a model,
   records logs and runs the monitor on them.
+- :mod:`~lwrlab.pipeline.monitor.crossed`: simulated scenarios crossed between motion families (slower,
+  faster, stopping, standing still) and runs whose friction differs, for the thresholds' benchmark.
 
 It reads logs through :mod:`lwrlab.pipeline.tools.log_rows` and models through
 :mod:`lwrlab.pipeline.identification`.

@@ -1,6 +1,7 @@
 """Task ``monitor``: external joint torques, contact forces and detected contacts of recorded logs.
 
-A model (an earlier identification's ``identified_model.yaml``, or the robot config's own CAD model)
+A model (an earlier identification's ``identified_model.yaml`` or MLflow model, ``models:/<name>@champion``,
+or the robot config's own CAD model)
 and logs read like ``plant=log``'s give, per log, the momentum observer's and the direct residual's
 external joint torques (:mod:`lwrlab.monitoring`); thresholds calibrated on contact-free logs (the
 model run's identification logs by default) give the contacts, each with the wrench (or force) at
@@ -26,9 +27,8 @@ import yaml
 
 from lwrlab.errors import ConfigError
 from lwrlab.figures.monitor import external_torques
-from lwrlab.io.artifacts import identified_model_path
 from lwrlab.model.robot import RobotModel
-from lwrlab.monitoring.calibration import Calibration
+from lwrlab.monitoring.calibration import Calibration, StateCalibration
 from lwrlab.monitoring.contact_force import (
     default_frame,
     force_from_torques,
@@ -45,11 +45,14 @@ from lwrlab.monitoring.estimates import (
     detect,
     estimate_external_torques,
     held_out_false_alarm_rate,
+    thresholds_of,
     truth_as_estimated,
 )
 from lwrlab.monitoring.scoring import detectable_contacts, rms_error, score_detections
+from lwrlab.pipeline.config_nodes import tracking_uri
 from lwrlab.pipeline.tools.log_rows import read_logs
 from lwrlab.plants.core import Measurement
+from lwrlab.tracking.models.resolve import ResolvedModel, resolve_model
 
 log = logging.getLogger(__name__)
 
@@ -57,8 +60,9 @@ SIMULATED_RUN_LOGS = ("measurement.npz", "validation_measurement.npz")
 """What a simulated identification run keeps of its (contact-free) measurements."""
 
 
-def monitoring_robot(robot: RobotModel, model: str | None) -> RobotModel:
-    """The model the monitor uses: the identified one at ``model`` (a file or run folder), else ``robot``."""
+def monitoring_robot(robot: RobotModel, model: ResolvedModel | str | None) -> RobotModel:
+    """The model the monitor uses: the identified one at ``model`` (a file, a run folder, or a model
+    :func:`~lwrlab.tracking.models.resolve.resolve_model` resolved), else ``robot``."""
     if not model:
         return robot
     from hydra.utils import instantiate
@@ -68,7 +72,8 @@ def monitoring_robot(robot: RobotModel, model: str | None) -> RobotModel:
 
     # built as `robot=identified robot.source=<model>` builds it: the option's own settings
     node = OmegaConf.load(config_group("robot")["identified"])
-    node.source = str(model)
+    node.source = str(model.path if isinstance(model, ResolvedModel) else model)
+    model = model.source if isinstance(model, ResolvedModel) else model
     try:
         identified: RobotModel = instantiate(node)
     except Exception as error:
@@ -92,12 +97,16 @@ def _simulated_measurement(path: Path) -> Measurement:
 
 
 def calibration_measurements(
-    cfg: Any, robot: RobotModel, calibration_paths: Sequence[str] | None, model: str | None
+    cfg: Any,
+    robot: RobotModel,
+    calibration_paths: Sequence[str] | None,
+    model: ResolvedModel | str | None,
 ) -> tuple[list[Measurement], str]:
     """The contact-free measurements thresholds are calibrated on, and where they came from.
 
     ``calibration_paths`` when given; otherwise the logs the model's run identified from (its
-    ``data.paths`` and ``data.validation_paths``) or, for a simulated run, its stored measurements.
+    ``data.paths`` and ``data.validation_paths``) or, for a simulated run, its stored measurements:
+    beside the model's file, or among its MLflow run's artifacts.
     """
     if calibration_paths:
         return read_logs(cfg, robot, calibration_paths, "calibration"), "task.calibration_paths"
@@ -106,16 +115,21 @@ def calibration_measurements(
             "task=monitor calibrates its thresholds on contact-free logs: give 'task.calibration_paths=[…]' "
             "or task.model=<identification run>, whose identification logs are used"
         )
-    run = identified_model_path(model).parent
-    stored = run / ".hydra" / "config.yaml"
-    data = (yaml.safe_load(stored.read_text()) or {}).get("data") if stored.is_file() else None
+    resolved = model if isinstance(model, ResolvedModel) else resolve_model(model, tracking_uri(cfg))
+    run = (
+        resolved.path.parent
+        if resolved.run_id is None
+        else f"{resolved.source} (MLflow run {resolved.run_id})"
+    )
+    stored = resolved.run_file(".hydra/config.yaml")
+    data = (yaml.safe_load(stored.read_text()) or {}).get("data") if stored is not None else None
     if data:
         paths = [*(data.get("paths") or [data.get("path")]), *(data.get("validation_paths") or [])]
         paths += [data["validation_path"]] if data.get("validation_path") else []
         paths = [str(p) for p in paths if p]
         if paths:
             return read_logs(cfg, robot, paths, "calibration"), f"the logs of the model's run {run}"
-    simulated = [run / name for name in SIMULATED_RUN_LOGS if (run / name).is_file()]
+    simulated = [path for path in map(resolved.run_file, SIMULATED_RUN_LOGS) if path is not None]
     if simulated:
         return [_simulated_measurement(p) for p in simulated], f"the measurements of the model's run {run}"
     raise ConfigError(
@@ -170,7 +184,7 @@ def contact_loads(
 
 def _torque_frame(
     estimates: ExternalTorques,
-    calibrations: dict[str, Calibration],
+    calibrations: dict[str, Calibration | StateCalibration],
     detections: dict[str, list[Detection]],
 ) -> pd.DataFrame:
     n = estimates.observer.shape[1]
@@ -179,28 +193,29 @@ def _torque_frame(
         values = estimates.estimate(estimator)
         columns |= {f"{estimator}{j + 1}": values[:, j] for j in range(n)}
     for estimator in ESTIMATORS:
-        thresholds = calibrations[estimator].thresholds
+        thresholds = thresholds_of(estimates, calibrations, estimator)
         suffix = "" if estimator == "observer" else "_residual"
-        columns |= {f"threshold{suffix}{j + 1}": thresholds[j] for j in range(n)}
+        columns |= {f"threshold{suffix}{j + 1}": thresholds[:, j] for j in range(n)}
         columns[f"detected{suffix}"] = detection_flags(len(estimates.t), detections[estimator])
     return pd.DataFrame(columns)
 
 
-def calibration_table(calibrations: dict[str, Calibration]) -> pd.DataFrame:
-    """Thresholds, contact-free RMS and peak per joint and estimator (N·m)."""
-    n = calibrations["observer"].thresholds.size
+def calibration_table(calibrations: dict[str, Calibration | StateCalibration]) -> pd.DataFrame:
+    """Per joint and estimator, the calibrated terms: the constant thresholds (N·m), or the state
+    thresholds' threshold at rest, floor, noise √a and friction band at rest (N·m), friction share ρ
+    and level; and the contact-free RMS and peak (N·m)."""
+    n = calibrations["observer"].rms.size
     table = pd.DataFrame({"joint": np.arange(1, n + 1)})
     for estimator, calibration in calibrations.items():
-        table[f"threshold_{estimator}"] = calibration.thresholds
-        table[f"rms_{estimator}"] = calibration.rms
-        table[f"peak_{estimator}"] = calibration.peak
+        for name, values in calibration.table().items():
+            table[f"{name}_{estimator}"] = values
     return table
 
 
 def _truth_metrics(
     estimates: ExternalTorques,
     found: dict[str, list[Detection]],
-    calibrations: dict[str, Calibration],
+    calibrations: dict[str, Calibration | StateCalibration],
     settings: MonitorSettings,
     truth_contacts: str | None,
     truth_torque: str | None,
@@ -224,7 +239,7 @@ def _truth_metrics(
                     estimates.t,
                     np.where(estimates.monitored[:, None], truth, 0.0),
                     contacts,
-                    calibrations[estimator].thresholds,
+                    thresholds_of(estimates, calibrations, estimator),
                     min_duration=settings.min_duration,
                 )
             score = score_detections(found[estimator], contacts, min_force=min_force, detectable=detectable)
@@ -251,7 +266,9 @@ def format_summary(
     lines = [
         f"## Thresholds per joint (N·m), calibrated on {source}",
         "",
-        f"stated false-alarm rate {settings.false_alarm_rate:g} per hour, margin {settings.margin:g} "
+        f"{settings.thresholds} thresholds"
+        + (f" (friction drift {settings.friction_drift:g})" if settings.thresholds == "state" else "")
+        + f"; stated false-alarm rate {settings.false_alarm_rate:g} per hour, margin {settings.margin:g} "
         f"(direct residual {settings.residual_margin:g}); "
         f"observer gain {settings.observer_gain:g} 1/s; "
         f"minimum duration {1000 * settings.min_duration:g} ms, "
@@ -284,6 +301,8 @@ def run_monitor(
     residual_margin: float,
     min_duration: float,
     release: float,
+    thresholds: str,
+    friction_drift: float,
     frame: str | None,
     point: Sequence[float] | None,
     truth_contacts: str | None,
@@ -296,10 +315,13 @@ def run_monitor(
 
     Parameters (the task config's)
     ----------
-    model : an ``identified_model.yaml`` or its run folder; None: the robot config's model (CAD).
+    model : an ``identified_model.yaml``, its run folder, or an MLflow model (``runs:/<run id>/model``,
+        ``models:/<name>/<version>``, ``models:/<name>@<alias>``, a run id; looked up in the job's
+        store, ``tracking.uri``); None: the robot config's model (CAD).
     calibration_paths : contact-free logs for the thresholds; None: the model's run's logs.
     observer_gain, velocity_cutoff_hz, coulomb_smoothing, false_alarm_rate, margin, residual_margin,
-    min_duration, release : see :class:`lwrlab.monitoring.estimates.MonitorSettings`.
+    min_duration, release, thresholds, friction_drift : see
+        :class:`lwrlab.monitoring.estimates.MonitorSettings`.
     frame, point : where the contact load is mapped: the frame's wrench, or a pure force at ``point``
         (m, frame axes); frame None: the flange, or the last link's frame.
     truth_contacts : CSV of known contacts (``start``, ``end``, ``peak_force``): detection scores.
@@ -319,17 +341,20 @@ def run_monitor(
         min_duration,
         release,
         residual_margin,
+        thresholds,
+        friction_drift,
     )
     paths = OmegaConf.select(cfg, "data.paths") or (
         [OmegaConf.select(cfg, "data.path")] if OmegaConf.select(cfg, "data.path") else []
     )
     if not paths:
         raise ConfigError("task=monitor needs the log(s) to monitor: plant=log 'data.paths=[log.csv, …]'")
+    resolved = resolve_model(model, tracking_uri(cfg), "task.model") if model else None
     robot = instantiate(cfg.robot)
-    monitor_robot = monitoring_robot(robot, model)
+    monitor_robot = monitoring_robot(robot, resolved)
     frame = frame or default_frame(monitor_robot)
     mapping, load_columns = _contact_mapping(monitor_robot, frame, point)
-    contact_free, source = calibration_measurements(cfg, robot, calibration_paths, model)
+    contact_free, source = calibration_measurements(cfg, robot, calibration_paths, resolved)
     monitored = read_logs(cfg, robot, list(paths), "monitored")
     if (truth_contacts or truth_torque) and len(monitored) != 1:
         raise ConfigError("task.truth_contacts and task.truth_torque score one monitored log: give one")
@@ -365,7 +390,7 @@ def run_monitor(
                 estimates.t,
                 estimates.observer,
                 estimates.residual,
-                calibrations["observer"].thresholds,
+                thresholds_of(estimates, calibrations, "observer"),
                 [(d.start, d.end) for d in found["observer"]],
                 output_dir / "external_torque.png",
                 f"{estimates.name}: external joint torques ({monitor_robot.name})",

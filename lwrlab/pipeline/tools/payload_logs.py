@@ -1,6 +1,7 @@
 """Task ``payload``: a payload's 10 parameters from recorded logs, recognised against the tool library.
 
-An unloaded log (or an earlier run's ``identified_model.yaml``) plus a loaded log give the payload's
+An unloaded log (or an earlier run's identified model: its ``identified_model.yaml`` or an MLflow
+model URI, ``models:/<name>@champion``) plus a loaded log give the payload's
 10 parameters by eq. (7) (:mod:`lwrlab.identification.payload`), recognised against the tool library,
 written in the flange frame (``payload.yaml``, ``payload_inertial.urdf.xml``)::
 
@@ -27,26 +28,28 @@ import yaml
 from lwrlab.errors import ConfigError
 from lwrlab.identification.core import relative_std
 from lwrlab.identification.payload import PayloadEstimate
-from lwrlab.io.artifacts import identified_model_path, load_identified_model
+from lwrlab.io.artifacts import load_identified_model
 from lwrlab.io.urdf_export import inertial_element
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
-from lwrlab.pipeline.config_nodes import processing_settings
+from lwrlab.pipeline.config_nodes import processing_settings, tracking_uri
 from lwrlab.pipeline.tools.bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.pipeline.tools.library import load_library, load_tool
 from lwrlab.pipeline.tools.log_rows import log_rows, read_logs
 from lwrlab.tools.model import Tool
 from lwrlab.tools.recognition import UNKNOWN_TOOL, Recognition, ToolClassifier, UnknownToolWarning
+from lwrlab.tracking.models.resolve import resolve_model
 
 log = logging.getLogger(__name__)
 
 
-def earlier_robot_base(bench: ToolBench, model_path: str | Path) -> np.ndarray:
-    """The robot's base parameters from an earlier run's ``identified_model.yaml`` (or its folder).
+def earlier_robot_base(bench: ToolBench, model_path: str | Path, store: str | None = None) -> np.ndarray:
+    """The robot's base parameters from an earlier run's ``identified_model.yaml`` (or its folder, or an
+    MLflow model URI looked up in ``store``: see :func:`~lwrlab.tracking.models.resolve.resolve_model`).
 
     Raises a ``ValueError`` when its base parameters are not this robot's (another robot, other
     friction terms).
     """
-    path = identified_model_path(model_path)
+    path = resolve_model(model_path, store, "task.unloaded_model").path
     model, _ = load_identified_model(path)
     if tuple(model.base_names) != tuple(bench.base.names):
         raise ConfigError(
@@ -231,8 +234,9 @@ def run_payload(
     ----------
     unloaded_paths : logs of the robot without the payload (or ``unloaded_model``).
     loaded_paths : logs of the robot carrying it.
-    unloaded_model : an earlier run's ``identified_model.yaml`` (or its folder) standing for the
-        unloaded robot (payload-only method).
+    unloaded_model : an earlier run's ``identified_model.yaml`` (or its folder, or an MLflow model:
+        ``runs:/<run id>/model``, ``models:/<name>/<version>``, ``models:/<name>@<alias>``, a run id,
+        looked up in the job's store) standing for the unloaded robot (payload-only method).
     method : ``joint`` (eq. (7)), ``payload_only``, or None (joint with unloaded logs, payload_only
         with a model).
     weighted, consistent : Gautier's weighting per (motion, joint); the SDP with J(Φ_L) ⪰ 0.
@@ -257,7 +261,11 @@ def run_payload(
     if unloaded_paths and unloaded_model:
         log.warning("both unloaded logs and an unloaded model given: the logs are used")
     # before reading logs: fail fast
-    robot_base = earlier_robot_base(bench, unloaded_model) if unloaded_model and not unloaded_paths else None
+    robot_base = (
+        earlier_robot_base(bench, unloaded_model, tracking_uri(cfg))
+        if unloaded_model and not unloaded_paths
+        else None
+    )
     start = time.perf_counter()
     loaded = log_rows(bench, read_logs(cfg, robot, loaded_paths, "loaded"))
     unloaded = log_rows(bench, read_logs(cfg, robot, unloaded_paths, "unloaded")) if unloaded_paths else None

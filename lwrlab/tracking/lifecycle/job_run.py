@@ -8,7 +8,8 @@ The tracking callback makes one :class:`JobRun` per job and calls it from its ho
 * :meth:`JobRun.keep_offline`: the store could not be reached; the run is kept in
   ``mlflow_offline_run.json`` for ``lwrlab sync``;
 * :meth:`JobRun.end`: metrics (each under its section: ``accuracy/rms_mean``), the datasets it used,
-  the tags the job asked for, the error, the output folder, the status;
+  the tags the job asked for, the models it read, the error, the output folder, the model it
+  identified (an MLflow Model, registered when ``tracking.register_model`` names a model), the status;
 * :meth:`JobRun.end_killed` (a stop signal) and :meth:`JobRun.end_at_exit` (the process exits
   without ``on_job_end``): the run ends KILLED.
 
@@ -28,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from hydra.core.utils import JobReturn, JobStatus
+from mlflow.entities import DatasetInput
 from mlflow.tracking import MlflowClient
 from omegaconf import DictConfig, OmegaConf
 
@@ -49,6 +51,8 @@ from lwrlab.tracking.job_config.run_params import RESOLVED_CONFIG_ARTIFACT
 from lwrlab.tracking.lifecycle import job_state
 from lwrlab.tracking.lifecycle.sweep_run import fail_sweep_run
 from lwrlab.tracking.lifecycle.sweep_stop import Guard, end_earlier_attempts
+from lwrlab.tracking.models.model_logging import log_identified_model, log_model_inputs
+from lwrlab.tracking.models.registry import register_identified_model, registered_name
 from lwrlab.tracking.runs import offline
 from lwrlab.tracking.runs.finalise import end_killed, finalise_stale_runs
 from lwrlab.tracking.runs.forwarded_error import ForwardedError
@@ -100,6 +104,8 @@ class JobRun:
         self.settings: TrackingSettings | None = None
         self.client: MlflowClient | None = None
         self.run_id: str | None = None
+        self.run_name = ""
+        self.datasets: list[DatasetInput] = []  # what the job used, once recorded at its end
         self.offline_record: dict[str, Any] | None = None
         self.skipped = False
         self.failed_attempts: list[str] = []
@@ -138,7 +144,7 @@ class JobRun:
         run = retry_locked(
             client.create_run, experiment_id, run_name=run_name, tags=dict(tags), start_time=self.start_ms
         )
-        self.client, self.run_id = client, run.info.run_id
+        self.client, self.run_id, self.run_name = client, run.info.run_id, run_name
         # Marks the run KILLED if the process exits without on_job_end (Ctrl-C: Hydra only
         # catches Exception, so a KeyboardInterrupt skips the callback).
         atexit.register(self.end_at_exit)
@@ -197,10 +203,13 @@ class JobRun:
             guard(
                 "tagging what the job reported", log_job_tags, client, run_id, self.output_dir, self.redactor
             )
+            guard("recording the models the job read", log_model_inputs, client, run_id, self.output_dir)
             if failed:
                 guard("tagging the error", retry_locked, client.set_tag, run_id, "error", summary)
             if settings.log_artifacts:
                 guard("logging artifacts", log_output_folder, client, run_id, self.output_dir, self.redactor)
+            if status == "FINISHED":
+                guard("logging the identified model", self._log_model, client, run_id, config, metrics)
             guard("ending the run", retry_locked, client.set_terminated, run_id, status=status)
             if status == "FINISHED":
                 for attempt in self.failed_attempts:
@@ -219,7 +228,20 @@ class JobRun:
         """Record the logs or simulated motions the job used as the run's dataset inputs."""
         choices = plugin_choices(runtime_choices(config))
         uses = job_datasets(resolved_job_config(config), choices, original_cwd(config), self.output_dir)
-        log_datasets(client, run_id, uses)
+        self.datasets = log_datasets(client, run_id, uses)
+
+    def _log_model(
+        self, client: MlflowClient, run_id: str, config: DictConfig, metrics: Mapping[str, float]
+    ) -> None:
+        """Log the model the job identified (if any); register it where ``tracking.register_model`` says."""
+        assert self.settings is not None
+        logged = log_identified_model(client, run_id, self.output_dir, self.settings.tracking_uri)
+        if logged is None:
+            return
+        setting = OmegaConf.select(config, "tracking.register_model", default=None)
+        name = registered_name(setting, logged.robot)
+        if name is not None:
+            register_identified_model(client, name, logged, run_id, self.run_name, metrics, self.datasets)
 
     def end_killed(self, reason: str) -> None:
         """A stop signal: end the run (or the offline record) KILLED, saying where its outputs are."""

@@ -5,7 +5,9 @@ sweep varies (``sweep · wls · seed=1``) and tagged ``sweep_hash``, the sweep's
 config, overrides and search space), so that a re-launched sweep nests its jobs under the same
 parent instead of opening a new one. When the sweep ends, its ``multirun.yaml`` is logged and its
 summary (jobs, failures, best and mean of the headline metrics:
-:mod:`lwrlab.tracking.runs.sweep_summary`) becomes the parent run's metrics.
+:mod:`lwrlab.tracking.runs.sweep_summary`) becomes the parent run's metrics, and the link to the
+experiment's runs in MLflow's UI is logged, opening on lwrlab's saved view of them (headline columns,
+sorted best first, grouped by the swept keys: :mod:`lwrlab.tracking.runs.runs_view`).
 """
 
 from __future__ import annotations
@@ -27,12 +29,14 @@ from lwrlab.tracking.job_config.config_params import (
     task_overrides,
     truncate,
 )
+from lwrlab.tracking.job_config.metric_sections import plain_name
 from lwrlab.tracking.job_config.naming import NAME_SEPARATOR, job_run_name, swept_keys
 from lwrlab.tracking.job_config.provenance import RUN_KIND_TAG, process_tags, provenance_tags
 from lwrlab.tracking.job_config.redaction import Redactor, redacted_folder
 from lwrlab.tracking.runs.finalise import KILLED_BY_TAG
 from lwrlab.tracking.runs.run_queries import previous_sweep_run
-from lwrlab.tracking.runs.sweep_summary import log_sweep_summary
+from lwrlab.tracking.runs.runs_view import runs_view_link
+from lwrlab.tracking.runs.sweep_summary import log_sweep_summary, sweep_jobs
 from lwrlab.tracking.store.sqlite import retry_locked
 
 log = logging.getLogger(__name__)
@@ -111,12 +115,29 @@ def log_sweep_config(client: MlflowClient, run_id: str, config: DictConfig, reda
             retry_locked(client.log_artifact, run_id, str(folder / SWEEP_CONFIG_FILE))
 
 
+def sweep_view_link(client: MlflowClient, run_id: str, config: DictConfig) -> str | None:
+    """Save lwrlab's view of the sweep's experiment (its swept keys, its jobs' metrics); return its link.
+
+    See :func:`~lwrlab.tracking.runs.runs_view.runs_view_link`; ``None`` for a store without one.
+    """
+    parent = retry_locked(client.get_run, run_id)
+    finished = [run for run in sweep_jobs(client, parent) if run.info.status == "FINISHED"]
+    metrics = {plain_name(key) for run in finished for key in run.data.metrics}
+    params = {key for run in finished for key in run.data.params}
+    swept = [key for key in describe_sweep(config).swept if key in params]
+    return runs_view_link(client, str(client.tracking_uri), parent.info.experiment_id, metrics, swept)
+
+
 def close_sweep_run(client: MlflowClient, run_id: str, config: DictConfig, redactor: Redactor) -> None:
-    """Log the sweep config and summary, end the parent run FINISHED unless a job already marked it FAILED."""
+    """Log the sweep config and summary, end the parent run FINISHED unless a job already marked it FAILED,
+    then log the link to its runs in MLflow's UI (:func:`sweep_view_link`)."""
     log_sweep_config(client, run_id, config, redactor)
     log_sweep_summary(client, run_id)
     if retry_locked(client.get_run, run_id).info.status == "RUNNING":
         retry_locked(client.set_terminated, run_id, status="FINISHED")
+    link = sweep_view_link(client, run_id, config)
+    if link is not None:
+        log.info("%s", redactor.redact(link))
 
 
 def fail_sweep_run(client: MlflowClient, run_id: str, config: DictConfig, redactor: Redactor) -> None:
@@ -133,4 +154,5 @@ __all__ = [
     "fail_sweep_run",
     "log_sweep_config",
     "open_sweep_run",
+    "sweep_view_link",
 ]

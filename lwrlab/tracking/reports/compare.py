@@ -13,16 +13,18 @@ seed is replication), and writes under ``outputs/compare/``:
 
 Metric names are plain (``rms_mean``), as in each run's ``metrics.json``; runs that logged them under
 their MLflow section (``accuracy/rms_mean``) and older runs without one are read alike.
-The table itself is computed in :mod:`lwrlab.tracking.reports.comparison`, the UI hint in
-:mod:`lwrlab.tracking.reports.ui_link`; this module selects the runs, writes the folder and logs it.
+The table itself is computed in :mod:`lwrlab.tracking.reports.comparison`, the UI's view and its link
+in :mod:`lwrlab.tracking.runs.runs_view`; this module selects the runs, writes the folder and logs it.
 
 The folder is logged once as a run of the compared experiment (nested under the sweep's parent when
 one is compared), with the table as metrics ``<group>/<metric>`` (``estimator:ols/rms_mean``: the
 group's mean; ``<group>/runs``) and as MLflow's table artifact ``compare_table.json``, so that the
 comparison run's row in the runs table shows its figures; the same comparison of the same runs is not
-logged twice. After the table it prints where to see the runs in MLflow's model-training view (MLflow
-3.17 opens a new browser on its GenAI view whatever the experiment's kind): the URL for a server, the
-``mlflow ui`` command and the URL for a local store, on the port given by ``--ui-port``.
+logged twice. After the table it saves lwrlab's view of the runs on the experiment (headline metric
+columns, sorted best first, grouped by what the runs differ in, the ``accuracy`` charts first) and
+prints the link that opens it in MLflow's model-training view in any browser (MLflow 3.17 opens a new
+browser on its GenAI view whatever the experiment's kind): the URL for a server, the ``mlflow ui``
+command and the URL for a local store, on the port given by ``--ui-port``.
 
 Examples
 --------
@@ -65,9 +67,15 @@ from lwrlab.tracking.reports.comparison import (
     to_markdown,
 )
 from lwrlab.tracking.reports.derived_runs import derived_key, log_derived_run
-from lwrlab.tracking.reports.run_groups import PARAM_PREFIX
+from lwrlab.tracking.reports.run_groups import PARAM_PREFIX, SEED
 from lwrlab.tracking.reports.run_selection import parse_pairs, select_runs, selection_filter
-from lwrlab.tracking.reports.ui_link import MLFLOW_UI_ADDRESS, MLFLOW_UI_PORT, runs_view_hint, runs_view_path
+from lwrlab.tracking.runs.runs_view import (
+    MLFLOW_UI_ADDRESS,
+    MLFLOW_UI_PORT,
+    runs_view_hint,
+    runs_view_link,
+    runs_view_path,
+)
 from lwrlab.tracking.store.sqlite import (
     absolute_tracking_uri,
     add_tracking_uri_option,
@@ -221,7 +229,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     title = f"{experiment}: comparison" + (f" of sweep {arguments.parent}" if arguments.parent else "")
     write_comparison(comparison, output, title)
     print((output / "compare.md").read_text(encoding="utf-8"))
-    hint = runs_view_hint(uri, experiment_id, arguments.ui_port)
+    compared = comparison.runs
+    metrics = [
+        name[len(METRIC_PREFIX) :] for name in map(str, compared.columns) if name.startswith(METRIC_PREFIX)
+    ]
+    seeds = compared[PARAM_PREFIX + SEED].nunique() if PARAM_PREFIX + SEED in compared else 0
+    shown = [SEED] if seeds > 1 else []  # replication: a column, not a group
+    hint = runs_view_link(client, uri, experiment_id, metrics, comparison.groups, shown, arguments.ui_port)
     if hint is not None:
         print(hint)
     if not arguments.no_log:

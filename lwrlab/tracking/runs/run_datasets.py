@@ -33,10 +33,12 @@ def dataset_input(use: DatasetUse) -> DatasetInput:
     return DatasetInput(dataset, tags=[InputTag(MLFLOW_DATASET_CONTEXT, use.role)])
 
 
-def log_datasets(client: MlflowClient, run_id: str, uses: Sequence[DatasetUse]) -> None:
-    """Record ``uses`` as the run's dataset inputs (one store call)."""
-    if uses:
-        retry_locked(client.log_inputs, run_id, datasets=[dataset_input(use) for use in uses])
+def log_datasets(client: MlflowClient, run_id: str, uses: Sequence[DatasetUse]) -> list[DatasetInput]:
+    """Record ``uses`` as the run's dataset inputs (one store call); returns them."""
+    inputs = [dataset_input(use) for use in uses]
+    if inputs:
+        retry_locked(client.log_inputs, run_id, datasets=inputs)
+    return inputs
 
 
 __all__ = ["SOURCE_TYPE", "dataset_input", "log_datasets"]

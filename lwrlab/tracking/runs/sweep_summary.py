@@ -23,6 +23,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from mlflow.entities import Run
 from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.job_config.metric_sections import SUMMARY, plain_metrics
@@ -55,19 +56,23 @@ def summary_metrics(statuses: Sequence[str], metrics: Sequence[Mapping[str, floa
     return summary
 
 
-def log_sweep_summary(client: MlflowClient, parent_run_id: str) -> dict[str, float]:
-    """Compute the summary of the sweep whose parent run is ``parent_run_id`` and log it on that run."""
-    parent = retry_locked(client.get_run, parent_run_id)
+def sweep_jobs(client: MlflowClient, parent: Run) -> list[Run]:
+    """The job runs of the sweep whose parent run is ``parent``, a retried attempt counted once."""
     jobs = retry_locked(
         client.search_runs,
         [parent.info.experiment_id],
-        f"tags.`{PARENT_RUN_TAG}` = '{parent_run_id}' and tags.{RUN_KIND_TAG} = 'job'",
+        f"tags.`{PARENT_RUN_TAG}` = '{parent.info.run_id}' and tags.{RUN_KIND_TAG} = 'job'",
         max_results=10_000,
     )
-    current = [run for run in jobs if RETRIED_BY_TAG not in run.data.tags]  # a retried attempt counts once
+    return [run for run in jobs if RETRIED_BY_TAG not in run.data.tags]
+
+
+def log_sweep_summary(client: MlflowClient, parent_run_id: str) -> dict[str, float]:
+    """Compute the summary of the sweep whose parent run is ``parent_run_id`` and log it on that run."""
+    current = sweep_jobs(client, retry_locked(client.get_run, parent_run_id))
     summary = summary_metrics([run.info.status for run in current], [run.data.metrics for run in current])
     log_metrics(client, parent_run_id, summary)
     return summary
 
 
-__all__ = ["log_sweep_summary", "summary_metrics"]
+__all__ = ["log_sweep_summary", "summary_metrics", "sweep_jobs"]

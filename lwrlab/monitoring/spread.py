@@ -1,0 +1,132 @@
+"""What a model's error on a contact-free motion grows with: the state terms of the thresholds.
+
+State-dependent thresholds (:class:`~lwrlab.monitoring.calibration.StateCalibration`) scale with a
+spread per joint and sample, ``spread_j² = a_j + (ρ_j·φ_j)²``, and add ``ε_j``; both terms come
+from here:
+
+- φ, the **friction band** (:func:`friction_band`): the magnitude of the model's friction torque
+  at the joint speed — Coulomb, viscous and the law's own terms (Stribeck, breakaway, direction),
+  not offsets nor rotor inertia — with the Coulomb-like terms at their full level at any speed:
+  at rest the friction can hold anything within that band, and at a reversal the model flips from
+  one edge of it to the other. Friction measured on one day or motion differs on another by a
+  share of it (temperature, speed range: 30–50 % measured on the real LWR4+);
+- ε, the **stamps' share** (:func:`stamp_deviation`, :func:`regularised`): a log recorded with
+  jittered time stamps (a PC stamping samples a robot took regularly) is interpolated onto a
+  regular grid by the log reader, which moves each position by ``q̇·δ`` where a stamp is off by δ;
+  the observer turns that into a torque spike (up to 10 N·m on the real LWR4+ runs, from a 1.7 ms
+  late stamp). ε is the difference between the estimate and the estimate of the same log read as
+  regularly sampled: where the stamps were regular, zero. A computed error, not a random one: the
+  thresholds add it as it is.
+
+Both pass through the estimator's own filter (:func:`first_order_lowpass` for the momentum
+observer, the direct residual's zero-phase low-pass), so that thresholds and estimates share one
+bandwidth.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import median_filter
+
+from lwrlab.model.robot import RobotModel
+from lwrlab.numerics.recursion import first_order_recursion
+from lwrlab.plants.core import Measurement
+from lwrlab.signal.filters import central_difference
+
+LEVEL_REACHED = 0.95
+"""Share of its level the Coulomb shape has reached at the speed where sliding counts as begun."""
+STAMP_TREND_SAMPLES = 11
+"""Samples of the running median that separates a clock's drift from the stamps' jitter."""
+
+
+def sliding_speed(robot: RobotModel) -> float:
+    """The slowest joint-side speed (rad/s) at which every drive's Coulomb shape has reached
+    :data:`LEVEL_REACHED` of its level: ~0 for ``sign(v)``, 1.8·ε for ``tanh(v/ε)``."""
+    speeds = np.geomspace(1e-6, 10.0, 141)
+    n = robot.drive_train.n_drives
+    shape = np.abs(robot.friction_law.coulomb_shape(np.repeat(speeds[:, None], n, axis=1))).min(axis=1)
+    reached = np.flatnonzero(shape >= LEVEL_REACHED)
+    return float(speeds[reached[0]]) if reached.size else float(speeds[-1])
+
+
+def friction_band(robot: RobotModel, dq: np.ndarray) -> np.ndarray:
+    """(N, N_J) the model's friction torque magnitude (N·m) at joint velocities ``dq`` (rad/s).
+
+    Per drive, each friction term's torque at the drive's speed ``s = max(|v|, v₀)`` (``v₀``:
+    :func:`sliding_speed`), whichever direction is larger, summed in magnitude: Coulomb ``FC``,
+    viscous ``FV·s``, and the law's own terms (a Stribeck excess at low speed, a direction's
+    difference); offsets and rotor inertia are not friction. A coupled drive train spreads each
+    drive's band over the joints it turns (``|C|ᵀ``).
+
+    Examples
+    --------
+    >>> from lwrlab.model.description import load_robot_yaml
+    >>> from lwrlab.resources import config_group
+    >>> robot = load_robot_yaml(config_group("robot")["kuka_lwr4"])
+    >>> band = friction_band(robot, np.array([[0.0] * 7, [1.0] * 7]))
+    >>> bool(np.allclose(band[0], robot.friction.coulomb))  # at rest: the Coulomb band
+    True
+    >>> bool(np.allclose(band[1], robot.friction.coulomb + robot.friction.viscous))
+    True
+    """
+    drive = robot.drive_train
+    speed = np.maximum(np.abs(drive.drive_values(np.atleast_2d(dq))), sliding_speed(robot))
+    band = np.zeros_like(speed)
+    for term in robot.friction_terms:
+        if term in ("offset", "rotor"):
+            continue
+        coefficient = np.abs(robot.friction.value(term))
+        if term == "coulomb":
+            band += coefficient
+        elif term == "viscous":
+            band += coefficient * speed
+        else:
+            law = robot.friction_law
+            basis = np.maximum(np.abs(law.extra_basis(term, speed)), np.abs(law.extra_basis(term, -speed)))
+            band += coefficient * basis
+    return band if drive.is_direct else band @ np.abs(drive.coupling)
+
+
+def first_order_lowpass(t: np.ndarray, x: np.ndarray, gain: float) -> np.ndarray:
+    """``x`` (N, N_J) through the observer's filter ``ṙ = K·(x − r)``, discretised as the observer is
+    (interval means, exact at the stamps), starting at ``x[0]``."""
+    x = np.asarray(x, dtype=float)
+    if len(x) < 2:
+        return x.copy()
+    decay = gain * np.diff(np.asarray(t, dtype=float))[:, None] * np.ones((1, x.shape[1]))
+    alpha = np.exp(-decay)
+    interval_mean = 0.5 * (x[1:] + x[:-1])
+    filtered = np.empty_like(x)
+    filtered[0] = x[0]
+    filtered[1:] = first_order_recursion(alpha, decay, (1.0 - alpha) * interval_mean, x[0])
+    return filtered
+
+
+def stamp_deviation(measurement: Measurement) -> np.ndarray | None:
+    """(N,) how far (s) each regular sample's logged stamp was off a regular clock, interpolated
+    at the measurement's stamps; None when the log was not resampled from irregular stamps.
+
+    The logged stamps' offsets from a regular grid, less their running median over
+    :data:`STAMP_TREND_SAMPLES` samples (a recording clock's slow drift is no jitter).
+    """
+    logged = measurement.logged_t
+    if logged is None or len(logged) < 3:
+        return None
+    logged = np.asarray(logged, dtype=float)
+    index = np.arange(len(logged))
+    offset = logged - logged[0] - index * (logged[-1] - logged[0]) / (len(logged) - 1)
+    jitter = offset - median_filter(offset, size=STAMP_TREND_SAMPLES, mode="nearest")
+    return np.interp(measurement.t, logged, jitter)
+
+
+def regularised(measurement: Measurement, deviation: np.ndarray) -> Measurement:
+    """The measurement as if its samples had been taken regularly and only their stamps were off by
+    ``deviation`` (s): ``q + q̇·δ`` and ``τ + τ̇·δ`` (first order, centred differences)."""
+    period = float(np.mean(np.diff(measurement.t)))
+    shift = np.asarray(deviation, dtype=float)[:, None]
+    return Measurement(
+        t=measurement.t,
+        q=measurement.q + central_difference(measurement.q, period) * shift,
+        tau=measurement.tau + central_difference(measurement.tau, period) * shift,
+        metadata={**measurement.metadata, "stamps": "regularised"},
+    )

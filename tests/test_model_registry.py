@@ -1,0 +1,256 @@
+"""Identified models as MLflow Models, the Model Registry, and tasks reading a model by its MLflow URI.
+
+One short identification (``lwrlab`` in a subprocess, a friction law with memory, a temporary SQLite
+store, registered under :data:`NAME`) serves every test: its pyfunc model, loaded in a plain Python
+process, predicts ``predicted_torque.parquet``; its version carries the headline metrics and the
+datasets; ``lwrlab model alias`` names it ``champion``; ``task=monitor`` reads it as
+``models:/<name>@champion`` and records the lineage; a URI that names nothing is one line.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from mlflow.tracking import MlflowClient
+from tracking_apps import app_environment, run_app
+
+from lwrlab.io.logs import write_log
+from lwrlab.pipeline.identification.log_predictions import process_measurement
+from lwrlab.plants.core import Measurement
+from lwrlab.tracking.models import registry
+from lwrlab.tracking.models.resolve import ModelNotFoundError, resolve_model
+
+NAME = "lab_arm"
+"""The registered model the identification registers its model under (``tracking.register_model``)."""
+JOINTS = 7
+
+
+@dataclass(frozen=True)
+class Identified:
+    """The identification run every test reads."""
+
+    folder: Path
+    """The store's folder (``mlflow.db``, ``artifacts/``) and the job folders."""
+    run: Path
+    """The identification's output folder."""
+    run_id: str
+
+    @property
+    def uri(self) -> str:
+        return f"sqlite:///{self.folder / 'mlflow.db'}"
+
+    @property
+    def client(self) -> MlflowClient:
+        return MlflowClient(tracking_uri=self.uri)
+
+
+@pytest.fixture(scope="module")
+def identified(tmp_path_factory: pytest.TempPathFactory) -> Identified:
+    folder = tmp_path_factory.mktemp("registry")
+    done = run_app(
+        None,
+        "task=identification",
+        "trajectory=multisine",
+        "trajectory.duration=2",
+        "validation.duration=2",
+        "friction=holding",  # a law with memory: the pyfunc model treats the rows as one motion
+        "plant.show_progress=false",
+        f"tracking.register_model={NAME}",
+        f"hydra.run.dir={folder / 'identified'}",
+        store=folder,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    run = folder / "identified"
+    return Identified(folder, run, (run / "mlflow_run_id.txt").read_text().strip())
+
+
+def _lwrlab(identified: Identified, *arguments: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "lwrlab.cli", *arguments],
+        cwd=identified.folder,
+        env=app_environment(None),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def _states(run: Path) -> pd.DataFrame:
+    """Every log's states as its prediction evaluated them (processed as the run's config says)."""
+    processing = yaml.safe_load((run / ".hydra" / "config.yaml").read_text())["measurement"]["processing"]
+    frames = []
+    for file in ("measurement.npz", "validation_measurement.npz"):
+        with np.load(run / file, allow_pickle=False) as stored:
+            name = yaml.safe_load(str(stored["metadata"]))["name"]
+            measurement = Measurement(t=stored["t"], q=stored["q"], tau=stored["tau"])
+        blocks = list(process_measurement(measurement, processing, every_sample=True).state_blocks())
+        columns: dict[str, object] = {"log": name, "t": np.concatenate([b.t for b in blocks])}
+        for prefix in ("q", "dq", "ddq"):
+            values = np.concatenate([getattr(b, prefix) for b in blocks])
+            columns.update({f"{prefix}{j}": values[:, j - 1] for j in range(1, JOINTS + 1)})
+        frames.append(pd.DataFrame(columns))
+    return pd.concat(frames, ignore_index=True)
+
+
+PREDICT = """
+import sys
+import mlflow
+import pandas as pd
+from hydra.core.global_hydra import GlobalHydra
+
+uri, run_id, states, out = sys.argv[1:]
+model = mlflow.pyfunc.load_model(f"runs:/{run_id}/model")
+frame = pd.read_parquet(states)
+# one motion per call: the friction law's memory runs over a whole log's consecutive samples
+parts = [model.predict(rows.drop(columns="log")).assign(log=name) for name, rows in frame.groupby("log")]
+pd.concat(parts).to_parquet(out)
+assert not GlobalHydra.instance().is_initialized(), "no Hydra app, no config"
+"""
+
+
+def test_the_pyfunc_model_predicts_the_runs_torques_in_a_plain_process(
+    identified: Identified, tmp_path: Path
+) -> None:
+    states = _states(identified.run)
+    states.to_parquet(tmp_path / "states.parquet")
+    environment = app_environment({"MLFLOW_TRACKING_URI": identified.uri})
+    done = subprocess.run(
+        [sys.executable, "-c", PREDICT, identified.uri, identified.run_id, str(tmp_path / "states.parquet")]
+        + [str(tmp_path / "predicted.parquet")],
+        cwd=tmp_path,
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    predicted = pd.read_parquet(tmp_path / "predicted.parquet")
+    assert list(predicted.columns[:JOINTS]) == [f"tau{j}" for j in range(1, JOINTS + 1)]
+    predicted = pd.concat([states[["log", "t"]], predicted.drop(columns="log")], axis=1)
+    logged = pd.read_parquet(identified.run / "predicted_torque.parquet")
+    rows = logged.merge(predicted, on=["log", "t"], how="left", validate="one_to_one")
+    assert set(rows["log"]) == {"exciting_motion", "validation_motion"} and len(rows) > 3000
+    expected = rows[[f"tau_hat{j}" for j in range(1, JOINTS + 1)]].to_numpy()
+    got = rows[[f"tau{j}_y" for j in range(1, JOINTS + 1)]].to_numpy()
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
+    # the model logged with the run: signature, example, artifacts, pinned requirements
+    model = identified.client.get_run(identified.run_id).outputs.model_outputs[0].model_id
+    logged_model = identified.client.get_logged_model(model)
+    assert logged_model.name == "model" and logged_model.source_run_id == identified.run_id
+    files = {Path(f.path).name for f in identified.client.list_logged_model_artifacts(model)}
+    assert {"MLmodel", "input_example.json", "requirements.txt"} <= files
+
+
+def test_the_registered_version_carries_the_headline_metrics_and_the_datasets(identified: Identified) -> None:
+    client = identified.client
+    run = client.get_run(identified.run_id)
+    (version,) = client.search_model_versions(f"name = '{NAME}'")
+    assert str(version.version) == "1" and version.run_id == identified.run_id
+    assert version.source == f"models:/{run.outputs.model_outputs[0].model_id}"
+    rms = run.data.metrics["accuracy/rms_mean"]
+    assert float(version.tags["accuracy/rms_mean"]) == pytest.approx(rms, rel=1e-5)
+    assert "accuracy/validation_rel_error" in version.tags and "joints/rms_joint1" not in version.tags
+    digests = {(i.dataset.name, i.dataset.digest) for i in run.inputs.dataset_inputs}
+    assert version.tags["datasets.identification"] == "multisine_motion@" + dict(digests)["multisine_motion"]
+    assert version.tags["datasets.validation"].startswith("multisine_validation_motion@")
+    assert version.tags["robot"] == "kuka_lwr4"
+    assert identified.run_id in version.description and "rms_mean" in version.description
+
+
+def test_lwrlab_model_alias_points_an_alias_at_a_version(
+    identified: Identified, capsys: pytest.CaptureFixture[str]
+) -> None:
+    store = ["--tracking-uri", identified.uri]
+    done = _lwrlab(identified, "model", "alias", NAME, "1", "champion", *store)
+    assert done.returncode == 0, done.stderr
+    assert f"models:/{NAME}@champion" in done.stdout
+    assert str(identified.client.get_model_version_by_alias(NAME, "champion").version) == "1"
+    capsys.readouterr()
+    assert registry.main(["list", NAME, *store]) == 0
+    listed = capsys.readouterr().out
+    assert "@champion" in listed and identified.run_id in listed and "rms_mean=" in listed
+    with pytest.raises(SystemExit) as missing:  # argparse's one-line error, status 2
+        registry.main(["alias", NAME, "9", "staging", *store])
+    assert missing.value.code == 2 and "version=9" in capsys.readouterr().err
+
+
+def test_monitor_reads_the_champion_by_its_uri_and_records_the_lineage(identified: Identified) -> None:
+    identified.client.set_registered_model_alias(NAME, "champion", "1")
+    with np.load(identified.run / "validation_measurement.npz", allow_pickle=False) as stored:
+        log = write_log(
+            Measurement(t=stored["t"], q=stored["q"], tau=stored["tau"]), identified.folder / "free.parquet"
+        )
+    done = run_app(
+        None,
+        "task=monitor",
+        "plant=log",
+        f"data.paths=[{log}]",
+        f"task.model=models:/{NAME}@champion",
+        f"hydra.run.dir={identified.folder / 'monitor'}",
+        store=identified.folder,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    monitor = identified.folder / "monitor"
+    # thresholds calibrated on the model's run's own measurements, fetched from its artifacts
+    assert f"MLflow run {identified.run_id}" in (monitor / "summary.md").read_text()
+    run = identified.client.get_run((monitor / "mlflow_run_id.txt").read_text().strip())
+    assert run.info.status == "FINISHED"
+    tags = run.data.tags
+    assert tags["lwrlab.model_uri"] == f"models:/{NAME}@champion"
+    assert tags["lwrlab.model_run_id"] == identified.run_id
+    assert (tags["lwrlab.model_name"], tags["lwrlab.model_version"]) == (NAME, "1")
+    model_id = identified.client.get_run(identified.run_id).outputs.model_outputs[0].model_id
+    assert [i.model_id for i in run.inputs.model_inputs] == [model_id] == [tags["lwrlab.model_id"]]
+    assert json.loads((monitor / "model_inputs.json").read_text())[0]["version"] == "1"
+
+
+def test_a_uri_that_names_nothing_is_one_line_and_a_failed_run(identified: Identified) -> None:
+    done = run_app(
+        None,
+        "task=identification",
+        "robot=identified",
+        f"robot.source=models:/{NAME}@no_such_alias",
+        f"hydra.run.dir={identified.folder / 'bad'}",
+        store=identified.folder,
+        env={"HYDRA_FULL_ERROR": "0"},
+    )
+    assert done.returncode == 1
+    lines = [line for line in done.stderr.splitlines() if line.startswith("lwrlab: ")]
+    assert lines == [lines[0]] and lines[0].startswith(f"lwrlab: robot.source=models:/{NAME}@no_such_alias: ")
+    assert "no_such_alias" in lines[0] and "Traceback" not in done.stderr
+    run = identified.client.get_run((identified.folder / "bad" / "mlflow_run_id.txt").read_text().strip())
+    assert run.info.status == "FAILED" and f"models:/{NAME}@no_such_alias" in run.data.tags["error"]
+
+
+@pytest.mark.parametrize(
+    "source", ["runs:/0123456789abcdef0123456789abcdef/model", "0123456789abcdef0123456789abcdef"]
+)
+def test_an_unknown_run_is_named_with_its_setting_and_store(identified: Identified, source: str) -> None:
+    with pytest.raises(ModelNotFoundError, match=r"task\.unloaded_model=.*Run with id") as raised:
+        resolve_model(source, identified.uri, "task.unloaded_model")
+    assert str(identified.folder / "mlflow.db") in str(raised.value)
+    assert isinstance(raised.value, FileNotFoundError)
+
+
+def test_every_form_of_a_model_resolves_to_the_same_file(identified: Identified) -> None:
+    expected = (identified.run / "identified_model.yaml").read_text()
+    identified.client.set_registered_model_alias(NAME, "champion", "1")
+    for source in (
+        identified.run_id,
+        f"runs:/{identified.run_id}/model",
+        f"models:/{NAME}/1",
+        f"models:/{NAME}@champion",
+        str(identified.run),
+    ):
+        resolved = resolve_model(source, identified.uri)
+        assert resolved.path.read_text() == expected, source
+        assert resolved.run_id in (identified.run_id, None), source
+    assert resolve_model(f"models:/{NAME}/1", identified.uri).tags()["lwrlab.model_version"] == "1"
