@@ -5,6 +5,10 @@ store, registered under :data:`NAME`) serves every test: its pyfunc model, loade
 process, predicts ``predicted_torque.parquet``; its version carries the headline metrics and the
 datasets; ``lwrlab model alias`` names it ``champion``; ``task=monitor`` reads it as
 ``models:/<name>@champion`` and records the lineage; a URI that names nothing is one line.
+
+A payload run (noiseless simulated logs read through ``plant=log``) logs its payload as a model too,
+registered as ``<robot>_payload``: loaded in a plain process, it predicts the torques the payload
+adds, as Pinocchio's inverse dynamics of the robot with and without it.
 """
 
 from __future__ import annotations
@@ -17,12 +21,15 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pinocchio as pin
 import pytest
 import yaml
 from mlflow.tracking import MlflowClient
 from tracking_apps import app_environment, run_app
 
 from lwrlab.io.logs import write_log
+from lwrlab.io.payload_model import payload_parameters
+from lwrlab.model.payload import attach_payload
 from lwrlab.pipeline.identification.log_predictions import process_measurement
 from lwrlab.plants.core import Measurement
 from lwrlab.tracking.models import registry
@@ -254,3 +261,120 @@ def test_every_form_of_a_model_resolves_to_the_same_file(identified: Identified)
         assert resolved.path.read_text() == expected, source
         assert resolved.run_id in (identified.run_id, None), source
     assert resolve_model(f"models:/{NAME}/1", identified.uri).tags()["lwrlab.model_version"] == "1"
+
+
+# --- payload ------------------------------------------------------------------------------------------
+
+PAYLOAD_PREDICT = """
+import sys
+import mlflow
+import pandas as pd
+from hydra.core.global_hydra import GlobalHydra
+
+uri, model_uri, states, out = sys.argv[1:]
+model = mlflow.pyfunc.load_model(model_uri)
+model.predict(pd.read_parquet(states)).to_parquet(out)
+assert not GlobalHydra.instance().is_initialized(), "no Hydra app, no config"
+"""
+
+
+def _payload_logs(folder: Path) -> tuple[Path, Path]:
+    """Noiseless unloaded and loaded logs (2 s each) of the ``plant=log`` robot carrying a roller."""
+    from composing import compose_config
+    from hydra.utils import instantiate
+
+    from lwrlab.pipeline.build import build
+    from lwrlab.pipeline.tools.library import load_tool
+    from plugins.plants.simulated import SimulatedPlant
+
+    robot = instantiate(compose_config("plant=log").robot)
+    plant = SimulatedPlant(robot, seed=0, show_progress=False, torque_noise_std=0.0, encoder_noise_std=0.0)
+
+    def motion(seed: int) -> object:
+        source = build("trajectory", "multisine", duration=2.0, harmonics=10, seed=seed, limit_fraction=0.9)
+        return source.sample(robot, 1000.0)
+
+    unloaded = write_log(plant.measure(motion(1)), folder / "unloaded.csv")
+    loaded = write_log(plant.with_tool(load_tool("small_roller")).measure(motion(100)), folder / "loaded.csv")
+    return unloaded, loaded
+
+
+def test_a_payload_run_logs_and_registers_a_model_of_its_payloads_torques(
+    identified: Identified, tmp_path: Path
+) -> None:
+    unloaded, loaded = _payload_logs(tmp_path)
+    run = identified.folder / "payload"
+    done = run_app(
+        None,
+        "task=payload",
+        "plant=log",
+        f"task.unloaded_paths=[{unloaded}]",
+        f"task.loaded_paths=[{loaded}]",
+        "measurement.processing.cutoff_hz=null",
+        "measurement.processing.difference_accuracy=4",
+        "measurement.processing.rate_hz=100",
+        "tracking.register_model=robot",
+        f"hydra.run.dir={run}",
+        store=identified.folder,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    run_id = (run / "mlflow_run_id.txt").read_text().strip()
+    client = identified.client
+    (version,) = client.search_model_versions("name = 'kuka_lwr4_payload'")
+    assert version.run_id == run_id and version.tags["tool"] == "small_roller"
+    assert float(version.tags["mass"]) == pytest.approx(0.1, rel=0.01)  # the small roller's 0.1 kg
+    assert "payload" in version.description
+
+    # random states, predicted in a plain process from the registered version (its files only)
+    rng = np.random.default_rng(0)
+    q, dq, ddq = rng.uniform(-1.5, 1.5, (3, 40, JOINTS))
+    states = pd.DataFrame(
+        {
+            f"{name}{j}": values[:, j - 1]
+            for name, values in (("q", q), ("dq", dq), ("ddq", ddq))
+            for j in range(1, 8)
+        }
+    )
+    states.to_parquet(tmp_path / "states.parquet")
+    moved = tmp_path / "elsewhere"  # the run folder gone: the model needs none of its files
+    run.rename(moved)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            PAYLOAD_PREDICT,
+            identified.uri,
+            "models:/kuka_lwr4_payload/1",
+            str(tmp_path / "states.parquet"),
+            str(tmp_path / "predicted.parquet"),
+        ],
+        cwd=tmp_path,
+        env=app_environment({"MLFLOW_TRACKING_URI": identified.uri}),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    predicted = pd.read_parquet(tmp_path / "predicted.parquet")
+    assert list(predicted.columns) == [f"tau{j}" for j in range(1, JOINTS + 1)]
+
+    # independently: Pinocchio's RNEA of the robot carrying the payload, less that of the robot
+    from composing import compose_config
+    from hydra.utils import instantiate
+
+    robot = instantiate(compose_config("plant=log").robot)
+    carrying = attach_payload(robot, payload_parameters(moved / "payload.yaml"))
+    difference = np.stack(
+        [
+            pin.rnea(carrying.model, carrying.model.createData(), q[k], dq[k], ddq[k])
+            - pin.rnea(robot.model, robot.model.createData(), q[k], dq[k], ddq[k])
+            for k in range(len(q))
+        ]
+    )
+    assert np.abs(difference).max() > 0.1  # the payload loads the joints
+    np.testing.assert_allclose(predicted.to_numpy(), difference, rtol=0, atol=1e-9)
+    model_id = client.get_run(run_id).outputs.model_outputs[0].model_id
+    files = {Path(f.path).name for f in client.list_logged_model_artifacts(model_id)}
+    assert {"MLmodel", "input_example.json", "requirements.txt"} <= files
+    artifacts = {Path(f.path).name for f in client.list_logged_model_artifacts(model_id, "artifacts")}
+    assert {"payload.yaml", "payload_robot.yaml", "payload_parameters.csv"} <= artifacts

@@ -3,6 +3,7 @@
 The simulated robot plays an unloaded and a loaded motion; the measurements are written as logs in
 the documented schema (CSV and Parquet; motor currents ``τ / k`` for the drive gains) and read back
 by the tasks through ``plant=log``, as a user's logs would be.
+A payload run's folder, moved elsewhere, rebuilds the payload's torques (its model's files).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 import yaml
 from composing import compose_config
@@ -22,10 +24,14 @@ from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.io.artifacts import save_identified_model
 from lwrlab.io.logs import joint_columns, log_frame, write_log
 from lwrlab.model.inertia import standard_parameters
+from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
+from lwrlab.pipeline.config_nodes import resolved_mapping
 from lwrlab.pipeline.tools.library import load_tool
+from lwrlab.pipeline.tools.payload_logs import robot_description
 from lwrlab.plants.core import Measurement
+from lwrlab.tracking.models.payload_pyfunc import load_payload_torques
 from lwrlab.trajectory.core import Trajectory
 from plugins.plants.simulated import SimulatedPlant
 
@@ -166,6 +172,34 @@ def test_noiseless_payload_is_exact(tmp_path: Path, log_robot: RobotModel, metho
     scale = np.where(roller.parameters != 0, np.abs(roller.parameters), np.abs(roller.parameters[4:7]).max())
     assert np.max(np.abs(phi - roller.parameters) / scale) < 1e-6
     assert abs(metrics["mass_error_pct"]) < 1e-4 and metrics["com_error_mm"] < 1e-4
+    _check_model_files(tmp_path / "run", log_robot, phi)
+
+
+def _check_model_files(run: Path, robot: RobotModel, phi: np.ndarray) -> None:
+    """The run folder, moved, rebuilds the payload's torques: RNEA with the payload less RNEA without."""
+    table = pd.read_csv(run / "payload_parameters.csv")
+    assert list(table.columns) == ["parameter", "value", "std", "relative_std_pct"]
+    np.testing.assert_array_equal(table["value"].to_numpy(), phi)
+    example = pd.read_csv(run / "model_input_example.csv")
+    assert list(example.columns) == ["t", *[f"{p}{j}" for p in ("q", "dq", "ddq") for j in range(1, 8)]]
+    moved = run.rename(run.with_name("moved"))
+    torques = load_payload_torques(moved / "payload.yaml", moved / "payload_robot.yaml")
+    states = [example[[f"{p}{j}" for j in range(1, 8)]].to_numpy() for p in ("q", "dq", "ddq")]
+    carrying = attach_payload(robot, phi)
+    expected = carrying.inverse_dynamics(*states, with_friction=False) - robot.inverse_dynamics(
+        *states, with_friction=False
+    )
+    np.testing.assert_allclose(torques.predict(*states), expected, rtol=0, atol=1e-9)
+    moved.rename(run)
+
+
+def test_an_identified_robots_description_is_the_one_its_model_refined(tmp_path: Path) -> None:
+    """robot=identified: the payload's model keeps the description the identified model holds."""
+    description = resolved_mapping(compose_config().robot, "robot")
+    model = IdentifiedModel(("ZZ1R",), np.ones(1), np.zeros(1), ("M1",), np.ones(1))
+    save_identified_model(model, description, tmp_path / "identified_model.yaml")
+    cfg = compose_config("robot=identified", f"robot.source={tmp_path}")
+    assert robot_description(cfg) == description
 
 
 def test_an_identified_model_of_other_base_parameters_is_refused(tmp_path: Path) -> None:

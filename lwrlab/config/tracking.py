@@ -15,4 +15,5 @@ class TrackingStoreSettings:
     """Where new experiments keep their artifacts; null: the server decides."""
     register_model: str | None
     """Register each identified model as a new version of this registered model (``robot`` or
-    ``true``: the robot's name); null: logged with its run only."""
+    ``true``: the robot's name, ``<robot>_payload`` for a payload run's); null: logged with its run
+    only."""

@@ -7,6 +7,12 @@ written in the flange frame (``payload.yaml``, ``payload_inertial.urdf.xml``)::
 
     lwrlab task=payload plant=log 'task.unloaded_paths=[u.csv]' 'task.loaded_paths=[l.csv]'
 
+Beside them, what rebuilds the payload's model with nothing else (:func:`write_payload_model_files`):
+the robot's description (``payload_robot.yaml``, with a copy of the URDF or description file it
+names), the parameter table (``payload_parameters.csv``) and a few states of the first loaded log
+(``model_input_example.csv``), from which the tracking logs the run's MLflow Model
+(:mod:`lwrlab.tracking.models.payload_pyfunc`).
+
 The logs are read and processed as :mod:`lwrlab.pipeline.tools.log_rows` says (the ``plant=log`` reader,
 the identification's processing).
 """
@@ -23,18 +29,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 import yaml
 
 from lwrlab.errors import ConfigError
 from lwrlab.identification.core import relative_std
 from lwrlab.identification.payload import PayloadEstimate
-from lwrlab.io.artifacts import load_identified_model
+from lwrlab.io.artifacts import MODEL_INPUT_EXAMPLE_FILE, load_identified_model
+from lwrlab.io.payload_model import PAYLOAD_FILE, PAYLOAD_PARAMETERS_FILE, write_robot_description
 from lwrlab.io.urdf_export import inertial_element
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
-from lwrlab.pipeline.config_nodes import processing_settings, tracking_uri
+from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, tracking_uri
 from lwrlab.pipeline.tools.bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.pipeline.tools.library import load_library, load_tool
 from lwrlab.pipeline.tools.log_rows import log_rows, read_logs
+from lwrlab.plants.core import Measurement
 from lwrlab.tools.model import Tool
 from lwrlab.tools.recognition import UNKNOWN_TOOL, Recognition, ToolClassifier, UnknownToolWarning
 from lwrlab.tracking.models.resolve import resolve_model
@@ -109,12 +118,16 @@ def inertial_snippet(phi_flange: np.ndarray) -> str:
     return "<!-- payload in the flange frame (lwrlab task=payload) -->\n" + text + "\n"
 
 
-def payload_document(estimate: PayloadEstimate, recognition: Recognition | None) -> dict[str, Any]:
-    """``payload.yaml``: mass, CoM, inertia about the CoM and the 10 standard parameters (flange frame)."""
+def payload_document(
+    estimate: PayloadEstimate, recognition: Recognition | None, robot: str | None = None
+) -> dict[str, Any]:
+    """``payload.yaml``: mass, CoM, inertia about the CoM and the 10 standard parameters (flange frame);
+    ``robot``: the name of the robot that carried it."""
     phi = estimate.phi_flange
     std = np.sqrt(np.diag(estimate.covariance_flange))
     mass, com, inertia = mass_com_inertia(phi)
     document: dict[str, Any] = {
+        **({"robot": robot} if robot is not None else {}),
         "frame": "flange (origin on the mounting face); SI units: kg, m, kg·m²",
         "method": estimate.method,
         "mass": float(mass),
@@ -146,6 +159,47 @@ def payload_document(estimate: PayloadEstimate, recognition: Recognition | None)
             "geometry": dict(recognition.geometry),
         }
     return document
+
+
+def parameter_table(document: dict[str, Any]) -> pd.DataFrame:
+    """The 10 parameters of a :func:`payload_document`: ``parameter, value, std, relative_std_pct``."""
+    return pd.DataFrame(
+        {
+            "parameter": list(LINK_PARAMETER_NAMES),
+            "value": [document["parameters"][name] for name in LINK_PARAMETER_NAMES],
+            "std": [document["std"][name] for name in LINK_PARAMETER_NAMES],
+            "relative_std_pct": [document["relative_std_pct"][name] for name in LINK_PARAMETER_NAMES],
+        }
+    )
+
+
+IDENTIFIED_ROBOT_LOADER = "load_identified_robot"
+"""The loader of ``robot=identified``: its description is the identified model's own."""
+
+
+def robot_description(cfg: Any) -> dict[str, Any]:
+    """The description of the job's robot (``robot``), as a run folder keeps it: ``robot=identified``
+    gives the description its identified model refined (the kinematics are the same; the payload's
+    columns do not read the identified inertias)."""
+    description = resolved_mapping(cfg.robot, "robot")
+    for _ in range(8):  # an identified model of an identified model …
+        if not str(description.get("_target_", "")).endswith(f".{IDENTIFIED_ROBOT_LOADER}"):
+            return description
+        path = resolve_model(description["source"], tracking_uri(cfg), "robot.source").path
+        _, description = load_identified_model(path)
+    raise ConfigError("robot.source: identified models nested too deep to find the robot's description")
+
+
+def write_payload_model_files(
+    cfg: Any, output_dir: Path, document: dict[str, Any], loaded: Sequence[Measurement]
+) -> None:
+    """Write what rebuilds the payload's model anywhere (see the module docstring)."""
+    from lwrlab.pipeline.identification.report import model_input_example
+
+    write_robot_description(robot_description(cfg), output_dir)
+    parameter_table(document).to_csv(output_dir / PAYLOAD_PARAMETERS_FILE, index=False, float_format="%.17g")
+    example = model_input_example(loaded[0], processing_settings(cfg))
+    example.to_csv(output_dir / MODEL_INPUT_EXAMPLE_FILE, index=False, float_format="%.17g")
 
 
 def _payload_metrics(
@@ -244,7 +298,8 @@ def run_payload(
         recognises the payload.
     truth : a library tool name known to be the payload (simulated logs): relative errors are added.
 
-    Writes ``payload.yaml``, ``payload_inertial.urdf.xml``, ``summary.md`` and ``metrics.json``.
+    Writes ``payload.yaml``, ``payload_inertial.urdf.xml``, ``summary.md``, ``metrics.json`` and the
+    files of the payload's model (:func:`write_payload_model_files`).
     """
     from hydra.utils import instantiate
 
@@ -267,7 +322,8 @@ def run_payload(
         else None
     )
     start = time.perf_counter()
-    loaded = log_rows(bench, read_logs(cfg, robot, loaded_paths, "loaded"))
+    loaded_logs = read_logs(cfg, robot, loaded_paths, "loaded")
+    loaded = log_rows(bench, loaded_logs)
     unloaded = log_rows(bench, read_logs(cfg, robot, unloaded_paths, "unloaded")) if unloaded_paths else None
     estimate = identify_payload_from_rows(bench, loaded, unloaded, robot_base, method, weighted, consistent)
     seconds = time.perf_counter() - start
@@ -278,8 +334,9 @@ def run_payload(
         warnings.warn(recognition.describe(), UnknownToolWarning, stacklevel=1)
     true_tool = (tools[truth] if truth in tools.names else load_tool(truth)) if truth else None
 
-    document = payload_document(estimate, recognition)
-    (output_dir / "payload.yaml").write_text(yaml.safe_dump(document, sort_keys=False, allow_unicode=True))
+    document = payload_document(estimate, recognition, robot.name)
+    (output_dir / PAYLOAD_FILE).write_text(yaml.safe_dump(document, sort_keys=False, allow_unicode=True))
+    write_payload_model_files(cfg, output_dir, document, loaded_logs)
     snippet = inertial_snippet(estimate.phi_flange)
     (output_dir / "payload_inertial.urdf.xml").write_text(snippet)
     metrics = _payload_metrics(estimate, recognition, true_tool) | {"identification_s": seconds}

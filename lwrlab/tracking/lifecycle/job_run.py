@@ -9,7 +9,8 @@ The tracking callback makes one :class:`JobRun` per job and calls it from its ho
   ``mlflow_offline_run.json`` for ``lwrlab sync``;
 * :meth:`JobRun.end`: metrics (each under its section: ``accuracy/rms_mean``), the datasets it used,
   the tags the job asked for, the models it read, the error, the output folder, the model it
-  identified (an MLflow Model, registered when ``tracking.register_model`` names a model), the status;
+  identified (an MLflow Model of a robot or a payload, registered when ``tracking.register_model``
+  names a model), the status;
 * :meth:`JobRun.end_killed` (a stop signal) and :meth:`JobRun.end_at_exit` (the process exits
   without ``on_job_end``): the run ends KILLED.
 
@@ -51,7 +52,7 @@ from lwrlab.tracking.job_config.run_params import RESOLVED_CONFIG_ARTIFACT
 from lwrlab.tracking.lifecycle import job_state
 from lwrlab.tracking.lifecycle.sweep_run import fail_sweep_run
 from lwrlab.tracking.lifecycle.sweep_stop import Guard, end_earlier_attempts
-from lwrlab.tracking.models.model_logging import log_identified_model, log_model_inputs
+from lwrlab.tracking.models.model_logging import log_job_model, log_model_inputs
 from lwrlab.tracking.models.registry import register_identified_model, registered_name
 from lwrlab.tracking.runs import offline
 from lwrlab.tracking.runs.finalise import end_killed, finalise_stale_runs
@@ -233,13 +234,14 @@ class JobRun:
     def _log_model(
         self, client: MlflowClient, run_id: str, config: DictConfig, metrics: Mapping[str, float]
     ) -> None:
-        """Log the model the job identified (if any); register it where ``tracking.register_model`` says."""
+        """Log the model the job identified (a robot or a payload, if any); register it where
+        ``tracking.register_model`` says."""
         assert self.settings is not None
-        logged = log_identified_model(client, run_id, self.output_dir, self.settings.tracking_uri)
+        logged = log_job_model(client, run_id, self.output_dir, self.settings.tracking_uri)
         if logged is None:
             return
         setting = OmegaConf.select(config, "tracking.register_model", default=None)
-        name = registered_name(setting, logged.robot)
+        name = registered_name(setting, logged.default_name)
         if name is not None:
             register_identified_model(client, name, logged, run_id, self.run_name, metrics, self.datasets)
 

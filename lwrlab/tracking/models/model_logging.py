@@ -18,7 +18,7 @@ import os
 import re
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -49,6 +49,10 @@ REQUIRED_DISTRIBUTIONS = ("lwrlab", "pin", "numpy", "scipy", "pandas", "hydra-co
 DEFAULT_RATE_HZ = 1000.0
 """The rate of consecutive rows when a run left no sample times to read it from (Hz)."""
 MODEL_TYPE = "identified_dynamics"
+PAYLOAD_MODEL_CODE = Path(__file__).with_name("payload_model_code.py")
+PAYLOAD_MODEL_TYPE = "identified_payload"
+PAYLOAD_NAME_SUFFIX = "_payload"
+"""``tracking.register_model=robot`` registers a payload as ``<robot>_payload``."""
 
 
 @dataclass(frozen=True)
@@ -62,6 +66,17 @@ class LoggedIdentifiedModel:
     robot: str
     """The robot's name (the identified model's ``robot.name``)."""
     n_joints: int
+    kind: str = "robot"
+    """``robot`` (an identified robot) or ``payload`` (a payload at its flange)."""
+    tags: dict[str, str] = field(default_factory=dict)
+    """What the model's registered versions are tagged with besides the run's metrics (a payload's
+    mass and recognised tool)."""
+
+    @property
+    def default_name(self) -> str:
+        """The registered name ``tracking.register_model=robot`` means: the robot's name, for a
+        payload followed by :data:`PAYLOAD_NAME_SUFFIX`."""
+        return self.robot + (PAYLOAD_NAME_SUFFIX if self.kind == "payload" else "")
 
 
 def pip_requirements() -> list[str]:
@@ -155,10 +170,6 @@ def log_identified_model(
     read from the input example's times, else from the predictions' (see
     :mod:`~lwrlab.tracking.models.identified_pyfunc`).
     """
-    import mlflow.pyfunc
-    from mlflow.models import Model
-    from mlflow.tracking._tracking_service.utils import _use_tracking_uri
-
     # the file names only: the core's readers are not needed here
     from lwrlab.io.artifacts import IDENTIFIED_MODEL_FILE, MODEL_INPUT_EXAMPLE_FILE
 
@@ -182,6 +193,40 @@ def log_identified_model(
         if (output_dir / name).is_file():
             artifacts[key] = str(output_dir / name)
     robot = _robot_name(model_file)
+    # 9 digits: the rate of uniform samples, not the rounding of their times
+    config = {"rate_hz": float(f"{rate_hz or DEFAULT_RATE_HZ:.9g}")}
+    model_id = _log_pyfunc(
+        client,
+        run_id,
+        tracking_uri,
+        MODEL_CODE,
+        MODEL_TYPE,
+        {"robot": robot},
+        artifacts,
+        joints,
+        example,
+        config,
+    )
+    return LoggedIdentifiedModel(model_id, f"models:/{model_id}", robot, joints)
+
+
+def _log_pyfunc(
+    client: MlflowClient,
+    run_id: str,
+    tracking_uri: str,
+    code: Path,
+    model_type: str,
+    tags: dict[str, str],
+    artifacts: dict[str, str],
+    joints: int,
+    example: pd.DataFrame | None,
+    config: dict[str, float] | None = None,
+) -> str:
+    """Log the pyfunc model of ``code`` as the run's MLflow Model :data:`MODEL_NAME`; its model id."""
+    import mlflow.pyfunc
+    from mlflow.models import Model
+    from mlflow.tracking._tracking_service.utils import _use_tracking_uri
+
     run = retry_locked(client.get_run, run_id)
     # created here, in the run's experiment (MLflow's own would go to its default experiment)
     created = retry_locked(
@@ -189,9 +234,9 @@ def log_identified_model(
         run.info.experiment_id,
         name=MODEL_NAME,
         source_run_id=run_id,
-        tags={"robot": robot},
+        tags=tags,
         params=dict(run.data.params),
-        model_type=MODEL_TYPE,
+        model_type=model_type,
     )
     with _use_tracking_uri(tracking_uri), _requirements_checked_by_name(), _quiet_mlflow():
         info = Model.log(
@@ -200,15 +245,64 @@ def log_identified_model(
             flavor=mlflow.pyfunc,
             run_id=run_id,
             model_id=created.model_id,
-            python_model=str(MODEL_CODE),
+            python_model=str(code),
             artifacts=artifacts,
             signature=model_signature(joints),
             input_example=example,
             pip_requirements=pip_requirements(),
-            # 9 digits: the rate of uniform samples, not the rounding of their times
-            model_config={"rate_hz": float(f"{rate_hz or DEFAULT_RATE_HZ:.9g}")},
+            model_config=config,
         )
-    return LoggedIdentifiedModel(str(info.model_id), f"models:/{info.model_id}", robot, joints)
+    return str(info.model_id)
+
+
+def log_payload_model(
+    client: MlflowClient, run_id: str, output_dir: Path, tracking_uri: str
+) -> LoggedIdentifiedModel | None:
+    """Log the job's payload as the run's MLflow Model ``model``; None: the job identified none.
+
+    Its version's tags (:attr:`LoggedIdentifiedModel.tags`): ``mass`` (kg) and ``tool``, the
+    recognised library tool (``unknown`` far from every one).
+    """
+    import yaml
+
+    from lwrlab.io.artifacts import MODEL_INPUT_EXAMPLE_FILE
+    from lwrlab.io.payload_model import PAYLOAD_FILE, PAYLOAD_PARAMETERS_FILE, PAYLOAD_ROBOT_FILE
+    from lwrlab.tracking.models.payload_pyfunc import (
+        PAYLOAD_ARTIFACT,
+        ROBOT_ARTIFACT,
+        ROBOT_FILE_ARTIFACT,
+        TABLE_ARTIFACT,
+    )
+
+    payload_file, robot_file = output_dir / PAYLOAD_FILE, output_dir / PAYLOAD_ROBOT_FILE
+    example_path = output_dir / MODEL_INPUT_EXAMPLE_FILE
+    if not (payload_file.is_file() and robot_file.is_file() and example_path.is_file()):
+        return None
+    joints = _joint_count(list(pd.read_csv(example_path, nrows=0).columns), "q")
+    document = yaml.safe_load(payload_file.read_text(encoding="utf-8")) or {}
+    description = yaml.safe_load(robot_file.read_text(encoding="utf-8")) or {}
+    artifacts = {PAYLOAD_ARTIFACT: str(payload_file), ROBOT_ARTIFACT: str(robot_file)}
+    if description.get("path") is not None:
+        artifacts[ROBOT_FILE_ARTIFACT] = str(output_dir / str(description["path"]))
+    if (output_dir / PAYLOAD_PARAMETERS_FILE).is_file():
+        artifacts[TABLE_ARTIFACT] = str(output_dir / PAYLOAD_PARAMETERS_FILE)
+    robot = str(document.get("robot") or "robot")
+    tool = str((document.get("recognised") or {}).get("tool") or "")
+    tags = {"robot": robot, "mass": f"{float(document['mass']):.6g}", **({"tool": tool} if tool else {})}
+    example = _input_example(example_path, joints)
+    model_id = _log_pyfunc(
+        client, run_id, tracking_uri, PAYLOAD_MODEL_CODE, PAYLOAD_MODEL_TYPE, tags, artifacts, joints, example
+    )
+    return LoggedIdentifiedModel(model_id, f"models:/{model_id}", robot, joints, "payload", tags)
+
+
+def log_job_model(
+    client: MlflowClient, run_id: str, output_dir: Path, tracking_uri: str
+) -> LoggedIdentifiedModel | None:
+    """Log the model the job identified: a robot (:func:`log_identified_model`) or a payload
+    (:func:`log_payload_model`); None: neither."""
+    logged = log_identified_model(client, run_id, output_dir, tracking_uri)
+    return logged if logged is not None else log_payload_model(client, run_id, output_dir, tracking_uri)
 
 
 def log_model_inputs(client: MlflowClient, run_id: str, output_dir: Path) -> None:
@@ -225,9 +319,13 @@ def log_model_inputs(client: MlflowClient, run_id: str, output_dir: Path) -> Non
 
 __all__ = [
     "MODEL_CODE",
+    "PAYLOAD_MODEL_CODE",
+    "PAYLOAD_NAME_SUFFIX",
     "REQUIRED_DISTRIBUTIONS",
     "LoggedIdentifiedModel",
     "log_identified_model",
+    "log_job_model",
     "log_model_inputs",
+    "log_payload_model",
     "pip_requirements",
 ]

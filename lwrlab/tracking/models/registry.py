@@ -5,7 +5,9 @@ registers the model it logged as a new version of ``<name>`` (:func:`register_id
 The version's tags carry the run's headline metrics (its ``accuracy/`` section: ``accuracy/rms_mean``,
 ``accuracy/validation_rel_error``, …), the robot and the data it was fitted and validated on
 (``datasets.identification``, ``datasets.validation``: ``name@digest``, as the run's Dataset
-column shows them); its description says the same in a sentence.
+column shows them); its description says the same in a sentence. A payload run registers its
+payload's model the same way (``robot``, ``true``: ``<robot>_payload``), its versions tagged with
+the payload's ``mass`` (kg) and recognised ``tool``.
 
 ``lwrlab model alias <name> <version> <alias>`` points an alias (``champion``, ``staging``) at a
 version, which every task then reads as ``models:/<name>@<alias>``; ``lwrlab model list <name>``
@@ -98,16 +100,30 @@ def version_description(
     )
 
 
-def _ensure_registered_model(client: MlflowClient, name: str, robot: str) -> None:
+def payload_version_description(robot: str, run_id: str, run_name: str, tags: Mapping[str, str]) -> str:
+    """One paragraph: the payload's robot, its run, its data, its mass and recognised tool."""
+    fitted = ", ".join(value for key, value in tags.items() if key.startswith(DATASET_TAG_PREFIX))
+    tool = tags.get("tool", "")
+    return (
+        f"A payload at the flange of {robot} identified by run {run_name} ({run_id})"
+        + (f" from {fitted}" if fitted else "")
+        + (f": {tags['mass']} kg" if "mass" in tags else "")
+        + (f", recognised as {tool}" if tool else "")
+        + ". An MLflow pyfunc model: q1…, dq1…, ddq1… (rad, rad/s, rad/s²) → tau1… (N·m), the torques"
+        " the payload adds at the joints."
+    )
+
+
+def _ensure_registered_model(client: MlflowClient, name: str, robot: str, kind: str) -> None:
+    what = (
+        f"Payloads at the flange of {robot} identified by lwrlab, one version per payload run; "
+        "each version's tags hold the payload's mass and recognised tool."
+        if kind == "payload"
+        else f"Dynamic models of {robot} identified by lwrlab, one version per identification; "
+        "each version's tags hold its run's headline metrics and datasets."
+    )
     try:
-        retry_locked(
-            client.create_registered_model,
-            name,
-            description=(
-                f"Dynamic models of {robot} identified by lwrlab, one version per identification; "
-                "each version's tags hold its run's headline metrics and datasets."
-            ),
-        )
+        retry_locked(client.create_registered_model, name, description=what)
     except MlflowException as error:  # another job created it first: fine
         if error.error_code != ErrorCode.Name(RESOURCE_ALREADY_EXISTS):
             raise
@@ -123,15 +139,20 @@ def register_identified_model(
     datasets: Sequence[DatasetInput],
 ) -> str:
     """Register ``logged`` as a new version of ``name`` (created if missing); returns the version."""
-    _ensure_registered_model(client, name, logged.robot)
-    tags = {ROBOT_TAG: logged.robot, **headline_tags(metrics), **dataset_tags(datasets)}
+    _ensure_registered_model(client, name, logged.robot, logged.kind)
+    tags = {ROBOT_TAG: logged.robot, **logged.tags, **headline_tags(metrics), **dataset_tags(datasets)}
+    description = (
+        payload_version_description(logged.robot, run_id, run_name, tags)
+        if logged.kind == "payload"
+        else version_description(logged.robot, run_id, run_name, metrics, tags)
+    )
     version = retry_locked(
         client.create_model_version,
         name,
         logged.model_uri,
         run_id=run_id,
         tags=tags,
-        description=version_description(logged.robot, run_id, run_name, metrics, tags),
+        description=description,
         model_id=logged.model_id,
     )
     log.info(
@@ -223,6 +244,7 @@ __all__ = [
     "dataset_tags",
     "headline_tags",
     "main",
+    "payload_version_description",
     "register_identified_model",
     "registered_name",
     "set_alias",
