@@ -88,7 +88,8 @@ def test_logs_identified_joint_side_and_motor_side_alike(tmp_path: Path) -> None
     # read_results.py recomputes the run's own figure from predicted_torque.parquet
     assert errors.loc["validation", "rel_error_%"] == pytest.approx(100 * metrics["validation_rel_error"])
     assert metrics["validation_rel_error"] < 0.02  # 0.8 % measured: the sensor noise of the simulator
-    assert 90.0 < errors.loc["validation", "interval_coverage_%"] < 99.0
+    # the 95 % interval allows for friction drifting between motions, which a simulator's never does
+    assert 95.0 <= errors.loc["validation", "interval_coverage_%"] <= 100.0
     choice = pd.read_csv(joint / "friction_choice.csv")
     assert choice["chosen"].sum() == 1 and len(choice) > 10
     # the motor-side logs are the joint-side ones through the gears: read back, the same fit

@@ -166,7 +166,8 @@ def test_several_logs_each_scored_with_what_a_user_takes_away(
     )
     validation = (predicted["role"] == "validation").to_numpy()
     assert inside[validation].mean() == pytest.approx(metrics["validation_interval_coverage"], abs=1e-12)
-    assert 0.85 < metrics["validation_interval_coverage"] <= 1.0  # simulated noise: near the nominal 95 %
+    # at least the nominal 95 %: the interval allows for friction drift, which a simulator's never does
+    assert 0.95 <= metrics["validation_interval_coverage"] <= 1.0
     summary = (run / "summary.md").read_text()
     assert "check_a, check_b: validation logs, not used for identification" in summary
     assert not (run / "exciting_motion.csv").exists() and (run / "residuals_per_log.png").is_file()
@@ -218,9 +219,9 @@ def test_real_lwr4_defaults_predict_new_motions() -> None:
     new_slower = _real_lwr4([3], [1, 2])
     assert new_slower.metrics["validation_rel_error"] <= 0.032
     assert new_slower.metrics["min_pseudo_inertia_eigenvalue"] > -1e-12  # bodies a simulator can take
-    # the 95 % band covers ~89 % of a new motion's samples: its model error exceeds what the blocks of
-    # the fit show (README, model study)
-    assert 0.8 <= new_slower.metrics["validation_interval_coverage"] <= 1.0
+    # the 95 % band holds on the new motions: it allows for their friction differing from the fit's
+    # (model study: 96.9 % and 99.0 %; without the drift 81 % and 84 %)
+    assert new_slower.metrics["validation_interval_coverage"] >= 0.93
     both = _real_lwr4([2, 3], [1])
     assert both.metrics["validation_rel_error"] < 0.027
     assert not any(
