@@ -176,10 +176,16 @@ def test_several_logs_each_scored_with_what_a_user_takes_away(
 def test_irregular_log_is_scored_at_its_logged_samples(
     lwr4: RobotModel, recorded: dict, tmp_path: Path
 ) -> None:
+    """Samples taken at irregular times (the positions follow the stamps) are interpolated onto a
+    grid, and the prediction is scored at the samples as logged."""
+    from scipy.interpolate import CubicSpline
+
     rng = np.random.default_rng(2)
     check = recorded["check_a"]
+    taken = check.t + rng.uniform(-0.3, 0.3, check.t.shape) / 500.0
+    taken[0], taken[-1] = check.t[0], check.t[-1]  # inside the motion
     jittered = Measurement(
-        t=check.t + rng.uniform(-0.3, 0.3, check.t.shape) / 500.0, q=check.q, tau=check.tau
+        t=taken, q=CubicSpline(check.t, check.q)(taken), tau=CubicSpline(check.t, check.tau)(taken)
     )
     plant = LogPlant(
         lwr4,
@@ -191,6 +197,29 @@ def test_irregular_log_is_scored_at_its_logged_samples(
     np.testing.assert_allclose(validation.t, jittered.t, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(validation.measured, jittered.tau)  # raw torques, never interpolated ones
     assert report.validation_measurement.metadata["resampled"]
+    assert report.validation_measurement.metadata["stamp_jitter"] is None
+
+
+def test_receipt_jittered_stamps_are_regularised_and_noted(
+    lwr4: RobotModel, recorded: dict, tmp_path: Path
+) -> None:
+    """Regularly taken samples stamped on arrival (the stamps jitter, the positions do not follow
+    them) are kept as they are and read on the regular grid, and the run says so."""
+    rng = np.random.default_rng(4)
+    fit = recorded["fit_a"]
+    late = rng.uniform(0.0, 0.4, fit.t.shape) / 500.0  # a recorder's delays, under half a period
+    stamped = Measurement(t=fit.t + late, q=fit.q, tau=fit.tau)
+    path = write_log(stamped, tmp_path / "stamped.csv")
+    log = load_log(path, lwr4.n_joints)
+    assert not log.resampled
+    np.testing.assert_allclose(np.diff(log.t), 1.0 / 500.0, rtol=1e-4)  # the regular grid
+    np.testing.assert_array_equal(log.q, stamped.q)  # the samples kept, not interpolated
+    assert 0.0 < log.stamp_jitter < 0.5 / 500.0
+    plant = LogPlant(
+        lwr4, paths=[str(path)], validation_paths=[str(write_log(recorded["check_a"], tmp_path / "c.csv"))]
+    )
+    report = identify(lwr4, None, None, plant, build("estimator", "ols"), processing={"cutoff_hz": "auto"})
+    assert any("time stamps off the regular grid" in note for note in report.notes)
 
 
 def _real_lwr4(fit: list[int], validation: list[int]) -> IdentificationReport:

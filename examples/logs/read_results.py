@@ -14,7 +14,7 @@ It reads
   interval's coverage;
 * ``friction_choice.csv`` (written with ``friction=auto``, the default for logs): every candidate law,
   with and without rotor inertias, and its held-out NRMS (%); the ``chosen`` one is the simplest within
-  one standard error of the best.
+  one standard error of the best, on the mean or on the mean and the worst held-out block together.
 
 and prints them as tables. It also writes ``errors_per_log.csv`` into the run folder.
 """

@@ -45,10 +45,13 @@ non-increasing time, or a gap in time larger than ``max_gap`` sampling periods r
 of the file). Nothing is dropped silently.
 
 Resampling: a log whose sampling period varies by more than ``jitter_tolerance`` (relative to the
-median period) is linearly interpolated onto the uniform grid ``t_0 + k/rate`` (rate = ``rate_hz``
-or 1/median period) before anything else; the measurement metadata records it, and the times and
-torques as logged are kept, so that a prediction is scored against what the sensors gave, not
-against interpolated torques.
+median period) is either *regularised* or *resampled*. Stamps that stay within half a period of a
+straight line, on which the positions are smoother than on the stamps, were put on regularly taken
+samples by a recorder's clock (a PC stamping a controller's stream on arrival): the samples are kept
+and read on that line (``stamp_jitter`` says how far the stamps strayed). Otherwise the samples are
+linearly interpolated onto the uniform grid ``t_0 + k/rate`` (rate = ``rate_hz`` or 1/median period)
+before anything else; the measurement metadata records it, and the times and torques as logged are
+kept, so that a prediction is scored against what the sensors gave, not against interpolated torques.
 
 :class:`LogError`, the units and the column names live in :mod:`lwrlab.io.log_schema`, below the
 readers and checks this module calls, and are importable from here too.
@@ -89,6 +92,9 @@ class RecordedLog:
     """The file read."""
     resampled: bool
     """Whether the time stamps were irregular and the samples were interpolated."""
+    stamp_jitter: float | None = None
+    """Largest distance (s) of a stamp from the regular grid the samples were read on, when the
+    stamps jitter around the grid the positions follow (the samples kept, not interpolated)."""
     logged_t: np.ndarray | None = None
     """(M,) times as logged (s), when resampled."""
     logged_tau: np.ndarray | None = None
@@ -119,6 +125,7 @@ class RecordedLog:
                 "name": self.name,
                 "rate_hz": rate,
                 "resampled": self.resampled,
+                "stamp_jitter": self.stamp_jitter,
                 "warnings": list(self.warnings),
                 "position_side": self.sides[0],
                 "torque_side": self.sides[1],
@@ -150,19 +157,48 @@ def _numeric_column(frame: LogTable, name: str, schema_name: str, path: Path) ->
     return values
 
 
+def _regular_stamps(t: np.ndarray, q: np.ndarray) -> np.ndarray | None:
+    """The regular grid ``a + k·T`` that jittered stamps ``t`` stand for, or None.
+
+    A recorder that stamps samples on arrival (a PC logging a controller's fixed-rate stream) adds
+    its own jitter to regularly taken samples: interpolating them onto a grid by those stamps bends
+    the positions at every late stamp, and differentiated twice that is a torque spike (10 N·m on the
+    real LWR4+ from one stamp 1.8 ms late). Such stamps stay within half a period of a straight line
+    (no sample missing or added) and the positions are smoother on the line than on the stamps
+    (on the LWR4+ runs 5–27× by their second differences). A log whose samples were taken when
+    stamped is smoother on its stamps, and is resampled.
+    """
+    k = np.arange(len(t), dtype=float)
+    slope, intercept = np.polyfit(k, t - t[0], 1)  # from the first stamp: Unix times lose digits
+    grid = t[0] + (intercept + slope * k)
+    if slope <= 0 or np.max(np.abs(t - grid)) >= 0.5 * slope:
+        return None
+
+    def roughness(times: np.ndarray) -> np.ndarray:
+        h = np.diff(times)
+        slopes = np.diff(q, axis=0) / h[:, None]
+        return np.sum((np.diff(slopes, axis=0) / (h[1:] + h[:-1])[:, None]) ** 2, axis=0)
+
+    return grid if np.sum(roughness(grid) < roughness(t)) > q.shape[1] / 2 else None
+
+
 def _uniform(
     t: np.ndarray, columns: list[np.ndarray], rate_hz: float | None, jitter_tolerance: float
-) -> tuple[np.ndarray, list[np.ndarray], bool]:
+) -> tuple[np.ndarray, list[np.ndarray], str]:
+    """The log on a uniform grid, and how: ``regular`` (as stamped), ``regularised`` (stamps jitter
+    around the grid the samples were taken on) or ``resampled`` (interpolated onto the grid)."""
     dt = np.diff(t)
     period = 1.0 / rate_hz if rate_hz else float(np.median(dt))
-    regular = np.max(np.abs(dt - period)) <= jitter_tolerance * period
-    if regular:
-        return t, columns, False
+    if np.max(np.abs(dt - period)) <= jitter_tolerance * period:
+        return t, columns, "regular"
+    grid = _regular_stamps(t, columns[0])
+    if grid is not None:
+        return grid, columns, "regularised"
     grid = t[0] + period * np.arange(int(np.floor((t[-1] - t[0]) / period + 1e-9)) + 1)
     return (
         grid,
         [np.column_stack([np.interp(grid, t, c[:, j]) for j in range(c.shape[1])]) for c in columns],
-        True,
+        "resampled",
     )
 
 
@@ -303,7 +339,8 @@ def load_log(
         )
     )
     logged_t, logged_tau = t, tau
-    t, columns, resampled = _uniform(t, columns, rate_hz, jitter_tolerance)
+    t, columns, stamps = _uniform(t, columns, rate_hz, jitter_tolerance)
+    resampled = stamps == "resampled"
     return RecordedLog(
         t=t,
         q=columns[0],
@@ -311,6 +348,7 @@ def load_log(
         dq=columns[2] if has_velocity else None,
         path=path,
         resampled=resampled,
+        stamp_jitter=float(np.max(np.abs(logged_t - t))) if stamps == "regularised" else None,
         logged_t=logged_t if resampled else None,
         logged_tau=logged_tau if resampled else None,
         warnings=tuple(str(w) for w in warnings),

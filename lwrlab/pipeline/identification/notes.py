@@ -32,6 +32,13 @@ def _prior_note(names: tuple[str, ...] | list[str], share: np.ndarray | None, th
     )
 
 
+def _stamps(jitter: float | None) -> str:
+    """The processing note's part on time stamps that jitter around the grid the samples were taken on."""
+    if jitter is None:
+        return ""
+    return f"; time stamps off the regular grid by up to {1e3 * jitter:.2g} ms, read on it (not interpolated)"
+
+
 def notes(
     robot: RobotModel,
     base: BaseParameters,
@@ -49,7 +56,8 @@ def notes(
     """The notes and warnings to print with the result, in order, none empty."""
     measurements = measured.measurements
     lines = [
-        f"processing of {m.name}: {data.describe()}" for m, data in zip(measurements, processed, strict=True)
+        f"processing of {m.name}: {data.describe()}{_stamps(m.metadata.get('stamp_jitter'))}"
+        for m, data in zip(measurements, processed, strict=True)
     ]
     lines += (
         []
