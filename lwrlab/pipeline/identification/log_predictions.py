@@ -96,17 +96,18 @@ class ResidualSums:
     """(N_J,) Σ (τ − τ̂)² per joint (N²·m²)."""
     samples: int
     """Scored samples."""
-    inside: int
-    """Scored samples × joints inside the prediction interval."""
-    with_interval: int
-    """Scored samples × joints that have an interval."""
+    inside: np.ndarray
+    """(N_J,) scored samples of each joint inside its prediction interval."""
+    with_interval: np.ndarray
+    """(N_J,) scored samples of each joint that have an interval (0: a joint not scored)."""
 
     @classmethod
     def of(cls, predictions: Sequence[LogPrediction]) -> ResidualSums:
         """The sums over every scored sample of ``predictions``, block by block."""
         n_joints = predictions[0].measured.shape[1] if predictions else 0
         measured, residual = np.zeros(n_joints), np.zeros(n_joints)
-        samples = inside = with_interval = 0
+        inside, with_interval = np.zeros(n_joints, dtype=int), np.zeros(n_joints, dtype=int)
+        samples = 0
         for p in predictions:
             scored = np.ones(n_joints, dtype=bool) if p.joints is None else p.joints  # fitted joints only
             for tau, tau_hat, half_width in p.scored_blocks():
@@ -115,8 +116,8 @@ class ResidualSums:
                 residual += np.sum(error**2, axis=0)
                 samples += tau.shape[0]
                 if half_width is not None:
-                    inside += int(np.count_nonzero((np.abs(error) <= half_width)[:, scored]))
-                    with_interval += tau.shape[0] * int(scored.sum())
+                    inside += np.count_nonzero(np.abs(error) <= half_width, axis=0) * scored
+                    with_interval += tau.shape[0] * scored
         return cls(measured, residual, samples, inside, with_interval)
 
     @property
@@ -132,7 +133,15 @@ class ResidualSums:
     @property
     def coverage(self) -> float:
         """Share of scored samples and joints inside their prediction interval (NaN: no interval)."""
-        return self.inside / self.with_interval if self.with_interval else float("nan")
+        counted = int(self.with_interval.sum())
+        return int(self.inside.sum()) / counted if counted else float("nan")
+
+    @property
+    def joint_coverage(self) -> np.ndarray:
+        """(N_J,) share of each joint's scored samples inside its interval (NaN: a joint not scored,
+        or no interval)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(self.with_interval > 0, self.inside / np.maximum(self.with_interval, 1), np.nan)
 
 
 @dataclass(frozen=True)
@@ -189,18 +198,8 @@ class PredictionInterval:
 
 
 def joint_coverage(predictions: Sequence[LogPrediction]) -> np.ndarray:
-    """(N_J,) share of each joint's scored samples inside its interval, over ``predictions`` (NaN: a
-    joint not scored, or no interval)."""
-    n_joints = predictions[0].measured.shape[1] if predictions else 0
-    inside, counted = np.zeros(n_joints), np.zeros(n_joints)
-    for p in predictions:
-        scored = np.ones(n_joints, dtype=bool) if p.joints is None else p.joints
-        for tau, tau_hat, half_width in p.scored_blocks():
-            if half_width is not None:
-                inside += np.count_nonzero(np.abs(tau - tau_hat) <= half_width, axis=0) * scored
-                counted += tau.shape[0] * scored
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(counted > 0, inside / np.maximum(counted, 1), np.nan)
+    """(N_J,) :attr:`ResidualSums.joint_coverage` over ``predictions``."""
+    return ResidualSums.of(predictions).joint_coverage
 
 
 def process_measurement(
