@@ -233,7 +233,8 @@ def real_lwr4_row(folder: Path, chosen: MonitorSettings) -> dict[str, object] | 
 
 def real_lwr4_crossed(folder: Path, chosen: MonitorSettings) -> pd.DataFrame | None:
     """Per direction (model and thresholds from run i, run j monitored) and kind of thresholds, the
-    false alarms of both estimators; None without the data. Draws the 2 → 3 direction's torques and
+    false alarms of both estimators (the observer's on stretches whose logged velocities contradict
+    the positions counted apart too); None without the data. Draws the 2 → 3 direction's torques and
     state thresholds (``real_lwr4_2_to_3.png``)."""
     if not (REAL_LWR4 / "measurements_1.npz").is_file():
         print(f"real LWR4+ logs not found at {REAL_LWR4}: crossed directions skipped")
@@ -257,6 +258,9 @@ def real_lwr4_crossed(folder: Path, chosen: MonitorSettings) -> pd.DataFrame | N
                         "thresholds": kind,
                         "monitored [s]": estimates[j].monitored_hours * 3600,
                         "false alarms (observer)": len(found["observer"]),
+                        "of which signals disagree (observer)": sum(
+                            d.signals_disagree for d in found["observer"]
+                        ),
                         "false alarms (direct residual)": len(found["residual"]),
                     }
                 )
@@ -283,6 +287,7 @@ def real_lwr4_rates(table: pd.DataFrame) -> pd.DataFrame:
             "monitored [s]": totals["monitored [s]"].to_numpy(),
             "false alarms (observer)": totals["false alarms (observer)"].to_numpy(),
             "per hour (observer)": (totals["false alarms (observer)"] / hours).to_numpy(),
+            "of which signals disagree (observer)": totals["of which signals disagree (observer)"].to_numpy(),
             "false alarms (direct residual)": totals["false alarms (direct residual)"].to_numpy(),
             "per hour (direct residual)": (totals["false alarms (direct residual)"] / hours).to_numpy(),
         }

@@ -24,6 +24,10 @@ OTHERS = {
         "1, 1/h, 1/h",
         "`task=monitor`: contacts found, alarms per hour",
     ),
+    "detections_signals_disagree": (
+        "1",
+        "`task=monitor`: detections where the log's velocities contradict its positions (may be artefacts)",
+    ),
     "missed_contacts, false_alarms, median_delay_ms, torque_rms_error": (
         "1, 1, ms, N·m",
         "`task=monitor` against a known truth (simulations)",

@@ -4,7 +4,8 @@ The friction band the thresholds follow, their growth with it and their floor at
 calibration data raising no alarm, a crossed case (calibrated on a slow motion, a faster one
 monitored, its friction drifted: the state thresholds stay quiet where constant ones alarm), a push
 on the arm standing still that the state thresholds see and motion-sized constant ones cannot, the
-stamps' share of a log with jittered stamps, and the real LWR4+ crossed from run 2 to run 3
+stamps' share of a log with jittered stamps, a stop the logged velocities deny (labelled, a push
+not), and the real LWR4+ crossed from run 2 to run 3
 (``../shared/data/kuka_lwr4_hw``, skipped without it).
 """
 
@@ -29,6 +30,7 @@ from lwrlab.monitoring.spread import first_order_lowpass, friction_band, regular
 from lwrlab.pipeline.build import build
 from lwrlab.plants.core import Measurement
 from lwrlab.plants.pushed_arm import ExternalForce, PushedArm
+from lwrlab.signal.filters import central_difference
 from lwrlab.trajectory.core import Trajectory
 
 REAL_LWR4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "kuka_lwr4_hw"
@@ -214,6 +216,35 @@ def test_jittered_stamps_raise_their_own_share_of_the_threshold(arm_robot: Robot
     assert detect(jittered, calibrate([regular], CONSTANT), CONSTANT)["observer"] != []
 
 
+def test_a_stop_the_logged_velocities_deny_is_labelled_and_a_push_is_not(arm_robot: RobotModel) -> None:
+    """A log whose last 0.3 s the recorder spoiled: the positions come to rest while the logged
+    velocities and torques carry on. The observer sees a collision there (the arm stopped, no torque
+    stopped it) and raises it, labelled ``signals_disagree`` with a warning; a real push earlier in
+    the same log is not labelled."""
+    from lwrlab.monitoring.signal_agreement import SignalDisagreementWarning
+
+    motion = _multisine(arm_robot, 8, 0.9, 6)
+    push = ExternalForce(
+        start=4.0, duration=0.3, link=4, point=np.array([0.0, 0.05, 0.1]), force=np.array([0.0, 40.0, 0.0])
+    )
+    reference = _arm(arm_robot, 1.0, 0).run(motion, [], "reference").measurement
+    logged = _arm(arm_robot, 1.0, 1).run(motion, [push], "spoiled").measurement
+    velocity = central_difference(logged.q, 1e-3)  # what the recorder logs as q̇
+    spoiled = len(logged.t) - 300
+    q = logged.q.copy()
+    speed = velocity[spoiled]
+    elapsed = logged.t[spoiled:] - logged.t[spoiled]
+    q[spoiled:] = q[spoiled] + speed * 0.05 * (1 - np.exp(-elapsed / 0.05))[:, None]  # braking in 0.15 s
+    spoiled_log = replace(logged, q=q, dq=np.vstack([velocity[:spoiled], np.tile(speed, (300, 1))]))
+    calibrations = calibrate([estimate_external_torques(arm_robot, reference, SETTINGS)], SETTINGS)
+    with pytest.warns(SignalDisagreementWarning, match=r"spoiled: the logged velocities contradict"):
+        estimates = estimate_external_torques(arm_robot, spoiled_log, SETTINGS)
+    found = detect(estimates, calibrations, SETTINGS)["observer"]
+    assert [round(d.start, 1) for d in found] == [4.0, round(logged.t[spoiled], 1)]
+    assert [d.signals_disagree for d in found] == [False, True]
+    assert not estimates.disagreeing[: spoiled - 100].any() and estimates.disagreeing[-1]
+
+
 @pytest.mark.skipif(
     not (REAL_LWR4 / "measurements_1.npz").is_file(),
     reason=f"real KUKA LWR4+ logs not found at {REAL_LWR4} (in ../shared, beside a clone, not in it)",
@@ -246,3 +277,8 @@ def test_real_lwr4_run_3_monitored_with_run_2s_model_and_thresholds(tmp_path: Pa
     assert logs[3].metadata["stamp_jitter"] is not None and not logs[3].metadata["resampled"]
     for kind in ("state", "constant"):
         assert len(starts[kind]) <= 1 and all(s > 24.7 for s in starts[kind]), (kind, starts[kind])
+    # that stop is where the logged velocities contradict the positions, and nowhere before it
+    elapsed = monitored.t - monitored.t[0]
+    assert monitored.disagreeing[elapsed > 25.0].all() and not monitored.disagreeing[elapsed < 24.5].any()
+    found = detect(monitored, calibrate([reference], SETTINGS), SETTINGS)["observer"]
+    assert all(d.signals_disagree for d in found)

@@ -38,6 +38,9 @@ class Detection:
     """Sample index of ``start``."""
     end_index: int
     """Sample index of ``end`` (exclusive)."""
+    signals_disagree: bool = False
+    """True where the log's velocities contradict its positions during the contact: it may be a
+    recording artefact (:mod:`lwrlab.monitoring.signal_agreement`)."""
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -123,5 +126,5 @@ def detection_flags(n_samples: int, detections: list[Detection]) -> np.ndarray:
 
 def detections_frame(detections: list[Detection]) -> pd.DataFrame:
     """The detections as a table, one row each (times in s, torques in N·m)."""
-    columns = ["start", "raised", "end", "joint", "peak_torque", "peak_ratio"]
+    columns = ["start", "raised", "end", "joint", "peak_torque", "peak_ratio", "signals_disagree"]
     return pd.DataFrame([{c: getattr(d, c) for c in columns} for d in detections], columns=columns)

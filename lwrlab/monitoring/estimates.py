@@ -8,8 +8,9 @@ from contact-free estimates) and :func:`detect` (contacts per estimator).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -29,6 +30,11 @@ from lwrlab.monitoring.direct_residual import (
     uniform_period,
 )
 from lwrlab.monitoring.observer import MomentumObserver, first_order_recursion
+from lwrlab.monitoring.signal_agreement import (
+    SignalDisagreementWarning,
+    describe_disagreement,
+    disagreeing_samples,
+)
 from lwrlab.monitoring.spread import first_order_lowpass, friction_band, regularised, stamp_deviation
 from lwrlab.plants.core import Measurement
 
@@ -113,6 +119,9 @@ class ExternalTorques:
     """Per estimator, (N, N_J) the stamps' share of the estimate (N·m; zero for regular stamps)."""
     rest_friction: np.ndarray
     """(N_J,) the friction band at rest (N·m)."""
+    disagreeing: np.ndarray
+    """(N,) True where the logged velocities contradict the positions
+    (:mod:`lwrlab.monitoring.signal_agreement`; all False for a log without velocities)."""
 
     def estimate(self, estimator: str) -> np.ndarray:
         """The estimate named ``observer`` or ``residual``."""
@@ -182,8 +191,27 @@ def estimate_external_torques(
     elapsed = t - t[0]
     monitored = (elapsed >= settings.start_skip) & (elapsed <= elapsed[-1] - settings.end_skip)
     rest = friction_band(robot, np.zeros((1, robot.n_joints)))[0]
+    disagreeing = np.zeros(len(t), dtype=bool)
+    if measurement.dq is not None:
+        disagreeing = disagreeing_samples(t, measurement.dq, dq)
+        if disagreeing.any():
+            warnings.warn(
+                describe_disagreement(measurement.name, t, disagreeing),
+                SignalDisagreementWarning,
+                stacklevel=2,
+            )
     return ExternalTorques(
-        measurement.name, t, measurement.q, observer, residual, monitored, seconds, friction, stamps, rest
+        measurement.name,
+        t,
+        measurement.q,
+        observer,
+        residual,
+        monitored,
+        seconds,
+        friction,
+        stamps,
+        rest,
+        disagreeing,
     )
 
 
@@ -228,17 +256,24 @@ def detect(
     calibrations: dict[str, Calibration | StateCalibration],
     settings: MonitorSettings,
 ) -> dict[str, list[Detection]]:
-    """Each estimator's contacts in a log, on its monitored samples."""
+    """Each estimator's contacts in a log, on its monitored samples; those overlapping a stretch whose
+    logged velocities contradict its positions are labelled ``signals_disagree``."""
     found = {}
     for estimator in ESTIMATORS:
         estimate = np.where(estimates.monitored[:, None], estimates.estimate(estimator), 0.0)
-        found[estimator] = detect_contacts(
+        detections = detect_contacts(
             estimates.t,
             estimate,
             thresholds_of(estimates, calibrations, estimator),
             min_duration=settings.min_duration,
             release=settings.release,
         )
+        found[estimator] = [
+            replace(d, signals_disagree=True)
+            if estimates.disagreeing[d.start_index : max(d.end_index, d.start_index + 1)].any()
+            else d
+            for d in detections
+        ]
     return found
 
 

@@ -188,7 +188,12 @@ def _torque_frame(
     detections: dict[str, list[Detection]],
 ) -> pd.DataFrame:
     n = estimates.observer.shape[1]
-    columns: dict[str, Any] = {"log": estimates.name, "t": estimates.t, "monitored": estimates.monitored}
+    columns: dict[str, Any] = {
+        "log": estimates.name,
+        "t": estimates.t,
+        "monitored": estimates.monitored,
+        "signals_disagree": estimates.disagreeing,
+    }
     for estimator in ESTIMATORS:
         values = estimates.estimate(estimator)
         columns |= {f"{estimator}{j + 1}": values[:, j] for j in range(n)}
@@ -362,6 +367,7 @@ def run_monitor(
     calibrations = calibrate(reference, settings)
     metrics: dict[str, float] = {"false_alarm_rate": held_out_false_alarm_rate(reference, settings)}
     frames, tables, alarms, hours, seconds, samples = [], [], dict.fromkeys(ESTIMATORS, 0), 0.0, 0.0, 0
+    suspect = 0  # observer detections where the log's velocities contradict its positions
     for measurement in monitored:
         estimates = estimate_external_torques(
             monitor_robot, measurement, settings, progress=_progress(measurement.name)
@@ -376,6 +382,7 @@ def run_monitor(
             table.insert(0, "log", estimates.name)
             tables.append(table)
             alarms[estimator] += len(found[estimator])
+        suspect += sum(d.signals_disagree for d in found["observer"])
         hours += estimates.monitored_hours
         seconds += estimates.seconds
         samples += len(estimates.t)
@@ -399,6 +406,7 @@ def run_monitor(
     detections = pd.concat(tables, ignore_index=True)
     metrics |= {
         "detections": float(alarms["observer"]),
+        "detections_signals_disagree": float(suspect),
         "residual_detections": float(alarms["residual"]),
         "monitored_alarm_rate": alarms["observer"] / hours if hours > 0 else float("nan"),
         "monitored_hours": hours,
