@@ -24,6 +24,9 @@ most 0.14 anywhere but their final stop, 0.25–0.8 there)."""
 EDGE_SHARE = 0.05
 """A disagreeing stretch extends on either side while the difference stays above this share: the
 parting grows from nothing."""
+MIN_DISAGREEMENT = 0.05
+"""rad/s (m/s): a smaller difference never counts, whatever the joint's speed — a joint that
+hardly moves, or an arm standing still, has encoder noise in its velocities and no speed to share."""
 PAD_S = 0.05
 """Seconds added on each side of a disagreeing stretch (the estimates' filters carry it on)."""
 
@@ -43,6 +46,9 @@ def disagreeing_samples(t: np.ndarray, dq_logged: np.ndarray, dq_derived: np.nda
     >>> logged = derived + 1e-3 * np.random.default_rng(0).normal(size=derived.shape)
     >>> bool(disagreeing_samples(t, logged, derived).any())
     False
+    >>> still = np.zeros_like(derived)  # an arm standing still: encoder noise is no disagreement
+    >>> bool(disagreeing_samples(t, still + 1e-2 * np.sin(50 * t)[:, None], still).any())
+    False
     >>> logged[-20:, 0] = logged[-21, 0]  # a stale velocity while the position comes to rest
     >>> derived[-20:, 0] = 0.0
     >>> flagged = disagreeing_samples(t, logged, derived)
@@ -51,10 +57,11 @@ def disagreeing_samples(t: np.ndarray, dq_logged: np.ndarray, dq_derived: np.nda
     """
     difference = np.abs(np.asarray(dq_logged, dtype=float) - np.asarray(dq_derived, dtype=float))
     speed = np.percentile(np.abs(dq_derived), 99, axis=0)
-    core = np.any(difference > SPEED_SHARE * speed, axis=1)
+    core = np.any(difference > np.maximum(SPEED_SHARE * speed, MIN_DISAGREEMENT), axis=1)
     if not core.any():
         return core
-    parting = np.any(difference > EDGE_SHARE * speed, axis=1)  # core ⊂ parting
+    edge = np.maximum(EDGE_SHARE * speed, MIN_DISAGREEMENT * EDGE_SHARE / SPEED_SHARE)
+    parting = np.any(difference > edge, axis=1)  # core ⊂ parting
     edges = np.flatnonzero(np.diff(np.concatenate([[0], parting.astype(np.int8), [0]])))
     flagged = np.zeros_like(core)
     for start, stop in zip(edges[::2], edges[1::2], strict=True):  # the stretches of parting
