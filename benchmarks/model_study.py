@@ -57,6 +57,7 @@ from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.identification.context import IdentificationContext  # noqa: E402
 from lwrlab.identification.friction_choice import choose_friction  # noqa: E402
 from lwrlab.identification.prediction_error import FRICTION_DRIFT, drift_parameters  # noqa: E402
+from lwrlab.model.friction_laws import drifting_terms  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
 from lwrlab.pipeline.identification import prediction_interval  # noqa: E402
@@ -196,7 +197,8 @@ def evaluate(split: Split, setting: Setting) -> dict[str, float]:
     seconds = time.process_time() - started
     covariance = np.asarray(estimator.covariance_)
     drift = setting.friction_drift
-    friction = drift_parameters(base.names, estimator.phi_) if drift > 0 else None
+    drifting = drifting_terms(robot.friction_law)
+    friction = drift_parameters(base.names, estimator.phi_, drifting) if drift > 0 else None
 
     def predicted(m: Measurement) -> LogPrediction:
         return predict_measurement(robot, base, estimator.phi_, m, DEFAULTS, covariance, friction)

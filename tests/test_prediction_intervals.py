@@ -9,6 +9,7 @@ torques of another on its worst joint at least 88 % of the time.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,8 @@ from composing import compose_config
 
 from lwrlab.identification.coverage_check import COVERAGE_WARNING, coverage_warning, novelty
 from lwrlab.identification.prediction_error import conformal_scale, drift_parameters
+from lwrlab.model.friction_laws import SignCoulomb, drifting_terms
+from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.identification import identify_configured
 from lwrlab.pipeline.identification.log_predictions import LogPrediction, PredictionInterval, joint_coverage
 
@@ -60,10 +63,28 @@ def test_the_interval_widens_with_the_friction_torque_and_only_there() -> None:
 def test_a_joint_whose_fit_found_no_friction_drifts_like_the_median_joint() -> None:
     names = ["ZZ1", "FC1", "FC2", "FC3", "FV1", "FV2", "FV3", "FO1", "IA1"]
     phi = np.array([1.0, 0.6, 0.0, 0.4, 0.2, 0.3, 0.0, 5.0, 0.1])
-    drifting = drift_parameters(names, phi)
+    terms = drifting_terms(SignCoulomb())
+    drifting = drift_parameters(names, phi, terms)
     assert drifting is not None
     np.testing.assert_allclose(drifting, [0, 0.6, 0.4, 0.4, 0.2, 0.3, 0.2, 0, 0])
-    assert drift_parameters(["ZZ1", "FO1"], np.ones(2)) is None
+    assert drift_parameters(["ZZ1", "FO1"], np.ones(2), terms) is None
+
+
+def test_interval_and_thresholds_drift_with_the_same_friction_terms(lwr4: RobotModel) -> None:
+    """Every law's terms: the ones the prediction interval lets drift are the ones the collision
+    thresholds' friction band holds (offsets and rotor inertias neither)."""
+    from lwrlab.monitoring.spread import friction_band
+    from lwrlab.pipeline.build import build
+
+    for name in ("sign", "smooth", "stribeck", "holding", "asymmetric"):
+        law = build("friction", name)
+        robot = lwr4.with_friction_law(law, rotor_inertia=True)
+        for term in robot.friction_terms:
+            values = {t: np.zeros(7) for t in robot.friction_terms} | {term: np.full(7, 0.5)}
+            alone = replace(robot, friction=robot.friction.with_values(values))
+            moving = friction_band(alone, np.full((1, 7), 0.7))
+            in_interval = any(t.name == term for t in drifting_terms(law))
+            assert bool(np.any(moving > 0)) == in_interval, (name, term)
 
 
 def test_the_conformal_scale_brings_heavy_tails_to_the_stated_level() -> None:

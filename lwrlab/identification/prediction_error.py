@@ -18,13 +18,12 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from lwrlab.model.friction_laws import STANDARD_TERMS, DriveTerm
+
 FRICTION_DRIFT = 0.5
 """ρ by default (``statistics.friction_drift``): chosen on motions unlike the fit's in
 ``benchmarks/model_study.py``."""
-DRIFTING_TERMS = ("FC", "FV", "FS", "FB")
-"""Drive terms whose torque drifts between motions: Coulomb, viscous, Stribeck, breakaway (not the
-offsets FO, the direction asymmetry FA or the rotor inertias IA)."""
-FLOORED_TERMS = ("FC", "FV")
+FLOORED_TERMS = (STANDARD_TERMS["coulomb"].prefix, STANDARD_TERMS["viscous"].prefix)
 """Terms raised to the median of the robot's joints where a joint's fit found less."""
 
 
@@ -34,18 +33,21 @@ def _term_indices(names: Sequence[str], term: str) -> np.ndarray:
     return np.array([i for i, name in enumerate(names) if pattern.match(name)], dtype=int)
 
 
-def drift_parameters(names: Sequence[str], phi: np.ndarray) -> np.ndarray | None:
-    """Base values of the drifting friction terms alone (others zero), each per-drive level of
+def drift_parameters(names: Sequence[str], phi: np.ndarray, terms: Iterable[DriveTerm]) -> np.ndarray | None:
+    """Base values of the drifting friction ``terms`` alone (others zero; the terms:
+    :func:`~lwrlab.model.friction_laws.drifting_terms` of the robot's law), each per-drive level of
     :data:`FLOORED_TERMS` at least the median over the drives; None when the model has none.
 
     Examples
     --------
-    >>> drift_parameters(["XX1", "FC1", "FC2", "FC3", "FV1", "FO1"], np.array([9.0, 0.5, 0.0, 0.3, 0.1, 7.0]))
+    >>> from lwrlab.model.friction_laws import SignCoulomb, drifting_terms
+    >>> names = ["XX1", "FC1", "FC2", "FC3", "FV1", "FO1"]
+    >>> drift_parameters(names, np.array([9.0, 0.5, 0.0, 0.3, 0.1, 7.0]), drifting_terms(SignCoulomb()))
     array([0. , 0.5, 0.3, 0.3, 0.1, 0. ])
     """
     values = np.zeros_like(np.asarray(phi, dtype=float))
     found = False
-    for term in DRIFTING_TERMS:
+    for term in (t.prefix for t in terms):
         index = _term_indices(names, term)
         if index.size == 0:
             continue

@@ -44,13 +44,18 @@ class DriveTerm:
     """Unit of its coefficients."""
     nonnegative: bool
     """Whether a physically consistent estimate keeps its coefficients ≥ 0."""
+    drifts: bool = True
+    """Whether its torque is friction, which changes from one motion or day to the next
+    (temperature, speed range): the prediction intervals
+    (:mod:`lwrlab.identification.prediction_error`) and the collision thresholds
+    (:mod:`lwrlab.monitoring.spread`) allow for that change. Offsets and rotor inertias do not drift."""
 
 
 STANDARD_TERMS: dict[str, DriveTerm] = {
     "coulomb": DriveTerm("coulomb", "FC", "N·m", True),
     "viscous": DriveTerm("viscous", "FV", "N·m·s/rad", True),
-    "offset": DriveTerm("offset", "FO", "N·m", False),
-    "rotor": DriveTerm("rotor", "IA", "kg·m²", True),
+    "offset": DriveTerm("offset", "FO", "N·m", False, drifts=False),
+    "rotor": DriveTerm("rotor", "IA", "kg·m²", True, drifts=False),
 }
 """The terms every law shares (``rotor``: the drive train's reflected rotor inertia)."""
 
@@ -173,6 +178,17 @@ def law_from_mapping(mapping: Mapping[str, Any] | None) -> FrictionLaw:
 def term_definitions(law: FrictionLaw) -> dict[str, DriveTerm]:
     """Every term a robot with ``law`` may carry, by name."""
     return {**STANDARD_TERMS, **{t.name: t for t in law.extra_terms}}
+
+
+def drifting_terms(law: FrictionLaw) -> tuple[DriveTerm, ...]:
+    """The terms of a robot with ``law`` whose torque is friction that drifts (:attr:`DriveTerm.drifts`).
+
+    Examples
+    --------
+    >>> [t.prefix for t in drifting_terms(SignCoulomb())]
+    ['FC', 'FV']
+    """
+    return tuple(term for term in term_definitions(law).values() if term.drifts)
 
 
 def has_memory(law: FrictionLaw) -> bool:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import median_filter
 
+from lwrlab.model.friction_laws import term_definitions
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.recursion import first_order_recursion
 from lwrlab.plants.core import Measurement
@@ -55,8 +56,9 @@ def friction_band(robot: RobotModel, dq: np.ndarray) -> np.ndarray:
     Per drive, each friction term's torque at the drive's speed ``s = max(|v|, v₀)`` (``v₀``:
     :func:`sliding_speed`), whichever direction is larger, summed in magnitude: Coulomb ``FC``,
     viscous ``FV·s``, and the law's own terms (a Stribeck excess at low speed, a direction's
-    difference); offsets and rotor inertia are not friction. A coupled drive train spreads each
-    drive's band over the joints it turns (``|C|ᵀ``).
+    difference): the terms that drift (:attr:`~lwrlab.model.friction_laws.DriveTerm.drifts`, which
+    the prediction intervals follow too); offsets and rotor inertia are not friction. A coupled
+    drive train spreads each drive's band over the joints it turns (``|C|ᵀ``).
 
     Examples
     --------
@@ -72,8 +74,9 @@ def friction_band(robot: RobotModel, dq: np.ndarray) -> np.ndarray:
     drive = robot.drive_train
     speed = np.maximum(np.abs(drive.drive_values(np.atleast_2d(dq))), sliding_speed(robot))
     band = np.zeros_like(speed)
+    definitions = term_definitions(robot.friction_law)
     for term in robot.friction_terms:
-        if term in ("offset", "rotor"):
+        if not definitions[term].drifts:  # offsets and rotor inertias are not friction
             continue
         coefficient = np.abs(robot.friction.value(term))
         if term == "coulomb":

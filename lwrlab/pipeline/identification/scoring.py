@@ -26,6 +26,7 @@ from lwrlab.identification.extrapolation import ExtrapolationReport, assess_extr
 from lwrlab.identification.friction_choice import FrictionChoice
 from lwrlab.identification.identifiability import IdentifiabilityReport
 from lwrlab.identification.prediction_error import conformal_scale, drift_parameters
+from lwrlab.model.friction_laws import drifting_terms
 from lwrlab.model.position_ranges import finite_range, range_span
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.identification.fitting import Fit
@@ -119,7 +120,8 @@ def predict(
     validation log gets its own, as a new log would.
     """
     covariance = np.asarray(estimator.covariance_)
-    friction = drift_parameters(base.names, estimator.phi_) if friction_drift > 0 else None
+    drifting = drifting_terms(robot.friction_law)
+    friction = drift_parameters(base.names, estimator.phi_, drifting) if friction_drift > 0 else None
     fit_predictions = [
         replace(
             predict_measurement(
