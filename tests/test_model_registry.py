@@ -14,6 +14,7 @@ adds, as Pinocchio's inverse dynamics of the robot with and without it.
 from __future__ import annotations
 
 import json
+import socket
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -59,17 +60,23 @@ class Identified:
         return MlflowClient(tracking_uri=self.uri)
 
 
+SHORT_IDENTIFICATION = (
+    "task=identification",
+    "trajectory=multisine",
+    "trajectory.duration=2",
+    "validation.duration=2",
+    "plant.show_progress=false",
+)
+"""A 2 s identification of the simulated LWR4, validated on 2 s."""
+
+
 @pytest.fixture(scope="module")
 def identified(tmp_path_factory: pytest.TempPathFactory) -> Identified:
     folder = tmp_path_factory.mktemp("registry")
     done = run_app(
         None,
-        "task=identification",
-        "trajectory=multisine",
-        "trajectory.duration=2",
-        "validation.duration=2",
+        *SHORT_IDENTIFICATION,
         "friction=holding",  # a law with memory: the pyfunc model treats the rows as one motion
-        "plant.show_progress=false",
         f"tracking.register_model={NAME}",
         f"hydra.run.dir={folder / 'identified'}",
         store=folder,
@@ -123,37 +130,71 @@ assert not GlobalHydra.instance().is_initialized(), "no Hydra app, no config"
 """
 
 
-def test_the_pyfunc_model_predicts_the_runs_torques_in_a_plain_process(
-    identified: Identified, tmp_path: Path
-) -> None:
-    states = _states(identified.run)
-    states.to_parquet(tmp_path / "states.parquet")
-    environment = app_environment({"MLFLOW_TRACKING_URI": identified.uri})
+def _check_plain_process_predictions(uri: str, run_id: str, run: Path, folder: Path) -> None:
+    """``runs:/<run_id>/model`` loaded in a plain Python process predicts ``run``'s
+    ``predicted_torque.parquet`` to 1e-9 N·m at every state of its logs."""
+    states = _states(run)
+    states.to_parquet(folder / "states.parquet")
     done = subprocess.run(
-        [sys.executable, "-c", PREDICT, identified.uri, identified.run_id, str(tmp_path / "states.parquet")]
-        + [str(tmp_path / "predicted.parquet")],
-        cwd=tmp_path,
-        env=environment,
+        [sys.executable, "-c", PREDICT, uri, run_id, str(folder / "states.parquet")]
+        + [str(folder / "predicted.parquet")],
+        cwd=folder,
+        env=app_environment({"MLFLOW_TRACKING_URI": uri}),
         capture_output=True,
         text=True,
         timeout=300,
     )
     assert done.returncode == 0, done.stderr[-3000:]
-    predicted = pd.read_parquet(tmp_path / "predicted.parquet")
+    predicted = pd.read_parquet(folder / "predicted.parquet")
     assert list(predicted.columns[:JOINTS]) == [f"tau{j}" for j in range(1, JOINTS + 1)]
     predicted = pd.concat([states[["log", "t"]], predicted.drop(columns="log")], axis=1)
-    logged = pd.read_parquet(identified.run / "predicted_torque.parquet")
+    logged = pd.read_parquet(run / "predicted_torque.parquet")
     rows = logged.merge(predicted, on=["log", "t"], how="left", validate="one_to_one")
     assert set(rows["log"]) == {"exciting_motion", "validation_motion"} and len(rows) > 3000
     expected = rows[[f"tau_hat{j}" for j in range(1, JOINTS + 1)]].to_numpy()
     got = rows[[f"tau{j}_y" for j in range(1, JOINTS + 1)]].to_numpy()
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
+
+
+def test_the_pyfunc_model_predicts_the_runs_torques_in_a_plain_process(
+    identified: Identified, tmp_path: Path
+) -> None:
+    _check_plain_process_predictions(identified.uri, identified.run_id, identified.run, tmp_path)
     # the model logged with the run: signature, example, artifacts, pinned requirements
     model = identified.client.get_run(identified.run_id).outputs.model_outputs[0].model_id
     logged_model = identified.client.get_logged_model(model)
     assert logged_model.name == "model" and logged_model.source_run_id == identified.run_id
     files = {Path(f.path).name for f in identified.client.list_logged_model_artifacts(model)}
     assert {"MLmodel", "input_example.json", "requirements.txt"} <= files
+
+
+@pytest.mark.slow
+def test_a_run_kept_offline_gets_its_model_and_its_version_when_synced(tmp_path: Path) -> None:
+    """The store unreachable during the identification (a PostgreSQL port nothing listens on): the
+    job keeps its run on disk; ``lwrlab sync`` uploads it with its MLflow Model, registered as the
+    job's ``tracking.register_model`` asked, and the model predicts the run's torques."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        closed = probe.getsockname()[1]
+    job = tmp_path / "offline"
+    done = run_app(
+        None,
+        *SHORT_IDENTIFICATION,
+        f"tracking.register_model={NAME}_offline",
+        f"tracking.uri=postgresql://user:secret@127.0.0.1:{closed}/db",
+        f"hydra.run.dir={job}",
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert (job / "mlflow_offline_run.json").is_file()
+    store = tmp_path / "store"
+    uri = f"sqlite:///{store / 'mlflow.db'}"
+    synced = run_app(None, "sync", str(job), "--tracking-uri", uri, cwd=tmp_path)
+    assert synced.returncode == 0, synced.stderr[-3000:]
+    assert "was not logged as an MLflow Model" not in synced.stderr
+    run_id = (job / "mlflow_run_id.txt").read_text().strip()
+    (version,) = MlflowClient(tracking_uri=uri).search_model_versions(f"name='{NAME}_offline'")
+    assert version.run_id == run_id and str(version.version) == "1"
+    _check_plain_process_predictions(uri, run_id, job, tmp_path)
 
 
 def test_the_registered_version_carries_the_headline_metrics_and_the_datasets(identified: Identified) -> None:

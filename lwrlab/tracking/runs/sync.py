@@ -1,7 +1,9 @@
 """``lwrlab sync``: upload the runs that jobs kept on disk while the tracking store was unreachable.
 
 Each ``mlflow_offline_run.json`` under the given folders (default ``outputs/``) becomes a run with
-its params, tags, metrics, status, times and the job output folder as artifacts (secrets redacted).
+its params, tags, metrics, status, times and the job output folder as artifacts (secrets redacted),
+and the model a finished job identified becomes the run's MLflow Model (registered where the job's
+``tracking.register_model`` says), as if the store had been there.
 Jobs of one sweep are nested under one parent run. A synced record is renamed
 ``mlflow_synced_run.json``; its id is also a run tag, so running sync twice never logs a run twice.
 
@@ -21,10 +23,14 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import mlflow
+import yaml
 from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.job_config.provenance import PARENT_RUN_TAG, RUN_KIND_TAG
 from lwrlab.tracking.job_config.redaction import Redactor
+from lwrlab.tracking.models.model_logging import log_job_model, log_model_inputs
+from lwrlab.tracking.models.registry import register_identified_model, registered_name
 from lwrlab.tracking.runs import offline
 from lwrlab.tracking.runs.run_logging import RUN_ID_FILE, log_metrics, log_output_folder, log_params
 from lwrlab.tracking.runs.run_queries import run_with_tag, sweep_run_of_folder
@@ -53,6 +59,7 @@ class Syncer:
         self.log_artifacts = log_artifacts
         prepare_sqlite_store(tracking_uri)
         self.client = MlflowClient(tracking_uri=tracking_uri)
+        mlflow.set_tracking_uri(tracking_uri)  # registering resolves a logged model through the global URI
         self._parents: dict[tuple[str, str], str] = {}
         self._failed_parents: set[str] = set()
 
@@ -116,6 +123,9 @@ class Syncer:
                 redactor = Redactor.for_output_folder(output_dir)
                 log_output_folder(self.client, run_id, output_dir, redactor, exclude=[offline.OFFLINE_RECORD])
             status = record["status"] if record["status"] != "RUNNING" else "KILLED"  # the job never ended
+            log_model_inputs(self.client, run_id, output_dir)
+            if status == "FINISHED":
+                self._log_model(run_id, record, output_dir)
             retry_locked(
                 self.client.set_terminated, run_id, status=status, end_time=record.get("end_time_ms")
             )
@@ -124,6 +134,31 @@ class Syncer:
         (output_dir / RUN_ID_FILE).write_text(run_id + "\n", encoding="utf-8")
         offline.mark_synced(path, run_id)
         return run_id
+
+    def _log_model(self, run_id: str, record: dict[str, Any], output_dir: Path) -> None:
+        """Log the model the job identified (a robot or a payload) as the run's MLflow Model, and
+        register it where the job's ``tracking.register_model`` says, as the job would have."""
+        try:
+            logged = log_job_model(self.client, run_id, output_dir, self.tracking_uri)
+            if logged is None:
+                return
+            config_file = output_dir / ".hydra" / "config.yaml"
+            config = yaml.safe_load(config_file.read_text()) if config_file.is_file() else None
+            setting = ((config or {}).get("tracking") or {}).get("register_model")
+            name = registered_name(setting, logged.default_name)
+            if name is not None:
+                register_identified_model(
+                    self.client, name, logged, run_id, record["run_name"], record["metrics"], []
+                )
+        except Exception as error:  # broad: the run is uploaded; only its model is missing
+            log.warning(
+                "run %s (%s): its model was not logged as an MLflow Model (%s: %s); its files are among "
+                "the run's artifacts",
+                run_id,
+                output_dir,
+                type(error).__name__,
+                error,
+            )
 
     def close_parents(self) -> None:
         """End the parent runs created or reused by this sync: FAILED if one of their jobs failed."""
