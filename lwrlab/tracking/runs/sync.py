@@ -123,9 +123,11 @@ class Syncer:
                 redactor = Redactor.for_output_folder(output_dir)
                 log_output_folder(self.client, run_id, output_dir, redactor, exclude=[offline.OFFLINE_RECORD])
             status = record["status"] if record["status"] != "RUNNING" else "KILLED"  # the job never ended
-            log_model_inputs(self.client, run_id, output_dir)
+            self._guarded(run_id, output_dir, "recording the models it read", log_model_inputs, self.client)
             if status == "FINISHED":
-                self._log_model(run_id, record, output_dir)
+                self._guarded(
+                    run_id, output_dir, "logging its model as an MLflow Model", self._log_model, record
+                )
             retry_locked(
                 self.client.set_terminated, run_id, status=status, end_time=record.get("end_time_ms")
             )
@@ -135,29 +137,34 @@ class Syncer:
         offline.mark_synced(path, run_id)
         return run_id
 
-    def _log_model(self, run_id: str, record: dict[str, Any], output_dir: Path) -> None:
-        """Log the model the job identified (a robot or a payload) as the run's MLflow Model, and
-        register it where the job's ``tracking.register_model`` says, as the job would have."""
+    @staticmethod
+    def _guarded(run_id: str, output_dir: Path, what: str, step: Any, *args: Any) -> None:
+        """``step(*args, run_id, output_dir)``; a failure is warned about, the upload goes on."""
         try:
-            logged = log_job_model(self.client, run_id, output_dir, self.tracking_uri)
-            if logged is None:
-                return
-            config_file = output_dir / ".hydra" / "config.yaml"
-            config = yaml.safe_load(config_file.read_text()) if config_file.is_file() else None
-            setting = ((config or {}).get("tracking") or {}).get("register_model")
-            name = registered_name(setting, logged.default_name)
-            if name is not None:
-                register_identified_model(
-                    self.client, name, logged, run_id, record["run_name"], record["metrics"], []
-                )
-        except Exception as error:  # broad: the run is uploaded; only its model is missing
+            step(*args, run_id, output_dir)
+        except Exception as error:  # broad: the run is uploaded; only this part of it is missing
             log.warning(
-                "run %s (%s): its model was not logged as an MLflow Model (%s: %s); its files are among "
-                "the run's artifacts",
+                "run %s (%s): %s failed (%s: %s); the job's files are among the run's artifacts",
                 run_id,
                 output_dir,
+                what,
                 type(error).__name__,
                 error,
+            )
+
+    def _log_model(self, record: dict[str, Any], run_id: str, output_dir: Path) -> None:
+        """Log the model the job identified (a robot or a payload) as the run's MLflow Model, and
+        register it where the job's ``tracking.register_model`` says, as the job would have."""
+        logged = log_job_model(self.client, run_id, output_dir, self.tracking_uri)
+        if logged is None:
+            return
+        config_file = output_dir / ".hydra" / "config.yaml"
+        config = yaml.safe_load(config_file.read_text()) if config_file.is_file() else None
+        setting = ((config or {}).get("tracking") or {}).get("register_model")
+        name = registered_name(setting, logged.default_name)
+        if name is not None:
+            register_identified_model(
+                self.client, name, logged, run_id, record["run_name"], record["metrics"], []
             )
 
     def close_parents(self) -> None:
