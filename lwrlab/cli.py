@@ -40,7 +40,7 @@ VERSIONED_DISTRIBUTIONS = ("hydra-core", "pin", "numpy", "scipy", "cvxpy", "mlfl
 SUBCOMMANDS = {
     "report": "lwrlab.tracking.reports.report",
     "compare": "lwrlab.tracking.reports.compare",
-    "sync": "lwrlab.tracking.runs.sync",
+    "sync": "lwrlab.tracking.lifecycle.sync",
     "model": "lwrlab.tracking.models.registry",
 }
 """``lwrlab <name> ...`` runs ``<module>.main(argv)`` instead of a Hydra job."""

@@ -224,3 +224,20 @@ def test_parquet_dtypes_that_are_not_numbers(tmp_path):
     assert (
         check_column_dtypes(frame.drop(columns=["t", "tau1", "dq1", "dq2"]), columns, path) == []
     )  # absent columns are the loader's business
+
+
+def test_torques_held_on_a_faster_grid_warn_with_their_own_rate(lwr4, rng):
+    """Torques recorded at 250 Hz and forward-filled onto the 1 kHz grid of the positions (two topics
+    merged): a warning naming the torques' rate; the same log with fresh torques has none."""
+    t, q, tau = _log(lwr4, rng)
+    held = tau[(np.arange(len(t)) // 4) * 4]
+    (finding,) = check_plausibility(t, q, held, lwr4.limits, CSV)
+    assert (finding.severity, finding.column, finding.check) == ("warning", None, "held_torques")
+    assert "about 250 Hz" in finding.message and "1000 Hz grid" in finding.message
+    assert "row 1 (line 3 of the file)" in finding.message
+    # a joint whose torque is not fitted does not hide the others' repeats, nor raise them alone
+    columns = LogColumns.schema(lwr4.n_joints)
+    alone = tau.copy()
+    alone[:, 6] = held[:, 6]
+    assert check_plausibility(t, q, alone, lwr4.limits, CSV, columns) == []
+    assert check_plausibility(t, q, held, lwr4.limits, CSV, unfitted=[6])[0].check == "held_torques"

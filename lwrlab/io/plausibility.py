@@ -27,6 +27,10 @@ check                  severity  when
 ``torque_limit``       error     |τ| above 3× the torque limit (currents? units?); warning above 1.5×
 ``zero_torque``        error     a torque column all zero (torque sensor not recorded)
 ``constant_torque``    warning   a torque column that never changes (stuck sensor, filled default)
+``held_torques``       warning   every torque repeating its previous row exactly at more than a fifth
+                                 of the samples where the positions moved: a slower torque stream
+                                 held on the log's grid (topics merged by forward filling), or
+                                 repeated packets; names the first row and the torques' own rate
 =====================  ========  ================================================================
 
 The checks of the whole file (``absurd_value``, ``sampling_period``) are here; those of each joint's
@@ -81,6 +85,10 @@ class PlausibilityThresholds:
     """s: longest plausible median sampling period (2 Hz; identification needs tens of Hz)."""
     absurd: tuple[tuple[str, float], ...] = (("t", 1e12), ("q", 1e4), ("dq", 1e5), ("tau", 1e7))
     """Largest magnitude with any physical meaning: s, rad, rad/s, N·m."""
+    held_share: float = 0.2
+    """Share of the moving samples above which repeated torque rows are held samples, not chance:
+    a torque stream at half the log's rate repeats at every other sample (0.5), while sensor noise
+    makes every joint repeat at once almost never."""
 
 
 def _absurd(path: Path, column: str, values: np.ndarray, bound: float, unit: str) -> Finding | None:
@@ -133,6 +141,35 @@ def _period_findings(
             f"median sampling period {median:.3g} s with data.time_unit={time_unit} "
             "is implausible for a robot log "
             f"(expected {thresholds.min_period:g} to {thresholds.max_period:g} s); {hint}",
+        )
+    ]
+
+
+def _held_findings(
+    path: Path, t: np.ndarray, q: np.ndarray, tau: np.ndarray, threshold: float
+) -> list[Finding]:
+    """Torque rows that repeat their predecessor exactly where the positions moved (``tau``: the
+    checked joints' columns)."""
+    if len(t) < 3 or tau.shape[1] == 0:
+        return []
+    moved = np.any(np.diff(q, axis=0) != 0, axis=1)  # between row k and k + 1
+    repeated = np.all(np.diff(tau, axis=0) == 0, axis=1) & moved
+    if moved.sum() < 10 or repeated.sum() <= threshold * moved.sum():
+        return []
+    # the torques' own rate: one fresh row per run of repeats
+    fresh = int(np.count_nonzero(moved & ~repeated))
+    moving_time = float(np.sum(np.diff(t)[moved]))
+    first = int(np.argmax(repeated)) + 1
+    return [
+        Finding(
+            "warning",
+            str(path),
+            None,
+            "held_torques",
+            f"every torque repeats its previous row exactly at {repeated.sum()} of the {moved.sum()} samples "
+            f"where the positions moved (first at {row_location(path, first)}): torques recorded at about "
+            f"{fresh / moving_time:.3g} Hz and held on the log's {moved.sum() / moving_time:.4g} Hz grid, "
+            "or repeated packets; they are fitted as if measured at every sample",
         )
     ]
 
@@ -238,6 +275,9 @@ def check_plausibility(
         )
         if f.column not in unchecked
     ]
+    checked = [j for j, name in enumerate(columns.tau) if name not in unchecked and name not in corrupt]
+    if columns.t not in corrupt:
+        findings += _held_findings(path, t, clean(q), clean(tau)[:, checked], thresholds.held_share)
     if dq is not None and limits is not None:
         findings += velocity_findings(
             path,

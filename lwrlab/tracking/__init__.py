@@ -4,12 +4,14 @@ Its parts, each a sub-package importing only those listed after it:
 
 * :mod:`~lwrlab.tracking.companion`: the callback the configs name (``MlflowTracking``) and the
   companion process that logs a single run;
-* :mod:`~lwrlab.tracking.lifecycle`: the Hydra hooks, one job's run and a sweep's parent run;
+* :mod:`~lwrlab.tracking.lifecycle`: the Hydra hooks, one job's run and a sweep's parent run, and the
+  upload of runs kept offline (``lwrlab sync``);
 * :mod:`~lwrlab.tracking.models`: identified models as MLflow Models (logged at a job's end,
   registered, ``lwrlab model``) and any model setting, a path or an MLflow URI, resolved;
 * :mod:`~lwrlab.tracking.reports`: ``lwrlab compare``, ``lwrlab report``, the benchmark summary
   (next to the lifecycle, not above it: it imports only the three below);
-* :mod:`~lwrlab.tracking.runs`: runs in the store logged, searched, ended, kept offline and synced;
+* :mod:`~lwrlab.tracking.runs`: runs in the store logged, searched, ended and kept offline (their
+  later upload with their models, ``lwrlab sync``, is the lifecycle's);
 * :mod:`~lwrlab.tracking.store`: which store, its connection and its safe use by many processes;
 * :mod:`~lwrlab.tracking.job_config`: params, names, provenance tags and secrets read from a config.
 
