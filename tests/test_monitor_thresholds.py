@@ -28,6 +28,7 @@ from lwrlab.monitoring.estimates import (
 )
 from lwrlab.monitoring.spread import first_order_lowpass, friction_band, regularised, stamp_deviation
 from lwrlab.pipeline.build import build
+from lwrlab.pipeline.monitor.scenario import PD_GAINS
 from lwrlab.plants.core import Measurement
 from lwrlab.plants.pushed_arm import ExternalForce, PushedArm
 from lwrlab.signal.filters import central_difference
@@ -65,11 +66,12 @@ def _arm(robot: RobotModel, friction_factor: float, seed: int) -> PushedArm:
             friction, coulomb=friction_factor * friction.coulomb, viscous=friction_factor * friction.viscous
         ),
     )
+    kp, kd = PD_GAINS
     return PushedArm(
         truth,
         robot,
-        kp=[2000, 2000, 1000, 1000, 300, 300, 100],
-        kd=[100, 100, 50, 50, 15, 15, 5],
+        kp=kp,
+        kd=kd,
         substeps=1,
         torque_noise_std=0.05,
         encoder_noise_std=1e-6,

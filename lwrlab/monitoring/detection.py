@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from lwrlab.numerics.stretches import true_stretches
+
 
 @dataclass(frozen=True)
 class Detection:
@@ -41,13 +43,6 @@ class Detection:
     signals_disagree: bool = False
     """True where the log's velocities contradict its positions during the contact: it may be a
     recording artefact (:mod:`lwrlab.monitoring.signal_agreement`)."""
-
-
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Starts and (exclusive) ends of the True stretches of a boolean array."""
-    padded = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    edges = np.diff(padded)
-    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
 def detect_contacts(
@@ -86,7 +81,7 @@ def detect_contacts(
     ratio = np.abs(external_torque) / thresholds
     above = ratio.max(axis=1) > 1.0
     quiet = np.flatnonzero(ratio.max(axis=1) < release)
-    starts, ends = _runs(above)
+    starts, ends = true_stretches(above)
     detections: list[Detection] = []
     resume = 0  # samples before this belong to the previous contact
     for first, last in zip(starts, ends, strict=True):

@@ -29,7 +29,7 @@ from lwrlab.monitoring.direct_residual import (
     smooth,
     uniform_period,
 )
-from lwrlab.monitoring.observer import MomentumObserver, first_order_recursion
+from lwrlab.monitoring.observer import MomentumObserver
 from lwrlab.monitoring.signal_agreement import (
     SignalDisagreementWarning,
     describe_disagreement,
@@ -270,7 +270,7 @@ def detect(
         )
         found[estimator] = [
             replace(d, signals_disagree=True)
-            if estimates.disagreeing[d.start_index : max(d.end_index, d.start_index + 1)].any()
+            if estimates.disagreeing[d.start_index : d.end_index].any()
             else d
             for d in detections
         ]
@@ -300,13 +300,6 @@ def truth_as_estimated(
     An estimator's error against this is its model and noise error; against the raw truth it also
     holds its lag (the observer's 1/K), which the detection delay measures on its own.
     """
-    t = estimates.t
-    gains = np.full(truth.shape[1], settings.observer_gain)
-    decay = gains * np.diff(t)[:, None]
-    alpha = np.exp(-decay)
-    observed = np.empty_like(truth)
-    observed[0] = 0.0
-    interval_mean = 0.5 * (truth[:-1] + truth[1:])
-    observed[1:] = first_order_recursion(alpha, decay, (1.0 - alpha) * interval_mean, observed[0])
+    observed = first_order_lowpass(estimates.t, truth, settings.observer_gain, initial=0.0)
     filtered = smooth(truth, estimates.period, settings.velocity_cutoff_hz)
     return {"observer": observed, "residual": filtered}

@@ -20,6 +20,7 @@ import pandas as pd
 from lwrlab.model.robot import RobotModel
 from lwrlab.monitoring.contact_force import force_from_torques, point_jacobians
 from lwrlab.monitoring.detection import Detection
+from lwrlab.numerics.stretches import true_stretches
 
 CONTACT_COLUMNS = ("start", "end", "peak_force")
 """Columns every table of true contacts has (s, s, N); a scenario adds where and how."""
@@ -136,9 +137,7 @@ def detectable_contacts(
     columns = zip(contacts["start"].to_numpy(dtype=float), contacts["end"].to_numpy(dtype=float), strict=True)
     for i, (start, end) in enumerate(columns):
         inside = np.flatnonzero((t >= start) & (t <= end))
-        padded = np.concatenate([[False], above[inside], [False]]).astype(np.int8)
-        edges = np.flatnonzero(np.diff(padded))  # rises and falls, alternating
-        for rise, fall in zip(edges[::2], edges[1::2], strict=True):
+        for rise, fall in zip(*true_stretches(above[inside]), strict=True):
             if t[inside[fall - 1]] - t[inside[rise]] >= min_duration - 1e-12:
                 flags[i] = True
                 break

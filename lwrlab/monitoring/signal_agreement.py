@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from lwrlab.numerics.stretches import true_stretches
+
 SPEED_SHARE = 0.25
 """A sample disagrees where some joint's |logged q̇ − d/dt q| exceeds this share of the joint's
 99th-percentile speed: a gross disagreement, not a filter's lag or noise (on the real LWR4+ runs at
@@ -62,9 +64,8 @@ def disagreeing_samples(t: np.ndarray, dq_logged: np.ndarray, dq_derived: np.nda
         return core
     edge = np.maximum(EDGE_SHARE * speed, MIN_DISAGREEMENT * EDGE_SHARE / SPEED_SHARE)
     parting = np.any(difference > edge, axis=1)  # core ⊂ parting
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], parting.astype(np.int8), [0]])))
     flagged = np.zeros_like(core)
-    for start, stop in zip(edges[::2], edges[1::2], strict=True):  # the stretches of parting
+    for start, stop in zip(*true_stretches(parting), strict=True):
         if core[start:stop].any():
             flagged[start:stop] = True
     period = float((t[-1] - t[0]) / max(len(t) - 1, 1))

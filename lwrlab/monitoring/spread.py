@@ -90,18 +90,20 @@ def friction_band(robot: RobotModel, dq: np.ndarray) -> np.ndarray:
     return band if drive.is_direct else band @ np.abs(drive.coupling)
 
 
-def first_order_lowpass(t: np.ndarray, x: np.ndarray, gain: float) -> np.ndarray:
+def first_order_lowpass(
+    t: np.ndarray, x: np.ndarray, gain: float, initial: np.ndarray | float | None = None
+) -> np.ndarray:
     """``x`` (N, N_J) through the observer's filter ``ṙ = K·(x − r)``, discretised as the observer is
-    (interval means, exact at the stamps), starting at ``x[0]``."""
+    (interval means, exact at the stamps), starting at ``initial`` (None: ``x[0]``)."""
     x = np.asarray(x, dtype=float)
+    filtered = np.empty_like(x)
+    filtered[0] = x[0] if initial is None else initial
     if len(x) < 2:
-        return x.copy()
+        return filtered
     decay = gain * np.diff(np.asarray(t, dtype=float))[:, None] * np.ones((1, x.shape[1]))
     alpha = np.exp(-decay)
     interval_mean = 0.5 * (x[1:] + x[:-1])
-    filtered = np.empty_like(x)
-    filtered[0] = x[0]
-    filtered[1:] = first_order_recursion(alpha, decay, (1.0 - alpha) * interval_mean, x[0])
+    filtered[1:] = first_order_recursion(alpha, decay, (1.0 - alpha) * interval_mean, filtered[0])
     return filtered
 
 

@@ -1,1 +1,3 @@
-"""Numerical plumbing shared by the core: BLAS thread limits (:mod:`lwrlab.numerics.threads`)."""
+"""Numerical plumbing shared by the core: BLAS thread limits (:mod:`lwrlab.numerics.threads`), first-order
+recursions (:mod:`lwrlab.numerics.recursion`), the stretches of a boolean mask
+(:mod:`lwrlab.numerics.stretches`)."""

@@ -28,6 +28,7 @@ import pandas as pd
 
 from lwrlab.io.logs import write_log
 from lwrlab.model.robot import RobotModel
+from lwrlab.numerics.stretches import true_stretches
 from lwrlab.pipeline.build import build
 from lwrlab.pipeline.monitor.scenario import CONTACT_LINKS, PD_GAINS, RATE_HZ, SEGMENT_S, identify_logs
 from lwrlab.plants.pushed_arm import ExternalForce, PushedArm, chained, random_forces
@@ -121,13 +122,11 @@ def family_motion(robot: RobotModel, family: str, duration: float, seed: int) ->
 
 def rest_windows(motion: Trajectory, settle: float = 0.5) -> list[tuple[float, float]]:
     """The stretches (s) where ``motion`` stands still, less ``settle`` seconds at each end."""
-    still = np.all(motion.dq == 0.0, axis=1).astype(np.int8)
-    edges = np.diff(np.concatenate([[0], still, [0]]))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    starts, ends = true_stretches(np.all(motion.dq == 0.0, axis=1))
     return [
-        (float(motion.t[a]) + settle, float(motion.t[b]) - settle)
+        (float(motion.t[a]) + settle, float(motion.t[b - 1]) - settle)
         for a, b in zip(starts, ends, strict=True)
-        if motion.t[b] - motion.t[a] > 2 * settle
+        if motion.t[b - 1] - motion.t[a] > 2 * settle
     ]
 
 

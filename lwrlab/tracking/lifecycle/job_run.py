@@ -52,8 +52,8 @@ from lwrlab.tracking.job_config.run_params import RESOLVED_CONFIG_ARTIFACT
 from lwrlab.tracking.lifecycle import job_state
 from lwrlab.tracking.lifecycle.sweep_run import fail_sweep_run
 from lwrlab.tracking.lifecycle.sweep_stop import Guard, end_earlier_attempts
-from lwrlab.tracking.models.model_logging import log_job_model, log_model_inputs
-from lwrlab.tracking.models.registry import register_identified_model, registered_name
+from lwrlab.tracking.models.model_logging import log_model_inputs
+from lwrlab.tracking.models.registry import log_and_register
 from lwrlab.tracking.runs import offline
 from lwrlab.tracking.runs.finalise import end_killed, finalise_stale_runs
 from lwrlab.tracking.runs.forwarded_error import ForwardedError
@@ -237,13 +237,17 @@ class JobRun:
         """Log the model the job identified (a robot or a payload, if any); register it where
         ``tracking.register_model`` says."""
         assert self.settings is not None
-        logged = log_job_model(client, run_id, self.output_dir, self.settings.tracking_uri)
-        if logged is None:
-            return
         setting = OmegaConf.select(config, "tracking.register_model", default=None)
-        name = registered_name(setting, logged.default_name)
-        if name is not None:
-            register_identified_model(client, name, logged, run_id, self.run_name, metrics, self.datasets)
+        log_and_register(
+            client,
+            run_id,
+            self.output_dir,
+            self.settings.tracking_uri,
+            setting,
+            self.run_name,
+            metrics,
+            self.datasets,
+        )
 
     def end_killed(self, reason: str) -> None:
         """A stop signal: end the run (or the offline record) KILLED, saying where its outputs are."""

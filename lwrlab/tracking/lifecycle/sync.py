@@ -29,8 +29,8 @@ from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.job_config.provenance import PARENT_RUN_TAG, RUN_KIND_TAG
 from lwrlab.tracking.job_config.redaction import Redactor
-from lwrlab.tracking.models.model_logging import log_job_model, log_model_inputs
-from lwrlab.tracking.models.registry import register_identified_model, registered_name
+from lwrlab.tracking.models.model_logging import log_model_inputs
+from lwrlab.tracking.models.registry import log_and_register
 from lwrlab.tracking.runs import offline
 from lwrlab.tracking.runs.run_logging import RUN_ID_FILE, log_metrics, log_output_folder, log_params
 from lwrlab.tracking.runs.run_queries import run_with_tag, sweep_run_of_folder
@@ -155,17 +155,11 @@ class Syncer:
     def _log_model(self, record: dict[str, Any], run_id: str, output_dir: Path) -> None:
         """Log the model the job identified (a robot or a payload) as the run's MLflow Model, and
         register it where the job's ``tracking.register_model`` says, as the job would have."""
-        logged = log_job_model(self.client, run_id, output_dir, self.tracking_uri)
-        if logged is None:
-            return
         config_file = output_dir / ".hydra" / "config.yaml"
         config = yaml.safe_load(config_file.read_text()) if config_file.is_file() else None
         setting = ((config or {}).get("tracking") or {}).get("register_model")
-        name = registered_name(setting, logged.default_name)
-        if name is not None:
-            register_identified_model(
-                self.client, name, logged, run_id, record["run_name"], record["metrics"], []
-            )
+        run_name, metrics = record["run_name"], record["metrics"]
+        log_and_register(self.client, run_id, output_dir, self.tracking_uri, setting, run_name, metrics, [])
 
     def close_parents(self) -> None:
         """End the parent runs created or reused by this sync: FAILED if one of their jobs failed."""

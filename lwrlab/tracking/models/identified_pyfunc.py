@@ -57,6 +57,19 @@ def torque_columns(n_joints: int) -> list[str]:
     return [f"tau{j}" for j in range(1, n_joints + 1)]
 
 
+def state_blocks(frame: pd.DataFrame, n_joints: int, model: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``q``, ``dq``, ``ddq`` (N, N_J) from the state columns of ``frame``; a column missing is a
+    ValueError saying that ``model`` needs it."""
+    missing = [name for name in state_columns(n_joints) if name not in frame]
+    if missing:
+        raise ValueError(f"{model} needs columns {missing}")
+    q, dq, ddq = (
+        frame[[f"{prefix}{j}" for j in range(1, n_joints + 1)]].to_numpy(dtype=float)
+        for prefix in ("q", "dq", "ddq")
+    )
+    return q, dq, ddq
+
+
 def model_signature(n_joints: int) -> ModelSignature:
     """Input: ``t`` (optional) and the state columns, output: the torque columns, all doubles."""
     inputs: list[ColSpec | TensorSpec] = [ColSpec("double", TIME_COLUMN, required=False)]
@@ -91,7 +104,7 @@ def load_torque_model(path: str | Path, rate_hz: float) -> IdentifiedTorques:
     return IdentifiedTorques.of(robot, identified.base_names, identified.base_values, rate_hz)
 
 
-def _rate_of(frame: pd.DataFrame) -> float | None:
+def rows_rate(frame: pd.DataFrame) -> float | None:
     """The rate (Hz) of the rows' ``t`` column, or None without one (or with fewer than two times)."""
     if TIME_COLUMN not in frame or frame[TIME_COLUMN].isna().any() or len(frame) < 2:
         return None
@@ -105,14 +118,8 @@ def _rate_of(frame: pd.DataFrame) -> float | None:
 def predict_frame(model: IdentifiedTorques, frame: pd.DataFrame) -> pd.DataFrame:
     """The torques ``tau1…tauN`` (N·m) of the states in ``frame`` (see the module docstring), same index."""
     n = model.robot.n_joints
-    missing = [name for name in state_columns(n) if name not in frame]
-    if missing:
-        raise ValueError(f"the identified model of {model.robot.name} needs columns {missing}")
-
-    def block(prefix: str) -> np.ndarray:
-        return frame[[f"{prefix}{j}" for j in range(1, n + 1)]].to_numpy(dtype=float)
-
-    torques = model.predict(block("q"), block("dq"), block("ddq"), _rate_of(frame))
+    q, dq, ddq = state_blocks(frame, n, f"the identified model of {model.robot.name}")
+    torques = model.predict(q, dq, ddq, rows_rate(frame))
     return pd.DataFrame(torques, columns=torque_columns(n), index=frame.index)
 
 
@@ -148,6 +155,8 @@ __all__ = [
     "load_torque_model",
     "model_signature",
     "predict_frame",
+    "rows_rate",
+    "state_blocks",
     "state_columns",
     "torque_columns",
 ]

@@ -32,6 +32,7 @@ from lwrlab.tracking.models.identified_pyfunc import (
     TIME_COLUMN,
     URDF_ARTIFACT,
     model_signature,
+    rows_rate,
     state_columns,
 )
 from lwrlab.tracking.models.resolve import MODEL_NAME, lineage_tags, read_models_used
@@ -185,9 +186,7 @@ def log_identified_model(
         log.warning("%s: no joint count found beside it; its MLflow Model is not logged", model_file)
         return None
     example = _input_example(example_path, joints)
-    if example is not None and TIME_COLUMN in example and len(example) > 1:
-        t = example[TIME_COLUMN].to_numpy(dtype=float)
-        rate_hz = float((len(t) - 1) / (t[-1] - t[0]))
+    rate_hz = (rows_rate(example) if example is not None else None) or rate_hz
     artifacts = {MODEL_ARTIFACT: str(model_file)}
     for key, name in ((URDF_ARTIFACT, URDF_FILE), (PARAMETERS_ARTIFACT, PARAMETERS_FILE)):
         if (output_dir / name).is_file():

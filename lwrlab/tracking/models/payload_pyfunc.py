@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import pandas as pd
 from mlflow.pyfunc.model import PythonModel
 
-from lwrlab.tracking.models.identified_pyfunc import state_columns, torque_columns
+from lwrlab.tracking.models.identified_pyfunc import state_blocks, torque_columns
 
 if TYPE_CHECKING:  # the dynamics load with the model, not with the tracking that logs it
     from lwrlab.dynamics.payload_torques import PayloadTorques
@@ -71,14 +71,7 @@ def load_payload_torques(
 def predict_payload_frame(model: PayloadTorques, frame: pd.DataFrame) -> pd.DataFrame:
     """The payload's torques ``tau1…tauN`` (N·m) at the states in ``frame``, same index."""
     n = model.robot.n_joints
-    missing = [name for name in state_columns(n) if name not in frame]
-    if missing:
-        raise ValueError(f"the payload model of {model.robot.name} needs columns {missing}")
-
-    def block(prefix: str) -> Any:
-        return frame[[f"{prefix}{j}" for j in range(1, n + 1)]].to_numpy(dtype=float)
-
-    torques = model.predict(block("q"), block("dq"), block("ddq"))
+    torques = model.predict(*state_blocks(frame, n, f"the payload model of {model.robot.name}"))
     return pd.DataFrame(torques, columns=torque_columns(n), index=frame.index)
 
 

@@ -161,6 +161,27 @@ def register_identified_model(
     return str(version.version)
 
 
+def log_and_register(
+    client: MlflowClient,
+    run_id: str,
+    output_dir: Path,
+    tracking_uri: str,
+    setting: str | bool | None,
+    run_name: str,
+    metrics: Mapping[str, float],
+    datasets: Sequence[DatasetInput],
+) -> LoggedIdentifiedModel | None:
+    """Log the model a job identified (a robot or a payload) as its run's MLflow Model, and register
+    it where ``setting`` (the job's ``tracking.register_model``) says; None: the job identified none."""
+    from lwrlab.tracking.models.model_logging import log_job_model
+
+    logged = log_job_model(client, run_id, output_dir, tracking_uri)
+    name = None if logged is None else registered_name(setting, logged.default_name)
+    if logged is not None and name is not None:
+        register_identified_model(client, name, logged, run_id, run_name, metrics, datasets)
+    return logged
+
+
 # -- lwrlab model ---------------------------------------------------------------------------------
 
 
