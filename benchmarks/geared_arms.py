@@ -315,15 +315,12 @@ def motions(spec: ArmSpec, rng: np.random.Generator) -> dict[str, PlannedMotion]
     )
     waypoints = spec.center + rng.uniform(-0.8, 0.8, size=(8, 6)) * spec.reach
     waypoints[0] = spec.center
-    steps = np.abs(np.diff(waypoints, axis=0))
-    # quintic: peak speed 1.875·Δq/T, peak acceleration 5.77·Δq/T²
-    move_s = np.max(np.maximum(1.875 * steps / spec.speed, np.sqrt(5.77 * steps / spec.acceleration)), axis=1)
     dwells = rng.uniform(0.6, 1.2, size=8)
     dwells[-1] = 1.5
     return {
         "fit": WarpedMotion(fit, fit_schedule),
         "val_multisine": WarpedMotion(other, other_schedule),
-        "val_p2p": PointToPoint(waypoints, np.maximum(move_s, 0.8), dwells),
+        "val_p2p": PointToPoint.within(waypoints, spec.speed, spec.acceleration, dwells, 0.8),
     }
 
 

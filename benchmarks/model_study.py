@@ -56,7 +56,7 @@ from lwrlab.dynamics.base_parameters import compute_base_parameters  # noqa: E40
 from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.identification.context import IdentificationContext  # noqa: E402
 from lwrlab.identification.friction_choice import choose_friction  # noqa: E402
-from lwrlab.identification.prediction_error import FRICTION_DRIFT, drift_parameters  # noqa: E402
+from lwrlab.identification.prediction_error import FRICTION_DRIFT_PRIOR, drift_parameters  # noqa: E402
 from lwrlab.model.friction_laws import drifting_terms  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
@@ -95,7 +95,7 @@ class Setting:
     friction: str = "sign"
     """``sign``: the robot's friction law (the paper's); ``auto``: ``conf/friction/auto.yaml``, the law
     and the rotor-inertia columns chosen on the fit rows by block cross-validation."""
-    friction_drift: float = FRICTION_DRIFT
+    friction_drift: float = FRICTION_DRIFT_PRIOR
     """ρ of the prediction interval (``statistics.friction_drift``)."""
 
 

@@ -62,15 +62,40 @@ def test_tool_body_matches_the_payload_attached_in_pinocchio(lwr4, rng):
         )
 
 
-def test_rejects_non_chain_robot(lwr4):
+def test_joints_about_any_axis_keep_mujoco_and_pinocchio_in_agreement(lwr4, rng):
+    """A chain of x, y and z revolute joints (Pinocchio's sample manipulator; UR and Z1 arms have them)."""
     from dataclasses import replace
 
     import pinocchio as pin
 
     model = pin.buildSampleModelManipulator()
-    with pytest.raises(ValueError, match="revolute-z"):
+    chain = replace(lwr4, model=model, rotor_inertia=None, drive=None, friction_terms=())
+    assert {model.joints[j].shortname() for j in range(1, model.njoints)} == {
+        "JointModelRX",
+        "JointModelRY",
+        "JointModelRZ",
+    }
+    q, dq, ddq = (rng.normal(size=(10, model.nv)) for _ in range(3))
+    np.testing.assert_allclose(
+        mujoco_inverse_dynamics(chain, q, dq, ddq, with_armature=False),
+        chain.inverse_dynamics(q, dq, ddq, with_friction=False),
+        atol=1e-9,
+    )
+
+
+def test_rejects_a_robot_with_a_prismatic_joint(lwr4):
+    from dataclasses import replace
+
+    import pinocchio as pin
+
+    model = pin.Model()
+    first = model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "turn")
+    model.appendBodyToJoint(first, pin.Inertia.Random(), pin.SE3.Identity())
+    slide = model.addJoint(first, pin.JointModelPZ(), pin.SE3.Identity(), "slide")
+    model.appendBodyToJoint(slide, pin.Inertia.Random(), pin.SE3.Identity())
+    with pytest.raises(ValueError, match="revolute"):
         mujoco_xml(
-            replace(lwr4, model=model, rotor_inertia=None, limits=lwr4.limits, drive=None),
+            replace(lwr4, model=model, rotor_inertia=None, drive=None, friction_terms=()),
             timestep=1e-3,
             with_armature=True,
         )

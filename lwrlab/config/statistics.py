@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from lwrlab.config.schema import schema
 
 
@@ -17,6 +19,9 @@ class StatisticsSettings:
     """Level of the percentile intervals, in (0, 1)."""
     seed: int
     """Seed of the resampling."""
-    friction_drift: float
+    friction_drift: Any
     """ρ: share of the friction torque by which the prediction intervals allow friction to differ on
-    another motion (0: intervals from the fit's held-out error alone)."""
+    another motion (0: intervals from the fit's held-out error alone), or ``auto``: measured between
+    the identification logs, :attr:`friction_drift_prior` for one log (a union OmegaConf cannot type)."""
+    friction_drift_prior: float
+    """ρ of ``auto`` when there is one identification log."""

@@ -20,9 +20,13 @@ import numpy as np
 
 from lwrlab.model.friction_laws import STANDARD_TERMS, DriveTerm
 
-FRICTION_DRIFT = 0.5
-"""ρ by default (``statistics.friction_drift``): chosen on motions unlike the fit's in
-``benchmarks/model_study.py``."""
+FRICTION_DRIFT = "auto"
+"""ρ by default (``statistics.friction_drift``): measured between the logs where there are several
+(:mod:`lwrlab.identification.friction_drift`), else :data:`FRICTION_DRIFT_PRIOR`."""
+FRICTION_DRIFT_PRIOR = 0.5
+"""ρ of one log (``statistics.friction_drift_prior``): the smallest of 0.3 / 0.5 / 0.7 that covers the
+real LWR4+'s new motions on every joint (≥ 88 %) when fitted on one of its runs
+(``benchmarks/zoo.py --choice intervals``)."""
 FLOORED_TERMS = (STANDARD_TERMS["coulomb"].prefix, STANDARD_TERMS["viscous"].prefix)
 """Terms raised to the median of the robot's joints where a joint's fit found less."""
 

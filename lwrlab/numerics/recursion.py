@@ -33,7 +33,8 @@ def first_order_recursion(
             a = float(alpha[0, j])
             out[:, j] = lfilter([1.0], [1.0, -a], inputs[:, j], zi=[a * initial[j]])[0]
         return out
-    cumulative = np.cumsum(decay, axis=0)
+    # a step that decays by more than the bound forgets everything before it either way (e^-300 = 0)
+    cumulative = np.cumsum(np.minimum(decay, MAX_DECAY_EXPONENT), axis=0)
     previous, first = np.asarray(initial, dtype=float), 0
     while first < n_samples:
         base = cumulative[first - 1] if first else np.zeros(inputs.shape[1])

@@ -56,6 +56,7 @@ import pinocchio as pin
 from lwrlab.model.drive_train import DriveTrain
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.planned_motions import PlannedMotion
+from lwrlab.plants.static_friction import DriveFriction
 
 
 @dataclass(frozen=True)
@@ -197,6 +198,9 @@ class GearedRun:
     """``current`` or ``tau``: what :attr:`measured_effort` holds."""
     drive: DriveTrain
     metadata: dict[str, object] = field(default_factory=dict)
+    external: np.ndarray | None = None
+    """(M, N_J) external joint torque the drives held against (N·m, the monitor's convention: the
+    measured torque less the model's), or None: no contact."""
 
     @property
     def joint_torque(self) -> np.ndarray:
@@ -239,8 +243,9 @@ class GearedArm:
     constants); its friction values and law are not used."""
     motor_inertia: np.ndarray
     """(N_D,) rotor inertia of each motor (kg·m², at the motor shaft)."""
-    friction: LuGreFriction | None
-    """The motors' friction (None: frictionless drives, for checks)."""
+    friction: DriveFriction | None
+    """The motors' friction: LuGre, or a memoryless law (:mod:`lwrlab.plants.static_friction`);
+    None: frictionless drives, for checks."""
     sensors: MotorSensors
     rate_hz: float = 500.0
     """Sampling rate of the logs (Hz)."""
@@ -274,11 +279,17 @@ class GearedArm:
         return run.rigid_body + run.rotor + self.drive.joint_torques(friction)
 
     def play(
-        self, motion: PlannedMotion, rng: np.random.Generator, z0: np.ndarray | None = None
+        self,
+        motion: PlannedMotion,
+        rng: np.random.Generator,
+        z0: np.ndarray | None = None,
+        external: np.ndarray | None = None,
     ) -> GearedRun:
         """Play ``motion`` exactly: the truth at each sample and the sensors' log.
 
-        ``z0`` (N_D,) is the bristle state at t = 0 (rad; None: relaxed, zero).
+        ``z0`` (N_D,) is the bristle state at t = 0 (rad; None: relaxed, zero). ``external`` (M, N_J)
+        is an external joint torque at the samples (N·m; the monitor's convention ``τ − τ̂``, e.g.
+        ``−J_pᵀ·F`` of a push): the drives hold the plan against it, so the motors supply it too.
         """
         drive = self.drive
         n = drive.n_drives
@@ -304,6 +315,8 @@ class GearedArm:
             )
             friction, bristles = friction_fine[:: self.substeps], z_fine[:: self.substeps]
         motor_torque = drive.motor_torques(rigid_body) + theta_ddot * self.motor_inertia + friction
+        if external is not None:
+            motor_torque = motor_torque + drive.motor_torques(np.asarray(external, dtype=float))
         sensors = self.sensors
         theta = q @ transmission.T
         if sensors.encoder_counts is None:
@@ -334,4 +347,5 @@ class GearedArm:
             measured_effort=effort,
             effort_column=column,
             drive=drive,
+            external=None if external is None else np.asarray(external, dtype=float),
         )

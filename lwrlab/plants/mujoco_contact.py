@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
+from lwrlab.kinematics.tree import joint_axes
 from lwrlab.model.inertia import mass_com_inertia
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.contact_batch import ContactPlantBatch, ContactSensors
@@ -137,7 +138,7 @@ def mujoco_xml(
 
     Parameters
     ----------
-    robot : a serial chain of revolute-z joints; its inertias become the bodies' inertials.
+    robot : a serial chain of revolute joints (any axis); its inertias become the bodies' inertials.
     tool : the tool fixed to the flange, or None.
     wall : the wall with its force sensor, or None.
     timestep : MuJoCo integration step (s).
@@ -157,18 +158,22 @@ def mujoco_xml(
         else np.zeros(robot.n_joints)
     )
     bodies, closing = [], []
+    try:
+        axes = joint_axes(model)
+    except ValueError as error:
+        raise ValueError(f"the MuJoCo plant needs a serial chain of revolute joints: {error}") from None
     for j in range(1, model.njoints):
-        if model.joints[j].shortname() != "JointModelRZ" or model.parents[j] != j - 1:
+        if not axes[j - 1].revolute or model.parents[j] != j - 1:
             raise ValueError(
-                "the MuJoCo plant needs a serial chain of revolute-z joints; "
+                "the MuJoCo plant needs a serial chain of revolute joints; "
                 f"joint {j} is {model.joints[j].shortname()}"
             )
         placement = model.jointPlacements[j]
         bodies.append(
             f'<body name="link{j}" pos="{_vector(placement.translation)}" '
             f'quat="{_quaternion(placement.rotation)}">'
-            f'<joint name="joint{j}" type="hinge" axis="0 0 1" armature="{armature[j - 1]:.17g}" '
-            'limited="false"/>'
+            f'<joint name="joint{j}" type="hinge" axis="{_vector(axes[j - 1].axis)}" '
+            f'armature="{armature[j - 1]:.17g}" limited="false"/>'
             f"{_inertial(np.asarray(robot.link_parameters[j - 1]))}"
         )
         closing.append("</body>")

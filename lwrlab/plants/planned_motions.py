@@ -205,6 +205,21 @@ class PointToPoint:
         if np.shape(self.move_s) != (w - 1,) or np.shape(self.dwells_s) != (w,):
             raise ValueError(f"{w} waypoints need {w - 1} move durations and {w} dwells")
 
+    @classmethod
+    def within(
+        cls,
+        waypoints: np.ndarray,
+        speed: np.ndarray,
+        acceleration: np.ndarray,
+        dwells_s: np.ndarray,
+        shortest_move_s: float,
+    ) -> PointToPoint:
+        """Moves as short as the joints' ``speed`` and ``acceleration`` (N_J,) allow (a quintic peaks at
+        1.875·Δq/T and 5.77·Δq/T²), none shorter than ``shortest_move_s``."""
+        steps = np.abs(np.diff(np.asarray(waypoints, dtype=float), axis=0))
+        move_s = np.max(np.maximum(1.875 * steps / speed, np.sqrt(5.77 * steps / acceleration)), axis=1)
+        return cls(np.asarray(waypoints, dtype=float), np.maximum(move_s, shortest_move_s), dwells_s)
+
     @property
     def duration(self) -> float:
         """Duration (s)."""

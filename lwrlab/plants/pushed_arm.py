@@ -17,7 +17,7 @@ sample.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from itertools import pairwise
 
@@ -99,6 +99,10 @@ class PushedRun:
     """(N, 3) force on the arm at each sample (N, base frame; zero without contact)."""
     contacts: pd.DataFrame
     """The forces as true contacts (:func:`forces_frame`)."""
+    velocity: np.ndarray | None = None
+    """(N, N_J) true joint velocities at the samples (rad/s)."""
+    acceleration: np.ndarray | None = None
+    """(N, N_J) true joint accelerations at the samples (rad/s²)."""
 
 
 class PushedArm:
@@ -113,6 +117,11 @@ class PushedArm:
     torque_noise_std : joint-torque sensor noise σ_τ (N·m).
     encoder_noise_std : encoder noise σ_q (rad).
     seed : seed of the sensor noise.
+    friction : the joints' friction torque ``f(q̇)`` (N·m) of (N_J,) velocities (rad/s), applied as a
+        generalised force opposing the motion; None: the truth's ``FV·q̇ + FC·tanh(q̇/ε) + FO``.
+    joint_friction : MuJoCo's own joint friction instead, per joint: ``frictionloss`` (dry friction
+        solved as a soft constraint, N·m), ``damping`` (N·m·s/rad) and ``time_constant`` (s, its
+        ``solreffriction``); ``friction`` is then zero unless given.
     """
 
     def __init__(
@@ -126,6 +135,8 @@ class PushedArm:
         torque_noise_std: float,
         encoder_noise_std: float,
         seed: int,
+        friction: Callable[[np.ndarray], np.ndarray] | None = None,
+        joint_friction: dict[str, Sequence[float] | float] | None = None,
     ) -> None:
         self.truth, self.nominal = truth, nominal
         self.kp, self.kd = np.asarray(kp, dtype=float), np.asarray(kd, dtype=float)
@@ -134,18 +145,32 @@ class PushedArm:
         self.seed = seed
         n = truth.n_joints
         self.armature = np.zeros(n) if truth.rotor_inertia is None else np.asarray(truth.rotor_inertia)
-        friction = truth.friction
-        self._coulomb, self._viscous, self._offset = friction.coulomb, friction.viscous, friction.offset
+        values = truth.friction
+        self._coulomb, self._viscous, self._offset = values.coulomb, values.viscous, values.offset
+        self.joint_friction = joint_friction
+        self._friction: Callable[[np.ndarray], np.ndarray] = (
+            friction if friction is not None else np.zeros_like if joint_friction else self._truth_friction
+        )
 
-    def _friction(self, dq: np.ndarray) -> np.ndarray:
+    def _truth_friction(self, dq: np.ndarray) -> np.ndarray:
         return self._viscous * dq + self._coulomb * np.tanh(dq / COULOMB_SMOOTHING) + self._offset
+
+    def _model(self, period: float) -> mujoco.MjModel:
+        """The MuJoCo model at ``substeps`` steps per ``period``, with MuJoCo's own joint friction."""
+        model = mujoco.MjModel.from_xml_string(
+            mujoco_xml(self.truth, timestep=period / self.substeps, with_armature=True)
+        )
+        if self.joint_friction is not None:
+            model.dof_frictionloss[:] = self.joint_friction.get("frictionloss", 0.0)
+            model.dof_damping[:] = self.joint_friction.get("damping", 0.0)
+            model.dof_solref[:, 0] = self.joint_friction.get("time_constant", 0.005)
+            model.opt.tolerance, model.opt.iterations = 1e-12, 200  # friction solved to round-off
+        return model
 
     def run(self, motion: Trajectory, forces: Sequence[ExternalForce], name: str = "pushed_arm") -> PushedRun:
         """Follow ``motion`` (its samples are the control periods) while ``forces`` act."""
         period = float(motion.t[1] - motion.t[0])
-        model = mujoco.MjModel.from_xml_string(
-            mujoco_xml(self.truth, timestep=period / self.substeps, with_armature=True)
-        )
+        model = self._model(period)
         data = mujoco.MjData(model)
         n, n_samples = self.truth.n_joints, motion.t.shape[0]
         bodies = [model.body(f"link{force.link}").id for force in forces]
@@ -153,6 +178,7 @@ class PushedArm:
         rng = np.random.default_rng(self.seed)
         q_log, tau_log = np.empty((n_samples, n)), np.empty((n_samples, n))
         external, force_log = np.zeros((n_samples, n)), np.zeros((n_samples, 3))
+        velocity, acceleration = np.empty((n_samples, n)), np.empty((n_samples, n))
         push = np.zeros(n)
         data.qpos[:], data.qvel[:] = motion.q[0], motion.dq[0]
         order = np.argsort([f.start for f in forces]) if forces else np.array([], dtype=int)
@@ -181,6 +207,7 @@ class PushedArm:
             """Sensors and truth at sample ``k`` under the command ``tau`` (state after mj_forward)."""
             q_log[k] = data.qpos + self.encoder_noise_std * rng.normal(size=n)
             tau_log[k] = tau - self.armature * data.qacc + self.torque_noise_std * rng.normal(size=n)
+            velocity[k], acceleration[k] = data.qvel, data.qacc
             push[:] = 0.0
             for start, end, i in windows:
                 if start <= motion.t[k] <= end:
@@ -219,7 +246,8 @@ class PushedArm:
                 "seed": self.seed,
             },
         )
-        return PushedRun(measurement, external, force_log, forces_frame([forces[i] for i in order]))
+        contacts = forces_frame([forces[i] for i in order])
+        return PushedRun(measurement, external, force_log, contacts, velocity, acceleration)
 
     def _command(
         self,

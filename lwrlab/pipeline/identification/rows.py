@@ -44,15 +44,27 @@ class IdentificationRows:
     """(samples, N_J) velocities at the rows (rad/s)."""
     ddq: np.ndarray
     """(samples, N_J) accelerations at the rows (rad/s²)."""
+    log_grams: np.ndarray | None = None
+    """(logs, N_J, N_B+1, N_B+1) Gram matrices of ``[W_b τ]`` of each log's rows of each joint, or
+    None (one log): what the friction drift between logs is measured from."""
+    log_samples: np.ndarray | None = None
+    """(logs,) samples (rows per joint) of each log."""
 
     def only_joints(self, joints: np.ndarray) -> IdentificationRows:
         """The rows with those of the joints outside ``joints`` (N_J,) bool set to zero: left out of
         the fit (their torque is no torque, or not wanted), the sample-major layout kept."""
         statistics = replace(self.statistics, factors=self.statistics.factors * joints[None, :, None, None])
+        grams = None if self.log_grams is None else self.log_grams * joints[None, :, None, None]
         if self.w_base is None or self.tau is None:
-            return replace(self, statistics=statistics)
+            return replace(self, statistics=statistics, log_grams=grams)
         kept = joints[row_joints(len(self.tau), len(joints))]
-        return replace(self, statistics=statistics, w_base=self.w_base * kept[:, None], tau=self.tau * kept)
+        return replace(
+            self,
+            statistics=statistics,
+            w_base=self.w_base * kept[:, None],
+            tau=self.tau * kept,
+            log_grams=grams,
+        )
 
     def fit(self, estimator: Estimator, context: IdentificationContext) -> None:
         """Fit ``estimator`` from the statistics when it can, else from the stacked rows."""
@@ -99,11 +111,16 @@ def identification_rows(
     )
     kept: list[tuple[np.ndarray, np.ndarray]] = []
     states: list[list[np.ndarray]] = [[], [], []]
+    width = base.count + 1
+    grams = np.zeros((len(processed), n_joints, width, width)) if len(processed) > 1 else None
 
-    for data in processed:
+    for k, data in enumerate(processed):
         base_regressor = LogRegressor.of(robot, data.velocities, data.working_rate_hz, base.columns)
         for block in data.row_blocks(base_regressor):
             accumulator.add(block.w, block.tau)
+            if grams is not None:  # per log and joint: the friction drift between logs
+                rows = np.column_stack([block.w, block.tau]).reshape(-1, n_joints, width).transpose(1, 0, 2)
+                grams[k] += rows.transpose(0, 2, 1) @ rows
             if keep:
                 kept.append((block.w, block.tau))
             for values, part in zip(states, (block.q, block.dq, block.ddq), strict=True):
@@ -115,4 +132,6 @@ def identification_rows(
         q=np.vstack(states[0]),
         dq=np.vstack(states[1]),
         ddq=np.vstack(states[2]),
+        log_grams=grams,
+        log_samples=np.array([len(data.index) for data in processed]),
     )

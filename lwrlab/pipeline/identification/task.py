@@ -24,7 +24,9 @@ from pathlib import Path
 from typing import Any
 
 from lwrlab.identification.core import Estimator
-from lwrlab.identification.prediction_error import FRICTION_DRIFT
+from lwrlab.identification.friction_drift import friction_drift
+from lwrlab.identification.prediction_error import FRICTION_DRIFT, FRICTION_DRIFT_PRIOR
+from lwrlab.model.friction_laws import drifting_terms
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
 from lwrlab.pipeline.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
@@ -67,11 +69,13 @@ def identify(
         with the :class:`IdentificationContext` of this identification.
     rate_hz : sampling rate of a simulated measurement (Hz).
     processing : keyword arguments of :func:`lwrlab.signal.processing.process`.
-    statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k, "friction_drift": ρ}``
+    statistics : ``{"resamples": n, "block_s": s, "confidence": c, "seed": k, "friction_drift": ρ,
+        "friction_drift_prior": ρ₀}``
         (the ``statistics`` group's settings): with n > 0, block bootstrap confidence intervals
         (:func:`lwrlab.identification.bootstrap.block_bootstrap`) are added to the parameter table;
         ρ widens the prediction intervals with the friction torque
-        (:mod:`lwrlab.identification.prediction_error`; default :data:`FRICTION_DRIFT`).
+        (:mod:`lwrlab.identification.prediction_error`): ``auto`` (default) measures it between
+        several logs, one log takes the prior ρ₀ (:mod:`lwrlab.identification.friction_drift`).
     """
     processing = dict(processing or {})
     measured = measure(robot, motion_source, validation_source, plant, rate_hz)
@@ -83,8 +87,16 @@ def identify(
     has_prior = bool(getattr(estimator, "uses_prior", False))
     identifiability = assess(robot, base, rows, has_prior)
     fitting = fit(robot, base, rows, estimator, measured.motion, processed[0])
-    drift = float(statistics.get("friction_drift", FRICTION_DRIFT)) if statistics else FRICTION_DRIFT
-    predictions = predict(robot, base, estimator, measured, processed, processing, rows, fitted, drift)
+    settings = statistics or {}
+    drift = friction_drift(
+        settings.get("friction_drift", FRICTION_DRIFT),
+        float(settings.get("friction_drift_prior", FRICTION_DRIFT_PRIOR)),
+        base.names,
+        drifting_terms(robot.friction_law),
+        rows.log_grams,
+        rows.log_samples,
+    )
+    predictions = predict(robot, base, estimator, measured, processed, processing, rows, fitted, drift.value)
     tables = tabulate(
         robot,
         base,
@@ -111,7 +123,7 @@ def identify(
         identifiability,
         friction_choice,
         extrapolation,
-    )
+    ) | {"friction_drift": drift.value}
     share = getattr(estimator, "prior_share_", None)
     return IdentificationReport(
         robot=robot,
@@ -134,6 +146,7 @@ def identify(
             has_prior,
             share,
         )
+        + [drift.describe()]
         + coverage_checks(measured, predictions),
         motion=measured.motion,
         validation_motion=measured.validation_motion,
