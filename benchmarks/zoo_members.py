@@ -146,6 +146,8 @@ class Member:
     """What is special about it, in words."""
     contact_links: int = 3
     """The last ``contact_links`` links are pushed."""
+    motion_constraints: tuple[tuple[str, Any], ...] = ()
+    """Settings of the exciting motion's constraints that differ from the shipped ones."""
 
     @property
     def geared(self) -> bool:
@@ -242,7 +244,9 @@ MEMBERS: dict[str, Member] = {
             ),
             Sensors("motor", 100.0, noise_share=0.008, offset_share=0.01, jitter=0.1),
             "a mobile manipulator's arm (placeholder-looking inertials): Coulomb growing with the load; "
-            "currents at 100 Hz, jittered stamps",
+            "currents at 100 Hz, jittered stamps (its exciting motion without self-collision "
+            "constraints: no SRDF ships with it, and the middle of its joint ranges meets the torso)",
+            motion_constraints=(("self_collision", False),),
         ),
         Member(
             "xarm7_sensed",
@@ -333,7 +337,8 @@ class MemberLogs:
 
     def truth(self, name: str) -> pd.DataFrame:
         """``t`` and the noise-free joint-side readings ``tau1…`` (with offsets), the external torques
-        ``tau_ext1…`` of log ``name``, one row per logged row."""
+        ``tau_ext1…`` and the true joint states ``q1…``, ``dq1…``, ``ddq1…`` of log ``name``, one row
+        per logged row."""
         return pd.read_parquet(self.folder / f"{name}_truth.parquet")
 
     @property
@@ -432,7 +437,14 @@ def exciting_motion(member: Member, robot: RobotModel, cache: Path) -> Any:
     from lwrlab.pipeline.build import build
 
     optimizer = build("optimizer", "slsqp", show_progress=False, seed=0)
-    source = build("trajectory", "optimal", from_file=None, optimizer=optimizer)
+    constraints = dict(member.motion_constraints)
+    source = build(
+        "trajectory",
+        "optimal",
+        from_file=None,
+        optimizer=optimizer,
+        **({"constraints": constraints} if constraints else {}),
+    )
     path = cache / "motions" / f"{member.robot}.npy"
     bare = source.bare_parameterisation(source.duration)
     if path.is_file():
@@ -443,11 +455,12 @@ def exciting_motion(member: Member, robot: RobotModel, cache: Path) -> Any:
     return motion
 
 
-def member_motions(fit: Any, rng: np.random.Generator) -> dict[str, PlannedMotion]:
+def member_motions(fit: Any, rng: np.random.Generator, quick: bool = False) -> dict[str, PlannedMotion]:
     """The fit logs (``fit``: the exciting motion played there and back; ``fit_slow``: the same at 0.6 ×
     its speed) and the new motions, about the fit motion's range: ``faster`` (1.3 × its speeds),
     ``slower`` (0.35 ×), ``p2p`` (point to point with rests), ``rest`` (three postures held 8 s
-    each)."""
+    each); ``quick``: every new motion about a fifth as long (the tests')."""
+    move_s, stops, postures, dwell = (3.0, 3, 2, 3.0) if quick else (14.0, 8, 3, 8.0)
     played = RepeatedMotion(fit, 1.0, 1.5, 2, 1.5)
     t = np.linspace(0.0, fit.duration, 2001)
     q, dq, ddq = fit.evaluate(t)
@@ -460,14 +473,14 @@ def member_motions(fit: Any, rng: np.random.Generator) -> dict[str, PlannedMotio
         ("faster", 1.3, [0.15, 0.31, 0.47, 0.73, 1.1, 1.45]),
         ("slower", 0.35, [0.05, 0.11, 0.17, 0.26, 0.37]),
     ):
-        schedule = RestSchedule((("rest", 0.5), ("up", 0.4), ("move", 14.0), ("down", 0.4), ("rest", 1.0)))
+        schedule = RestSchedule((("rest", 0.5), ("up", 0.4), ("move", move_s), ("down", 0.4), ("rest", 1.0)))
         path = MultisinePath.random(
             center, frequencies, reach, factor * speed, factor**2 * acceleration, schedule.path_length, rng
         )
         motions[name] = WarpedMotion(path, schedule)
-    motions["p2p"] = _point_to_point(center, reach, speed, acceleration, 8, (0.5, 1.5), rng)
+    motions["p2p"] = _point_to_point(center, reach, speed, acceleration, stops, (0.5, 1.5), rng)
     motions["rest"] = _point_to_point(
-        center, 0.6 * reach, 0.6 * speed, 0.5 * acceleration, 3, (8.0, 8.0), rng
+        center, 0.6 * reach, 0.6 * speed, 0.5 * acceleration, postures, (dwell, dwell), rng
     )
     return motions
 
@@ -612,15 +625,12 @@ def _write(path: Path, columns: dict[str, np.ndarray], log_format: str) -> Path:
     return path
 
 
-def _write_truth(path: Path, t: np.ndarray, torque: np.ndarray, external: np.ndarray) -> None:
-    n = torque.shape[1]
-    pd.DataFrame(
-        {
-            "t": t,
-            **{f"tau{j + 1}": torque[:, j] for j in range(n)},
-            **{f"tau_ext{j + 1}": external[:, j] for j in range(n)},
-        }
-    ).to_parquet(path, index=False)
+def _write_truth(path: Path, t: np.ndarray, blocks: dict[str, np.ndarray]) -> None:
+    """A log's truth: ``t`` and each (M, N_J) block as columns ``<name>1…``."""
+    columns: dict[str, np.ndarray] = {"t": t}
+    for key, block in blocks.items():
+        columns |= {f"{key}{j + 1}": block[:, j] for j in range(block.shape[1])}
+    pd.DataFrame(columns).to_parquet(path, index=False)
 
 
 def _joint_side_member(
@@ -643,6 +653,7 @@ def _joint_side_member(
         run = _mujoco_run(member, nominal, truth, scale, motion, forces if name == "rest" else [], seed + k)
         rows = slice(None, None, keep)
         t, q, tau, external = run["t"][rows], run["q"][rows], run["tau"][rows], run["external"][rows]
+        state = {"q": q, "dq": run["dq"][rows], "ddq": run["ddq"][rows]}
         resolution = sensors.encoder_resolution
         q_log = np.round((q + rng.normal(scale=resolution / 3, size=q.shape)) / resolution) * resolution
         reading = tau + offset
@@ -652,7 +663,7 @@ def _joint_side_member(
             {"t": _stamps(t, sensors.jitter, rng), "q": q_log, "tau": tau_log},
             sensors.log_format,
         )
-        _write_truth(folder / f"{name}_truth.parquet", t, reading, external)
+        _write_truth(folder / f"{name}_truth.parquet", t, {"tau": reading, "tau_ext": external} | state)
     return paths
 
 
@@ -730,15 +741,36 @@ def _motor_side_member(
             {"t": _stamps(t, sensors.jitter, rng), "q": run.measured_angles, column: run.measured_effort},
             sensors.log_format,
         )
-        _write_truth(folder / f"{name}_truth.parquet", t, reading, external)
+        state = {"q": run.q, "dq": run.dq, "ddq": run.ddq}
+        _write_truth(folder / f"{name}_truth.parquet", t, {"tau": reading, "tau_ext": external} | state)
     return paths
 
 
-def build_member(member: Member, seed: int = 0, cache: Path | None = None) -> MemberLogs:
+def quick_motion(robot: RobotModel) -> WarpedMotion:
+    """A 3 s multi-sine about the middle of the joint ranges, from and to rest: what a quick member (the
+    tests') plays instead of the optimised exciting motion."""
+    lower = np.where(np.isfinite(robot.limits.position_lower), robot.limits.position_lower, -np.pi)
+    upper = np.where(np.isfinite(robot.limits.position_upper), robot.limits.position_upper, np.pi)
+    schedule = RestSchedule((("rest", 0.3), ("up", 0.3), ("move", 3.0), ("down", 0.3), ("rest", 0.3)))
+    n = robot.n_joints
+    path = MultisinePath.random(
+        0.5 * (lower + upper),
+        [0.3, 0.7, 1.3],
+        np.minimum(0.25 * (upper - lower), 0.6),
+        np.full(n, 1.2),
+        np.full(n, 8.0),
+        schedule.path_length,
+        np.random.default_rng(0),
+    )
+    return WarpedMotion(path, schedule)
+
+
+def build_member(member: Member, seed: int = 0, cache: Path | None = None, quick: bool = False) -> MemberLogs:
     """The member's logs and truths (seeded), built once into ``cache`` (default :data:`CACHE`) and
-    read back from there afterwards."""
+    read back from there afterwards. ``quick``: a 3 s multi-sine instead of the optimised exciting
+    motion and short new motions (a few seconds to build: the tests')."""
     cache = CACHE if cache is None else Path(cache)
-    folder = cache / f"v{ZOO_VERSION}" / f"{member.name}-seed{seed}"
+    folder = cache / f"v{ZOO_VERSION}" / f"{member.name}-seed{seed}{'-quick' if quick else ''}"
     record = folder / "member.json"
     nominal = nominal_robot(member)
     scale = torque_scale(nominal, np.random.default_rng([seed, 3]))
@@ -751,7 +783,8 @@ def build_member(member: Member, seed: int = 0, cache: Path | None = None) -> Me
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
     truth = true_robot(member, nominal, rng)
-    motions = member_motions(exciting_motion(member, nominal, cache), rng)
+    fit = quick_motion(nominal) if quick else exciting_motion(member, nominal, cache)
+    motions = member_motions(fit, rng, quick)
     forces = pushes(member, truth, motions["rest"], rng)
     if member.truth.engine == "mujoco":
         logs.paths = _joint_side_member(member, nominal, truth, scale, motions, forces, folder, seed)
