@@ -8,7 +8,7 @@ Z1, Kinova Gen2) or TIAGo's arm (its URDF with the base, torso and head locked),
 
   - ``mujoco``: rigid bodies integrated by MuJoCo (:class:`lwrlab.plants.pushed_arm.PushedArm`,
     not our dynamics) under joint PD and the description's feed-forward, with the paper's sign law
-    (``FC·sign(q̇) + FV·q̇`` as a generalised force, ``sign`` regularised over 1 mrad/s) or MuJoCo's own
+    (``FC·sign(q̇) + FV·q̇`` as a generalised force, ``sign`` regularised over 5 mrad/s) or MuJoCo's own
     joint friction (``frictionloss``, ``damping``) and ``armature``;
   - ``geared``: the plan played exactly through gears (:class:`lwrlab.plants.geared_arm.GearedArm`):
     LuGre at the motors with a Coulomb level growing with the load, or a memoryless law at the motors
@@ -63,7 +63,7 @@ from lwrlab.plants.pushed_arm import ExternalForce, PushedArm, random_forces  # 
 from lwrlab.plants.static_friction import StaticFriction  # noqa: E402
 from lwrlab.trajectory.core import Trajectory  # noqa: E402
 
-ZOO_VERSION = 3
+ZOO_VERSION = 4
 """Bumped whenever what a member's logs hold changes: the cache keeps one folder per version."""
 CACHE = REPOSITORY / "outputs" / "zoo"
 """Where built members are kept (``outputs/`` is git-ignored)."""
@@ -108,6 +108,9 @@ class Truth:
     """Geared members: ``(motor, joint, factor)`` entries of the coupling (1-based), e.g. a wrist."""
     rotor_share: float = 0.004
     """Reflected rotor inertia (kg·m²) per N·m of the joint's torque scale."""
+    sign_width: float = 5e-3
+    """MuJoCo members' sign law: ``sign(q̇)`` as ``tanh(q̇/ε)`` with this ε (rad/s), the narrowest the
+    integration (0.5 ms steps) holds without chattering at rest on a light wrist."""
 
 
 @dataclass(frozen=True)
@@ -127,6 +130,8 @@ class Sensors:
     """Motor side: ``current`` (A, torque constants 0.1 N·m/A) or ``tau`` (motor torques)."""
     encoder_resolution: float = 1e-5
     """Joint side: quantisation of the positions (rad)."""
+    encoder_noise: float = 1.0 / 3.0
+    """Joint side: σ of the noise before quantisation, as a share of the resolution."""
     encoder_counts: int = 2**17
     """Motor side: encoder counts per motor turn."""
     log_format: str = "parquet"
@@ -254,6 +259,14 @@ MEMBERS: dict[str, Member] = {
             Truth("mujoco", "sign", coulomb_share=0.02, viscous_share=0.02, rotor_share=0.003),
             Sensors("joint", 1000.0, noise_share=0.01, offset_share=0.01, encoder_resolution=1e-4),
             "the paper's law again, noisier torque sensors (1 %) and coarse encoders",
+        ),
+        Member(
+            "panda_paper",
+            "panda",
+            Truth("mujoco", "sign", coulomb_share=0.03, viscous_share=0.03, rotor_share=0.003),
+            Sensors("joint", 1000.0, noise_share=0.004, offset_share=0.01, encoder_noise=0.0),
+            "the paper's law in MuJoCo seen by clean encoders (quantised, no noise: a joint at rest "
+            "reads zero speed), torque sensors at 1 kHz",
         ),
     )
 }
@@ -578,6 +591,10 @@ def _mujoco_run(
     joint_friction = None
     if spec.law == "mujoco":  # MuJoCo's own dry friction and damping instead of the sign law
         joint_friction = {"frictionloss": coulomb, "damping": viscous, "time_constant": 0.005}
+
+    def sign_law(dq: np.ndarray) -> np.ndarray:
+        return coulomb * np.tanh(dq / spec.sign_width) + viscous * dq
+
     arm = PushedArm(
         arm_truth,
         nominal,
@@ -587,6 +604,7 @@ def _mujoco_run(
         torque_noise_std=0.0,
         encoder_noise_std=0.0,
         seed=seed,
+        friction=None if joint_friction else sign_law,
         joint_friction=joint_friction,
     )
     run = arm.run(trajectory, forces)
@@ -655,7 +673,8 @@ def _joint_side_member(
         t, q, tau, external = run["t"][rows], run["q"][rows], run["tau"][rows], run["external"][rows]
         state = {"q": q, "dq": run["dq"][rows], "ddq": run["ddq"][rows]}
         resolution = sensors.encoder_resolution
-        q_log = np.round((q + rng.normal(scale=resolution / 3, size=q.shape)) / resolution) * resolution
+        noise = rng.normal(scale=sensors.encoder_noise * resolution, size=q.shape)
+        q_log = np.round((q + noise) / resolution) * resolution
         reading = tau + offset
         tau_log = reading + rng.normal(size=tau.shape) * sensors.noise_share * scale
         paths[name] = _write(

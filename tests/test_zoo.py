@@ -100,8 +100,6 @@ def test_a_geared_members_motor_log_reads_back_as_its_joint_side_truth_plus_nois
 def test_a_mujoco_members_truth_is_pinocchios_rigid_bodies_and_the_sign_law(sensed):
     """MuJoCo integrated the arm; the link-side torque it gives equals Pinocchio's RNEA of the true
     arm at MuJoCo's own states plus the applied friction: two engines agree."""
-    from lwrlab.plants.simulation import COULOMB_SMOOTHING
-
     member = sensed.member
     truth = _true_robot(sensed)
     n = truth.n_joints
@@ -111,7 +109,7 @@ def test_a_mujoco_members_truth_is_pinocchios_rigid_bodies_and_the_sign_law(sens
         q, dq, ddq = (_columns(frame, key, n) for key in ("q", "dq", "ddq"))
         model = (
             _rnea(truth, q, dq, ddq)
-            + spec.coulomb_share * sensed.scale * np.tanh(dq / COULOMB_SMOOTHING)
+            + spec.coulomb_share * sensed.scale * np.tanh(dq / spec.sign_width)
             + spec.viscous_share * sensed.scale * dq
             + _columns(frame, "tau_ext", n)
         )

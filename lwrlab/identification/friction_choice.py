@@ -14,9 +14,13 @@ matrix's rows and columns. The fits are least squares with each joint's rows sca
 level (so a wrist counts as much as a shoulder) and a small ridge toward the CAD values
 (:data:`RIDGE`); the score is the held-out squared error relative to each joint's torque energy,
 averaged over the joints.
-The choice is the simplest candidate (fewest columns) within one standard error of the best, on the
-mean held-out error or on the mean of the mean and the worst held-out fold
-(:func:`_one_standard_error`).
+The choice is the simplest candidate within one standard error of the best, on the mean held-out
+error or on the mean of the mean and the worst held-out fold (:func:`_one_standard_error`). Simplest
+counts the columns, then the shape settings the data picked from a grid (a ``smooth`` law whose
+width was chosen among four is not as simple as ``sign``), then the order of the laws. A more
+complex law must also beat the simpler ones by more than a share of the noise its scores hold
+(:data:`NOISE_MATERIALITY`): on noisy logs a few per cent of held-out error between two laws is
+the noise's, not the laws'.
 """
 
 from __future__ import annotations
@@ -42,6 +46,12 @@ MAX_SAMPLES = 120_000
 """Most working samples (2 min at 1 kHz) whose rows are scored, the first of each log beyond: every
 candidate's columns are filtered at every working sample, and the choice needs the shape of the
 data, not every sample of an hour-long log."""
+NOISE_MATERIALITY = 0.2
+"""Share of the torque noise's part of the held-out score (:func:`torque_noise_share`) by which a more
+complex candidate must beat the best to be preferred to a simpler one: on logs whose held-out error
+is mostly noise, a law that fits a few per cent of it better has fitted the motion's noise (the
+velocity's and the torque's, filtered alike), not the robot (a MuJoCo arm with the paper's law:
+``smooth`` led ``sign`` by 4 % of NRMS and predicted its true torque 3 × worse)."""
 CHOICE_BLOCK = 4096
 """Working samples per block of the choice's rows: every candidate's columns side by side (~250)
 would make the usual blocks hundreds of megabytes."""
@@ -53,6 +63,8 @@ class FrictionCandidate:
 
     law: FrictionLaw
     rotor: bool
+    picked_settings: int = 0
+    """Shape settings of the law picked from a grid (each a degree of freedom the data spent)."""
 
     @property
     def label(self) -> str:
@@ -70,6 +82,12 @@ class FrictionChoice:
     chosen: int
     speed_noise: np.ndarray
     """(N_D,) speed noise of the drives in the logs (rad/s), what noise-width laws read."""
+    columns: np.ndarray | None = None
+    """(C,) drive columns of each candidate per drive."""
+    eligible: np.ndarray | None = None
+    """(C,) bool: within one standard error (and the noise's materiality) of the best."""
+    noise_share: float = 0.0
+    """The torque noise's part of the held-out scores (relative squared error, mean over joints)."""
 
     @property
     def candidate(self) -> FrictionCandidate:
@@ -89,14 +107,29 @@ class FrictionChoice:
         )
 
     def describe(self) -> str:
-        """One line for the report."""
-        best = 100.0 * np.sqrt(self.scores[self.chosen])
-        runner = np.argsort(self.scores)
-        others = [k for k in runner if k != self.chosen][:2]
-        rest = ", ".join(f"{self.candidates[k].label} {100 * np.sqrt(self.scores[k]):.2f} %" for k in others)
-        return (
+        """One line for the report: the choice, its held-out NRMS and why it was chosen over the lower
+        ones (the one-standard-error rule keeps the simplest candidate the data do not reject)."""
+        nrms = 100.0 * np.sqrt(self.scores)
+        order = [k for k in np.argsort(self.scores) if k != self.chosen]
+        lower = [k for k in order if self.scores[k] < self.scores[self.chosen]]
+        head = (
             f"friction chosen by {len(self.candidates)}-candidate block cross-validation: "
-            f"{self.candidate.label} (held-out NRMS {best:.2f} %; next: {rest})"
+            f"{self.candidate.label} (held-out NRMS {nrms[self.chosen]:.2f} %"
+        )
+        if not lower:
+            rest = ", ".join(f"{self.candidates[k].label} {nrms[k]:.2f} %" for k in order[:2])
+            return f"{head}, the lowest; next: {rest})"
+        beaten = ", ".join(f"{self.candidates[k].label} {nrms[k]:.2f} %" for k in lower[:2])
+        more = f" and {len(lower) - 2} more" if len(lower) > 2 else ""
+        noise = (
+            f" (or {NOISE_MATERIALITY:g} × the noise's share of it, {100 * np.sqrt(self.noise_share):.2f} %)"
+            if self.noise_share > 0
+            else ""
+        )
+        return (
+            f"{head}; lower: {beaten}{more}): the simplest law within one standard error of the best"
+            f"{noise} is kept (one-standard-error rule: a law with more columns, or shape settings "
+            "picked from a grid, must beat the simpler ones by more than the folds' scatter)"
         )
 
 
@@ -127,13 +160,55 @@ def speed_noise(processed: Sequence[ProcessedData], robot: RobotModel) -> np.nda
     return np.sqrt(np.square(coupling) @ joint_variance)
 
 
+def _picked_settings(laws: Sequence[FrictionLaw]) -> list[int]:
+    """Per law, the shape settings that differ among the candidates of its kind: picked from a grid."""
+    counts = []
+    for law in laws:
+        kind = [other.settings() for other in laws if type(other) is type(law)]
+        counts.append(sum(len({repr(s.get(key)) for s in kind}) > 1 for key in law.settings()))
+    return counts
+
+
 def friction_candidates(robot: RobotModel, noise: np.ndarray) -> tuple[FrictionCandidate, ...]:
     """The robot's law's candidates, with and without rotor inertias when its drive says ``auto``
     and there is a choice to make at all."""
     laws = robot.friction_law.candidates(noise)
     rotor = robot.drive_train.rotor_inertia_columns
     options = ((False, True) if len(laws) > 1 else (False,)) if rotor == "auto" else (bool(rotor),)
-    return tuple(FrictionCandidate(law, r) for law in laws for r in options)
+    picked = _picked_settings(laws)
+    return tuple(FrictionCandidate(law, r, p) for law, p in zip(laws, picked, strict=True) for r in options)
+
+
+def torque_noise_share(processed: Sequence[ProcessedData], grams: np.ndarray) -> float:
+    """The torque noise's part of the held-out scores: per joint, the raw torques' noise variance
+    (third differences, a robust MAD estimate, as :func:`speed_noise`) through the processing's
+    zero-phase low-pass, times the rows, over the joint's torque energy in the rows (``grams``
+    (folds, N_J, P+1, P+1)); the mean over the joints that have torque."""
+    variances, weights = [], []
+    for data in processed:
+        if len(data.raw_tau) < 8 or not data.index.size:
+            continue
+        third = np.diff(data.raw_tau, n=3, axis=0)
+        sigma2 = (1.4826 * np.median(np.abs(third - np.median(third, axis=0)), axis=0)) ** 2 / 20.0
+        rate = data.working_rate_hz * data.step
+        variances.append(sigma2 * _filter_noise_gain(data.cutoff_hz, rate, data.order))
+        weights.append(len(data.index))
+    energy = grams[:, :, -1, -1].sum(axis=0)
+    if not variances or not np.any(energy > 0):
+        return 0.0
+    noise = np.average(variances, axis=0, weights=weights) * sum(weights)
+    scored = energy > 0
+    return float(np.mean(noise[scored] / energy[scored]))
+
+
+def _filter_noise_gain(cutoff_hz: float | None, rate_hz: float, order: int) -> float:
+    """Variance gain of white noise through the zero-phase Butterworth low-pass (forward and back:
+    ``|H|⁴``), ``(2/f_s)·∫ df / (1 + (f/f_c)^2n)²`` over [0, f_s/2]; 1 without a filter."""
+    if cutoff_hz is None:
+        return 1.0
+    f = np.linspace(0.0, rate_hz / 2.0, 8193)
+    response = 1.0 / (1.0 + (f / cutoff_hz) ** (2 * order)) ** 2
+    return float(min(1.0, 2.0 / rate_hz * np.sum(response) * (f[1] - f[0])))
 
 
 def _terms(robot: RobotModel, candidate: FrictionCandidate) -> tuple[str, ...]:
@@ -254,10 +329,12 @@ def _fold_scores(gram: np.ndarray, columns: np.ndarray, prior: np.ndarray) -> np
     return scores
 
 
-def _one_standard_error(fold_scores: np.ndarray, sizes: np.ndarray) -> int:
-    """The simplest candidate (fewest columns, then the earliest) within one standard error of the
-    best one, on either of two scores: the mean held-out error, and the mean of the mean and the
-    worst held-out fold.
+def _one_standard_error(
+    fold_scores: np.ndarray, complexity: Sequence[tuple[int, ...]], noise_share: float = 0.0
+) -> tuple[int, np.ndarray]:
+    """The simplest candidate (lowest ``complexity``: columns, shape settings picked from a grid, order)
+    within one standard error of the best one, on either of two scores: the mean held-out error, and
+    the mean of the mean and the worst held-out fold; and which candidates were within.
 
     Hastie et al.'s rule (block cross-validation within the fitted motions favours extra columns that
     new motions do not reward), with a second look at the fold least like the rest (a fast stretch of
@@ -267,16 +344,19 @@ def _one_standard_error(fold_scores: np.ndarray, sizes: np.ndarray) -> int:
     folds of one repeating motion but loses the odd one out is not worth its columns. Fitted on the
     slow real LWR4+ run, such a law led the mean by more than one standard error, lost the worst fold,
     and predicted the faster run 1 point worse than ``sign``. Each standard error is that of a
-    candidate's fold-by-fold difference from the best of that score, over the folds.
+    candidate's fold-by-fold difference from the best of that score, over the folds; the margin is at
+    least :data:`NOISE_MATERIALITY` × ``noise_share`` (the torque noise's part of the scores).
     """
     mean = fold_scores.mean(axis=1)
-    eligible: set[int] = set()
+    eligible = np.zeros(len(mean), dtype=bool)
     for scores in (mean, (mean + fold_scores.max(axis=1)) / 2.0):
         best = int(np.argmin(scores))
         difference = fold_scores - fold_scores[best]
         standard_error = difference.std(axis=1, ddof=1) / np.sqrt(fold_scores.shape[1])
-        eligible.update(np.flatnonzero(scores <= scores[best] + standard_error).tolist())
-    return int(min(eligible, key=lambda k: (sizes[k], k)))
+        margin = np.maximum(standard_error, NOISE_MATERIALITY * noise_share)
+        eligible |= scores <= scores[best] + margin
+    chosen = int(min(np.flatnonzero(eligible), key=lambda k: complexity[k]))
+    return chosen, eligible
 
 
 def choose_friction(
@@ -317,6 +397,11 @@ def choose_friction(
             for own in used
         ]
     )
-    chosen = _one_standard_error(fold_scores, np.array([len(own) for own in used]))
-    choice = FrictionChoice(candidates, fold_scores.mean(axis=1), chosen, noise)
+    columns = np.array([len(own) for own in used])
+    complexity = [(int(columns[k]), c.picked_settings, k) for k, c in enumerate(candidates)]
+    noise_share = torque_noise_share(processed, grams)
+    chosen, eligible = _one_standard_error(fold_scores, complexity, noise_share)
+    choice = FrictionChoice(
+        candidates, fold_scores.mean(axis=1), chosen, noise, columns, eligible, noise_share
+    )
     return robot.with_friction_law(choice.candidate.law, choice.candidate.rotor), choice

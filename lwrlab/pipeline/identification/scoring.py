@@ -25,7 +25,7 @@ from lwrlab.identification.coverage_check import coverage_warning, novelty
 from lwrlab.identification.extrapolation import ExtrapolationReport, assess_extrapolation, likely_causes
 from lwrlab.identification.friction_choice import FrictionChoice
 from lwrlab.identification.identifiability import IdentifiabilityReport
-from lwrlab.identification.prediction_error import conformal_scale, drift_parameters
+from lwrlab.identification.prediction_error import conformal_scale, drift_parameters, held_out_log_error
 from lwrlab.model.friction_laws import drifting_terms
 from lwrlab.model.position_ranges import finite_range, range_span
 from lwrlab.model.robot import RobotModel
@@ -49,23 +49,29 @@ def prediction_interval(
     in_sample: np.ndarray,
     friction_drift: float = 0.0,
     level: float = 0.95,
+    held_out_logs: np.ndarray | None = None,
 ) -> PredictionInterval:
     """The interval of the model's predictions on a new motion, from its fit.
 
     Per joint, the model error ``s_j`` is the residual on the identification logs as logged (sensor
     noise and unmodelled dynamics), plus what cross-validation adds beyond ``in_sample`` (N·m², the
     mean square residual per joint on the fitted rows) over its held-out blocks, when the estimator
-    measured it (``cv_joint_rms_``). The friction drift widens it where the model predicts friction
-    (:mod:`lwrlab.identification.prediction_error`); the conformal scale makes the identification
-    logs (``fit_predictions``, predicted with the parameters' variance and the friction torque) fall
-    inside at ``level``. Measured on motions unlike the fit's (``benchmarks/model_study.py``): the
-    held-out blocks alone cover a new motion's torques on the real LWR4+ 43–60 % of the time on its
-    worst joint, with the default drift 89–97 %.
+    measured it (``cv_joint_rms_``), or, where larger, what the model errs on each identification log
+    when refitted without it (``held_out_logs``, N·m², per joint:
+    :func:`~lwrlab.identification.prediction_error.held_out_log_error`). The friction drift widens it
+    where the model predicts friction (:mod:`lwrlab.identification.prediction_error`); the conformal
+    scale makes the identification logs (``fit_predictions``, predicted with the parameters' variance
+    and the friction torque) fall inside at ``level``. Measured on motions unlike the fit's
+    (``benchmarks/zoo.py --choice intervals``): the held-out blocks alone cover a new motion's torques
+    on the real LWR4+ 43–60 % of the time on its worst joint, with the drift of one log 89–97 %.
     """
     error_variance = ResidualSums.of(fit_predictions).mean_square
     held_out = getattr(estimator, "cv_joint_rms_", None)
-    if held_out is not None:
-        error_variance = error_variance + np.clip(np.asarray(held_out) ** 2 - in_sample, 0.0, None)
+    held_out_square = None if held_out is None else np.asarray(held_out) ** 2
+    if held_out_logs is not None:
+        held_out_square = np.maximum(held_out_logs, 0.0 if held_out_square is None else held_out_square)
+    if held_out_square is not None:
+        error_variance = error_variance + np.clip(held_out_square - in_sample, 0.0, None)
     interval = PredictionInterval(np.sqrt(error_variance), level, friction_drift)
     n_joints = len(error_variance)
     scores = []
@@ -135,7 +141,12 @@ def predict(
     in_sample = rows.statistics.residual_squares(estimator.phi_).sum(axis=0) / (
         rows.statistics.rows // robot.n_joints
     )
-    band = prediction_interval(estimator, fit_predictions, in_sample, friction_drift)
+    held_out_logs = held_out_log_error(rows.log_grams, rows.log_samples, estimator.phi_)
+    if held_out_logs is not None and fitted is not None:
+        held_out_logs = np.where(fitted, held_out_logs, 0.0)
+    band = prediction_interval(
+        estimator, fit_predictions, in_sample, friction_drift, held_out_logs=held_out_logs
+    )
     fit_predictions = [band.around(p) for p in fit_predictions]
     validation_predictions = [
         band.around(
