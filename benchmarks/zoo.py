@@ -90,11 +90,15 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
         Option("stribeck", ("friction=stribeck",)),
         Option("asymmetric", ("friction=asymmetric",)),
         Option("holding", ("friction=holding",)),
+        Option("load", ("friction=load",)),
     ),
     "intervals": tuple(
         Option(f"drift {rho:g}", (f"statistics.friction_drift={rho:g}",)) for rho in (0.0, 0.1, 0.2, 0.3, 0.5)
     ),
-    "thresholds": (Option("constant", thresholds="constant"), Option("state", thresholds="state")),
+    "thresholds": (
+        Option("constant", thresholds="constant"),
+        Option("state, at rest as moving", thresholds="state at rest as moving"),
+    ),
     "prior": (
         Option("ols", ("estimator=ols",)),
         Option("sdp, no prior", ("estimator.regularization=none", "estimator.weight=0")),
@@ -126,11 +130,7 @@ class Subject:
         logs, for the monitor)."""
         overrides = list(self.overrides)
         if rest and self.logs is not None:
-            overrides = [o for o in overrides if not o.startswith("data.validation_paths=")]
-            overrides += self.logs.overrides(validation=(*NEW_MOTIONS, "rest"))[-1:]
-            overrides = [o for o in overrides if not o.startswith("data.column_map=")] + [
-                o for o in self.overrides if o.startswith("data.column_map=")
-            ]
+            overrides = self.logs.overrides(validation=(*NEW_MOTIONS, "rest"))
         if option.rotor is not None:
             drive = {**(self.drive or {}), "rotor_inertia": option.rotor}
             overrides = [o for o in overrides if not o.startswith("robot.drive=")]
@@ -187,14 +187,22 @@ def compose(overrides: list[str]) -> Any:
         return hydra_compose("config", overrides=overrides)
 
 
+REPORTS: dict[tuple[str, ...], tuple[Any, Any]] = {}
+"""The identifications of this process by their overrides (the thresholds' options share one)."""
+
+
 def identify(overrides: list[str]) -> tuple[Any, Any]:
     """The configuration and lwrlab's identification report for ``overrides``."""
     from lwrlab.pipeline.identification import identify_configured
 
-    cfg = compose(overrides)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return cfg, identify_configured(cfg)
+    key = tuple(overrides)
+    if key not in REPORTS:
+        cfg = compose(overrides)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            REPORTS.clear()  # one at a time: a report holds every log's predictions
+            REPORTS[key] = (cfg, identify_configured(cfg))
+    return REPORTS[key]
 
 
 def prediction_scores(subject: Subject, report: Any) -> dict[str, Any]:
@@ -245,7 +253,13 @@ def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[s
     from lwrlab.pipeline.build import build
     from lwrlab.pipeline.config_nodes import resolved_mapping
 
-    settings = replace_settings(monitor_settings(), thresholds=kind)
+    as_moving = kind == "state at rest as moving"  # the thresholds before they knew the arm at rest
+    settings = replace_settings(monitor_settings(), thresholds="state" if as_moving else kind)
+
+    def estimate(measurement: Any) -> Any:
+        estimates = estimate_external_torques(robot, measurement, settings)
+        return replace_settings(estimates, resting=None) if as_moving else estimates
+
     with tempfile.TemporaryDirectory() as folder:
         path = save_identified_model(
             report.identified, resolved_mapping(cfg.robot, "robot"), Path(folder) / "identified_model.yaml"
@@ -253,20 +267,20 @@ def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[s
         robot = build("robot", "identified", source=str(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        fit = [estimate_external_torques(robot, m, settings) for m in report.measurements]
+        fit = [estimate(m) for m in report.measurements]
         calibrations = calibrate(fit, settings)
         monitored = {m.name: m for m in report.validation_measurements}
         row: dict[str, Any] = {}
         alarms, hours = 0, 0.0
         for name in subject.validation:
-            estimates = estimate_external_torques(robot, monitored[name], settings)
+            estimates = estimate(monitored[name])
             alarms += len(detect(estimates, calibrations, settings)["observer"])
             hours += estimates.monitored_hours
         row["false alarms"] = alarms
         row["false alarms per hour"] = alarms / hours if hours else float("nan")
         if subject.logs is None or "rest" not in monitored:
             return row
-        estimates = estimate_external_torques(robot, monitored["rest"], settings)
+        estimates = estimate(monitored["rest"])
         found = detect(estimates, calibrations, settings)["observer"]
         contacts = subject.logs.contacts
         truth = subject.logs.truth("rest")
@@ -274,7 +288,8 @@ def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[s
         quiet = estimates.monitored & np.all(np.abs(external) == 0.0, axis=1)
         for start, end in zip(contacts["start"], contacts["end"], strict=True):
             quiet &= (estimates.t < start - 0.5) | (estimates.t > end + 1.0)
-        at_rest = quiet & np.all(np.abs(np.gradient(estimates.q, axis=0)) < 1e-6, axis=1)
+        true_speed = truth[[f"dq{j + 1}" for j in range(robot.n_joints)]].to_numpy()
+        at_rest = quiet & np.all(np.abs(true_speed) < 0.01, axis=1)
         noise = np.sqrt(np.mean(estimates.observer[at_rest] ** 2, axis=0))
         peaks = np.array(
             [
@@ -423,7 +438,7 @@ def table(choice: str, subjects: list[Subject], store: Path) -> pd.DataFrame:
     rows: dict[str, dict[str, dict[str, Any]]] = {}
     options = [DEFAULT, *OPTIONS[choice]]
     if choice == "thresholds":
-        options = [OPTIONS[choice][0], DEFAULT]
+        options = [*OPTIONS[choice], DEFAULT]
     for subject in subjects:
         rows[subject.name] = {}
         for option in options:
@@ -454,6 +469,34 @@ def subjects(names: list[str] | None, seed: int, real: bool) -> list[Subject]:
     return chosen + (real_subjects() if real else [])
 
 
+def members_table() -> pd.DataFrame:
+    """The members as data: arm, engine, friction, sensors, rate, what is special."""
+    rows = []
+    for member in MEMBERS.values():
+        truth, sensors = member.truth, member.sensors
+        engine = "MuJoCo, PD" if truth.engine == "mujoco" else f"gears {truth.gear_ratio:g}"
+        if truth.coupling:
+            engine += ", coupled wrist"
+        law = {"mujoco": "MuJoCo frictionloss + damping"}.get(truth.law, truth.law)
+        if truth.load_factor:
+            law += f", Coulomb + {truth.load_factor:g} × load"
+        effort = "currents" if sensors.effort == "current" else "torques"
+        measured = "joint torque sensors" if sensors.side == "joint" else f"motor encoders, {effort}"
+        rows.append(
+            {
+                "member": member.name,
+                "arm": member.robot,
+                "engine": engine,
+                "friction": law,
+                "sensors": measured,
+                "rate [Hz]": f"{sensors.rate_hz:g}" + (", jittered" if sensors.jitter else ""),
+                "log": sensors.log_format,
+                "what is special": member.note,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--choice", nargs="*", choices=CHOICES, default=[])
@@ -461,10 +504,15 @@ def main() -> None:
     parser.add_argument("--members", nargs="*", help=f"some members only (default all: {', '.join(MEMBERS)})")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-real", action="store_true", help="leave the real LWR4+ runs out")
+    parser.add_argument("--list", action="store_true", help="print the members' table and stop")
     args = parser.parse_args()
+    if args.list:
+        print("## members\n")
+        print(members_table().to_markdown(index=False))
+        return
     choices = list(CHOICES) if args.all else args.choice
     if not choices:
-        parser.error("give --choice … or --all")
+        parser.error("give --choice …, --all or --list")
     chosen = subjects(args.members, args.seed, not args.no_real)
     store = CACHE / "results" / code_hash()
     print(f"results kept in {store}", flush=True)

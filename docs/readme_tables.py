@@ -111,6 +111,17 @@ SOURCES = {
         _printed_table("## Collision detection on the MuJoCo scenario"),
         5.0,
     ),
+    "zoo_members": Source(
+        (("python", str(REPOSITORY / "benchmarks" / "zoo.py"), "--list"),), _printed_table("## members"), 0.1
+    ),
+    **{
+        f"zoo_{choice}": Source(
+            (("python", str(REPOSITORY / "benchmarks" / "zoo.py"), "--choice", choice),),
+            _printed_table(f"## {choice}"),
+            15.0,
+        )
+        for choice in ("friction", "intervals", "thresholds", "prior", "cutoff")
+    },
 }
 """Every generated table of the site, by the name in its marker."""
 

@@ -161,3 +161,22 @@ def test_auto_finds_friction_held_at_rest(strong_friction: RobotModel) -> None:
     table = choice.table()
     sign = table.loc[table.law == "sign", "cv_nrms_percent"].min()
     assert table.cv_nrms_percent[choice.chosen] < 0.3 * sign
+
+
+def test_a_load_dependent_law_predicts_what_inverse_dynamics_gives(lwr4: RobotModel, rng) -> None:
+    """``friction=load``: the regressor's ``load`` column is |τ_rb|·tanh(v/ε) with τ_rb the robot's own
+    rigid-body torque at the state, so W·φ is the inverse dynamics with that friction."""
+    from plugins.friction.load import LoadCoulomb
+
+    law = LoadCoulomb(0.02)
+    robot = lwr4.with_friction_law(law)
+    growth = rng.uniform(0.01, 0.1, robot.n_joints)
+    robot = replace(robot, friction=robot.friction.with_values({"load": growth}))
+    q, dq, ddq = (rng.normal(size=(60, robot.n_joints)) for _ in range(3))
+    rigid = lwr4.inverse_dynamics(q, dq, ddq, with_friction=False)
+    expected = rigid + robot.drive_torque(dq, ddq, rigid)
+    np.testing.assert_allclose(regressor(robot, q, dq, ddq) @ robot.parameters, expected.ravel(), atol=1e-9)
+    np.testing.assert_allclose(robot.inverse_dynamics(q, dq, ddq), expected, atol=1e-9)
+    # the load term is the growth times the transmitted torque's size, in the motion's direction
+    load_only = expected - lwr4.with_friction_law(law).inverse_dynamics(q, dq, ddq)
+    np.testing.assert_allclose(load_only, growth * np.abs(rigid) * np.tanh(dq / 0.02), atol=1e-9)

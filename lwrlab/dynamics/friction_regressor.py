@@ -28,13 +28,16 @@ def fill_friction_regressor(
     drive: DriveTrain | None = None,
     ddq: np.ndarray | None = None,
     history: dict[str, np.ndarray] | None = None,
+    load: np.ndarray | None = None,
 ) -> None:
     """Write the drive columns into the regressor ``out`` (N, N_J, P), from column ``first``.
 
     ``out`` must be C-contiguous (the diagonals are strided views of it) and hold zeros in the other
     entries of those columns. ``law`` defaults to the paper's, ``drive`` to direct drives; ``ddq`` is
     needed for the ``rotor`` term only; ``history``: a memory law's columns at these samples
-    (:func:`lwrlab.model.friction_laws.history_columns`), else its memoryless approximation.
+    (:func:`lwrlab.model.friction_laws.history_columns`), else its memoryless approximation;
+    ``load``: the drives' transmitted torques (N, N_D), for a law whose terms grow with it
+    (:func:`lwrlab.model.friction_laws.drive_loads`).
     """
     if not out.flags.c_contiguous:
         raise ValueError("the regressor must be a C-contiguous array")
@@ -47,7 +50,7 @@ def fill_friction_regressor(
     flat = out.reshape(n_samples, n * n_columns)  # W[k, j, p] = flat[k, j·P + p]
     for t, term in enumerate(terms):
         start = first + t * n
-        basis = drive_basis(law, term, v, a, history)
+        basis = drive_basis(law, term, v, a, history, load)
         if direct or drive is None:  # W[k, j, start + j] = flat[k, start + j·(P + 1)]
             flat[:, start : start + (n - 1) * (n_columns + 1) + 1 : n_columns + 1] = basis
         else:  # W[k, j, start + m] = C[m, j]·basis[k, m]

@@ -29,7 +29,7 @@ from lwrlab.dynamics.chain_regressor import fill_chain_regressor
 from lwrlab.dynamics.friction_regressor import fill_friction_regressor
 from lwrlab.dynamics.pinocchio_regressor import loop_inertial_regressor
 from lwrlab.dynamics.serial_chain import serial_chain
-from lwrlab.model.friction_laws import has_memory, history_columns, history_window
+from lwrlab.model.friction_laws import drive_loads, has_load, has_memory, history_columns, history_window
 from lwrlab.model.robot import RobotModel
 
 SMALL_BATCH = 48
@@ -94,6 +94,9 @@ def regressor(
         fill_chain_regressor(chain, q, dq, ddq, full[:, :, :n_inertial])
     else:
         loop_inertial_regressor(robot.model, q, dq, ddq, out=full[:, :, :n_inertial])
+    load = None
+    if has_load(robot.friction_law):  # the rigid-body torque of the robot's own inertial parameters
+        load = drive_loads(robot.drive, full[:, :, :n_inertial] @ robot.link_parameters.ravel())
     fill_friction_regressor(
         dq,
         robot.friction_terms,
@@ -103,6 +106,7 @@ def regressor(
         drive=robot.drive,
         ddq=ddq,
         history=history,
+        load=load,
     )
     return full.reshape(-1, full.shape[2]) if stacked else full
 

@@ -16,7 +16,7 @@ level (so a wrist counts as much as a shoulder) and a small ridge toward the CAD
 averaged over the joints.
 The choice is the simplest candidate within one standard error of the best, on the mean held-out
 error or on the mean of the mean and the worst held-out fold (:func:`_one_standard_error`). Simplest
-counts the columns, then the shape settings the data picked from a grid (a ``smooth`` law whose
+counts the columns, then whether the data picked a shape setting from a grid (a ``smooth`` law whose
 width was chosen among four is not as simple as ``sign``), then the order of the laws. A more
 complex law must also beat the simpler ones by more than a share of the noise its scores hold
 (:data:`NOISE_MATERIALITY`): on noisy logs a few per cent of held-out error between two laws is
@@ -34,7 +34,15 @@ import pandas as pd
 from lwrlab.dynamics.base_parameters import BaseParameters
 from lwrlab.dynamics.friction_regressor import fill_friction_regressor
 from lwrlab.dynamics.regressor import regressor
-from lwrlab.model.friction_laws import FrictionLaw, describe_law, has_memory, history_columns, history_window
+from lwrlab.model.friction_laws import (
+    FrictionLaw,
+    describe_law,
+    drive_loads,
+    has_load,
+    has_memory,
+    history_columns,
+    history_window,
+)
 from lwrlab.model.robot import RobotModel
 from lwrlab.signal.processing import ProcessedData
 
@@ -256,6 +264,8 @@ def _fold_grams(
     drive = robot.drive_train
 
     memory = any(has_memory(law) for law, _ in families)
+    loaded = any(has_load(law) for law, _ in families)
+    prior = robot.link_parameters.ravel()  # a load-dependent law's load: the prior's rigid bodies
 
     class Rows:
         """Every family's columns at a run of one log's samples (a law with memory: from the whole log)."""
@@ -273,10 +283,13 @@ def _fold_grams(
             full = np.zeros((q.shape[0], n, width))
             inertial = regressor(bare, q, dq, ddq, stacked=False)
             full[:, :, : len(inertial_columns)] = inertial[:, :, inertial_columns]
+            load = drive_loads(drive, inertial @ prior) if loaded else None
             for f, (law, term) in enumerate(families):
                 part = history_window(self.history[f], start, len(q))
                 first = len(inertial_columns) + f * n
-                fill_friction_regressor(dq, (term,), full, first, law=law, drive=drive, ddq=ddq, history=part)
+                fill_friction_regressor(
+                    dq, (term,), full, first, law=law, drive=drive, ddq=ddq, history=part, load=load
+                )
             return full.reshape(-1, width)
 
     share = min(1.0, MAX_SAMPLES / max(sum(d.n_working for d in processed), 1))  # long logs: their start
@@ -332,7 +345,7 @@ def _fold_scores(gram: np.ndarray, columns: np.ndarray, prior: np.ndarray) -> np
 def _one_standard_error(
     fold_scores: np.ndarray, complexity: Sequence[tuple[int, ...]], noise_share: float = 0.0
 ) -> tuple[int, np.ndarray]:
-    """The simplest candidate (lowest ``complexity``: columns, shape settings picked from a grid, order)
+    """The simplest candidate (lowest ``complexity``: columns, whether a shape was picked from a grid, order)
     within one standard error of the best one, on either of two scores: the mean held-out error, and
     the mean of the mean and the worst held-out fold; and which candidates were within.
 
@@ -355,7 +368,7 @@ def _one_standard_error(
         standard_error = difference.std(axis=1, ddof=1) / np.sqrt(fold_scores.shape[1])
         margin = np.maximum(standard_error, NOISE_MATERIALITY * noise_share)
         eligible |= scores <= scores[best] + margin
-    chosen = int(min(np.flatnonzero(eligible), key=lambda k: complexity[k]))
+    chosen = min((int(k) for k in np.flatnonzero(eligible)), key=lambda k: complexity[k])
     return chosen, eligible
 
 
@@ -398,7 +411,8 @@ def choose_friction(
         ]
     )
     columns = np.array([len(own) for own in used])
-    complexity = [(int(columns[k]), c.picked_settings, k) for k, c in enumerate(candidates)]
+    # a law the data picked no shape for is simpler than one they did (sign before a width from a grid)
+    complexity = [(int(columns[k]), int(c.picked_settings > 0), k) for k, c in enumerate(candidates)]
     noise_share = torque_noise_share(processed, grams)
     chosen, eligible = _one_standard_error(fold_scores, complexity, noise_share)
     choice = FrictionChoice(

@@ -208,6 +208,23 @@ def history_columns(law: FrictionLaw, v: np.ndarray, dt: float) -> dict[str, np.
     return columns
 
 
+def has_load(law: FrictionLaw) -> bool:
+    """Whether the law has terms that grow with the torque each drive transmits (a Coulomb level that
+    rises with the load of the gears): such a law offers ``load_basis(term, v, load) -> (N, N_D)``
+    with ``load`` the drives' transmitted rigid-body torque (N·m, joint side), which the regressor
+    gives from the robot's own inertial parameters; its ``extra_basis`` is the approximation without
+    a load (zero)."""
+    return callable(getattr(law, "load_basis", None))
+
+
+def drive_loads(drive: Any, rigid_body: np.ndarray) -> np.ndarray:
+    """(N, N_D) the torque each drive transmits (joint side, N·m) of joint torques ``rigid_body``
+    (N, N_J): ``C⁻ᵀ·τ`` (the joint torques themselves for uncoupled drives)."""
+    if drive is None or drive.is_direct:
+        return np.asarray(rigid_body, dtype=float)
+    return np.linalg.solve(drive.coupling.T, np.asarray(rigid_body, dtype=float).T).T
+
+
 def history_window(
     history: dict[str, np.ndarray] | None, start: int, count: int
 ) -> dict[str, np.ndarray] | None:
@@ -223,11 +240,16 @@ def drive_basis(
     v: np.ndarray,
     a: np.ndarray | None = None,
     history: dict[str, np.ndarray] | None = None,
+    load: np.ndarray | None = None,
 ) -> np.ndarray:
     """The column of ``term`` for joint-side drive speeds ``v`` and accelerations ``a`` (N, N_D);
-    ``history``: a memory law's columns at these samples (:func:`history_columns`), used where given."""
+    ``history``: a memory law's columns at these samples (:func:`history_columns`), used where given;
+    ``load``: the drives' transmitted torques (:func:`drive_loads`), for a law with load terms."""
     if history is not None and term in history:
         return history[term]
+    if load is not None and has_load(law) and term in {t.name for t in law.extra_terms}:
+        columns: np.ndarray = law.load_basis(term, v, load)  # type: ignore[attr-defined]
+        return columns
     if term == "coulomb":
         return law.coulomb_shape(v)
     if term == "viscous":

@@ -18,6 +18,7 @@ from lwrlab.model.friction_laws import (
     FrictionLaw,
     SignCoulomb,
     drive_basis,
+    drive_loads,
     term_definitions,
 )
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, from_pin_inertia, to_pin_inertia
@@ -212,18 +213,22 @@ class RobotModel:
                 friction = friction.with_values({"rotor": np.asarray(self.rotor_inertia, dtype=float)})
         return replace(self, friction_law=law, friction_terms=tuple(terms), friction=friction)
 
-    def drive_torque(self, dq: np.ndarray, ddq: np.ndarray | None = None) -> np.ndarray:
+    def drive_torque(
+        self, dq: np.ndarray, ddq: np.ndarray | None = None, load: np.ndarray | None = None
+    ) -> np.ndarray:
         """Torque (N·m) of the per-drive terms (friction law, offsets, rotor inertias) at joint
-        velocities ``dq`` and accelerations ``ddq`` (..., N_J), through the coupling."""
+        velocities ``dq`` and accelerations ``ddq`` (..., N_J), through the coupling; ``load``: the
+        joints' rigid-body torques (..., N_J), for a law whose friction grows with the load."""
         drive = self.drive_train
         dq = np.asarray(dq, dtype=float)
         v = drive.drive_values(dq)
         a = None if ddq is None else drive.drive_values(np.asarray(ddq, dtype=float))
         tau = np.zeros_like(v)
+        loads = None if load is None else drive_loads(drive, np.asarray(load, dtype=float))
         for term in self.friction_terms:
             if term == "rotor" and a is None:
                 continue
-            tau = tau + self.friction.value(term) * drive_basis(self.friction_law, term, v, a)
+            tau = tau + self.friction.value(term) * drive_basis(self.friction_law, term, v, a, None, loads)
         return tau if drive.is_direct else tau @ drive.coupling
 
     @property
@@ -275,5 +280,5 @@ class RobotModel:
         data = self.model.createData()
         tau = np.stack([pin.rnea(self.model, data, q[k], dq[k], ddq[k]) for k in range(q.shape[0])])
         if with_friction:
-            tau += self.drive_torque(dq, ddq)
+            tau += self.drive_torque(dq, ddq, tau)
         return tau

@@ -25,7 +25,13 @@ times ``margin`` (≥ 1), which covers motions the calibration did not contain. 
   ``friction_drift`` of itself, which no calibration log shows, and the threshold, at least
   ``z(p)`` spreads, then covers it. At rest φ is the band of friction that holds still, which the
   residual may fill whole: no threshold is lower than ``margin·√((level·√a)² + band²)``, the noise's
-  level and that band — not the error of the fastest motion calibrated on.
+  level and that band. Where the arm **stands still** (:func:`lwrlab.monitoring.spread.resting`)
+  the threshold comes from the model at rest, not from the error of the fastest motion calibrated
+  on: ``margin·√((level·s_rest)² + ((1 + friction_drift)·band + e_rest)²)`` (:func:`rest_terms`):
+  ``s_rest`` the noise of the contact-free residual within each stretch the calibration logs stand
+  still, the band as friction may hold it on another run, ``e_rest`` what the model's static torque
+  (gravity and the friction band) left at rest beyond the band, when the logs stand still for at
+  least :data:`MIN_REST_S` seconds; else ``√a`` as while moving.
 
 Either way the calibration data themselves raise no alarm.
 """
@@ -39,8 +45,13 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.special import ndtri
 
+from lwrlab.numerics.stretches import true_stretches
+
 MIN_TAIL_SAMPLES = 10
 """Samples beyond an empirical quantile for it to be trusted; fewer: the largest |r| is used."""
+MIN_REST_S = 0.5
+"""Seconds the calibration logs must stand still for their residual at rest to set the thresholds at
+rest; less: the thresholds at rest come from the moving samples' spread."""
 
 
 def exceedance_probability(false_alarm_rate: float, mean_period: float, n_joints: int) -> float:
@@ -89,7 +100,9 @@ class Calibration:
 
     kind = "constant"
 
-    def thresholds_at(self, friction: np.ndarray, stamps: np.ndarray) -> np.ndarray:
+    def thresholds_at(
+        self, friction: np.ndarray, stamps: np.ndarray, resting: np.ndarray | None = None
+    ) -> np.ndarray:
         """(N, N_J) the thresholds at samples of (N, N_J) state terms: the same at every sample."""
         return np.broadcast_to(self.thresholds, np.shape(friction)).copy()
 
@@ -152,6 +165,13 @@ class StateCalibration:
     whole friction band at rest, which friction holding still may fill (N·m)."""
     rest_band: np.ndarray
     """(N_J,) the friction band at rest (N·m)."""
+    rest_noise: np.ndarray | None
+    """(N_J,) s_rest: the contact-free residual's noise within the stretches where the arm stands still
+    (N·m), or None: the calibration logs did not stand still long enough (the thresholds at rest use
+    √a)."""
+    rest_error: np.ndarray | None
+    """(N_J,) e_rest: the largest mean residual of a stretch at rest beyond the friction band (N·m):
+    the static model's error (gravity) there."""
     rms: np.ndarray
     """(N_J,) RMS of the contact-free residual (N·m)."""
     peak: np.ndarray
@@ -175,16 +195,35 @@ class StateCalibration:
         """(N, N_J) ``√(a + (ρ·φ)²)`` (N·m) of friction bands φ (N·m)."""
         return np.sqrt(self.noise**2 + (self.friction_share * np.asarray(friction)) ** 2)
 
-    def thresholds_at(self, friction: np.ndarray, stamps: np.ndarray) -> np.ndarray:
+    def thresholds_at(
+        self, friction: np.ndarray, stamps: np.ndarray, resting: np.ndarray | None = None
+    ) -> np.ndarray:
         """(N, N_J) the thresholds (N·m) at samples of friction bands φ and stamps' shares ε (N·m):
-        ``max(margin·level·spread, floor) + margin·ε``."""
+        ``max(margin·level·spread, floor) + margin·ε``; at the samples ``resting`` (N,) marks (the arm
+        standing still), ``margin·√((level·s_rest)² + band²) + margin·ε`` where s_rest is known."""
         spread = self.margin * self.level * self.spread(friction)
-        return np.maximum(spread, self.floor) + self.margin * np.asarray(stamps)
+        thresholds = np.maximum(spread, self.floor)
+        if resting is not None and self.rest_noise is not None:
+            still = np.asarray(resting, dtype=bool)
+            thresholds[still] = self.rest_threshold(np.asarray(friction)[still])
+        return thresholds + self.margin * np.asarray(stamps)
+
+    def rest_threshold(self, band: np.ndarray) -> np.ndarray:
+        """(…, N_J) the thresholds where the arm stands still with friction bands ``band`` (…, N_J; the
+        band at rest, or at the posture for a law whose friction grows with the load), without the
+        stamps' share (N·m): from the residual at rest where the calibration measured it, else the
+        floor."""
+        if self.rest_noise is None:
+            return np.broadcast_to(self.floor, np.shape(band)).copy()
+        error = 0.0 if self.rest_error is None else self.rest_error
+        static = (1.0 + self.friction_drift) * np.asarray(band) + error
+        return self.margin * np.sqrt((self.level * self.rest_noise) ** 2 + static**2)
 
     @property
     def at_rest(self) -> np.ndarray:
         """(N_J,) the threshold at rest, with regular stamps (N·m)."""
-        return self.thresholds_at(self.rest_band[None, :], np.zeros((1, self.rest_band.size)))[0]
+        still = np.ones(1, dtype=bool)
+        return self.thresholds_at(self.rest_band[None, :], np.zeros((1, self.rest_band.size)), still)[0]
 
     def table(self) -> dict[str, np.ndarray]:
         """Per joint: the threshold at rest and the floor (N·m), √a (N·m), ρ, the level, the friction
@@ -196,6 +235,12 @@ class StateCalibration:
             "friction_share": self.friction_share,
             "level": self.level,
             "rest_band": self.rest_band,
+            "rest_noise": np.full_like(self.rest_band, np.nan)
+            if self.rest_noise is None
+            else self.rest_noise,
+            "rest_error": np.full_like(self.rest_band, np.nan)
+            if self.rest_error is None
+            else self.rest_error,
             "rms": self.rms,
             "peak": self.peak,
         }
@@ -237,6 +282,7 @@ def calibrate_state_thresholds(
     margin: float = 1.0,
     friction_drift: float = 0.0,
     rest_friction: np.ndarray | None = None,
+    rests: Sequence[np.ndarray] | None = None,
 ) -> StateCalibration:
     """State-dependent thresholds from contact-free residuals and their state terms (see the module).
 
@@ -250,6 +296,8 @@ def calibrate_state_thresholds(
     margin : factor ≥ 1 on the levels.
     friction_drift : share (≥ 0) of its friction by which a run may differ from the calibration's.
     rest_friction : (N_J,) the friction band at rest (N·m), for the floor; None: the smallest φ seen.
+    rests : (N,) bool per log, the samples where the arm stands still
+        (:func:`lwrlab.monitoring.spread.resting`); None: none known.
 
     Examples
     --------
@@ -283,12 +331,23 @@ def calibrate_state_thresholds(
     share = np.array([rho for _, rho in fitted])
     level = tail_level(beyond / np.sqrt(noise**2 + (share * phi) ** 2), probability)
     rest = phi.min(axis=0) if rest_friction is None else np.asarray(rest_friction, dtype=float)
+    rest_noise, rest_error = None, None
+    if rests is not None:
+        if sum(len(x) for x in rests) != n_samples:
+            raise ValueError(
+                f"rests mark {sum(len(x) for x in rests)} samples, the residuals have {n_samples}"
+            )
+        still_s = sum(float(np.count_nonzero(x)) * p for x, p in zip(rests, periods, strict=True))
+        if still_s >= MIN_REST_S:
+            rest_noise, rest_error = rest_terms(residuals, rests, rest)
     return StateCalibration(
         noise=noise,
         friction_share=share,
         level=level,
         floor=margin * np.sqrt((level * noise) ** 2 + rest**2),
         rest_band=rest,
+        rest_noise=rest_noise,
+        rest_error=rest_error,
         rms=np.sqrt(np.mean(r**2, axis=0)),
         peak=np.abs(r).max(axis=0),
         exceedance_probability=float(probability),
@@ -298,3 +357,37 @@ def calibrate_state_thresholds(
         samples=int(n_samples),
         duration_s=duration,
     )
+
+
+def rest_terms(
+    residuals: Sequence[np.ndarray], rests: Sequence[np.ndarray], band: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(s_rest, e_rest)`` (N_J,) of contact-free residuals (N, N_J) per log at their samples at rest
+    (``rests``, (N,) bool per log): the noise within the stretches at rest (each stretch's mean
+    removed: the friction held there and the gravity model's error are constant while the arm stands
+    still), and the largest stretch mean beyond the friction ``band`` (N·m).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> r = np.concatenate([0.3 + 0.01 * rng.normal(size=(500, 1)), -0.5 + 0.01 * rng.normal(size=(500, 1))])
+    >>> noise, error = rest_terms([r], [np.ones(1000, dtype=bool)], np.array([0.4]))
+    >>> round(float(noise[0]), 2), round(float(error[0]), 2)  # one stretch: the means mix
+    (0.4, 0.0)
+    >>> still = np.ones(1000, dtype=bool)
+    >>> still[500] = False  # two stretches
+    >>> noise, error = rest_terms([r], [still], np.array([0.4]))
+    >>> round(float(noise[0]), 3), round(float(error[0]), 2)
+    (0.01, 0.1)
+    """
+    squares, count = 0.0, 0
+    error = np.zeros_like(np.asarray(band, dtype=float))
+    for residual, still in zip(residuals, rests, strict=True):
+        r = np.asarray(residual, dtype=float)
+        for start, end in zip(*true_stretches(np.asarray(still, dtype=bool)), strict=True):
+            part = r[start:end]
+            mean = part.mean(axis=0)
+            squares = squares + np.sum((part - mean) ** 2, axis=0)
+            count += end - start - 1
+            error = np.maximum(error, np.abs(mean) - band)
+    return np.sqrt(squares / max(count, 1)), error

@@ -35,7 +35,13 @@ from lwrlab.monitoring.signal_agreement import (
     describe_disagreement,
     disagreeing_samples,
 )
-from lwrlab.monitoring.spread import first_order_lowpass, friction_band, regularised, stamp_deviation
+from lwrlab.monitoring.spread import (
+    first_order_lowpass,
+    friction_band,
+    regularised,
+    resting,
+    stamp_deviation,
+)
 from lwrlab.plants.core import Measurement
 
 ESTIMATORS = ("observer", "residual")
@@ -122,6 +128,9 @@ class ExternalTorques:
     disagreeing: np.ndarray
     """(N,) True where the logged velocities contradict the positions
     (:mod:`lwrlab.monitoring.signal_agreement`; all False for a log without velocities)."""
+    resting: np.ndarray | None = None
+    """(N,) True where the arm stands still (:func:`~lwrlab.monitoring.spread.resting`: every joint
+    slower than the observer's Coulomb width for its settling time), or None: not known."""
 
     def estimate(self, estimator: str) -> np.ndarray:
         """The estimate named ``observer`` or ``residual``."""
@@ -179,9 +188,10 @@ def estimate_external_torques(
     for a log resampled from irregular stamps, how far each estimate moves when read as regular."""
     t = measurement.t
     observer, residual, seconds, velocity, dq = _estimates(robot, measurement, settings, progress)
+    q = measurement.q
     friction = {
-        "observer": first_order_lowpass(t, friction_band(robot, velocity), settings.observer_gain),
-        "residual": smooth(friction_band(robot, dq), uniform_period(t), settings.velocity_cutoff_hz),
+        "observer": first_order_lowpass(t, friction_band(robot, velocity, q), settings.observer_gain),
+        "residual": smooth(friction_band(robot, dq, q), uniform_period(t), settings.velocity_cutoff_hz),
     }
     stamps = {estimator: np.zeros_like(observer) for estimator in ESTIMATORS}
     deviation = stamp_deviation(measurement)
@@ -212,6 +222,7 @@ def estimate_external_torques(
         stamps,
         rest,
         disagreeing,
+        resting(t, velocity, settings.coulomb_smoothing, SETTLING_TIME_CONSTANTS / settings.observer_gain),
     )
 
 
@@ -240,15 +251,24 @@ def calibrate(
             margin,
             settings.friction_drift,
             contact_free[0].rest_friction,
+            _rests(contact_free),
         )
     return calibrations
+
+
+def _rests(contact_free: Sequence[ExternalTorques]) -> list[np.ndarray] | None:
+    """Where each log's monitored samples stand still, or None where a log does not say."""
+    rests = [e.resting for e in contact_free]
+    if any(r is None for r in rests):
+        return None
+    return [np.asarray(r)[e.monitored] for r, e in zip(rests, contact_free, strict=True)]
 
 
 def thresholds_of(
     estimates: ExternalTorques, calibrations: dict[str, Calibration | StateCalibration], estimator: str
 ) -> np.ndarray:
     """(N, N_J) ``estimator``'s thresholds at every sample of a log (N·m)."""
-    return calibrations[estimator].thresholds_at(*estimates.state_terms(estimator))
+    return calibrations[estimator].thresholds_at(*estimates.state_terms(estimator), estimates.resting)
 
 
 def detect(

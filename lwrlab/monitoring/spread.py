@@ -26,9 +26,10 @@ bandwidth.
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 from scipy.ndimage import median_filter
 
-from lwrlab.model.friction_laws import term_definitions
+from lwrlab.model.friction_laws import drive_basis, drive_loads, has_load, term_definitions
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.recursion import first_order_recursion
 from lwrlab.plants.core import Measurement
@@ -50,8 +51,10 @@ def sliding_speed(robot: RobotModel) -> float:
     return float(speeds[reached[0]]) if reached.size else float(speeds[-1])
 
 
-def friction_band(robot: RobotModel, dq: np.ndarray) -> np.ndarray:
-    """(N, N_J) the model's friction torque magnitude (N·m) at joint velocities ``dq`` (rad/s).
+def friction_band(robot: RobotModel, dq: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+    """(N, N_J) the model's friction torque magnitude (N·m) at joint velocities ``dq`` (rad/s) and, for
+    a law whose friction grows with the load, positions ``q`` (rad; the load: the gravity torque
+    each drive holds there; None: no load).
 
     Per drive, each friction term's torque at the drive's speed ``s = max(|v|, v₀)`` (``v₀``:
     :func:`sliding_speed`), whichever direction is larger, summed in magnitude: Coulomb ``FC``,
@@ -75,6 +78,12 @@ def friction_band(robot: RobotModel, dq: np.ndarray) -> np.ndarray:
     speed = np.maximum(np.abs(drive.drive_values(np.atleast_2d(dq))), sliding_speed(robot))
     band = np.zeros_like(speed)
     definitions = term_definitions(robot.friction_law)
+    law = robot.friction_law
+    load = None
+    if q is not None and has_load(law):
+        data = robot.model.createData()
+        gravity = np.stack([pin.computeGeneralizedGravity(robot.model, data, x) for x in np.atleast_2d(q)])
+        load = drive_loads(drive, gravity)
     for term in robot.friction_terms:
         if not definitions[term].drifts:  # offsets and rotor inertias are not friction
             continue
@@ -83,11 +92,34 @@ def friction_band(robot: RobotModel, dq: np.ndarray) -> np.ndarray:
             band += coefficient
         elif term == "viscous":
             band += coefficient * speed
+        elif load is not None and term in {t.name for t in law.extra_terms}:
+            basis = np.maximum(
+                np.abs(drive_basis(law, term, speed, load=load)),
+                np.abs(drive_basis(law, term, -speed, load=load)),
+            )
+            band += coefficient * basis
         else:
-            law = robot.friction_law
             basis = np.maximum(np.abs(law.extra_basis(term, speed)), np.abs(law.extra_basis(term, -speed)))
             band += coefficient * basis
     return band if drive.is_direct else band @ np.abs(drive.coupling)
+
+
+def resting(t: np.ndarray, velocity: np.ndarray, speed: float, settle: float) -> np.ndarray:
+    """(N,) where the arm stands still: every joint's speed (N, N_J) below ``speed`` (rad/s) for the
+    last ``settle`` seconds (a log that starts still counts from its first stamp).
+
+    Examples
+    --------
+    >>> t = np.arange(10) * 0.1
+    >>> v = np.array([0, 0, 0, 0.5, 0, 0, 0, 0, 0, 0])[:, None]
+    >>> resting(t, v, 0.01, 0.25).astype(int).tolist()
+    [0, 0, 0, 0, 0, 0, 1, 1, 1, 1]
+    """
+    t = np.asarray(t, dtype=float)
+    slow = np.all(np.abs(np.asarray(velocity, dtype=float)) < speed, axis=1)
+    last_fast = np.maximum.accumulate(np.where(slow, -1, np.arange(len(t))))
+    since = t - np.where(last_fast >= 0, t[np.maximum(last_fast, 0)], t[0])
+    return slow & (since >= settle - 1e-12)
 
 
 def first_order_lowpass(
