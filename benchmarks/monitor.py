@@ -98,6 +98,7 @@ def settings() -> MonitorSettings:
         residual_margin=float(task.residual_margin),
         thresholds=str(task.thresholds),
         friction_drift=float(task.friction_drift),
+        rest_thresholds=str(task.rest_thresholds),
     )
 
 

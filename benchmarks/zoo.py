@@ -97,7 +97,7 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
     ),
     "thresholds": (
         Option("constant", thresholds="constant"),
-        Option("state, at rest as moving", thresholds="state at rest as moving"),
+        Option("state, at rest from the model", thresholds="state at rest from the model"),
     ),
     "prior": (
         Option("ols", ("estimator=ols",)),
@@ -253,12 +253,12 @@ def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[s
     from lwrlab.pipeline.build import build
     from lwrlab.pipeline.config_nodes import resolved_mapping
 
-    as_moving = kind == "state at rest as moving"  # the thresholds before they knew the arm at rest
-    settings = replace_settings(monitor_settings(), thresholds="state" if as_moving else kind)
+    settings = replace_settings(monitor_settings(), thresholds="state" if kind.startswith("state") else kind)
+    if kind == "state at rest from the model":
+        settings = replace_settings(settings, rest_thresholds="model")
 
     def estimate(measurement: Any) -> Any:
-        estimates = estimate_external_torques(robot, measurement, settings)
-        return replace_settings(estimates, resting=None) if as_moving else estimates
+        return estimate_external_torques(robot, measurement, settings)
 
     with tempfile.TemporaryDirectory() as folder:
         path = save_identified_model(
@@ -306,8 +306,8 @@ def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[s
             "detected": int((detectable & score.detected_mask).sum()),
             "detected %": 100 * float((detectable & score.detected_mask).sum() / max(detectable.sum(), 1)),
             "false alarms at rest": score.false_alarms,
-            "noise at rest N·m": np.round(noise, 2).tolist(),
-            "threshold at rest N·m": np.round(rest_thresholds, 2).tolist(),
+            "noise at rest N·m": noise.tolist(),
+            "threshold at rest N·m": rest_thresholds.tolist(),
         }
         return row
 

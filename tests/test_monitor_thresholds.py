@@ -140,6 +140,38 @@ def test_state_thresholds_grow_with_the_friction_and_fall_to_the_floor_at_rest()
     assert np.all(np.abs(residual) < own)
 
 
+def test_thresholds_from_the_model_at_rest_follow_the_rests_noise_not_the_motions_error() -> None:
+    """With the calibration's rests given, a standing arm's threshold is the noise within its rests, the
+    band as another run may hold it and the largest rest mean beyond the band; moving, nothing changes."""
+    rng = np.random.default_rng(2)
+    moving = rng.normal(scale=1.0, size=(20_000, 1))  # a large error while the arm moves
+    held = np.concatenate(
+        [0.3 + rng.normal(scale=0.02, size=(1000, 1)), -0.7 + rng.normal(scale=0.02, size=(1000, 1))]
+    )
+    residual = np.vstack([moving, held])
+    band = np.full_like(residual, 0.5)
+    still = np.r_[np.zeros(20_000, dtype=bool), np.ones(2000, dtype=bool)]
+    still[21_000] = False  # two rests: held at +0.3, then at −0.7 (0.2 beyond the band)
+    common = ([residual], [band], [np.zeros_like(band)], [1e-3], 1.0)
+    without = calibrate_state_thresholds(
+        *common, margin=1.3, friction_drift=0.5, rest_friction=np.array([0.5])
+    )
+    with_rests = calibrate_state_thresholds(
+        *common, margin=1.3, friction_drift=0.5, rest_friction=np.array([0.5]), rests=[still]
+    )
+    assert without.rest_noise is None and with_rests.rest_noise[0] == pytest.approx(0.02, rel=0.1)
+    assert with_rests.rest_error[0] == pytest.approx(0.2, abs=0.01)
+    expected = 1.3 * np.sqrt(
+        (with_rests.level * with_rests.rest_noise) ** 2 + (1.5 * 0.5 + with_rests.rest_error) ** 2
+    )
+    np.testing.assert_allclose(with_rests.at_rest, expected)
+    assert with_rests.at_rest[0] < 0.5 * without.at_rest[0]  # not the moving arm's error
+    np.testing.assert_allclose(  # moving: the same thresholds either way
+        with_rests.thresholds_at(band[:5], np.zeros((5, 1)), np.zeros(5, dtype=bool)),
+        without.thresholds_at(band[:5], np.zeros((5, 1)), np.zeros(5, dtype=bool)),
+    )
+
+
 def test_a_faster_motion_with_drifted_friction_raises_no_alarm_where_constant_thresholds_do(
     arm_robot: RobotModel,
 ) -> None:

@@ -133,3 +133,44 @@ def test_the_zoo_scores_coverage_and_error_as_the_product_does(geared):
     measured = np.mean([p.relative_error for p in report.validation_predictions])
     assert scores["error %"] != pytest.approx(100 * measured, rel=1e-6)
     assert abs(scores["error %"] - 100 * measured) <= scores["noise floor %"] + 1e-9
+
+
+SLOW_MEMBERS = ("z1_sign", "panda_sign")
+"""The slow test's subset of the zoo: a geared arm logged at its motors at 100 Hz and a MuJoCo arm with
+joint torque sensors at 1 kHz (``benchmarks/zoo.py`` runs every member)."""
+
+
+@pytest.fixture(scope="module")
+def slow_zoo(tmp_path_factory):
+    """The subset's members, built from scratch (their optimised exciting motions too), and a store."""
+    cache = tmp_path_factory.mktemp("zoo")
+    subjects = [
+        zoo.member_subject(zoo_members.build_member(zoo_members.MEMBERS[name], cache=cache))
+        for name in SLOW_MEMBERS
+    ]
+    return subjects, cache / "results"
+
+
+@pytest.mark.slow
+def test_on_zoo_members_the_friction_default_holds_against_the_simplest_and_the_best_law(slow_zoo):
+    subjects, store = slow_zoo
+    options = {option.label: option for option in zoo.OPTIONS["friction"]}
+    for subject in subjects:
+        default = zoo.evaluate(subject, "friction", zoo.DEFAULT, store)["error %"]
+        errors = {
+            label: zoo.evaluate(subject, "friction", options[label], store)["error %"]
+            for label in ("sign", "smooth 0.01", "stribeck", "holding", "load")
+        }
+        assert default <= 1.05 * errors["sign"], (subject.name, default, errors)
+        assert default <= 1.25 * min(errors.values()), (subject.name, default, errors)
+
+
+@pytest.mark.slow
+def test_on_zoo_members_the_intervals_cover_new_motions_and_pushes_at_rest_are_seen(slow_zoo):
+    subjects, store = slow_zoo
+    for subject in subjects:
+        result = zoo.evaluate(subject, "thresholds", zoo.DEFAULT, store)
+        assert 92.0 <= result["coverage %"] <= 97.5, (subject.name, result)
+        assert result["worst joint coverage %"] >= 88.0, (subject.name, result)
+        assert result["detected"] >= 0.9 * result["pushes ≥ 3× noise"] > 0, (subject.name, result)
+        assert result["false alarms at rest"] == 0, (subject.name, result)

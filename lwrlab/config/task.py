@@ -200,6 +200,10 @@ class MonitorTask(Instantiable):
     ``constant`` (one per joint)."""
     friction_drift: float
     """``state`` only: share of its friction a run may differ by from the calibration's."""
+    rest_thresholds: str
+    """``state`` only, where the arm stands still: ``moving`` (a moving arm's formula at the band at
+    rest) or ``model`` (the model at rest: noise within the calibration's rests, friction band, gravity
+    error)."""
     frame: str | None
     """Frame of the robot where the contact load is mapped; null: the flange, else the last link's."""
     point: list[float] | None

@@ -51,6 +51,8 @@ SETTLING_TIME_CONSTANTS = 5.0
 FILTER_EDGE_PERIODS = 2.0
 """The zero-phase filter's first and last 2/f_c seconds are edge transients: not monitored."""
 THRESHOLD_KINDS = ("state", "constant")
+REST_THRESHOLDS = ("moving", "model")
+"""Where state thresholds stand still: as a moving arm's, or from the model at rest."""
 """State-dependent thresholds (the friction band, the stamps) or one constant per joint."""
 
 
@@ -81,10 +83,18 @@ class MonitorSettings:
     :func:`~lwrlab.monitoring.calibration.calibrate_state_thresholds`) or ``constant`` (one per joint)."""
     friction_drift: float
     """Share of its friction by which a run may differ from the calibration's (``state`` only)."""
+    rest_thresholds: str = "moving"
+    """``state`` only, where the arm stands still: ``moving`` (the formula of a moving arm at the band at
+    rest) or ``model`` (the model at rest: the residual's noise within the calibration's rests, the
+    friction band, the gravity model's error; :func:`~lwrlab.monitoring.calibration.rest_terms`)."""
 
     def __post_init__(self) -> None:
         if self.thresholds not in THRESHOLD_KINDS:
             raise ValueError(f"thresholds must be one of {list(THRESHOLD_KINDS)}, got {self.thresholds!r}")
+        if self.rest_thresholds not in REST_THRESHOLDS:
+            raise ValueError(
+                f"rest_thresholds must be one of {list(REST_THRESHOLDS)}, got {self.rest_thresholds!r}"
+            )
 
     def margin_of(self, estimator: str) -> float:
         """The margin of ``estimator`` (one of :data:`ESTIMATORS`)."""
@@ -251,7 +261,7 @@ def calibrate(
             margin,
             settings.friction_drift,
             contact_free[0].rest_friction,
-            _rests(contact_free),
+            _rests(contact_free) if settings.rest_thresholds == "model" else None,
         )
     return calibrations
 

@@ -308,6 +308,7 @@ def run_monitor(
     release: float,
     thresholds: str,
     friction_drift: float,
+    rest_thresholds: str,
     frame: str | None,
     point: Sequence[float] | None,
     truth_contacts: str | None,
@@ -325,7 +326,7 @@ def run_monitor(
         store, ``tracking.uri``); None: the robot config's model (CAD).
     calibration_paths : contact-free logs for the thresholds; None: the model's run's logs.
     observer_gain, velocity_cutoff_hz, coulomb_smoothing, false_alarm_rate, margin, residual_margin,
-    min_duration, release, thresholds, friction_drift : see
+    min_duration, release, thresholds, friction_drift, rest_thresholds : see
         :class:`lwrlab.monitoring.estimates.MonitorSettings`.
     frame, point : where the contact load is mapped: the frame's wrench, or a pure force at ``point``
         (m, frame axes); frame None: the flange, or the last link's frame.
@@ -348,6 +349,7 @@ def run_monitor(
         residual_margin,
         thresholds,
         friction_drift,
+        rest_thresholds,
     )
     paths = OmegaConf.select(cfg, "data.paths") or (
         [OmegaConf.select(cfg, "data.path")] if OmegaConf.select(cfg, "data.path") else []
