@@ -27,6 +27,12 @@ class ExcitationTask(Instantiable):
 
     verify_rate_hz: float
     """Hz, rate at which every constraint is checked against the true limits."""
+    known_logs: list[str] | None
+    """Logs already recorded on this robot (read by ``plant=log``): the motion is designed for what
+    they leave unknown."""
+    known_model: str | None
+    """An identified model (its ``identified_model.yaml`` or run folder, or an MLflow model URI): its
+    base-parameter covariance is known information too."""
 
 
 @schema

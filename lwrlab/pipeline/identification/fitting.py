@@ -134,8 +134,13 @@ def fit(
     estimator: Estimator,
     motion: Trajectory | None,
     first: ProcessedData,
+    rows_rate_hz: float | None = None,
 ) -> Fit:
-    """Fit ``estimator`` to the rows (in place) and gather the identified model."""
+    """Fit ``estimator`` to the rows (in place) and gather the identified model.
+
+    ``rows_rate_hz``: the rate of the rows (Hz; default the first log's), with which the model's noise
+    density is written (what a next exciting motion is weighed with).
+    """
     context = _context(robot, base, motion, first)
     cpu_start = time.process_time()
     rows.fit(estimator, context)
@@ -143,7 +148,14 @@ def fit(
     standard = getattr(estimator, "standard_phi_", None)  # physically consistent estimators give it
     if standard is None:
         standard = standard_from_base(base, estimator.phi_, robot.parameters)
+    rate = first.rate_hz if rows_rate_hz is None else rows_rate_hz
     identified = IdentifiedModel(
-        base.names, estimator.phi_.copy(), estimator.std_.copy(), robot.parameter_names, standard
+        base.names,
+        estimator.phi_.copy(),
+        estimator.std_.copy(),
+        robot.parameter_names,
+        standard,
+        base_covariance=np.array(estimator.covariance_, dtype=float),
+        noise_density=rows.statistics.noise_density(estimator.phi_, rate),
     )
     return Fit(context, identified, standard, cpu_s)

@@ -82,7 +82,8 @@ def identify(
     rows = accumulate_rows(robot, base, processed, estimator, fitted, keep_rows=bootstrap)
     has_prior = bool(getattr(estimator, "uses_prior", False))
     identifiability = assess(robot, base, rows, has_prior)
-    fitting = fit(robot, base, rows, estimator, measured.motion, processed[0])
+    rows_per_second = sum(len(d.index) for d in processed) / sum(len(d.index) / d.rate_hz for d in processed)
+    fitting = fit(robot, base, rows, estimator, measured.motion, processed[0], rows_per_second)
     drift = float(statistics.get("friction_drift", FRICTION_DRIFT)) if statistics else FRICTION_DRIFT
     predictions = predict(robot, base, estimator, measured, processed, processing, rows, fitted, drift)
     tables = tabulate(
