@@ -92,7 +92,9 @@ class KnownInformation:
     def rows(self, scales: np.ndarray, grid_rate_hz: float) -> np.ndarray:
         """(m, N_B) a square root of ``q_ref·r_grid·diag(s)·I·diag(s)``: the known rows in the design's
         units and column scaling (the directions it leaves open give no row)."""
-        scaled = self.reference_density * grid_rate_hz * (scales[:, None] * self.information * scales[None, :])
+        scaled = (
+            self.reference_density * grid_rate_hz * (scales[:, None] * self.information * scales[None, :])
+        )
         return information_square_root(scaled)
 
     def plus(self, other: KnownInformation) -> KnownInformation:
@@ -119,9 +121,7 @@ def information_square_root(information: np.ndarray) -> np.ndarray:
     return np.sqrt(values[kept])[:, None] * vectors[:, kept].T
 
 
-def information_from_rows(
-    w_base: np.ndarray, rows_rate_hz: float, noise_density: np.ndarray
-) -> np.ndarray:
+def information_from_rows(w_base: np.ndarray, rows_rate_hz: float, noise_density: np.ndarray) -> np.ndarray:
     """``Σ_k W_kᵀ·Q⁻¹·W_k / r_rows``: the information of identification rows (physical units).
 
     Parameters
@@ -231,7 +231,9 @@ class ConditionedCriterion:
         rows being sample-major; None: unweighted.
     """
 
-    def __init__(self, criterion: Criterion, known_rows: np.ndarray, joint_weights: np.ndarray | None) -> None:
+    def __init__(
+        self, criterion: Criterion, known_rows: np.ndarray, joint_weights: np.ndarray | None
+    ) -> None:
         self.criterion = criterion
         self.name = criterion.name
         self.known_rows = np.asarray(known_rows, dtype=float)

@@ -84,7 +84,9 @@ def _motion_file(path: Path, n_joints: int) -> tuple[np.ndarray, np.ndarray, np.
         return None
     if path.suffix.lower() == ".csv":
         frame = pd.read_csv(path, usecols=names)
-    arrays = [frame[[f"{block}{j}" for j in range(1, n_joints + 1)]].to_numpy(float) for block in ("q", "dq", "ddq")]
+    arrays = [
+        frame[[f"{block}{j}" for j in range(1, n_joints + 1)]].to_numpy(float) for block in ("q", "dq", "ddq")
+    ]
     return arrays[0], arrays[1], arrays[2]
 
 

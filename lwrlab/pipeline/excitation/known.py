@@ -65,9 +65,15 @@ def _check_same_robot(robot: RobotModel, base: BaseParameters, path: Path, sourc
     ]
     states = random_states(robot, 40, np.random.default_rng(0))
     ours = base.base_regressor(regressor(robot, *states))[:, [base.index(n) for n in shared]]
-    theirs = earlier_base.base_regressor(regressor(earlier, *states))[:, [earlier_base.index(n) for n in shared]]
+    theirs = earlier_base.base_regressor(regressor(earlier, *states))[
+        :, [earlier_base.index(n) for n in shared]
+    ]
     size = np.maximum(np.linalg.norm(ours, axis=0), 1e-12)
-    differ = [n for n, d in zip(shared, np.linalg.norm(ours - theirs, axis=0) / size, strict=True) if d > STRUCTURE_TOLERANCE]
+    differ = [
+        n
+        for n, d in zip(shared, np.linalg.norm(ours - theirs, axis=0) / size, strict=True)
+        if d > STRUCTURE_TOLERANCE
+    ]
     if differ:
         raise ConfigError(
             f"task.known_model={source}: identified on a robot whose kinematics differ from {robot.name}'s "

@@ -60,7 +60,9 @@ class NextMotionReport:
         """The report's section (Markdown)."""
         table = self.parameters.table()
         shown = table.drop(columns=["poorly_known_after"]).copy()
-        shown.insert(len(shown.columns), "poorly known after", np.where(table["poorly_known_after"], "yes", ""))
+        shown.insert(
+            len(shown.columns), "poorly known after", np.where(table["poorly_known_after"], "yes", "")
+        )
         before, after = self.parameters.poorly_known(after=False), self.parameters.poorly_known(after=True)
         known = "; ".join(self.known) if self.known else "nothing (a motion designed alone)"
         lines = [
@@ -69,7 +71,8 @@ class NextMotionReport:
             f"Known before this motion: {known}. Torque noise density from {self.noise}. Values: the "
             "robot's CAD base parameters; torque effect: the RMS torque (N·m) a one-σ error of the "
             "parameter makes over random states within the limits; poorly known: a torque effect above "
-            f"{100 * POORLY_KNOWN_SHARE:g} % of the robot's torque RMS there ({self.parameters.threshold:.3g} N·m).",
+            f"{100 * POORLY_KNOWN_SHARE:g} % of the robot's torque RMS there "
+            f"({self.parameters.threshold:.3g} N·m).",
             "",
             shown.to_markdown(floatfmt=".3g"),
             "",
@@ -104,7 +107,7 @@ class NextMotionReport:
 
 
 def plant_noise_density(cfg: Any) -> tuple[np.ndarray | None, str]:
-    """The simulated plant's torque noise density per joint (σ_τ²/rate, N²·m²·s), or None for another plant."""
+    """The simulated plant's torque noise density per joint (σ_τ²/rate, N²·m²·s); None for another plant."""
     from omegaconf import OmegaConf
 
     std = OmegaConf.select(cfg, "plant.torque_noise_std", default=None)
