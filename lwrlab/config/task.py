@@ -33,6 +33,9 @@ class ExcitationTask(Instantiable):
     known_model: str | None
     """An identified model (its ``identified_model.yaml`` or run folder, or an MLflow model URI): its
     base-parameter covariance is known information too."""
+    targets: list[Any] | None
+    """Where the model will be used (motion files, logs, inline states: lwrlab/io/target_motions.py):
+    the report gives the expected torque std along them, and ``criterion=target_variance`` aims at them."""
 
 
 @schema

@@ -68,7 +68,7 @@ def _states(values: Any, n: int, n_joints: int, what: str) -> np.ndarray:
     array = np.atleast_2d(np.asarray(values, dtype=float))
     if array.shape != (n, n_joints) or not np.all(np.isfinite(array)):
         raise ConfigError(
-            f"criterion.targets: {what} must be {n} rows of {n_joints} finite values (one per joint), "
+            f"task.targets: {what} must be {n} rows of {n_joints} finite values (one per joint), "
             f"got shape {array.shape}"
         )
     return array
@@ -117,7 +117,7 @@ def read_target_motions(
         entry: Mapping[str, Any] = {"path": target} if isinstance(target, str | Path) else target
         weight = float(entry.get("weight", 1.0))
         if not weight > 0.0:
-            raise ConfigError(f"criterion.targets[{k}]: weight must be positive, got {weight}")
+            raise ConfigError(f"task.targets[{k}]: weight must be positive, got {weight}")
         if entry.get("path") is not None:
             path = Path(str(entry["path"])).expanduser()
             q, dq, ddq = _from_file(path, n_joints, joint_names, drive)
@@ -129,7 +129,7 @@ def read_target_motions(
             name = f"states{k}"
         else:
             raise ConfigError(
-                f"criterion.targets[{k}] = {dict(entry)}: give a file (a path, or {{path: …}}) or joint "
+                f"task.targets[{k}] = {dict(entry)}: give a file (a path, or {{path: …}}) or joint "
                 "states ({q: [[…]], dq: [[…]], ddq: [[…]]})"
             )
         motions.append(TargetMotion(name, q, dq, ddq, weight))

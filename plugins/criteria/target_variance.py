@@ -38,7 +38,8 @@ class TargetTorqueVariance:
 
     Parameters
     ----------
-    targets : where the model will be used (:mod:`lwrlab.io.target_motions`): files or inline states.
+    targets : where the model will be used (:mod:`lwrlab.io.target_motions`): files or inline states
+        (the YAML takes the task's ``task.targets``).
     max_samples : states kept per target (evenly spaced) to build its moment matrix.
 
     Examples
@@ -66,7 +67,7 @@ class TargetTorqueVariance:
         if not self.targets:
             raise ConfigError(
                 "criterion=target_variance needs the motions the model will be used on: "
-                "criterion.targets=[path.csv, …] (a motion file, a log, or {q: [[…]], dq: [[…]]})"
+                "task.targets=[path.csv, …] (a motion file, a log, or {q: [[…]], dq: [[…]]})"
             )
         robot = space.robot
         motions = read_target_motions(self.targets, robot.n_joints, robot.joint_names, robot.drive)

@@ -32,6 +32,7 @@ from lwrlab.figures.excitation import motion_figure
 from lwrlab.identification.identifiability import DEFAULT_POOR_COND
 from lwrlab.io.artifacts import save_trajectory_csv
 from lwrlab.io.exciting_motion import save_motion_description
+from lwrlab.io.target_motions import read_target_motions
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
 from lwrlab.pipeline.excitation.known import known_information
@@ -167,6 +168,7 @@ def run_excitation(
     verify_rate_hz: float = 1000.0,
     known_logs: Sequence[str] | None = None,
     known_model: str | None = None,
+    targets: Sequence[Any] | None = None,
 ) -> dict[str, float]:
     """Task ``excitation``: optimise the exciting motion of ``cfg.robot``, check it, and write it.
 
@@ -174,7 +176,8 @@ def run_excitation(
     model URI), the motion is designed for what they leave unknown: the criterion scores the known
     information and the motion's together (:mod:`lwrlab.pipeline.excitation.known`). The report says
     the expected std of each base parameter before and after the motion (``parameter_uncertainty.csv``),
-    which stay poorly known, and, for a criterion aimed at target motions, the torque std along them.
+    which stay poorly known, and the expected torque std along the ``targets`` (where the model will be
+    used: :mod:`lwrlab.io.target_motions`; ``criterion=target_variance`` aims the motion at them).
 
     The motion is checked at ``verify_rate_hz`` against every limit and against the robot's own
     collision geometry and world (:func:`lwrlab.excitation.solver.check_motion_at`). Accepted, it is
@@ -197,6 +200,7 @@ def run_excitation(
     source = optimal_source(cfg)
     base = compute_base_parameters(robot)
     known = known_information(cfg, robot, base, known_logs, known_model)
+    target_motions = read_target_motions(list(targets or []), robot.n_joints, robot.joint_names, robot.drive)
     motion, result, problem = source.optimise(robot, base, known)
     q, dq, ddq = (b @ result.coefficients for b in problem.bases)
     check = check_motion_at(robot, motion, source.constraints, verify_rate_hz)
@@ -221,7 +225,7 @@ def run_excitation(
         "known": [] if known is None else list(known.sources),
         "command": _command_line(),
     }
-    if provenance["cond_W_b"] > DEFAULT_POOR_COND:
+    if known is None and provenance["cond_W_b"] > DEFAULT_POOR_COND:  # conditioned: alone it needn't
         log.warning(
             "the exciting motion of %s excites its base parameters poorly: cond(W_b) = %.4g (> %g, the "
             "identifiability report's threshold); try more starts (optimizer.n_starts), a longer motion "
@@ -254,9 +258,20 @@ def run_excitation(
         f"cond(W_b) (unit-norm columns, {problem.rate_hz:g} Hz grid): {provenance['cond_W_b']:.4g}",
     ]
     density, noise_source = plant_noise_density(cfg)
-    next_motion = next_motion_report(problem, result.coefficients, known, density, noise_source)
+    next_motion = next_motion_report(
+        problem, result.coefficients, known, density, noise_source, target_motions
+    )
     output_dir.mkdir(parents=True, exist_ok=True)
     next_motion.write(output_dir)
+    still_poor = next_motion.parameters.poorly_known(after=True)
+    if still_poor:
+        log.warning(
+            "%d base parameter(s) of %s stay poorly known after this motion (%s): design another for them "
+            "(task.known_logs / task.known_model), or a longer one (trajectory.duration)",
+            len(still_poor),
+            robot.name,
+            ", ".join(still_poor[:8]),
+        )
     report_lines += ["", *next_motion.lines()]
     scene = problem.constraint_set.scene
     if scene.notes:

@@ -25,6 +25,7 @@ from lwrlab.excitation.uncertainty import (
     parameter_uncertainty,
     workspace_torque_rms,
 )
+from lwrlab.io.target_motions import TargetMotion
 
 DEFAULT_NOISE_DENSITY = 1e-5
 """N²·m²·s assumed when nothing says the sensors' noise: 0.1 N·m white noise at 1 kHz (the simulated
@@ -124,8 +125,9 @@ def next_motion_report(
     known: KnownInformation | None,
     noise_density: np.ndarray | None,
     noise_source: str,
+    targets: list[TargetMotion],
 ) -> NextMotionReport:
-    """Expected uncertainty before and after the motion of ``coefficients``.
+    """Expected uncertainty before and after the motion of ``coefficients`` (and along ``targets``).
 
     The noise density is the known information's when there is some, else ``noise_density`` (else
     :data:`DEFAULT_NOISE_DENSITY`).
@@ -146,11 +148,10 @@ def next_motion_report(
     uncertainty = parameter_uncertainty(
         base.names, values, before, after, problem.scales, workspace_torque_rms(robot)
     )
-    motions = getattr(problem.design_criterion, "target_motions", [])
-    targets = None
-    if motions:
+    table = None
+    if targets:
         frames = []
-        for motion in motions:
+        for motion in targets:
             thinned = motion.thinned(2000)
             w_target = base.base_regressor(regressor(robot, thinned.q, thinned.dq, thinned.ddq))
             frames.append(
@@ -163,5 +164,5 @@ def next_motion_report(
                     }
                 )
             )
-        targets = pd.concat(frames).set_index(["target", "joint"])
-    return NextMotionReport(uncertainty, targets, () if known is None else known.sources, noise_source)
+        table = pd.concat(frames).set_index(["target", "joint"])
+    return NextMotionReport(uncertainty, table, () if known is None else known.sources, noise_source)

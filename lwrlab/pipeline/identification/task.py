@@ -29,7 +29,7 @@ from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
 from lwrlab.pipeline.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
 from lwrlab.pipeline.identification.measuring import measure, process_measurements
-from lwrlab.pipeline.identification.notes import notes
+from lwrlab.pipeline.identification.notes import next_motion_note, notes
 from lwrlab.pipeline.identification.report import format_report, write_report
 from lwrlab.pipeline.identification.result import IdentificationReport
 from lwrlab.pipeline.identification.scoring import (
@@ -135,7 +135,8 @@ def identify(
             has_prior,
             share,
         )
-        + coverage_checks(measured, predictions),
+        + coverage_checks(measured, predictions)
+        + [next_motion_note(robot, base, fitting.identified.base_std)],
         motion=measured.motion,
         validation_motion=measured.validation_motion,
         measurements=measured.measurements,
