@@ -14,6 +14,8 @@ from hydra.utils import instantiate
 from omegaconf import OmegaConf
 from tracking_apps import jobs_and_parents, run_app, runs_of
 
+from lwrlab.tracking.job_config.metric_sections import plain_metrics
+
 from lwrlab.dynamics.base_parameters import compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import ConfigError
@@ -156,11 +158,17 @@ def test_a_sweep_over_criteria_and_what_is_known_runs_and_compares_from_mlflow(t
     assert finished.returncode == 0, finished.stderr[-3000:]
     jobs, parents = jobs_and_parents(runs_of(uri, "next_motion"))
     assert len(parents) == 1 and len(jobs) == 4 and all(run.info.status == "FINISHED" for run in jobs)
-    poorly = {
-        (run.data.params["criterion"], run.data.params.get("task.known_model", "null")): run.data.metrics
+    metrics = {
+        (run.data.params["criterion"], run.data.params["task.known_model"] != "None"): plain_metrics(
+            run.data.metrics
+        )
         for run in jobs
     }
-    assert len(poorly) == 4
+    assert len(metrics) == 4
+    for known in (False, True):  # the task-aware design is better where the model will be used
+        aimed, spread = metrics[("target_variance", known)], metrics[("logdet", known)]
+        assert aimed["target_torque_std_after"] < spread["target_torque_std_after"]
+    assert metrics[("logdet", True)]["poorly_known_before"] < metrics[("logdet", False)]["poorly_known_before"]
     compared = run_app(None, "compare", "--tracking-uri", uri, "--experiment", "next_motion", cwd=tmp_path)
     assert compared.returncode == 0, compared.stderr
     (folder,) = (tmp_path / "outputs" / "compare").iterdir()
