@@ -168,7 +168,9 @@ def test_a_sweep_over_criteria_and_what_is_known_runs_and_compares_from_mlflow(t
     for known in (False, True):  # the task-aware design is better where the model will be used
         aimed, spread = metrics[("target_variance", known)], metrics[("logdet", known)]
         assert aimed["target_torque_std_after"] < spread["target_torque_std_after"]
-    assert metrics[("logdet", True)]["poorly_known_before"] < metrics[("logdet", False)]["poorly_known_before"]
+    assert (
+        metrics[("logdet", True)]["poorly_known_before"] < metrics[("logdet", False)]["poorly_known_before"]
+    )
     compared = run_app(None, "compare", "--tracking-uri", uri, "--experiment", "next_motion", cwd=tmp_path)
     assert compared.returncode == 0, compared.stderr
     (folder,) = (tmp_path / "outputs" / "compare").iterdir()

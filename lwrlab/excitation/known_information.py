@@ -229,6 +229,10 @@ class ConditionedCriterion:
     known_rows : (m, N_B) the known rows (:meth:`KnownInformation.rows`), in the criterion's scaling.
     joint_weights : (N_J,) weight of each joint's new rows (:meth:`KnownInformation.joint_weights`), the
         rows being sample-major; None: unweighted.
+
+    The stacked matrix is written into a buffer kept between calls (the known rows once, the weighted
+    new rows in one pass), and the gradient weighted in place: the optimiser evaluates the criterion
+    hundreds of times on matrices of the same shape.
     """
 
     def __init__(
@@ -238,15 +242,27 @@ class ConditionedCriterion:
         self.name = criterion.name
         self.known_rows = np.asarray(known_rows, dtype=float)
         self.joint_weights = None if joint_weights is None else np.asarray(joint_weights, dtype=float)
+        self._stacked: np.ndarray | None = None
+        self._row_weights: np.ndarray | None = None
 
-    def _row_weights(self, rows: int) -> np.ndarray | None:
-        if self.joint_weights is None:
-            return None
-        return np.tile(self.joint_weights, rows // len(self.joint_weights))[:, None]
+    def _buffers(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        m = len(self.known_rows)
+        if self._stacked is None or self._stacked.shape != (m + len(w), w.shape[1]):
+            self._stacked = np.empty((m + len(w), w.shape[1]))
+            self._stacked[:m] = self.known_rows
+            if self.joint_weights is not None:
+                self._row_weights = np.tile(self.joint_weights, len(w) // len(self.joint_weights))[:, None]
+        return self._stacked, self._row_weights
 
     def value_and_gradient(self, w: np.ndarray) -> tuple[float, np.ndarray]:
-        weights = self._row_weights(len(w))
-        new = w if weights is None else w * weights
-        value, gradient = self.criterion.value_and_gradient(np.vstack([self.known_rows, new]))
-        new_gradient = gradient[len(self.known_rows) :]
-        return value, new_gradient if weights is None else new_gradient * weights
+        stacked, weights = self._buffers(w)
+        m = len(self.known_rows)
+        if weights is None:
+            stacked[m:] = w
+        else:
+            np.multiply(w, weights, out=stacked[m:])
+        value, gradient = self.criterion.value_and_gradient(stacked)
+        new = gradient[m:]
+        if weights is not None:
+            new = np.multiply(new, weights, out=new if new.base is gradient else None)
+        return value, new

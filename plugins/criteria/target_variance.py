@@ -79,7 +79,7 @@ class TargetTorqueVariance:
             parts.append(np.sqrt(motion.weight / total / len(thinned.q)) * rows)
         bound = copy.copy(self)
         bound.target_motions = motions
-        bound.target_root = np.linalg.qr(np.vstack(parts), mode="r")
+        bound.target_root = np.asarray(np.linalg.qr(np.vstack(parts), mode="r"))
         return bound
 
     def value_and_gradient(self, w: np.ndarray) -> tuple[float, np.ndarray]:

@@ -24,8 +24,7 @@ from lwrlab.excitation.known_information import KnownInformation
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.io.artifacts import load_identified_model
 from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.config_nodes import processing_settings, tracking_uri
-from lwrlab.pipeline.tools.log_rows import read_logs
+from lwrlab.pipeline.config_nodes import processing_settings, read_logs, tracking_uri
 
 STRUCTURE_TOLERANCE = 1e-6
 """Largest relative difference between the design's and the model's regressor column of a shared

@@ -65,7 +65,7 @@ def next_motion_note(robot: RobotModel, base: BaseParameters, std: np.ndarray) -
         f"the torque by more than {100 * POORLY_KNOWN_SHARE:g} % of its RMS over the workspace, "
         f"{POORLY_KNOWN_SHARE * torque_rms:.2g} N·m): {', '.join(named[:10])}"
         + (" …" if len(named) > 10 else "")
-        + f". A motion designed for them: {command}"
+        + f"; a motion designed for them: {command}"
     )
 
 
