@@ -281,3 +281,35 @@ def test_a_log_tells_what_its_identification_would_tell(lwr4) -> None:
     assert np.median(ratio) == pytest.approx(1.0, rel=0.1)
     # the identified model carries the same: its covariance and noise density
     np.testing.assert_allclose(report.identified.noise_density, known.noise_density, rtol=0.15)
+
+
+def test_target_motions_are_read_from_motion_files_logs_and_inline_states(tmp_path: Path, lwr4) -> None:
+    from lwrlab.errors import ConfigError
+    from lwrlab.io.artifacts import save_trajectory, save_trajectory_csv
+    from lwrlab.io.logs import write_log
+    from lwrlab.io.target_motions import read_target_motions
+    from lwrlab.trajectory.core import Trajectory
+
+    t = np.arange(0.0, 3.0, 1e-3)
+    q = 0.2 * np.sin(2 * np.pi * 0.5 * t)[:, None] * np.ones(7)
+    dq = np.gradient(q, t, axis=0)
+    motion = Trajectory(t, q, dq, np.gradient(dq, t, axis=0))
+    parquet = save_trajectory(motion, tmp_path / "path.parquet")
+    csv = save_trajectory_csv(motion, tmp_path / "path.csv")
+    log = write_log(Measurement(t, q, lwr4.inverse_dynamics(q, dq, motion.ddq)), tmp_path / "cycle.csv")
+    read = read_target_motions(
+        [str(parquet), {"path": str(csv), "weight": 2.0}, str(log), {"q": [[0.0] * 7]}], 7, lwr4.joint_names
+    )
+    assert [m.name for m in read] == ["path", "path", "cycle", "states3"] and read[1].weight == 2.0
+    np.testing.assert_array_equal(read[0].ddq, motion.ddq)  # a motion file is read as it is
+    np.testing.assert_allclose(read[1].q, q, atol=1e-9)
+    # a log is filtered and differentiated as an identification does
+    assert read[2].ddq.shape[1] == 7
+    assert np.abs(read[2].dq).max() == pytest.approx(np.abs(dq).max(), rel=0.05)
+    assert len(read[0].thinned(100).q) == 100
+    with pytest.raises(ConfigError, match=r"weight must be positive"):
+        read_target_motions([{"q": [[0.0] * 7], "weight": 0}], 7)
+    with pytest.raises(ConfigError, match=r"7 finite values"):
+        read_target_motions([{"q": [[0.0] * 6]}], 7)
+    with pytest.raises(ConfigError, match=r"give a file"):
+        read_target_motions([{"dq": [[0.0] * 7]}], 7)

@@ -50,8 +50,9 @@ def next_motion_note(robot: RobotModel, base: BaseParameters, std: np.ndarray) -
     effect = np.asarray(std, dtype=float) / scales
     poor = poorly_known(std, scales, torque_rms)
     command = (
-        "`lwrlab task=excitation task.known_model=<this run's folder, or runs:/<run id>/model>` "
-        "(with `criterion=target_variance task.targets=[…]` to aim it at where the model will be used)"
+        "`lwrlab task=excitation task.known_model=<model>` (<model>: this run's folder, or "
+        "runs:/<run id>/model; add criterion=target_variance and task.targets to aim it at where the "
+        "model will be used)"
     )
     if not poor.any():
         return (
