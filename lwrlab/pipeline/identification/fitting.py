@@ -149,13 +149,14 @@ def fit(
     if standard is None:
         standard = standard_from_base(base, estimator.phi_, robot.parameters)
     rate = first.rate_hz if rows_rate_hz is None else rows_rate_hz
+    covariance = getattr(estimator, "covariance_", None)  # an estimator of one's own may not give it
     identified = IdentifiedModel(
         base.names,
         estimator.phi_.copy(),
         estimator.std_.copy(),
         robot.parameter_names,
         standard,
-        base_covariance=np.array(estimator.covariance_, dtype=float),
-        noise_density=rows.statistics.noise_density(estimator.phi_, rate),
+        base_covariance=None if covariance is None else np.array(covariance, dtype=float),
+        noise_density=None if covariance is None else rows.statistics.noise_density(estimator.phi_, rate),
     )
     return Fit(context, identified, standard, cpu_s)
