@@ -63,6 +63,18 @@ def _printed_table(after: str) -> Callable[[str, Path], str]:
     return lambda output, _: first_table(output.split(after, 1)[1])
 
 
+def _relabelled(table: Callable[[str, Path], str], labels: dict[str, str]) -> Callable[[str, Path], str]:
+    """``table`` with its header's labels renamed (a study's setting names, as the page calls them)."""
+
+    def renamed(output: str, folder: Path) -> str:
+        header, rest = table(output, folder).split("\n", 1)
+        for old, new in labels.items():
+            header = header.replace(old, new)
+        return header + "\n" + rest
+
+    return renamed
+
+
 def _file_table(pattern: str) -> Callable[[str, Path], str]:
     """The markdown table in the newest file matching ``pattern`` under the folder."""
     return lambda _, folder: first_table(max(folder.glob(pattern)).read_text())
@@ -94,6 +106,25 @@ SOURCES = {
         (("python", str(REPOSITORY / "benchmarks" / "processing_study.py"), "--output", "study.csv"),),
         _printed_table("on motions not in the fit"),
         4.0,
+    ),
+    "model_study_lwr4": Source(
+        (
+            (
+                "python",
+                str(REPOSITORY / "benchmarks" / "model_study.py"),
+                *("--data", "lwr4+", "--output", "study.csv"),
+                *("--settings", "ols (previous", "friction auto (default"),
+            ),
+        ),
+        _relabelled(
+            _printed_table("validation ‖τ−τ̂‖/‖τ‖ (%)"),
+            {
+                "column": "split",
+                "ols (previous default for logs)": "ols",
+                "sdp auto, friction auto (default for logs)": "defaults for logs",
+            },
+        ),
+        3.0,
     ),
     "own_robots": Source(
         (("python", str(REPOSITORY / "benchmarks" / "own_robot_motion.py")),),
