@@ -64,15 +64,31 @@ def _printed_table(after: str) -> Callable[[str, Path], str]:
 
 
 def _relabelled(table: Callable[[str, Path], str], labels: dict[str, str]) -> Callable[[str, Path], str]:
-    """``table`` with its header's labels renamed (a study's setting names, as the page calls them)."""
+    """``table`` with labels renamed (a study's setting names, as the page calls them)."""
 
     def renamed(output: str, folder: Path) -> str:
-        header, rest = table(output, folder).split("\n", 1)
+        text = table(output, folder)
         for old, new in labels.items():
-            header = header.replace(old, new)
-        return header + "\n" + rest
+            text = text.replace(old, new)
+        return text
 
     return renamed
+
+
+MODEL_STUDY = (
+    "python",
+    str(REPOSITORY / "benchmarks" / "model_study.py"),
+    *("--output", "study.csv", "--settings", "ols (previous", "sdp auto, min (sign", "ols, friction auto"),
+    "sdp auto, friction auto (default",
+)
+"""The model study of the four settings the manual compares (the defaults for logs, least squares, and each
+with the other friction choice)."""
+SETTINGS = {
+    "sdp auto, min (sign friction: previous default for logs)": "`sdp`, `weight: auto`, `friction=sign`",
+    "sdp auto, friction auto (default for logs)": "**defaults for logs**: `sdp`, `weight: auto`, `friction=auto`",
+    "ols (previous default for logs)": "`ols`",
+    "ols, friction auto": "`ols`, `friction=auto`",
+}
 
 
 def _file_table(pattern: str) -> Callable[[str, Path], str]:
@@ -102,6 +118,16 @@ SOURCES = {
         _report_table("## Fig. 6"),
         3.0,
     ),
+    "fig6_preset": Source(
+        (("lwrlab", "experiment=paper_fig6_criteria", "task.seeds=[0,1,2]", "tracking=none"),),
+        _printed_table("Mean over joints of the cross-validation error"),
+        3.0,
+    ),
+    "startup": Source(
+        (("python", str(REPOSITORY / "benchmarks" / "startup.py"), "--rounds", "3", "--chain"),),
+        _printed_table("## What a user waits for"),
+        2.0,
+    ),
     "processing": Source(
         (("python", str(REPOSITORY / "benchmarks" / "processing_study.py"), "--output", "study.csv"),),
         _printed_table("on motions not in the fit"),
@@ -125,6 +151,16 @@ SOURCES = {
             },
         ),
         3.0,
+    ),
+    "model_study": Source(
+        ((*MODEL_STUDY, "--data", "lwr4+", "ours", "second"),),
+        _relabelled(_printed_table("summary over the new-motion splits"), SETTINGS),
+        8.0,
+    ),
+    "model_study_geared": Source(
+        ((*MODEL_STUDY, "--data", "geared"),),
+        _relabelled(_printed_table("summary over the new-motion splits of the geared arms"), SETTINGS),
+        4.0,
     ),
     "own_robots": Source(
         (("python", str(REPOSITORY / "benchmarks" / "own_robot_motion.py")),),

@@ -50,6 +50,7 @@ ELSEWHERE = {
     "mlflow server": "tests/test_server.py starts `mlflow server` on 127.0.0.1",
     "createdb": "PostgreSQL is not available here; the server test covers the tracking path",
     "--config-path": "tests/test_sweeps.py re-runs a logged config",
+    "pip install": "the install itself: CI's `make test` installs a clean clone the same way",
 }
 """Commands covered by another test or by CI, by a fragment they contain, with where."""
 
