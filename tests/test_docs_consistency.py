@@ -391,3 +391,14 @@ def test_the_runner_writes_paths_times_and_ids_as_a_readers() -> None:
         "[…][lwrlab][INFO] - artifacts written to /home/you/lwrlab/outputs/runs/<date>/<time>",
         "run <id>",
     ]
+
+
+def test_every_headline_metric_is_in_the_catalogue_with_its_unit() -> None:
+    from lwrlab.tracking.job_config.metric_catalogue import CATALOGUE, describe
+    from lwrlab.tracking.job_config.naming import HEADLINE_METRICS
+
+    for name, (unit, _) in HEADLINE_METRICS.items():
+        family = describe(name)
+        assert family is not None and family.unit == unit, name
+    assert describe("rms_joint12").name == "rms_joint<k>" and describe("com_error_mm").unit == "mm"
+    assert len({f.name for f in CATALOGUE}) == len(CATALOGUE)
