@@ -106,7 +106,9 @@ def main() -> None:
             )
             if args.chain:
                 chain = [*LWRLAB, *tracked(shared_store, folder / f"chain{k}")[len(job) :]]
-                times["the whole chain (make run), tracking on, existing store"].append(_timed(chain, REPOSITORY))
+                times["the whole chain (make run), tracking on, existing store"].append(
+                    _timed(chain, REPOSITORY)
+                )
             print(
                 f"round {k + 1}/{args.rounds}: "
                 + ", ".join(f"{name} {values[-1][0]:.2f} s" for name, values in times.items()),

@@ -175,7 +175,8 @@ CATALOGUE: tuple[MetricFamily, ...] = (
     MetricFamily(
         "worst_slack_<family>",
         "the family's unit",
-        "smallest slack of a constraint family (position, velocity, acceleration, torque, world, self_collision) at 1 kHz",
+        "smallest slack of one constraint family (position, velocity, acceleration, torque, world,"
+        " self_collision) at 1 kHz",
         EXCITATION,
     ),
     MetricFamily(
