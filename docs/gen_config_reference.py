@@ -180,6 +180,11 @@ def key_types(keys: list[Key], defaults: list[str], preset: bool = True) -> dict
     return types
 
 
+def code_cell(text: str) -> str:
+    """``text`` as code in a markdown table cell (a pipe inside a code span needs no escape)."""
+    return text.replace("\n", " ").replace("`", "'")
+
+
 def cell(text: str) -> str:
     """``text`` fit for a markdown table cell."""
     return text.replace("|", "\\|").replace("\n", " ")
@@ -196,8 +201,8 @@ def option_section(name: str, path: Path) -> str:
         types = key_types(keys, defaults)
         lines += ["| key | type | value | description |", "|---|---|---|---|"]
         lines += [
-            f"| `{cell(k.name)}` | {f'`{cell(types[k.name])}`' if k.name in types else ''} "
-            f"| `{cell(k.value) or ' '}` | {cell(' '.join(k.comment))} |"
+            f"| `{code_cell(k.name)}` | {f'`{code_cell(types[k.name])}`' if k.name in types else ''} "
+            f"| `{code_cell(k.value) or ' '}` | {cell(' '.join(k.comment))} |"
             for k in keys
         ]
         lines.append("")

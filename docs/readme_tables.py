@@ -5,7 +5,7 @@ of the documentation site (``docs/**/*.md``) or in README.md. For every name thi
 command that produces it (a preset and ``lwrlab report``, or a benchmark), in a temporary folder
 with its own MLflow store, takes the table from the output and writes it between the markers::
 
-    .venv/bin/python docs/readme_tables.py                    # every table (about 20 minutes on 2 cores)
+    .venv/bin/python docs/readme_tables.py                    # every table (about 50 minutes on 2 cores)
     .venv/bin/python docs/readme_tables.py table2 fig6       # some of them
     .venv/bin/python docs/readme_tables.py table2 --check    # exit 1 if the page differs from a new run
 
