@@ -19,7 +19,7 @@ numbers left out (in a table row, its first cell too), in order. ``--check`` (th
 ``tests/test_tutorials.py``) requires every line the page shows to be printed, in order, with each of its
 numbers within 5 % of the new run's; durations (a number followed by s, ms or min, and the columns of a
 table headed by one) are the machine's and are not compared. Paths, times and ids are written as the
-reader's would be (``/home/you/lwrlab`` for the clone, ``<date>/<time>``, ``<id>``). A ``<!-- picture:
+reader's would be (``/home/you/lwrlab`` for the clone, ``<date>/<time>``, ``<id>``, ``python3.x``). A ``<!-- picture:
 GLOB -->`` line before an image copies the newest file matching GLOB in the clone to the image's path.
 """
 
@@ -151,6 +151,7 @@ def normalise(raw: str, clone: Path, home: Path) -> list[str]:
             line = line.replace(str(path.resolve()), written).replace(str(path), written)
         line = STAMP.sub("[…]", line)
         line = RUN_TIME.sub("<time>", RUN_FOLDER.sub(lambda m: f"<date>{m.group(1)}<time>", line))
+        line = re.sub(r"\bpython3\.\d+\b", "python3.x", line)  # the reader's Python may be another
         shown.append(IDENTIFIER.sub("<id>", line))
     return shown
 

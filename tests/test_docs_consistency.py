@@ -167,6 +167,16 @@ CLAIMS = [
         _monitor("detectable", model="CAD", thresholds="constant"),
     ),
     Claim("docs/benchmarks.md", r"see it\s+(\d+) ms after its onset", _monitor("max delay [ms]"), 3),
+    Claim(
+        "docs/paper.md",
+        r"only FC3 \(([\d.]+) N·m",
+        lambda t: float(_row(t["table2"], parameter="FC3")["truth"]),
+    ),
+    Claim(
+        "docs/paper.md",
+        r"only FC3 \([\d.]+ N·m, %σ ([\d.]+)\)",
+        lambda t: float(_row(t["table2"], parameter="FC3")["pct_sigma"]),
+    ),
 ]
 """Figures quoted in prose from a generated table: regenerate the table, and these must follow."""
 
