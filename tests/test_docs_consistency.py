@@ -333,6 +333,8 @@ TERMS = {
     r"\bcoverage\b": "coverage",
     r"\bidentifiability\b": "identifiability",
     r"\btrue robot\b": "simulated-truth",
+    r"\bpoorly known\b": "poorly-known",
+    r"\bexpected (?:std|standard deviation)\b": "expected-standard-deviation",
 }
 """Words a newcomer meets and the glossary's section that explains each."""
 LINKED_PAGES = [*LESSONS, DOCS / "index.md", DOCS / "explanation" / "chain.md"]

@@ -262,7 +262,7 @@ def run_excitation(
         problem, result.coefficients, known, density, noise_source, target_motions
     )
     output_dir.mkdir(parents=True, exist_ok=True)
-    next_motion.write(output_dir)
+    next_motion.write(output_dir, robot.name)
     still_poor = next_motion.parameters.poorly_known(after=True)
     if still_poor:
         log.warning(

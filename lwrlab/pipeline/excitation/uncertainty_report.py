@@ -98,10 +98,23 @@ class NextMotionReport:
             ]
         return lines
 
-    def write(self, output_dir: Path) -> Path:
-        """``parameter_uncertainty.csv`` (and ``target_torque_std.csv``) in ``output_dir``."""
+    def write(self, output_dir: Path, robot_name: str = "") -> Path:
+        """``parameter_uncertainty.csv`` and its figure ``parameter_uncertainty.png`` (and
+        ``target_torque_std.csv``) in ``output_dir``."""
+        from lwrlab.figures.excitation import uncertainty_figure
+
         path = output_dir / "parameter_uncertainty.csv"
-        self.parameters.table().to_csv(path)
+        table = self.parameters.table()
+        table.to_csv(path)
+        title = "base parameters before and after this motion"
+        uncertainty_figure(
+            self.parameters.names,
+            table["torque_effect_before"].to_numpy(),
+            table["torque_effect_after"].to_numpy(),
+            self.parameters.threshold,
+            output_dir / "parameter_uncertainty.png",
+            f"{robot_name}: {title}" if robot_name else title.capitalize(),
+        )
         if self.targets is not None:
             self.targets.to_csv(output_dir / "target_torque_std.csv")
         return path

@@ -186,6 +186,29 @@ CATALOGUE: tuple[MetricFamily, ...] = (
         EXCITATION,
     ),
     MetricFamily("violated_families", "1", "constraint families violated at 1 kHz", EXCITATION),
+    MetricFamily(
+        "poorly_known_before",
+        "1",
+        "base parameters poorly known (a one-σ error moves the torque by over 1 % of its RMS) with what was"
+        " known before the motion (task.known_logs, task.known_model; all of them when nothing)",
+        EXCITATION,
+    ),
+    MetricFamily(
+        "poorly_known_after", "1", "base parameters still poorly known after the designed motion", EXCITATION
+    ),
+    MetricFamily(
+        "target_torque_std_before",
+        "N·m",
+        "expected std of the torque predicted along the target motions (task.targets), mean over targets"
+        " and joints, with what was known before the motion",
+        EXCITATION,
+    ),
+    MetricFamily(
+        "target_torque_std_after",
+        "N·m",
+        "the same after the designed motion",
+        EXCITATION,
+    ),
     MetricFamily("optimisation_seconds", "s", "wall time of the optimisation", EXCITATION),
     MetricFamily("collision_check_seconds", "s", "wall time of the exact collision check", EXCITATION),
     MetricFamily(
