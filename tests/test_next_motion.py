@@ -15,8 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from composing import CONF, compose_config
-from hydra.utils import instantiate
+from composing import CONF
 from omegaconf import OmegaConf
 from test_criteria import central_difference_gradient, regressor_like
 
@@ -38,7 +37,7 @@ from lwrlab.excitation.problem import column_scales
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.io.artifacts import load_identified_model, save_identified_model
-from lwrlab.pipeline.build import build
+from lwrlab.pipeline.build import build, shipped_config
 from lwrlab.plants.core import Measurement
 
 CRITERIA = sorted(p.stem for p in (CONF / "criterion").glob("*.yaml"))
@@ -53,7 +52,7 @@ def spd(rng: np.random.Generator, n: int) -> np.ndarray:
 def test_a_conditioned_criterion_scores_the_stacked_rows_and_differentiates_the_new_ones(
     name: str, rng: np.random.Generator
 ) -> None:
-    criterion = instantiate(compose_config(f"criterion={name}").criterion)
+    criterion = build("criterion", name)
     known_rows = regressor_like(rng, rows=8)
     weights = np.array([0.5, 2.0])  # two "joints", rows sample-major
     w = regressor_like(rng, rows=40)
@@ -268,11 +267,10 @@ def test_a_log_tells_what_its_identification_would_tell(lwr4) -> None:
     identification of that log reports."""
     from lwrlab.pipeline.identification import identify
 
-    cfg = compose_config("plant.show_progress=false", "seed=3")
-    plant = instantiate(cfg.plant)(robot=lwr4)
-    motion = build("trajectory", "multisine", duration=6.0)
-    processing = OmegaConf.to_container(cfg.measurement.processing, resolve=True)
-    validation = build("trajectory", "multisine", duration=3.0)
+    plant = build("plant", "simulated")(robot=lwr4, show_progress=False, seed=3)
+    motion = build("trajectory", "multisine", duration=4.0)
+    processing = OmegaConf.to_container(shipped_config("measurement", "default").processing, resolve=True)
+    validation = build("trajectory", "multisine", duration=1.0)
     report = identify(lwr4, motion, validation, plant, build("estimator", "wls"), processing=processing)
     measurement: Measurement = report.measurements[0]
     known = measurement_information(lwr4, report.base, [measurement], processing)

@@ -1,5 +1,9 @@
 """``task=excitation`` with what is known (a model, logs) and target motions: the report, the safety
-check every motion passes, the errors, and a sweep over criteria × conditioning compared from MLflow."""
+check every motion passes, the errors, and a sweep over criteria × conditioning compared from MLflow.
+
+One model (the covariance of a slow motion) serves every test of the module; the rejected motion and
+the sweep run whole jobs and are slow.
+"""
 
 from __future__ import annotations
 
@@ -11,10 +15,8 @@ import pandas as pd
 import pytest
 from composing import compose_config
 from hydra.utils import instantiate
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 from tracking_apps import jobs_and_parents, run_app, runs_of
-
-from lwrlab.tracking.job_config.metric_sections import plain_metrics
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
@@ -25,7 +27,9 @@ from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.io.artifacts import save_identified_model
 from lwrlab.io.logs import write_log
 from lwrlab.model.friction_laws import law_mapping
+from lwrlab.pipeline.build import build, shipped_config
 from lwrlab.pipeline.excitation import run_excitation
+from lwrlab.tracking.job_config.metric_sections import plain_metrics
 from lwrlab.trajectory.core import Trajectory
 
 QUICK = ["optimizer.max_iterations=30", "optimizer.show_progress=false", "trajectory.duration=2.0"]
@@ -39,8 +43,8 @@ TARGET = (
 def write_model(folder: Path, robot_option: str = "kuka_lwr4", slow: float = 0.01) -> Path:
     """An identified model of ``robot_option`` whose covariance is that of a slow random motion
     (``slow``: the share of the velocity and acceleration limits it reaches)."""
-    cfg = compose_config(f"robot={robot_option}")
-    robot = instantiate(cfg.robot)
+    settings = shipped_config("robot", robot_option)
+    robot = instantiate(settings)
     base = compute_base_parameters(robot)
     q, dq, ddq = random_states(robot, 100, np.random.default_rng(0))
     density = np.full(robot.n_joints, 1e-5)
@@ -52,7 +56,7 @@ def write_model(folder: Path, robot_option: str = "kuka_lwr4", slow: float = 0.0
         robot.parameters, base_covariance=covariance, noise_density=density,
     )  # fmt: skip
     description = {
-        **OmegaConf.to_container(cfg.robot, resolve=True),
+        **OmegaConf.to_container(settings, resolve=True),
         "friction_terms": list(robot.friction_terms),
         "friction_law": law_mapping(robot.friction_law),
     }
@@ -60,8 +64,21 @@ def write_model(folder: Path, robot_option: str = "kuka_lwr4", slow: float = 0.0
     return save_identified_model(model, description, folder / "identified_model.yaml")
 
 
-def test_a_task_aware_motion_for_what_a_model_leaves_unknown_reports_before_and_after(tmp_path: Path) -> None:
-    model = write_model(tmp_path / "model")
+@pytest.fixture(scope="module")
+def model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The LWR4 model of :func:`write_model` (read only: a test that changes it copies it)."""
+    return write_model(tmp_path_factory.mktemp("model"))
+
+
+@pytest.fixture(scope="module")
+def excitation() -> DictConfig:
+    """``task=excitation`` of a quick motion, composed once (the tests give what is known as arguments)."""
+    return compose_config("task=excitation", *QUICK, "plant.show_progress=false")
+
+
+def test_a_task_aware_motion_for_what_a_model_leaves_unknown_reports_before_and_after(
+    tmp_path: Path, model: Path
+) -> None:
     cfg = compose_config(
         "task=excitation", *QUICK, "criterion=target_variance", TARGET, f"task.known_model={model.parent}"
     )
@@ -71,6 +88,7 @@ def test_a_task_aware_motion_for_what_a_model_leaves_unknown_reports_before_and_
     assert metrics["target_torque_std_after"] < metrics["target_torque_std_before"]
     table = pd.read_csv(tmp_path / "run" / "parameter_uncertainty.csv", index_col="parameter")
     assert np.all(table["std_after"] <= table["std_before"] * (1 + 1e-9))
+    assert (tmp_path / "run" / "parameter_uncertainty.png").stat().st_size > 0
     report = (tmp_path / "run" / "excitation_report.md").read_text()
     assert f"Known before this motion: model {model.parent}" in report
     assert "Torque noise density from the model" in report and "Along the target motions" in report
@@ -78,12 +96,12 @@ def test_a_task_aware_motion_for_what_a_model_leaves_unknown_reports_before_and_
     assert "known:" in provenance and "model" in provenance
 
 
+@pytest.mark.slow
 def test_a_conditioned_task_aware_motion_passes_the_same_check_and_is_rejected_when_it_fails(
-    tmp_path: Path,
+    tmp_path: Path, model: Path
 ) -> None:
     """Optimised on a 10 Hz grid without margins, the motion breaks its limits between the samples: a
-    conditioned, task-aware design is rejected like any other (tests/test_own_robot_motion.py)."""
-    model = write_model(tmp_path / "model")
+    conditioned, task-aware design is rejected like any other (tests/test_own_robot_motion.py, fast)."""
     cfg = compose_config(
         "task=excitation",
         *QUICK,
@@ -102,19 +120,21 @@ def test_a_conditioned_task_aware_motion_passes_the_same_check_and_is_rejected_w
     assert json.loads((tmp_path / "run" / "metrics.json").read_text())["accepted"] == 0.0
 
 
-def test_known_logs_are_read_like_plant_log_and_their_noise_comes_from_their_residual(tmp_path: Path) -> None:
-    cfg = compose_config("plant.show_progress=false")
-    robot = instantiate(cfg.robot)
-    plant = instantiate(cfg.plant)(robot=robot)
-    t = np.arange(0.0, 4.0, 1e-3)
-    q = 0.3 * np.sin(2 * np.pi * 0.3 * t)[:, None] * np.ones(7)  # one slow swing of every joint
+def test_known_logs_are_read_like_plant_log_and_their_noise_comes_from_their_residual(
+    tmp_path: Path, excitation: DictConfig
+) -> None:
+    robot = instantiate(excitation.robot)
+    plant = instantiate(excitation.plant)(robot=robot)
+    t = np.arange(0.0, 2.0, 1e-3)
+    q = 0.3 * np.sin(2 * np.pi * 0.5 * t)[:, None] * np.ones(7)  # one slow swing of every joint
     dq = np.gradient(q, t, axis=0)
     measurement = plant.measure(Trajectory(t, q, dq, np.gradient(dq, t, axis=0)))
     log = write_log(measurement, tmp_path / "swing.csv")
-    overrides = ["task=excitation", *QUICK, f"task.known_logs=[{log}]"]
     with pytest.raises(ConfigError, match="plant=log"):
-        run_excitation(compose_config(*overrides), tmp_path / "a", known_logs=[str(log)])
-    cfg = compose_config(*overrides, "plant=log", f"data.paths=[{log}]")
+        run_excitation(excitation, tmp_path / "a", known_logs=[str(log)])
+    cfg = compose_config(
+        "task=excitation", *QUICK, f"task.known_logs=[{log}]", "plant=log", f"data.paths=[{log}]"
+    )
     metrics = run_excitation(cfg, tmp_path / "b", **instantiate(cfg.task).keywords)
     report = (tmp_path / "b" / "excitation_report.md").read_text()
     assert "Known before this motion: logs swing" in report
@@ -122,25 +142,26 @@ def test_known_logs_are_read_like_plant_log_and_their_noise_comes_from_their_res
     assert metrics["poorly_known_after"] < metrics["poorly_known_before"]
 
 
-def test_a_model_of_another_robot_is_refused(tmp_path: Path) -> None:
+def test_a_model_of_another_robot_is_refused(tmp_path: Path, excitation: DictConfig) -> None:
     model = write_model(tmp_path / "panda", "panda")
-    cfg = compose_config("task=excitation", *QUICK, f"task.known_model={model}")
     with pytest.raises(ConfigError, match="kinematics differ"):
-        run_excitation(cfg, tmp_path / "run", known_model=str(model))
+        run_excitation(excitation, tmp_path / "run", known_model=str(model))
 
 
-def test_a_model_saved_without_covariance_is_refused_naming_the_fix(tmp_path: Path) -> None:
-    path = write_model(tmp_path / "model")
-    text = path.read_text()
+def test_a_model_saved_without_covariance_is_refused_naming_the_fix(
+    tmp_path: Path, model: Path, excitation: DictConfig
+) -> None:
+    path = tmp_path / "identified_model.yaml"
+    text = model.read_text()
     path.write_text(text[: text.index("information:")])
-    cfg = compose_config("task=excitation", *QUICK)
     with pytest.raises(ConfigError, match=r"no covariance .* identify again, or give the logs"):
-        run_excitation(cfg, tmp_path / "run", known_model=str(path))
+        run_excitation(excitation, tmp_path / "run", known_model=str(path))
 
 
 @pytest.mark.slow
-def test_a_sweep_over_criteria_and_what_is_known_runs_and_compares_from_mlflow(tmp_path: Path) -> None:
-    model = write_model(tmp_path / "model")
+def test_a_sweep_over_criteria_and_what_is_known_runs_and_compares_from_mlflow(
+    tmp_path: Path, model: Path
+) -> None:
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     finished = run_app(
         None,
@@ -181,16 +202,14 @@ def test_a_sweep_over_criteria_and_what_is_known_runs_and_compares_from_mlflow(t
 def test_the_identification_says_which_motion_would_help_next(lwr4) -> None:
     """A short motion at 10 % of the limits (cond ≈ 700): the note names the poorly known parameters and
     the command that designs a motion for them; the optimised motion leaves none."""
-    from lwrlab.pipeline.build import build
     from lwrlab.pipeline.identification import identify
 
-    cfg = compose_config("plant.show_progress=false")
-    validation = build("trajectory", "multisine", duration=2.0)
+    validation = build("trajectory", "multisine", duration=1.0)
     for fraction, expected in (
         (0.1, "NEXT MOTION: "),
         (0.8, "next motion: every base parameter is well known"),
     ):
-        plant = instantiate(cfg.plant)(robot=lwr4)
+        plant = build("plant", "simulated")(robot=lwr4, show_progress=False)
         motion = build("trajectory", "multisine", duration=3.0, limit_fraction=fraction)
         report = identify(lwr4, motion, validation, plant, build("estimator", "wls"))
         (note,) = [line for line in report.notes if line.lower().startswith("next motion")]

@@ -127,18 +127,21 @@ def uncertainty_figure(
     bottom = max(finite[finite > 0].min() / 3, top * 1e-9)
     x = np.arange(len(names))
     fig, ax = subplots(figsize=(max(8, 0.17 * len(names)), 4))
-    ax.bar(x, np.minimum(before, top), 0.8, color="0.8", label="before (what is known)")
-    ax.bar(x, np.minimum(after, top), 0.45, color="C0", label="after this motion")
     undetermined = ~np.isfinite(before)
+    ax.bar(x, np.where(undetermined, np.nan, before), 0.8, color="0.8", label="before (what is known)")
+    ax.bar(x, np.minimum(after, top), 0.45, color="C0", label="after this motion")
     if undetermined.any():
-        ax.plot(x[undetermined], np.full(undetermined.sum(), top), "v", color="0.5", label="not determined")
+        ax.plot(
+            x[undetermined], np.full(undetermined.sum(), top), "v", color="0.5", label="not determined before"
+        )
     ax.axhline(threshold, color="C3", lw=1, ls="--", label=f"poorly known above {threshold:.2g} N·m")
     ax.set_yscale("log")
     ax.set_ylim(bottom, 1.5 * top)
     ax.set_xticks(x, names, rotation=90, fontsize=7)
-    ax.set(xlim=(-0.7, len(names) - 0.3), ylabel="torque effect of a one-σ error [N·m]", title=title)
+    ax.set(xlim=(-0.7, len(names) - 0.3), ylabel="torque effect of a one-σ error [N·m]")
     ax.grid(axis="y", alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
-    fig.tight_layout()
+    fig.suptitle(title)  # a figure title and fixed margins: placing them by the labels costs ~0.5 s
+    fig.subplots_adjust(left=0.07, right=0.99, bottom=0.17, top=0.92)
     fig.savefig(path, dpi=120)
     return path

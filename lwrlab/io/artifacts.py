@@ -1,7 +1,8 @@
 """Artifact files: Parquet for long series, CSV for what a robot or a spreadsheet reads, YAML for models,
 npz for exactness.
 
-Nothing here unpickles: npz files are read with ``allow_pickle=False`` and YAML with ``safe_load``.
+Nothing here unpickles: npz files are read with ``allow_pickle=False`` and YAML with a safe loader
+(libyaml's ``CSafeLoader`` where there is one).
 """
 
 from __future__ import annotations
@@ -117,7 +118,9 @@ def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], 
 
 def load_identified_model(path: Path) -> tuple[IdentifiedModel, dict[str, Any]]:
     """Read an identified model and its robot description written by :func:`save_identified_model`."""
-    document = yaml.safe_load(Path(path).read_text())
+    # libyaml's safe loader where there is one: a covariance of 64×64 numbers takes PyYAML's a second
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    document = yaml.load(Path(path).read_text(), Loader=loader)
     missing = {"robot", "base_parameters", "standard_parameters"} - set(document or {})
     if missing:
         raise ValueError(f"{path}: not an identified model, missing keys {sorted(missing)}")
