@@ -103,3 +103,28 @@ def test_the_tracking_lookup_names_a_missing_run(tmp_path: Path) -> None:
 
     with pytest.raises(FileNotFoundError, match=r"identified_model\.yaml for MLflow run 'feedbeef'"):
         download_run_artifact("feedbeef", "identified_model.yaml", (tmp_path / "mlruns").as_uri())
+
+
+def test_a_job_of_its_own_settings_keeps_the_models_law_and_terms(lwr4: RobotModel, tmp_path: Path) -> None:
+    """``robot=identified`` in a job whose defaults name other friction (``plant=log``: the offsets,
+    ``friction=auto``): the robot keeps the law it was identified with and every term of it (the
+    holding law's breakaway), the job's terms added at zero, never a law of the job's choosing."""
+    from lwrlab.pipeline.identification import configured_robot
+
+    description = yaml.safe_load((CONF / "robot" / "kuka_lwr4.yaml").read_text())
+    description["_target_"] = "plugins.robots.mdh.build_robot"
+    description["friction_law"] = {
+        "_target_": "plugins.friction.holding.HoldingFriction",
+        "presliding": 0.002,
+        "stribeck_speed": 0.05,
+        "deadband": None,
+    }
+    description["friction_terms"] = ["coulomb", "viscous", "breakaway"]
+    model = IdentifiedModel(("ZZ1R",), np.ones(1), np.ones(1), tuple(lwr4.parameter_names), lwr4.parameters)
+    save_identified_model(model, description, tmp_path / "identified_model.yaml")
+    cfg = compose_config("plant=log", "robot=identified", f"robot.source={tmp_path}")
+    assert cfg.friction._target_.endswith("AutoFriction")  # the job's own default for logs
+    for robot in (instantiate(cfg.robot), configured_robot(cfg)):
+        assert type(robot.friction_law).__name__ == "HoldingFriction"
+        assert robot.friction_law.settings()["presliding"] == 0.002
+        assert robot.friction_terms == ("coulomb", "viscous", "breakaway", "offset")

@@ -340,6 +340,35 @@ def _payload_logs(folder: Path) -> tuple[Path, Path]:
     return unloaded, loaded
 
 
+@pytest.mark.parametrize("form", ["runs", "alias"])
+def test_a_payload_reads_the_unloaded_model_by_its_uri_with_its_law(
+    identified: Identified, tmp_path: Path, form: str
+) -> None:
+    """``task.unloaded_model=runs:/…`` or ``models:/…@champion``: the payload's robot is the model's,
+    with the law it was identified with (the holding law and its breakaway terms), not the payload
+    job's own (``plant=log``: the sign law with offsets)."""
+    from composing import compose_config
+    from hydra.utils import instantiate
+
+    identified.client.set_registered_model_alias(NAME, "champion", "1")
+    source = f"runs:/{identified.run_id}/model" if form == "runs" else f"models:/{NAME}@champion"
+    _, loaded = _payload_logs(tmp_path)
+    cfg = compose_config(
+        "task=payload",
+        "plant=log",
+        f"task.loaded_paths=[{loaded}]",
+        f"task.unloaded_model={source}",
+        f"tracking.uri={identified.uri}",
+    )
+    instantiate(cfg.task)(cfg, tmp_path / "run")
+    read = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())["unloaded_model"]
+    assert read["source"] == source and read["run_id"] == identified.run_id
+    assert read["friction_law"].startswith("holding") and "breakaway" in read["friction_terms"]
+    assert "offset" not in read["friction_terms"]  # plant=log's own terms are not the model's
+    if form == "alias":
+        assert (read["registered_name"], read["registered_version"]) == (NAME, "1")
+
+
 def test_a_payload_run_logs_and_registers_a_model_of_its_payloads_torques(
     identified: Identified, tmp_path: Path
 ) -> None:

@@ -163,7 +163,8 @@ def test_noiseless_payload_is_exact(tmp_path: Path, log_robot: RobotModel, metho
             truth.parameter_names,
             truth.parameters,
         )
-        save_identified_model(model, {}, tmp_path / "identified_model.yaml")
+        description = resolved_mapping(compose_config("plant=log").robot, "robot")
+        save_identified_model(model, description, tmp_path / "identified_model.yaml")
         overrides.append(f"task.unloaded_model={tmp_path}")  # the run folder is enough
     metrics = _run(overrides, tmp_path / "run")
     document = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())
@@ -193,6 +194,49 @@ def _check_model_files(run: Path, robot: RobotModel, phi: np.ndarray) -> None:
     moved.rename(run)
 
 
+def test_payload_by_an_identified_model_takes_its_law_and_drive_terms(
+    tmp_path: Path, log_robot: RobotModel
+) -> None:
+    """An identification that chose a law of its own (the holding law, its breakaway terms) stands
+    for the unloaded robot: the payload is identified with that law and those terms, read from the
+    model, whatever the payload job's own robot and friction settings say."""
+    roller = load_tool("large_roller")
+    unloaded, (loaded,), _ = _simulate(log_robot, roller, 3.0, noisy=False)
+    identified = tmp_path / "identified"
+    _run(
+        [
+            "task=identification",
+            "plant=log",
+            f"data.paths={_logs([write_log(unloaded, tmp_path / 'unloaded.csv')])}",
+            "friction=holding",
+            "estimator=ols",
+            *NOISELESS_PROCESSING,
+        ],
+        identified,
+    )
+    stored = yaml.safe_load((identified / "identified_model.yaml").read_text())
+    assert "breakaway" in stored["robot"]["friction_terms"]  # not the payload job's own terms
+    metrics = _run(
+        [
+            "task=payload",
+            "plant=log",
+            f"task.loaded_paths={_logs([write_log(loaded, tmp_path / 'loaded.csv')])}",
+            f"task.unloaded_model={identified}",
+            "task.truth=large_roller",
+            *NOISELESS_PROCESSING,
+        ],
+        tmp_path / "run",
+    )
+    assert abs(metrics["mass_error_pct"]) < 5.0
+    document = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())
+    read = document["unloaded_model"]  # what the payload read from the model
+    assert read["source"] == str(identified.resolve())
+    assert (
+        read["friction_law"].startswith("holding")
+        and read["friction_terms"] == stored["robot"]["friction_terms"]
+    )
+
+
 def test_an_identified_robots_description_is_the_one_its_model_refined(tmp_path: Path) -> None:
     """robot=identified: the payload's model keeps the description the identified model holds."""
     description = resolved_mapping(compose_config().robot, "robot")
@@ -203,9 +247,12 @@ def test_an_identified_robots_description_is_the_one_its_model_refined(tmp_path:
 
 
 def test_an_identified_model_of_other_base_parameters_is_refused(tmp_path: Path) -> None:
-    model = IdentifiedModel(("ZZ1R", "FC1"), np.ones(2), np.zeros(2), ("M1",), np.ones(1))
-    save_identified_model(model, {}, tmp_path / "identified_model.yaml")
-    with pytest.raises(ValueError, match="friction terms"):
+    robot = instantiate(compose_config().robot)
+    model = IdentifiedModel(("ZZ1R", "FX1"), np.ones(2), np.zeros(2), robot.parameter_names, robot.parameters)
+    save_identified_model(
+        model, resolved_mapping(compose_config().robot, "robot"), tmp_path / "identified_model.yaml"
+    )
+    with pytest.raises(ValueError, match=r"task\.unloaded_model=.*\['FX1'\].*friction terms"):
         _run(
             [
                 "task=payload",

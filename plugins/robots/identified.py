@@ -89,8 +89,9 @@ def load_identified_robot(
     ----------
     source : an ``identified_model.yaml``, the run folder holding it, or an MLflow model URI
         (``runs:/<run id>/model``, ``models:/<name>/<version>``, ``models:/<name>@<alias>``) or run id.
-    friction_terms : the friction columns of the rebuilt robot (``None``: those it was identified
-        with); a term it was not identified with starts at zero (e.g. ``plant=log`` adds ``offset``).
+    friction_terms : friction columns added to those it was identified with (``None``: none); a
+        term it was not identified with starts at zero (e.g. ``plant=log`` adds ``offset``). The
+        terms it was identified with (its law's own, the rotor inertias) are always kept.
     tracking_uri : the store a model URI is looked up in (``None``: ``MLFLOW_TRACKING_URI`` or MLflow's
         default).
     build_robot : builds the robot description stored in the file (e.g. ``hydra.utils.instantiate``);
@@ -126,8 +127,9 @@ def load_identified_robot(
         )
     defaults = _KEYS_ADDED_SINCE.get(target.rsplit(".", 1)[-1], {})
     description = {**defaults, **robot_config}
-    if friction_terms is not None:
-        description["friction_terms"] = list(friction_terms)
+    if friction_terms is not None:  # added to the model's own: a model is never stripped of a term
+        own = list(description.get("friction_terms") or [])
+        description["friction_terms"] = own + [term for term in friction_terms if term not in own]
     prior = build_robot(description)
     inertial = slice(0, prior.n_parameters - prior.n_friction)
     if prior.parameter_names[inertial] != identified.standard_names[inertial]:

@@ -41,6 +41,7 @@ from lwrlab.pipeline.identification.scoring import (
     tabulate,
 )
 from lwrlab.plants.core import Plant, is_recorded
+from lwrlab.tracking.models.identified_model import IDENTIFIED_ROBOT_LOADER
 from lwrlab.trajectory.core import MotionSource
 
 
@@ -148,12 +149,14 @@ def identify(
 
 def configured_robot(cfg: Any) -> RobotModel:
     """The robot ``cfg.robot`` builds, with the friction law of ``cfg.friction`` (``auto``: the
-    candidates :func:`identify` chooses from); a robot description that names its own law keeps it."""
+    candidates :func:`identify` chooses from); a robot description that names its own law keeps it,
+    and so does an identified model (``robot=identified``)."""
     from hydra.utils import instantiate
 
     robot: RobotModel = instantiate(cfg.robot)
     law = cfg.get("friction")
-    if law is None or cfg.robot.get("friction_law") is not None:
+    identified = str(cfg.robot.get("_target_", "")).endswith(f".{IDENTIFIED_ROBOT_LOADER}")
+    if law is None or identified or cfg.robot.get("friction_law") is not None:
         return robot
     return robot.with_friction_law(instantiate(law))
 
