@@ -14,6 +14,7 @@ adds, as Pinocchio's inverse dynamics of the robot with and without it.
 from __future__ import annotations
 
 import json
+import os
 import socket
 import subprocess
 import sys
@@ -276,6 +277,30 @@ def test_a_uri_that_names_nothing_is_one_line_and_a_failed_run(identified: Ident
     assert "no_such_alias" in lines[0] and "Traceback" not in done.stderr
     run = identified.client.get_run((identified.folder / "bad" / "mlflow_run_id.txt").read_text().strip())
     assert run.info.status == "FAILED" and f"models:/{NAME}@no_such_alias" in run.data.tags["error"]
+
+
+def test_a_run_id_is_found_where_mlflow_tracking_uri_names_the_store(
+    identified: Identified, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Only ``MLFLOW_TRACKING_URI`` names the store (``tracking=none``): ``task=monitor task.model=<run
+    id>`` looks the model up, then its run's logs, both in that store; the variable stays set."""
+    from composing import compose_config
+    from hydra.utils import instantiate
+
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", identified.uri)
+    monkeypatch.chdir(tmp_path)  # no store of MLflow's default here
+    with np.load(identified.run / "validation_measurement.npz", allow_pickle=False) as stored:
+        log = write_log(Measurement(t=stored["t"], q=stored["q"], tau=stored["tau"]), tmp_path / "free.csv")
+    resolved = resolve_model(identified.run_id)
+    assert resolved.run_id == identified.run_id and resolved.run_file(".hydra/config.yaml") is not None
+    assert os.environ["MLFLOW_TRACKING_URI"] == identified.uri
+    cfg = compose_config(
+        "task=monitor", "plant=log", "tracking=none", f"data.paths=[{log}]", f"task.model={identified.run_id}"
+    )
+    instantiate(cfg.task)(cfg, tmp_path / "monitor")
+    assert os.environ["MLFLOW_TRACKING_URI"] == identified.uri
+    summary = (tmp_path / "monitor" / "summary.md").read_text()
+    assert f"MLflow run {identified.run_id}" in summary and "friction law holding" in summary
 
 
 @pytest.mark.parametrize(

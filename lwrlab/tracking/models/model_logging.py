@@ -36,6 +36,7 @@ from lwrlab.tracking.models.identified_pyfunc import (
     state_columns,
 )
 from lwrlab.tracking.models.resolve import MODEL_NAME, lineage_tags, read_models_used
+from lwrlab.tracking.store.connection import global_tracking_uri
 from lwrlab.tracking.store.sqlite import retry_locked
 
 log = logging.getLogger(__name__)
@@ -224,7 +225,6 @@ def _log_pyfunc(
     """Log the pyfunc model of ``code`` as the run's MLflow Model :data:`MODEL_NAME`; its model id."""
     import mlflow.pyfunc
     from mlflow.models import Model
-    from mlflow.tracking._tracking_service.utils import _use_tracking_uri
 
     run = retry_locked(client.get_run, run_id)
     # created here, in the run's experiment (MLflow's own would go to its default experiment)
@@ -237,7 +237,7 @@ def _log_pyfunc(
         params=dict(run.data.params),
         model_type=model_type,
     )
-    with _use_tracking_uri(tracking_uri), _requirements_checked_by_name(), _quiet_mlflow():
+    with global_tracking_uri(tracking_uri), _requirements_checked_by_name(), _quiet_mlflow():
         info = Model.log(
             artifact_path=None,
             name=MODEL_NAME,

@@ -28,6 +28,7 @@ from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.job_config.provenance import PARENT_RUN_TAG, RUN_KIND_TAG
 from lwrlab.tracking.runs.finalise import KILLED_BY_TAG, running_runs
+from lwrlab.tracking.store.connection import global_tracking_uri
 from lwrlab.tracking.store.sqlite import absolute_tracking_uri, retry_locked
 
 RESUME_SEARCH_LIMIT = 200
@@ -72,17 +73,13 @@ def search_runs_table(
     tracking_uri: str, experiment_ids: Sequence[str], filter_string: str = ""
 ) -> pd.DataFrame:
     """``mlflow.search_runs`` on a given store (not the global one), oldest run first, as pandas."""
-    previous_uri = mlflow.get_tracking_uri()
-    mlflow.set_tracking_uri(tracking_uri)  # mlflow.search_runs reads the global URI
-    try:
+    with global_tracking_uri(tracking_uri):  # mlflow.search_runs reads the global URI
         table = mlflow.search_runs(
             experiment_ids=list(experiment_ids),
             filter_string=filter_string,
             order_by=["attributes.start_time ASC"],
             output_format="pandas",
         )
-    finally:
-        mlflow.set_tracking_uri(previous_uri)
     assert isinstance(table, pd.DataFrame)
     return table
 
