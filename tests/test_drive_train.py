@@ -229,3 +229,29 @@ def test_a_urdfs_transmissions_give_the_gear_ratios(tmp_path: Path) -> None:
     )
     assert coupled.drive_train.gear_ratios.tolist() == [120.0, 80.0]  # the description adds, keeps
     assert coupled.drive_train.coupling[1, 0] == 0.5 and coupled.drive_train.position_side == "motor"
+
+
+def test_an_unusable_transmission_is_a_warning_until_the_drive_train_is_used(tmp_path: Path) -> None:
+    """A URDF exported with a xacro argument left in (``<mechanicalReduction>reduction</…>``): a
+    motion or a joint-side log needs no gear ratio, so the robot loads with a warning naming the
+    joint; a log measured at the motors needs it, so it is an error naming the joint and the fix;
+    gear ratios the description gives make the transmission's unnecessary."""
+    from lwrlab.pipeline.build import build
+
+    path = tmp_path / "leftover.urdf"
+    path.write_text(TWO_LINK_URDF.replace("<mechanicalReduction>80<", "<mechanicalReduction>reduction<"))
+    with pytest.warns(UserWarning, match=r"joint 'elbow'.*'reduction' is not a number"):
+        robot = build("robot", "urdf", path=str(path), collision_geometry=False)
+    assert robot.drive_train.gear_ratios.tolist() == [120.0, 1.0] and not robot.drive_train.motor_side
+    with pytest.raises(
+        ConfigError, match=r"joint 'elbow'.*'reduction' is not a number.*robot\.drive\.gear_ratios"
+    ):
+        build("robot", "urdf", path=str(path), collision_geometry=False, drive={"position_side": "motor"})
+    given = build(
+        "robot",
+        "urdf",
+        path=str(path),
+        collision_geometry=False,
+        drive={"gear_ratios": [100, 50], "torque_side": "motor"},
+    )
+    assert given.drive_train.gear_ratios.tolist() == [100.0, 50.0]
