@@ -222,6 +222,38 @@ def test_receipt_jittered_stamps_are_regularised_and_noted(
     assert any("time stamps off the regular grid" in note for note in report.notes)
 
 
+def test_artifacts_of_a_regularised_log_sit_at_its_logged_stamps(
+    lwr4: RobotModel, recorded: dict, tmp_path: Path
+) -> None:
+    """A log read on the grid its jittered stamps stand for: predicted_torque.parquet (its head and
+    tail, split for validation) and the monitor's external_torque.parquet keep each sample's logged
+    stamp in ``t`` (what a user joins their own rows on), the grid's beside it in ``t_grid``."""
+    from hydra.utils import instantiate
+
+    rng = np.random.default_rng(5)
+    fit = recorded["fit_a"]
+    stamps = fit.t + 1000.0 + rng.uniform(0.0, 0.4, fit.t.shape) / 500.0
+    path = write_log(Measurement(t=stamps, q=fit.q, tau=fit.tau), tmp_path / "stamped.csv")
+    logged = pd.read_csv(path)["t"].to_numpy()
+    common = ["plant=log", "tracking=none", f"data.paths=[{path}]", "estimator=ols", "friction=sign"]
+    cfg = compose_config("task=identification", *common)
+    instantiate(cfg.task)(cfg, tmp_path / "identified")
+    predicted = pd.read_parquet(tmp_path / "identified" / "predicted_torque.parquet")
+    assert set(predicted["role"]) == {"identification", "validation"} and len(predicted) > 1000
+    rows = np.searchsorted(logged, predicted["t"].to_numpy())
+    np.testing.assert_array_equal(logged[rows], predicted["t"].to_numpy())  # every row a logged stamp
+    grid = predicted["t_grid"].to_numpy()
+    np.testing.assert_allclose(np.diff(grid)[np.diff(rows) == 1], 1 / 500.0, rtol=1e-4)
+    assert 0 < np.max(np.abs(predicted["t"] - grid)) < 0.5 / 500.0
+    cfg = compose_config(
+        "task=monitor", *common, f"task.model={tmp_path / 'identified'}", f"task.calibration_paths=[{path}]"
+    )
+    instantiate(cfg.task)(cfg, tmp_path / "monitor")
+    monitored = pd.read_parquet(tmp_path / "monitor" / "external_torque.parquet")
+    np.testing.assert_array_equal(monitored["t"].to_numpy(), logged)
+    assert np.max(np.abs(monitored["t"] - monitored["t_grid"])) < 0.5 / 500.0
+
+
 def _real_lwr4(fit: list[int], validation: list[int]) -> IdentificationReport:
     """The real LWR4+ identified with the defaults, only the robot and the logs named."""
     logs = {i: REAL_LWR4 / f"measurements_{i}.npz" for i in (1, 2, 3)}

@@ -48,7 +48,9 @@ Resampling: a log whose sampling period varies by more than ``jitter_tolerance``
 median period) is either *regularised* or *resampled*. Stamps that stay within half a period of a
 straight line, on which the positions are smoother than on the stamps, were put on regularly taken
 samples by a recorder's clock (a PC stamping a controller's stream on arrival): the samples are kept
-and read on that line (``stamp_jitter`` says how far the stamps strayed). Otherwise the samples are
+and read on that line (``stamp_jitter`` says how far the stamps strayed; each sample keeps its
+logged stamp, which the artifacts written per sample carry as ``t``, the grid's as ``t_grid``).
+Otherwise the samples are
 linearly interpolated onto the uniform grid ``t_0 + k/rate`` (rate = ``rate_hz`` or 1/median period)
 before anything else; the measurement metadata records it, and the times and torques as logged are
 kept, so that a prediction is scored against what the sensors gave, not against interpolated torques.
@@ -99,6 +101,9 @@ class RecordedLog:
     """(M,) times as logged (s), when resampled."""
     logged_tau: np.ndarray | None = None
     """(M, N_J) torques as logged (N·m), when resampled."""
+    stamps: np.ndarray | None = None
+    """(N,) each sample's stamp as logged (s), when the samples were read on the regular grid ``t``
+    their jittered stamps stand for (``stamp_jitter``)."""
     warnings: tuple[str, ...] = ()
     """Plausibility warnings (:mod:`lwrlab.io.plausibility`): printed and tagged by the pipeline."""
     sides: tuple[str, str] = ("joint", "joint")
@@ -119,6 +124,7 @@ class RecordedLog:
             dq=self.dq,
             logged_t=self.logged_t,
             logged_tau=self.logged_tau,
+            stamps=self.stamps,
             metadata={
                 "source": "log",
                 "path": str(self.path),
@@ -351,6 +357,7 @@ def load_log(
         stamp_jitter=float(np.max(np.abs(logged_t - t))) if stamps == "regularised" else None,
         logged_t=logged_t if resampled else None,
         logged_tau=logged_tau if resampled else None,
+        stamps=logged_t if stamps == "regularised" else None,
         warnings=tuple(str(w) for w in warnings),
         sides=(drive.position_side, "motor" if drive.torque_constants is not None else drive.torque_side),
     )

@@ -170,11 +170,15 @@ def _torque_frame(
     estimates: ExternalTorques,
     calibrations: dict[str, Calibration | StateCalibration],
     detections: dict[str, list[Detection]],
+    stamps: np.ndarray | None = None,
 ) -> pd.DataFrame:
+    """One row per sample; ``t`` the sample's logged stamp and, where ``stamps`` (the logged stamps
+    of samples read on a regular grid) are given, ``t_grid`` the grid's time."""
     n = estimates.observer.shape[1]
     columns: dict[str, Any] = {
         "log": estimates.name,
-        "t": estimates.t,
+        "t": estimates.t if stamps is None else stamps,
+        **({} if stamps is None else {"t_grid": estimates.t}),
         "monitored": estimates.monitored,
         "signals_disagree": estimates.disagreeing,
     }
@@ -357,7 +361,7 @@ def run_monitor(
             monitor_robot, measurement, settings, progress=_progress(measurement.name)
         )
         found = detect(estimates, calibrations, settings)
-        frames.append(_torque_frame(estimates, calibrations, found))
+        frames.append(_torque_frame(estimates, calibrations, found, measurement.stamps))
         for estimator in ESTIMATORS:
             table = detections_frame(found[estimator])
             loads = contact_loads(monitor_robot, estimates, estimator, found[estimator], frame, point)
@@ -396,7 +400,10 @@ def run_monitor(
         "monitored_hours": hours,
         "observer_us_per_sample": 1e6 * seconds / max(samples, 1),
     }
-    pd.concat(frames, ignore_index=True).to_parquet(output_dir / "external_torque.parquet", index=False)
+    torques = pd.concat(frames, ignore_index=True)
+    if "t_grid" in torques:  # the logs read on their stamps' grid, and the others' stamps
+        torques["t_grid"] = torques["t_grid"].fillna(torques["t"])
+    torques.to_parquet(output_dir / "external_torque.parquet", index=False)
     detections.to_csv(output_dir / "detections.csv", index=False)
     calibration = calibration_table(calibrations)
     calibration.to_csv(output_dir / "calibration.csv", index=False)
