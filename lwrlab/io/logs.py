@@ -33,8 +33,10 @@ Logs measured at the motors: with the robot's drive train (``robot.drive``,
 angles and speeds (rad, rad/s at the motor shaft); with ``torque_side: motor``, the ``tau`` columns
 hold motor torques (N·m at the motor shaft); with ``torque_constants`` (N·m/A) the ``current``
 columns are motor currents (A), motor-side whatever ``torque_side`` says. They are converted to the
-joint side on reading (``q = R⁻¹·θ``, ``τ = Rᵀ·τ_motor``), before the checks against the joint
-limits; the measurement says which side each signal came from.
+joint side on reading (``q = R⁻¹·θ + q₀``, ``τ = Rᵀ·τ_motor``), before the checks against the joint
+limits; the measurement says which side each signal came from. Encoders that count from their own
+zero (``position_offsets``: ``q₀``), count in counts (``encoder_counts``) or wrap every turn (every
+motor, and continuous joints) are read as :mod:`lwrlab.io.encoder_angles` says.
 
 Other columns are ignored. A log whose columns are named differently is read with
 ``column_map`` (schema name → name in the file), e.g. ``{"t": "timestamp", "q1": "pos_0"}``.
@@ -69,6 +71,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.io.column_types import check_column_dtypes
+from lwrlab.io.encoder_angles import joint_positions_of_log, joint_velocities_of_log
 from lwrlab.io.log_findings import LogColumns, raise_for_errors
 from lwrlab.io.log_formats import LogTable, read_frame
 from lwrlab.io.log_schema import POSITION_UNITS, TIME_UNITS, LogError, joint_columns, row_location
@@ -259,6 +262,11 @@ def load_log(
         raise LogError(f"{path}: unknown time_unit {time_unit!r}; valid: {list(TIME_UNITS)}")
     if position_unit not in POSITION_UNITS:
         raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
+    if drive is not None and drive.encoder_counts is not None and position_unit != "rad":
+        raise LogError(
+            f"{path}: position_unit={position_unit} with robot.drive.encoder_counts: the positions are "
+            "counts (rad for their velocities only where no counts): drop data.position_unit"
+        )
     if drive_gains is not None and len(drive_gains) != n_joints:
         raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
     drive = DriveTrain.direct(n_joints) if drive is None else drive
@@ -325,8 +333,17 @@ def load_log(
     q = block("q", POSITION_UNITS[position_unit])
     tau = block("tau") if drive_gains is None else block("current", np.asarray(drive_gains, dtype=float))
     columns = [q, tau] + ([block("dq", POSITION_UNITS[position_unit])] if has_velocity else [])
-    if drive.position_side == "motor":
-        columns = [drive.joint_positions(columns[0]), columns[1], *map(drive.joint_positions, columns[2:])]
+    continuous = (
+        np.zeros(n_joints, dtype=bool)
+        if limits is None
+        else np.isinf(limits.position_lower) & np.isinf(limits.position_upper)
+    )
+    # encoder counts, wraps, the motor side and the encoders' own zero (lwrlab.io.encoder_angles)
+    columns = [
+        joint_positions_of_log(columns[0], drive, continuous),
+        columns[1],
+        *(joint_velocities_of_log(c, drive) for c in columns[2:]),
+    ]
     if drive.torque_side == "motor" or drive.torque_constants is not None:
         columns[1] = drive.joint_torques(columns[1])
     q, tau = columns[0], columns[1]
