@@ -17,6 +17,7 @@ from lwrlab.errors import MissingFileError
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
+from lwrlab.yaml_files import safe_yaml
 
 
 def _joint_columns(prefix: str, n: int) -> list[str]:
@@ -96,7 +97,7 @@ def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], 
 
 def load_identified_model(path: Path) -> tuple[IdentifiedModel, dict[str, Any]]:
     """Read an identified model and its robot description written by :func:`save_identified_model`."""
-    document = yaml.safe_load(Path(path).read_text())
+    document = safe_yaml(Path(path).read_text())
     missing = {"robot", "base_parameters", "standard_parameters"} - set(document or {})
     if missing:
         raise ValueError(f"{path}: not an identified model, missing keys {sorted(missing)}")
