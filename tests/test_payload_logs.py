@@ -23,6 +23,7 @@ from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.io.artifacts import save_identified_model
 from lwrlab.io.logs import joint_columns, log_frame, write_log
+from lwrlab.model.drive_train import DriveTrain
 from lwrlab.model.inertia import standard_parameters
 from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
@@ -343,3 +344,38 @@ def test_a_payload_on_a_joint_axis_leaves_that_gain_flagged(tmp_path: Path, log_
     )
     assert metrics["gain_relative_std_7"] > 1.0 and metrics["n_weak_gains"] >= 1
     assert "joints [7]" in (tmp_path / "run" / "summary.md").read_text()
+
+
+def test_drive_gains_of_a_robot_measured_at_its_motors_are_its_torque_constants(
+    tmp_path: Path, log_robot: RobotModel
+) -> None:
+    """A robot whose description gives its drive train (gears, motor currents through torque
+    constants): the currents are read through the gears with unit constants, the gains identified
+    are the motors' torque constants (N·m/A at the motor), and the line to paste sets them."""
+    gears, constants = (
+        np.array([160.0, 160, 100, 100, 100, 80, 80]),
+        np.array([0.12, 0.12, 0.1, 0.1, 0.08, 0.05, 0.05]),
+    )
+    unloaded, (loaded,), _ = _simulate(log_robot, HEAVY_PAYLOAD, 3.0, noisy=False)
+    drive = DriveTrain(gears, np.eye(7), torque_constants=constants, torque_side="motor")
+    paths = [  # currents of the motors: i = R⁻ᵀ·τ / k
+        _write_currents(replace(m, tau=drive.motor_torques(m.tau)), constants, tmp_path / f"{name}.csv")
+        for m, name in ((unloaded, "unloaded"), (loaded, "loaded"))
+    ]
+    described = "{gear_ratios: [%s], torque_constants: [1,1,1,1,1,1,1], torque_side: motor}" % ",".join(
+        map(str, gears)
+    )
+    overrides = [
+        "task=drive_gains",
+        "plant=log",
+        f"robot.drive={described}",
+        f"task.unloaded_paths={_logs(paths[:1])}",
+        f"task.loaded_paths={_logs(paths[1:])}",
+        "task.payload.mass=2.0",
+        *NOISELESS_PROCESSING,
+    ]
+    _run(overrides, tmp_path / "run")
+    document = yaml.safe_load((tmp_path / "run" / "drive_gains.yaml").read_text())
+    np.testing.assert_allclose(document["drive_gains"], constants, rtol=1e-6)
+    assert document["override"].startswith("robot.drive.torque_constants=[")
+    assert "at the motor" in document["units"]
