@@ -108,7 +108,8 @@ def test_the_tracking_lookup_names_a_missing_run(tmp_path: Path) -> None:
 def test_a_job_of_its_own_settings_keeps_the_models_law_and_terms(lwr4: RobotModel, tmp_path: Path) -> None:
     """``robot=identified`` in a job whose defaults name other friction (``plant=log``: the offsets,
     ``friction=auto``): the robot keeps the law it was identified with and every term of it (the
-    holding law's breakaway), the job's terms added at zero, never a law of the job's choosing."""
+    holding law's breakaway, the rotor inertias), the job's terms added at zero, never a law or
+    rotor columns of the job's choosing."""
     from lwrlab.pipeline.identification import configured_robot
 
     description = yaml.safe_load((CONF / "robot" / "kuka_lwr4.yaml").read_text())
@@ -119,7 +120,7 @@ def test_a_job_of_its_own_settings_keeps_the_models_law_and_terms(lwr4: RobotMod
         "stribeck_speed": 0.05,
         "deadband": None,
     }
-    description["friction_terms"] = ["coulomb", "viscous", "breakaway"]
+    description["friction_terms"] = ["coulomb", "viscous", "breakaway", "rotor"]
     model = IdentifiedModel(("ZZ1R",), np.ones(1), np.ones(1), tuple(lwr4.parameter_names), lwr4.parameters)
     save_identified_model(model, description, tmp_path / "identified_model.yaml")
     cfg = compose_config("plant=log", "robot=identified", f"robot.source={tmp_path}")
@@ -127,4 +128,5 @@ def test_a_job_of_its_own_settings_keeps_the_models_law_and_terms(lwr4: RobotMod
     for robot in (instantiate(cfg.robot), configured_robot(cfg)):
         assert type(robot.friction_law).__name__ == "HoldingFriction"
         assert robot.friction_law.settings()["presliding"] == 0.002
-        assert robot.friction_terms == ("coulomb", "viscous", "breakaway", "offset")
+        assert robot.friction_terms == ("coulomb", "viscous", "breakaway", "rotor", "offset")
+        assert robot.drive_train.rotor_inertia_columns is True  # chosen then, not again

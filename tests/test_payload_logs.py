@@ -350,8 +350,8 @@ def test_drive_gains_of_a_robot_measured_at_its_motors_are_its_torque_constants(
     tmp_path: Path, log_robot: RobotModel
 ) -> None:
     """A robot whose description gives its drive train (gears, motor currents through torque
-    constants): the currents are read through the gears with unit constants, the gains identified
-    are the motors' torque constants (N·m/A at the motor), and the line to paste sets them."""
+    constants, a datasheet's 20 % off): the currents are read as it says, the gains identified are
+    the motors' true torque constants (N·m/A at the motor), and the line to paste sets them."""
     gears, constants = (
         np.array([160.0, 160, 100, 100, 100, 80, 80]),
         np.array([0.12, 0.12, 0.1, 0.1, 0.08, 0.05, 0.05]),
@@ -362,8 +362,9 @@ def test_drive_gains_of_a_robot_measured_at_its_motors_are_its_torque_constants(
         _write_currents(replace(m, tau=drive.motor_torques(m.tau)), constants, tmp_path / f"{name}.csv")
         for m, name in ((unloaded, "unloaded"), (loaded, "loaded"))
     ]
-    described = "{gear_ratios: [%s], torque_constants: [1,1,1,1,1,1,1], torque_side: motor}" % ",".join(
-        map(str, gears)
+    nominal = ",".join(map(str, np.round(constants * 1.2, 3)))  # a datasheet's, 20 % off
+    described = (
+        f"{{gear_ratios: [{','.join(map(str, gears))}], torque_constants: [{nominal}], torque_side: motor}}"
     )
     overrides = [
         "task=drive_gains",

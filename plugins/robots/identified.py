@@ -138,4 +138,6 @@ def load_identified_robot(
         )
     identified_values = dict(zip(identified.standard_names, identified.standard_values, strict=True))
     robot = prior.with_parameters(np.array([identified_values.get(n, 0.0) for n in prior.parameter_names]))
-    return replace(robot, name=f"{prior.name}_identified")
+    # its rotor-inertia columns were chosen when it was identified: kept as they are, never re-chosen
+    drive = replace(robot.drive_train, rotor_inertia_columns="rotor" in robot.friction_terms)
+    return replace(robot, name=f"{prior.name}_identified", drive=drive)

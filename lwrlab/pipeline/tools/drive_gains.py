@@ -205,24 +205,25 @@ def drive_gains_document(
     }
 
 
-def current_reading(robot: RobotModel) -> tuple[RobotModel, str]:
-    """The robot whose log reader gives the currents with unit gains, and the setting the gains go to.
+def current_reading(robot: RobotModel) -> tuple[str, np.ndarray | None]:
+    """The setting the gains go to, and the torque constants the logs are read with (None: the
+    currents read as they are, gain 1).
 
-    A robot whose drive train converts currents (``torque_constants``) has them read through the
-    gears with unit constants (``τ = Rᵀ·i``): the gains are then its motors' torque constants, each
-    motor driving its own joint (a coupled drive mixes the motors' currents in a joint's torque: one
-    gain per joint would not be a motor's constant).
+    A robot whose drive train converts currents (``torque_constants``) has them read as its
+    description says (through the gears, with its torque constants: torques a plausibility check can
+    judge); the gains found then scale those constants, each motor driving its own joint (a coupled
+    drive mixes the motors' currents in a joint's torque: one gain per joint would not be a motor's
+    constant).
     """
     drive = robot.drive_train
     if drive.torque_constants is None:
-        return robot, JOINT_GAINS
+        return JOINT_GAINS, None
     if not drive.is_direct:
         raise ConfigError(
             f"task=drive_gains: {robot.name}'s drive train couples its motors ({drive.describe()}): its "
             "motors' torque constants are not one gain per joint; give them as robot.drive.torque_constants"
         )
-    ones = np.ones(drive.n_drives)
-    return replace(robot, drive=replace(drive, torque_constants=ones)), MOTOR_CONSTANTS
+    return MOTOR_CONSTANTS, np.asarray(drive.torque_constants, dtype=float)
 
 
 def run_drive_gains(
@@ -264,15 +265,17 @@ def run_drive_gains(
     )
     phi, known = known_payload(mass, com, load_tool(tool_name) if tool_name else None)
     robot = instantiate(cfg.robot)
-    reading, setting = current_reading(robot)
+    setting, constants = current_reading(robot)
     bench = ToolBench.for_robot(robot, processing_settings(cfg))
     start = time.perf_counter()
-    at_joints = setting == JOINT_GAINS
-    unloaded = log_rows(bench, read_logs(cfg, reading, unloaded_paths, "unloaded", unit_gains=at_joints))
-    loaded = log_rows(bench, read_logs(cfg, reading, loaded_paths, "loaded", unit_gains=at_joints))
-    estimate = replace(
-        estimate_drive_gains(bench, unloaded, loaded, phi, known, method, weighted), setting=setting
-    )
+    unit = constants is None
+    unloaded = log_rows(bench, read_logs(cfg, robot, unloaded_paths, "unloaded", unit_gains=unit))
+    loaded = log_rows(bench, read_logs(cfg, robot, loaded_paths, "loaded", unit_gains=unit))
+    estimate = estimate_drive_gains(bench, unloaded, loaded, phi, known, method, weighted)
+    if constants is not None:  # gains of the currents read with the description's constants
+        estimate = replace(
+            estimate, gains=estimate.gains * constants, std=estimate.std * constants, setting=setting
+        )
     seconds = time.perf_counter() - start
 
     document = drive_gains_document(estimate, phi, known)
