@@ -1,15 +1,15 @@
 """An identified model's torque predictions on each measurement, at its samples as logged, and their tables.
 
 :func:`predict_measurement` filters a measurement's states as the fit did and predicts τ̂ = W·φ at
-every logged sample; :func:`prediction_table` and :func:`predicted_torque_frame` put the predictions
-of an identification in tables (the report's per-log errors, ``predicted_torque.parquet``).
+every logged sample; :func:`prediction_table` and :func:`predicted_torque_frame` (block by block:
+:func:`predicted_torque_blocks`) put the predictions of an identification in tables (the report's
+per-log errors, the rows of ``predicted_torque.parquet``, which the report writes).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -321,10 +321,10 @@ def predicted_torque_frame(predictions: Sequence[LogPrediction]) -> pd.DataFrame
     so ‖τ − τ̂‖/‖τ‖ over a log's rows
     is its ``validation_rel_error_<log>`` (over the identification logs' rows, ``fit_rel_error``).
     """
-    return pd.concat(_predicted_torque_blocks(predictions, block_samples=None), ignore_index=True)
+    return pd.concat(predicted_torque_blocks(predictions, block_samples=None), ignore_index=True)
 
 
-def _predicted_torque_blocks(
+def predicted_torque_blocks(
     predictions: Sequence[LogPrediction], block_samples: int | None
 ) -> Iterator[pd.DataFrame]:
     """The rows of :func:`predicted_torque_frame`, log by log in blocks of ``block_samples`` samples."""
@@ -344,25 +344,3 @@ def _predicted_torque_blocks(
                 frame[[f"tau_lo{j}" for j in range(1, n + 1)]] = p.predicted[rows] - p.half_width[rows]
                 frame[[f"tau_hi{j}" for j in range(1, n + 1)]] = p.predicted[rows] + p.half_width[rows]
             yield frame
-
-
-def write_predicted_torque(
-    predictions: Sequence[LogPrediction], path: Path, block_samples: int = 1 << 17
-) -> Path:
-    """:func:`predicted_torque_frame` written to Parquet block by block (a long log's frame would not
-    fit in memory): the same file, one row group per block."""
-    import pyarrow as pa  # type: ignore[import-untyped]
-    import pyarrow.parquet as pq  # type: ignore[import-untyped]
-
-    writer = None
-    try:
-        for frame in _predicted_torque_blocks(predictions, block_samples):
-            table = pa.Table.from_pandas(frame, preserve_index=False)
-            if writer is None:  # dictionaries only for the names: trying them on measured floats
-                # costs 8 × the time and a larger file
-                writer = pq.ParquetWriter(path, table.schema, use_dictionary=["log", "role"])
-            writer.write_table(table.cast(writer.schema))
-    finally:
-        if writer is not None:
-            writer.close()
-    return path

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -28,9 +28,10 @@ from lwrlab.io.artifacts import (
 from lwrlab.io.urdf_export import UnexportableJointError, export_urdf
 from lwrlab.model.friction_laws import law_mapping
 from lwrlab.pipeline.identification.log_predictions import (
+    LogPrediction,
+    predicted_torque_blocks,
     prediction_table,
     process_measurement,
-    write_predicted_torque,
 )
 from lwrlab.plants.core import Measurement
 
@@ -126,6 +127,28 @@ def model_input_example(
     for prefix, values in (("q", states.q), ("dq", states.dq), ("ddq", states.ddq)):
         columns.update({f"{prefix}{j}": values[:, j - 1] for j in range(1, n + 1)})
     return pd.DataFrame(columns)
+
+
+def write_predicted_torque(
+    predictions: Sequence[LogPrediction], path: Path, block_samples: int = 1 << 17
+) -> Path:
+    """The predictions' table (``predicted_torque_frame``) written to Parquet block by block (a long
+    log's frame would not fit in memory): the same file, one row group per block."""
+    import pyarrow as pa  # type: ignore[import-untyped]
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    writer = None
+    try:
+        for frame in predicted_torque_blocks(predictions, block_samples):
+            table = pa.Table.from_pandas(frame, preserve_index=False)
+            if writer is None:  # dictionaries only for the names: trying them on measured floats
+                # costs 8 × the time and a larger file
+                writer = pq.ParquetWriter(path, table.schema, use_dictionary=["log", "role"])
+            writer.write_table(table.cast(writer.schema))
+    finally:
+        if writer is not None:
+            writer.close()
+    return path
 
 
 def write_report(
