@@ -29,10 +29,10 @@ import yaml
 from mlflow.tracking import MlflowClient
 from tracking_apps import app_environment, run_app
 
+from lwrlab.identification.log_predictions import process_measurement
 from lwrlab.io.logs import write_log
 from lwrlab.io.payload_model import payload_parameters
 from lwrlab.model.payload import attach_payload
-from lwrlab.pipeline.identification.log_predictions import process_measurement
 from lwrlab.plants.core import Measurement
 from lwrlab.tracking.models import registry
 from lwrlab.tracking.models.resolve import ModelNotFoundError, resolve_model

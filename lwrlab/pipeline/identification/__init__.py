@@ -2,12 +2,12 @@
 
 The modules, bottom up (each imports only those above it in this list):
 
-- :mod:`~lwrlab.pipeline.identification.rows`: the identification rows of processed logs, block by block;
-- :mod:`~lwrlab.pipeline.identification.log_predictions`: one log processed and predicted by a model,
+- :mod:`~lwrlab.identification.rows`: the identification rows of processed logs, block by block;
+- :mod:`~lwrlab.identification.log_predictions`: one log processed and predicted by a model,
   with its band, its tables and its predicted-torque file;
-- :mod:`~lwrlab.pipeline.identification.result`: :class:`IdentificationReport`, the result in memory;
-- :mod:`~lwrlab.pipeline.identification.measuring`, :mod:`~lwrlab.pipeline.identification.fitting`,
-  :mod:`~lwrlab.pipeline.identification.scoring`, :mod:`~lwrlab.pipeline.identification.notes`: the
+- :mod:`~lwrlab.identification.result`: :class:`IdentificationReport`, the result in memory;
+- :mod:`~lwrlab.identification.measuring`, :mod:`~lwrlab.identification.fitting`,
+  :mod:`~lwrlab.identification.scoring`, :mod:`~lwrlab.identification.notes`: the
   stages of :func:`identify`;
 - :mod:`~lwrlab.pipeline.identification.report`: the result's tables, arrays and figures on disk;
 - :mod:`~lwrlab.pipeline.identification.task`: :func:`identify`, the configured entry points;
@@ -15,8 +15,8 @@ The modules, bottom up (each imports only those above it in this list):
   robot's motions recorded as logs).
 """
 
-from lwrlab.pipeline.identification.result import IdentificationReport
-from lwrlab.pipeline.identification.scoring import prediction_interval
+from lwrlab.identification.result import IdentificationReport
+from lwrlab.identification.scoring import prediction_interval
 from lwrlab.pipeline.identification.task import (
     configured_robot,
     identify,

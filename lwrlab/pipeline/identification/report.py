@@ -19,6 +19,12 @@ import pandas as pd
 
 from lwrlab.figures.residuals import residuals_per_log
 from lwrlab.figures.torques import error_per_joint, torque_overlay
+from lwrlab.identification.log_predictions import (
+    LogPrediction,
+    predicted_torque_blocks,
+    prediction_table,
+    process_measurement,
+)
 from lwrlab.io.artifacts import (
     MODEL_INPUT_EXAMPLE_FILE,
     save_identified_model,
@@ -27,16 +33,10 @@ from lwrlab.io.artifacts import (
 )
 from lwrlab.io.urdf_export import UnexportableJointError, export_urdf
 from lwrlab.model.friction_laws import law_mapping
-from lwrlab.pipeline.identification.log_predictions import (
-    LogPrediction,
-    predicted_torque_blocks,
-    prediction_table,
-    process_measurement,
-)
 from lwrlab.plants.core import Measurement
 
 if TYPE_CHECKING:  # the identification module runs this writer: its report type only annotates here
-    from lwrlab.pipeline.identification.result import IdentificationReport
+    from lwrlab.identification.result import IdentificationReport
 
 log = logging.getLogger(__name__)
 

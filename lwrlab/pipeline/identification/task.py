@@ -1,18 +1,18 @@
 """Task ``identification``: motion → plant → processing → base-parameter estimation → cross-validation.
 
 :func:`identify` is pure computation on configured objects and returns an
-:class:`~lwrlab.pipeline.identification.result.IdentificationReport`, a sequence of stages each with
-one job: :func:`~lwrlab.pipeline.identification.measuring.measure` and
-:func:`~lwrlab.pipeline.identification.measuring.process_measurements`;
-:func:`~lwrlab.pipeline.identification.fitting.choose_drive_terms`,
-:func:`~lwrlab.pipeline.identification.fitting.accumulate_rows`,
-:func:`~lwrlab.pipeline.identification.fitting.assess` and
-:func:`~lwrlab.pipeline.identification.fitting.fit`;
-:func:`~lwrlab.pipeline.identification.scoring.predict`,
-:func:`~lwrlab.pipeline.identification.scoring.tabulate`,
-:func:`~lwrlab.pipeline.identification.scoring.extrapolate` and
-:func:`~lwrlab.pipeline.identification.scoring.score`; then
-:func:`~lwrlab.pipeline.identification.notes.notes`.
+:class:`~lwrlab.identification.result.IdentificationReport`, a sequence of stages each with
+one job: :func:`~lwrlab.identification.measuring.measure` and
+:func:`~lwrlab.identification.measuring.process_measurements`;
+:func:`~lwrlab.identification.fitting.choose_drive_terms`,
+:func:`~lwrlab.identification.fitting.accumulate_rows`,
+:func:`~lwrlab.identification.fitting.assess` and
+:func:`~lwrlab.identification.fitting.fit`;
+:func:`~lwrlab.identification.scoring.predict`,
+:func:`~lwrlab.identification.scoring.tabulate`,
+:func:`~lwrlab.identification.scoring.extrapolate` and
+:func:`~lwrlab.identification.scoring.score`; then
+:func:`~lwrlab.identification.notes.notes`.
 :mod:`lwrlab.pipeline.identification.report` puts its tables, arrays and figures on disk. The
 tracking callback logs the output directory to MLflow, so nothing here knows about MLflow or Hydra
 (``hydra.utils.instantiate`` is imported only by the configured entry points).
@@ -24,15 +24,12 @@ from pathlib import Path
 from typing import Any
 
 from lwrlab.identification.core import Estimator
+from lwrlab.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
+from lwrlab.identification.measuring import measure, process_measurements
+from lwrlab.identification.notes import notes
 from lwrlab.identification.prediction_error import FRICTION_DRIFT
-from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
-from lwrlab.pipeline.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
-from lwrlab.pipeline.identification.measuring import measure, process_measurements
-from lwrlab.pipeline.identification.notes import notes
-from lwrlab.pipeline.identification.report import format_report, write_report
-from lwrlab.pipeline.identification.result import IdentificationReport
-from lwrlab.pipeline.identification.scoring import (
+from lwrlab.identification.result import IdentificationReport
+from lwrlab.identification.scoring import (
     coverage_checks,
     extrapolate,
     likely_causes_of_poor_validation,
@@ -40,6 +37,9 @@ from lwrlab.pipeline.identification.scoring import (
     score,
     tabulate,
 )
+from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
+from lwrlab.pipeline.identification.report import format_report, write_report
 from lwrlab.plants.core import Plant, is_recorded
 from lwrlab.tracking.models.identified_model import IDENTIFIED_ROBOT_LOADER
 from lwrlab.trajectory.core import MotionSource
