@@ -264,3 +264,23 @@ def test_a_store_that_refuses_the_view_still_gets_the_link_to_the_browsers_own_v
         f"/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
     )
     assert runs_view_link(client, "postgresql://db/mlflow", experiment_id, ["rms_mean"], []) is None
+
+
+def test_the_printed_ui_command_runs_after_the_readme_set_up(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The README's set-up puts nothing on PATH: the printed command names the mlflow executable
+    beside the running Python (``.venv/bin/mlflow`` from the repository), which runs as printed."""
+    import shlex
+    import shutil
+    import sys
+
+    monkeypatch.setenv("PATH", "/usr/bin:/bin")
+    for folder in (tmp_path, Path(sys.executable).parents[2]):  # elsewhere, and the repository
+        monkeypatch.chdir(folder)
+        hint = runs_view_hint("sqlite:////lab/mlflow.db", "7")
+        assert hint is not None
+        program = shlex.split(hint.removeprefix("MLflow UI: "))[0]
+        assert shutil.which(program, path="/usr/bin:/bin") is not None, hint
+        assert Path(program).resolve() == (Path(sys.executable).parent / "mlflow").resolve()
+    assert program == ".venv/bin/mlflow" or not (Path.cwd() / ".venv").is_dir()
