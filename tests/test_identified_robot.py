@@ -27,6 +27,7 @@ WITHOUT_LOOKUP: dict[str, Any] = {
     "tracking_uri": None,
     "build_robot": instantiate,
     "locate_model": None,
+    "rigid_bodies": True,
 }
 """The plugin's edges, with no way to look a run up: a file or folder must be given."""
 
@@ -76,6 +77,7 @@ def test_a_model_uri_is_located_through_the_given_lookup(
         tracking_uri="sqlite:///x.db",
         build_robot=instantiate,
         locate_model=locate,
+        rigid_bodies=True,
     )
     assert calls == [(source, "sqlite:///x.db")]
     np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)
@@ -150,6 +152,10 @@ def test_a_set_that_is_not_rigid_bodies_becomes_the_rigid_bodies_with_the_same_t
     )
     message = next(r for r in caplog.records if "rigid bodies" in r.getMessage())
     assert message.levelno == logging.INFO and "same torques" in message.getMessage()
+    from lwrlab.tracking.models.identified_pyfunc import build_identified_robot
+
+    kept = build_identified_robot(source)  # a torque model keeps the set as identified: nothing to solve
+    np.testing.assert_allclose(kept.parameters, standard, rtol=1e-12, atol=1e-15)
     plant = instantiate(cfg.plant)(robot=robot)  # the true robot drawn around it
     motion = instantiate(compose_config("trajectory=multisine", "trajectory.duration=1").trajectory)
     assert np.all(np.isfinite(plant.measure(motion.sample(robot, 100.0)).tau))

@@ -100,6 +100,7 @@ def load_identified_robot(
     tracking_uri: str | None,
     build_robot: RobotBuilder,
     locate_model: ModelLocator | None,
+    rigid_bodies: bool,
 ) -> RobotModel:
     """The robot identified by an earlier run.
 
@@ -117,6 +118,9 @@ def load_identified_robot(
         only robot plugins (``_target_: plugins.robots.*``) are built.
     locate_model : downloads a model URI's ``identified_model.yaml`` (needed for a URI only; None: no
         look-up).
+    rigid_bodies : replace a standard set that is not rigid bodies by the nearest rigid bodies (what a
+        simulated plant, MuJoCo and a prior need); False: keep the set as identified, for a task that
+        only predicts its torques (a monitor, an MLflow Model), which the base parameters decide.
 
     Examples
     --------
@@ -157,7 +161,9 @@ def load_identified_robot(
         )
     identified_values = dict(zip(identified.standard_names, identified.standard_values, strict=True))
     robot = prior.with_parameters(np.array([identified_values.get(n, 0.0) for n in prior.parameter_names]))
-    return replace(_as_rigid_bodies(robot, path), name=f"{prior.name}_identified")
+    if rigid_bodies:
+        robot = _as_rigid_bodies(robot, path)
+    return replace(robot, name=f"{prior.name}_identified")
 
 
 def underlying_description(
@@ -180,7 +186,7 @@ def underlying_description(
         :func:`load_identified_robot` (``tracking_uri`` of the settings, where given, wins).
     """
     config = dict(robot_config)
-    fitted_with = {key: config[key] for key in _FITTED_WITH if key in config}
+    fitted_with = {key: config[key] for key in _FITTED_WITH if config.get(key) is not None}
     for _ in range(_MAX_NESTING):
         if str(config.get("_target_", "")) != _THIS_PLUGIN:
             return {**config, **fitted_with}
@@ -189,7 +195,7 @@ def underlying_description(
             raise ConfigError(f"an identified robot's description names no source model: {config}")
         uri = config.get("tracking_uri") or tracking_uri
         _, config = load_identified_model(_locate(str(source).strip(), uri, locate_model))
-        fitted_with = {**{k: config[k] for k in _FITTED_WITH if k in config}, **fitted_with}
+        fitted_with = {**{k: config[k] for k in _FITTED_WITH if config.get(k) is not None}, **fitted_with}
     raise ConfigError(f"identified robots nested more than {_MAX_NESTING} deep (a model refining itself?)")
 
 

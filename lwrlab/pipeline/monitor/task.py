@@ -73,6 +73,7 @@ def monitoring_robot(robot: RobotModel, model: ResolvedModel | str | None) -> Ro
     # built as `robot=identified robot.source=<model>` builds it: the option's own settings
     node = OmegaConf.load(config_group("robot")["identified"])
     node.source = str(model.path if isinstance(model, ResolvedModel) else model)
+    node.rigid_bodies = False  # its torques, as identified: the base parameters decide them
     model = model.source if isinstance(model, ResolvedModel) else model
     try:
         identified: RobotModel = instantiate(node)

@@ -39,7 +39,8 @@ from lwrlab.io.artifacts import MODEL_INPUT_EXAMPLE_FILE, load_identified_model
 from lwrlab.io.payload_model import PAYLOAD_FILE, PAYLOAD_PARAMETERS_FILE, write_robot_description
 from lwrlab.io.urdf_export import inertial_element
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
-from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, tracking_uri
+from lwrlab.pipeline.config_nodes import processing_settings, tracking_uri
+from lwrlab.pipeline.identification.task import robot_description
 from lwrlab.pipeline.tools.bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.pipeline.tools.library import load_library, load_tool
 from lwrlab.pipeline.tools.log_rows import log_rows, read_logs
@@ -171,23 +172,6 @@ def parameter_table(document: dict[str, Any]) -> pd.DataFrame:
             "relative_std_pct": [document["relative_std_pct"][name] for name in LINK_PARAMETER_NAMES],
         }
     )
-
-
-IDENTIFIED_ROBOT_LOADER = "load_identified_robot"
-"""The loader of ``robot=identified``: its description is the identified model's own."""
-
-
-def robot_description(cfg: Any) -> dict[str, Any]:
-    """The description of the job's robot (``robot``), as a run folder keeps it: ``robot=identified``
-    gives the description its identified model refined (the kinematics are the same; the payload's
-    columns do not read the identified inertias)."""
-    description = resolved_mapping(cfg.robot, "robot")
-    for _ in range(8):  # an identified model of an identified model …
-        if not str(description.get("_target_", "")).endswith(f".{IDENTIFIED_ROBOT_LOADER}"):
-            return description
-        path = resolve_model(description["source"], tracking_uri(cfg), "robot.source").path
-        _, description = load_identified_model(path)
-    raise ConfigError("robot.source: identified models nested too deep to find the robot's description")
 
 
 def write_payload_model_files(

@@ -80,7 +80,7 @@ def model_signature(n_joints: int) -> ModelSignature:
 
 def build_identified_robot(path: str | Path) -> RobotModel:
     """The robot of an ``identified_model.yaml``, built as ``robot=identified robot.source=<path>``
-    builds it (the shipped option's own settings)."""
+    builds it (the shipped option's own settings), its standard set kept as identified."""
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
@@ -89,6 +89,7 @@ def build_identified_robot(path: str | Path) -> RobotModel:
 
     node = OmegaConf.load(config_group("robot")["identified"])
     node.source = str(path)
+    node.rigid_bodies = False  # its torques, as identified: the base parameters decide them
     node.tracking_uri = None
     robot: RobotModel = instantiate(node)
     return robot
