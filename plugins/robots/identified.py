@@ -131,6 +131,7 @@ def load_identified_robot(
     ...     tracking_uri=None,
     ...     build_robot=hydra.utils.instantiate,
     ...     locate_model=None,
+    ...     rigid_bodies=True,
     ... )  # doctest: +SKIP
     """
     path = _locate(str(source).strip(), tracking_uri, locate_model)
@@ -138,7 +139,7 @@ def load_identified_robot(
     robot_config = underlying_description(saved, tracking_uri=tracking_uri, locate_model=locate_model)
     target = str(robot_config.get("_target_", ""))
     # The description comes from a file that may be shared: build only known robot plugins.
-    if not target.startswith(_ALLOWED_TARGET_PREFIX) or target == _THIS_PLUGIN:
+    if not target.startswith(_ALLOWED_TARGET_PREFIX):
         raise ConfigError(
             f"{path}: robot _target_ {target!r} is not a robot plugin ({_ALLOWED_TARGET_PREFIX}*)"
         )
