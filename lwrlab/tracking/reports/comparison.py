@@ -44,7 +44,8 @@ class Comparison:
     groups: list[str]
     """Parameters the rows are grouped by (``[]``: one row, every run)."""
     table: pd.DataFrame
-    """One row per group: ``runs``, ``seeds``, ``<metric>`` (mean) and ``<metric>_std`` per metric."""
+    """One row per group: its parameters' values, ``runs``, ``seeds``, ``<metric>`` (mean) and
+    ``<metric>_std`` per metric, and :data:`METRIC_KEY` (the group's key on the comparison run)."""
     metrics: list[str]
     notes: list[str] = field(default_factory=list)
     """What the reader must know about the grouping (keys added so that runs are not pooled)."""
@@ -135,12 +136,14 @@ def compare_runs(runs: pd.DataFrame, groups: Sequence[str] | None = None) -> Com
         members = runs[labels == label]
         row: dict[str, object] = {"group": label}
         row.update({group: groups_value(members, group).iloc[0] for group in groups})
-        row[METRIC_KEY] = group_key(str(shown[labels == label].iloc[0]), label)
         row.update(runs=len(members), seeds=int(seeds[labels == label].nunique()))
         for metric in metrics:
             values = pd.to_numeric(members[METRIC_PREFIX + metric], errors="coerce").dropna()
             row[metric] = float(values.mean()) if len(values) else np.nan
             row[f"{metric}_std"] = float(values.std(ddof=1)) if len(values) > 1 else np.nan
+        row[METRIC_KEY] = group_key(
+            str(shown[labels == label].iloc[0]), label
+        )  # last: a reader's columns stay
         rows.append(row)
     table = pd.DataFrame(rows).set_index("group")
     return Comparison(runs=runs, groups=groups, table=table, metrics=metrics, notes=notes)
