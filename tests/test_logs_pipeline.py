@@ -346,3 +346,31 @@ def test_a_joint_whose_effort_is_no_torque_is_left_out(
         identified("zero")
     with pytest.raises(LogError, match="not a joint"):
         LogPlant(lwr4, paths=[paths["fit_a"]], fitted_joints=["elbow"])
+
+
+def test_a_simulated_robot_records_a_joint_state_bag_that_is_identified_as_a_robots_bag(
+    tmp_path: Path,
+) -> None:
+    """The route of a reader without a robot: play a motion on the simulated robot, record it as
+    ``ros2 bag record /joint_states`` would (``task.file_format=bag``), identify from the bag."""
+    from hydra.utils import instantiate
+
+    logs = tmp_path / "logs"
+    short = ("trajectory=multisine", "trajectory.duration=3", "validation.duration=3")
+    cfg = compose_config("task=write_example_logs", "task.file_format=bag", f"task.directory={logs}", *short)
+    for _ in range(2):  # again: the bags of the first run are replaced, as the CSV files would be
+        instantiate(cfg.task)(cfg, tmp_path / "run")
+    bag = logs / "identification_bag"
+    assert (bag / "metadata.yaml").is_file() and (tmp_path / "run" / "identification_bag").is_dir()
+    robot = build("robot", "kuka_lwr4")
+    recorded = load_log(bag, robot.n_joints, joint_names=robot.joint_names)
+    assert recorded.q.shape == (3001, 7) and np.ptp(recorded.tau) > 1.0
+    report = identify_configured(
+        compose_config(
+            "task=identification",
+            "plant=log",
+            f"data.paths=[{bag}]",
+            f"data.validation_paths=[{logs / 'validation_bag'}]",
+        )
+    )
+    assert report.metrics["validation_rel_error"] < 0.1  # 3 s motions: a model, not a precise one

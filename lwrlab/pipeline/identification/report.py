@@ -40,6 +40,15 @@ if TYPE_CHECKING:  # the identification module runs this writer: its report type
 
 log = logging.getLogger(__name__)
 
+NOT_RIGID_BODIES = (
+    "NOTE: the reported standard set is not a set of rigid bodies (a pseudo-inertia eigenvalue < 0): "
+    "the base parameters, and the torques they predict, do not depend on which of the equivalent "
+    "standard sets is reported, but a simulator, a URDF and a prior need rigid bodies. No URDF is "
+    "written, and robot=identified uses the nearest rigid bodies (its log says how much the torques "
+    "change); estimator=sdp identifies a model whose every body is a rigid body."
+)
+"""What the summary says of a model whose reported standard set is not rigid bodies."""
+
 RUN_TAGS_FILE = "tags.json"
 """Tags a run carries beside its metrics: what a reader must know before trusting the numbers."""
 
@@ -75,9 +84,11 @@ def format_report(report: IdentificationReport) -> str:
         f"mean RMS {report.metrics['rms_mean']:.4g} N·m, mean NRMS "
         f"{report.metrics['nrms_mean']:.4g} % (RMS over the measured range), "
         f"cond(W_b) {report.metrics['cond_W_b']:.4g}, smallest pseudo-inertia eigenvalue "
-        f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} of the reported standard set (< 0: "
-        "not a rigid body)",
+        f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} kg·m² of the reported standard set "
+        "(≥ 0: rigid bodies)",
     ]
+    if report.metrics["min_pseudo_inertia_eigenvalue"] < 0.0:
+        lines.append(NOT_RIGID_BODIES)
     resampled = [
         m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")
     ]

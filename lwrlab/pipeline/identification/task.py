@@ -20,6 +20,7 @@ tracking callback logs the output directory to MLflow, so nothing here knows abo
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -161,6 +162,27 @@ def configured_robot(cfg: Any) -> RobotModel:
     return robot.with_friction_law(instantiate(law))
 
 
+def saved_robot_description(robot_config: Mapping[str, Any]) -> dict[str, Any]:
+    """The robot description an identified model is saved with: the job's robot settings, or, for an
+    identified robot (``robot=identified``), the description of the model it was built from
+    (:func:`plugins.robots.identified.underlying_description`), so that the model loads on its own."""
+    from hydra.utils import instantiate
+
+    from plugins.robots.identified import underlying_description
+
+    locate = robot_config.get("locate_model")
+    return underlying_description(
+        robot_config,
+        tracking_uri=robot_config.get("tracking_uri"),
+        locate_model=instantiate(locate) if isinstance(locate, Mapping) else None,
+    )
+
+
+def robot_description(cfg: Any) -> dict[str, Any]:
+    """:func:`saved_robot_description` of ``cfg.robot``."""
+    return saved_robot_description(resolved_mapping(cfg.robot, "robot"))
+
+
 def identify_configured(cfg: Any) -> IdentificationReport:
     """:func:`identify` with the objects ``cfg`` configures (robot, motions, plant, estimator, processing)."""
     from hydra.utils import instantiate
@@ -183,8 +205,6 @@ def identify_configured(cfg: Any) -> IdentificationReport:
 def run_identification(cfg: Any, output_dir: Path, motion_format: str = "parquet") -> dict[str, float]:
     """Task ``identification``: build the configured objects, identify, write and print the report."""
     report = identify_configured(cfg)
-    write_report(
-        report, output_dir, resolved_mapping(cfg.robot, "robot"), motion_format, processing_settings(cfg)
-    )
+    write_report(report, output_dir, robot_description(cfg), motion_format, processing_settings(cfg))
     print(format_report(report))
     return report.metrics

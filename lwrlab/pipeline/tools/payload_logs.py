@@ -39,14 +39,15 @@ from lwrlab.io.artifacts import MODEL_INPUT_EXAMPLE_FILE
 from lwrlab.io.payload_model import PAYLOAD_FILE, PAYLOAD_PARAMETERS_FILE, write_robot_description
 from lwrlab.io.urdf_export import inertial_element
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
-from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, tracking_uri
+from lwrlab.pipeline.config_nodes import processing_settings, tracking_uri
+from lwrlab.pipeline.identification.task import robot_description, saved_robot_description
 from lwrlab.pipeline.tools.bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.pipeline.tools.library import load_library, load_tool
 from lwrlab.pipeline.tools.log_rows import log_rows, read_logs
 from lwrlab.plants.core import Measurement
 from lwrlab.tools.model import Tool
 from lwrlab.tools.recognition import UNKNOWN_TOOL, Recognition, ToolClassifier, UnknownToolWarning
-from lwrlab.tracking.models.identified_model import ReadModel, described_robot, read_identified_model
+from lwrlab.tracking.models.identified_model import ReadModel, read_identified_model
 
 log = logging.getLogger(__name__)
 
@@ -155,14 +156,14 @@ def parameter_table(document: dict[str, Any]) -> pd.DataFrame:
     )
 
 
-def robot_description(cfg: Any, model: ReadModel | None = None) -> dict[str, Any]:
+def payload_robot_description(cfg: Any, model: ReadModel | None = None) -> dict[str, Any]:
     """The description of the robot the payload was identified on, as a run folder keeps it: the
-    one ``model`` (the unloaded robot's identified model) refined, else the job's robot's;
-    ``robot=identified`` gives the description its identified model refined (the kinematics are
-    the same; the payload's columns do not read the identified inertias)."""
+    one ``model`` (the unloaded robot's identified model) refined, else the job's robot's; an
+    identified robot's is the description its model refined (:func:`saved_robot_description`: the
+    kinematics are the same; the payload's columns do not read the identified inertias)."""
     if model is not None:
-        return described_robot(model.description, model.resolved.tracking_uri)
-    return described_robot(resolved_mapping(cfg.robot, "robot"), tracking_uri(cfg))
+        return saved_robot_description(model.description)
+    return robot_description(cfg)
 
 
 def write_payload_model_files(
@@ -176,7 +177,7 @@ def write_payload_model_files(
     unloaded robot's identified model, whose robot carried the payload."""
     from lwrlab.pipeline.identification.report import model_input_example
 
-    write_robot_description(robot_description(cfg, model), output_dir)
+    write_robot_description(payload_robot_description(cfg, model), output_dir)
     parameter_table(document).to_csv(output_dir / PAYLOAD_PARAMETERS_FILE, index=False, float_format="%.17g")
     example = model_input_example(loaded[0], processing_settings(cfg))
     example.to_csv(output_dir / MODEL_INPUT_EXAMPLE_FILE, index=False, float_format="%.17g")

@@ -110,7 +110,8 @@ class ReadModel:
 
 def build_identified_robot(path: str | Path) -> RobotModel:
     """The robot of a local ``identified_model.yaml``, built as ``robot=identified robot.source=<path>``
-    builds it (the shipped option's own settings)."""
+    builds it (the shipped option's own settings), its standard set kept as identified: a task that
+    reads a model predicts its torques, which the base parameters decide (nothing to solve)."""
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
@@ -119,23 +120,10 @@ def build_identified_robot(path: str | Path) -> RobotModel:
 
     node = OmegaConf.load(config_group("robot")[IDENTIFIED_ROBOT_OPTION])
     node.source = str(path)
+    node.rigid_bodies = False
     node.tracking_uri = None
     robot: RobotModel = instantiate(node)
     return robot
-
-
-def described_robot(description: dict[str, Any], tracking_uri: str | None = None) -> dict[str, Any]:
-    """The description of the robot itself behind ``description``: ``robot=identified``'s (an
-    identified model, maybe of an identified model …) is the one its model refined (the same
-    kinematics and drive train)."""
-    from lwrlab.io.artifacts import load_identified_model
-
-    for _ in range(8):
-        if not str(description.get("_target_", "")).endswith(f".{IDENTIFIED_ROBOT_LOADER}"):
-            return description
-        path = resolve_model(description["source"], tracking_uri, "robot.source").path
-        _, description = load_identified_model(path)
-    raise ConfigError("robot.source: identified models nested too deep to find the robot's description")
 
 
 def read_identified_model(
@@ -183,6 +171,5 @@ __all__ = [
     "IDENTIFIED_ROBOT_OPTION",
     "ReadModel",
     "build_identified_robot",
-    "described_robot",
     "read_identified_model",
 ]
