@@ -139,6 +139,7 @@ def test_a_job_of_its_own_settings_keeps_the_models_law_and_terms(lwr4: RobotMod
         assert robot.friction_terms == ("coulomb", "viscous", "breakaway", "rotor", "offset")
         assert robot.drive_train.rotor_inertia_columns is True  # chosen then, not again
 
+
 def _model_file(robot: RobotModel, standard: np.ndarray, path: Path, description: dict[str, Any]) -> Path:
     """An identified_model.yaml of ``robot`` with the standard set ``standard`` and its base parameters."""
     base = compute_base_parameters(robot)
