@@ -62,11 +62,11 @@ from lwrlab.excitation.known_data import measurement_information  # noqa: E402
 from lwrlab.excitation.known_information import KnownInformation  # noqa: E402
 from lwrlab.excitation.problem import ExcitationProblem  # noqa: E402
 from lwrlab.identification.context import IdentificationContext  # noqa: E402
+from lwrlab.identification.rows import identification_rows  # noqa: E402
 from lwrlab.io.artifacts import save_trajectory  # noqa: E402
 from lwrlab.model.position_ranges import finite_range  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build, shipped_config  # noqa: E402
-from lwrlab.pipeline.identification.rows import identification_rows  # noqa: E402
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.plants.planned_motions import PointToPoint  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402

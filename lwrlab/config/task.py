@@ -176,7 +176,8 @@ class WriteExampleLogsTask(Instantiable):
     directory: str
     """Where the logs go (also copied into the run folder)."""
     file_format: str
-    """Log format, the file suffix: ``csv``, ``parquet`` or ``npz``."""
+    """Log format: ``csv``, ``parquet`` or ``npz`` (the file suffix), or ``bag``: a ROS 2 bag of
+    ``sensor_msgs/msg/JointState`` on ``/joint_states`` (folder ``<role>_bag``), as a robot records."""
 
 
 @schema

@@ -18,6 +18,7 @@ from lwrlab.errors import MissingFileError
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
+from lwrlab.yaml_files import safe_yaml
 
 
 def _joint_columns(prefix: str, n: int) -> list[str]:
@@ -118,9 +119,7 @@ def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], 
 
 def load_identified_model(path: Path) -> tuple[IdentifiedModel, dict[str, Any]]:
     """Read an identified model and its robot description written by :func:`save_identified_model`."""
-    # libyaml's safe loader where there is one: a covariance of 64×64 numbers takes PyYAML's a second
-    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-    document = yaml.load(Path(path).read_text(), Loader=loader)
+    document = safe_yaml(Path(path).read_text())
     missing = {"robot", "base_parameters", "standard_parameters"} - set(document or {})
     if missing:
         raise ValueError(f"{path}: not an identified model, missing keys {sorted(missing)}")

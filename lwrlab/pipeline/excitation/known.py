@@ -3,15 +3,14 @@
 The logs are read by the configured ``plant=log`` reader (its ``data.*`` options: columns, units, drive
 gains, ROS 2 topic) and processed with ``measurement.processing``; the model is any setting that
 names one (a file, a run folder, ``runs:/<run id>/model``, ``models:/<name>@<alias>``), read by
-:func:`read_model` — the one place that reads a model's covariance here. Both become a
-:class:`~lwrlab.excitation.known_information.KnownInformation` in the design robot's base parameters
-(:mod:`lwrlab.excitation.known_data`); with both, the model's noise density weighs the logs too.
+:func:`~lwrlab.tracking.models.identified_model.read_identified_model`, the reader every task uses.
+Both become a :class:`~lwrlab.excitation.known_information.KnownInformation` in the design robot's base
+parameters (:mod:`lwrlab.excitation.known_data`); with both, the model's noise density weighs the logs too.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -21,35 +20,19 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import ConfigError
 from lwrlab.excitation.known_data import measurement_information, model_information
 from lwrlab.excitation.known_information import KnownInformation
-from lwrlab.identification.identified import IdentifiedModel
-from lwrlab.io.artifacts import load_identified_model
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, read_logs, tracking_uri
+from lwrlab.tracking.models.identified_model import ReadModel, read_identified_model
 
 STRUCTURE_TOLERANCE = 1e-6
 """Largest relative difference between the design's and the model's regressor column of a shared
 inertial base parameter: above it, the model was identified on another robot."""
 
 
-def read_model(source: str, store: str | None) -> tuple[IdentifiedModel, Path]:
-    """The identified model ``source`` names (path or MLflow URI looked up in ``store``) and its file."""
-    from lwrlab.tracking.models.resolve import resolve_model
-
-    path = resolve_model(source, store, setting="task.known_model").path
-    model, _ = load_identified_model(path)
-    return model, path
-
-
-def _check_same_robot(robot: RobotModel, base: BaseParameters, path: Path, source: str) -> None:
+def _check_same_robot(robot: RobotModel, base: BaseParameters, model: ReadModel, source: str) -> None:
     """ConfigError unless the model's robot has the design robot's joints and, for every inertial base
     parameter both name, the same regressor column (the same kinematics and regrouping)."""
-    from hydra.utils import instantiate
-
-    from plugins.robots.identified import load_identified_robot
-
-    earlier = load_identified_robot(
-        str(path), friction_terms=None, tracking_uri=None, build_robot=instantiate, locate_model=None
-    )
+    earlier = model.robot
     if earlier.n_joints != robot.n_joints:
         raise ConfigError(
             f"task.known_model={source}: a model of a {earlier.n_joints}-joint robot, not of {robot.name} "
@@ -91,9 +74,9 @@ def known_information(
     (None when neither is given)."""
     known: KnownInformation | None = None
     if known_model:
-        model, path = read_model(str(known_model), tracking_uri(cfg))
-        _check_same_robot(robot, base, path, str(known_model))
-        known = model_information(model, base, str(known_model))
+        model = read_identified_model(str(known_model), tracking_uri(cfg), setting="task.known_model")
+        _check_same_robot(robot, base, model, str(known_model))
+        known = model_information(model.identified, base, str(known_model))
         if len(known.noise_density) != robot.n_joints:
             raise ConfigError(f"task.known_model={known_model}: its noise density is not one per joint")
     if known_logs:

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.regressor import LogRegressor
 from lwrlab.errors import ConfigError
 from lwrlab.identification.payload import tool_columns
 from lwrlab.pipeline.config_nodes import log_reader, read_logs
@@ -33,7 +33,8 @@ def log_rows(bench: ToolBench, measurements: Sequence[Measurement]) -> ToolData:
     for measurement in measurements:
         processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **bench.processing)
         print(f"{measurement.name}: {processed.describe()}")
-        w, tau = processed.rows(lambda q, dq, ddq: regressor(bench.robot, q, dq, ddq))
+        # a friction law with memory reads the whole log's motion (LogRegressor)
+        w, tau = processed.rows(LogRegressor.of(bench.robot, processed.velocities, processed.working_rate_hz))
         parts.append(
             ToolData(
                 bench.base.base_regressor(w), w[:, tool_columns(bench.robot.n_links, bench.tool_joint)], tau

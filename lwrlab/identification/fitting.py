@@ -2,7 +2,7 @@
 
 :func:`choose_drive_terms` lets the data choose the friction law and rotor columns and drops what the
 fitted joints cannot see; :func:`accumulate_rows` builds the identification rows block by block
-(:mod:`lwrlab.pipeline.identification.rows`); :func:`assess` says what the rows can determine (and
+(:mod:`lwrlab.identification.rows`); :func:`assess` says what the rows can determine (and
 refuses rank-deficient data without a prior); :func:`fit` runs the estimator and gives the
 :class:`~lwrlab.identification.identified.IdentifiedModel`.
 """
@@ -23,8 +23,8 @@ from lwrlab.identification.core import Estimator
 from lwrlab.identification.friction_choice import FrictionChoice, choose_friction
 from lwrlab.identification.identifiability import IdentifiabilityReport, assess_identifiability
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
+from lwrlab.identification.rows import IdentificationRows, identification_rows
 from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.identification.rows import IdentificationRows, identification_rows
 from lwrlab.signal.processing import ProcessedData
 from lwrlab.trajectory.core import Trajectory
 
