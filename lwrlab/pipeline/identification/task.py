@@ -27,7 +27,7 @@ from typing import Any
 from lwrlab.identification.core import Estimator
 from lwrlab.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
 from lwrlab.identification.measuring import measure, process_measurements
-from lwrlab.identification.notes import next_motion_note, notes
+from lwrlab.identification.notes import notes
 from lwrlab.identification.prediction_error import FRICTION_DRIFT
 from lwrlab.identification.result import IdentificationReport
 from lwrlab.identification.scoring import (
@@ -40,6 +40,7 @@ from lwrlab.identification.scoring import (
 )
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
+from lwrlab.pipeline.identification.next_motion import next_motion_note
 from lwrlab.pipeline.identification.report import format_report, write_report
 from lwrlab.plants.core import Plant, is_recorded
 from lwrlab.tracking.models.identified_model import IDENTIFIED_ROBOT_LOADER
