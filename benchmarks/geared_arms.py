@@ -25,7 +25,8 @@ with stops).
 
     .venv/bin/python benchmarks/geared_arms.py [--folder OUT] [--cli]
 
-writes the logs into OUT (default: a temporary folder), identifies each arm with the defaults for logs
+writes the logs into OUT (default: a temporary folder; ``--logs-only`` stops there: the logs and the
+description of each arm, for ``lwrlab`` to read), identifies each arm with the defaults for logs
 (``friction=auto``, ``estimator=sdp``), with ``friction=sign`` (the paper's law, the former default)
 and with ``robot.drive.rotor_inertia=false``, and prints the figures: held-out error, the noise floor,
 the error on the rows at rest against the noise of the hold torque, the friction chosen, and the drive
@@ -629,6 +630,9 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cli", action="store_true", help="also run the command line once per arm")
     parser.add_argument("--arms", nargs="*", default=list(ARMS))
+    parser.add_argument(
+        "--logs-only", action="store_true", help="write the arms' descriptions and logs, identify nothing"
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as temporary:
         folder = args.folder or Path(temporary)
@@ -641,6 +645,8 @@ def main() -> None:
                 f"{name}: logs in {logs.description.parent} ({time.perf_counter() - started:.1f} s)",
                 flush=True,
             )
+            if args.logs_only:
+                continue
             if args.cli:
                 started = time.perf_counter()
                 printed = run_command_line(logs, folder)
@@ -654,8 +660,13 @@ def main() -> None:
                 print("\n".join(f"  {k}: {v}" for k, v in row.items()), flush=True)
                 if report.friction_choice is not None:
                     print(report.friction_choice.table().to_string(), flush=True)
-        table = pd.DataFrame(rows)
-        print(table[["arm", "variant", "validation %", "noise floor %", "friction"]].to_markdown(index=False))
+        if rows:
+            table = pd.DataFrame(rows)
+            print(
+                table[["arm", "variant", "validation %", "noise floor %", "friction"]].to_markdown(
+                    index=False
+                )
+            )
 
 
 if __name__ == "__main__":

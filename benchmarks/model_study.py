@@ -56,16 +56,16 @@ from lwrlab.dynamics.base_parameters import compute_base_parameters  # noqa: E40
 from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.identification.context import IdentificationContext  # noqa: E402
 from lwrlab.identification.friction_choice import choose_friction  # noqa: E402
+from lwrlab.identification.log_predictions import (  # noqa: E402
+    LogPrediction,
+    joint_coverage,
+    predict_measurement,
+)
 from lwrlab.identification.prediction_error import FRICTION_DRIFT_PRIOR, drift_parameters  # noqa: E402
 from lwrlab.model.friction_laws import drifting_terms  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
 from lwrlab.pipeline.identification import prediction_interval  # noqa: E402
-from lwrlab.pipeline.identification.log_predictions import (  # noqa: E402
-    LogPrediction,
-    joint_coverage,
-    predict_measurement,
-)
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402
 

@@ -40,10 +40,10 @@ sys.path.insert(0, str(REPOSITORY))
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters  # noqa: E402
 from lwrlab.dynamics.regressor import regressor  # noqa: E402
+from lwrlab.identification.log_predictions import predict_measurement  # noqa: E402
 from lwrlab.io.logs import load_log  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
-from lwrlab.pipeline.identification.log_predictions import predict_measurement  # noqa: E402
 from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.signal.processing import process  # noqa: E402
 

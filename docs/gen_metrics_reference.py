@@ -2,39 +2,27 @@
 
 The headline metrics and their units come from ``lwrlab.tracking.job_config.naming.HEADLINE_METRICS``
 (what ``lwrlab compare`` tabulates and each experiment's description lists), the sections MLflow files
-metrics under from ``lwrlab.tracking.job_config.metric_sections`` (its rules, tried in order).
+metrics under from ``lwrlab.tracking.job_config.metric_sections`` (its rules, tried in order), and every
+other metric, its unit and meaning from ``lwrlab.tracking.job_config.metric_catalogue``. Nothing is
+typed here.
 """
 
 from __future__ import annotations
 
+import re
+
 import mkdocs_gen_files
 
+from lwrlab.tracking.job_config.metric_catalogue import CATALOGUE
 from lwrlab.tracking.job_config.metric_sections import SECTION_RULES, SUMMARY, sectioned_name
 from lwrlab.tracking.job_config.naming import HEADLINE_METRICS
 
-OTHERS = {
-    "rms_joint<k>, nrms_joint<k>": ("N·m, %", "cross-validation RMS / NRMS of joint k"),
-    "fit_rel_error": ("1", "‖τ − τ̂‖/‖τ‖ on the identification logs"),
-    "friction_cv_nrms": ("%", "held-out NRMS of the friction law chosen by `friction=auto`"),
-    "friction_candidates": ("1", "how many friction candidates were scored"),
-    "rotor_inertia_columns": ("1", "1 if the chosen model has reflected rotor-inertia columns"),
-    "cond_W_b": ("1", "condition number of the base regressor (column-scaled)"),
-    "fit_cpu_s, stage_<name>_s": ("s", "CPU time of the fit, wall time of a stage"),
-    "detections, false_alarm_rate, monitored_alarm_rate": (
-        "1, 1/h, 1/h",
-        "`task=monitor`: contacts found, alarms per hour",
-    ),
-    "detections_signals_disagree": (
-        "1",
-        "`task=monitor`: detections where the log's velocities contradict its positions (may be artefacts)",
-    ),
-    "missed_contacts, false_alarms, median_delay_ms, torque_rms_error": (
-        "1, 1, ms, N·m",
-        "`task=monitor` against a known truth (simulations)",
-    ),
-    "recognised_unknown": ("1", "1 if the payload is far from every library tool (open set)"),
-}
-"""Other metrics the site names, with units (the tasks' own results keep MLflow's default section)."""
+
+def mlflow_key(name: str) -> str:
+    """The MLflow key of a family's name: its section found on an example (``<k>`` a joint number)."""
+    example = re.sub(r"<[^>]+>", "x", name.replace("<k>", "1"))
+    section = sectioned_name(example).removesuffix(example)
+    return section + name
 
 
 def page() -> str:
@@ -66,11 +54,14 @@ def page() -> str:
         "",
         "Any other metric (a painting's coverage, a tool's mass) keeps its plain name in MLflow's "
         "default section.\n",
-        "## Other metrics named in this manual\n",
-        "| metric | unit | meaning |",
-        "|---|---|---|",
+        "## Every metric\n",
+        "What each task logs, its unit (`1`: a ratio or a count) and the MLflow key it is filed under.\n",
+        "| metric | MLflow key | unit | meaning | task |",
+        "|---|---|---|---|---|",
     ]
-    lines += [f"| `{name}` | {unit} | {meaning} |" for name, (unit, meaning) in OTHERS.items()]
+    lines += [
+        f"| `{f.name}` | `{mlflow_key(f.name)}` | {f.unit} | {f.meaning} | {f.task} |" for f in CATALOGUE
+    ]
     return "\n".join(lines) + "\n"
 
 

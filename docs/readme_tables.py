@@ -5,7 +5,7 @@ of the documentation site (``docs/**/*.md``) or in README.md. For every name thi
 command that produces it (a preset and ``lwrlab report``, or a benchmark), in a temporary folder
 with its own MLflow store, takes the table from the output and writes it between the markers::
 
-    .venv/bin/python docs/readme_tables.py                    # every table (about 20 minutes on 2 cores)
+    .venv/bin/python docs/readme_tables.py                    # every table (about 50 minutes on 2 cores)
     .venv/bin/python docs/readme_tables.py table2 fig6       # some of them
     .venv/bin/python docs/readme_tables.py table2 --check    # exit 1 if the page differs from a new run
 
@@ -63,10 +63,41 @@ def _printed_table(after: str) -> Callable[[str, Path], str]:
     return lambda output, _: first_table(output.split(after, 1)[1])
 
 
+def _relabelled(table: Callable[[str, Path], str], labels: dict[str, str]) -> Callable[[str, Path], str]:
+    """``table`` with labels renamed (a study's setting names, as the page calls them)."""
+
+    def renamed(output: str, folder: Path) -> str:
+        text = table(output, folder)
+        for old, new in labels.items():
+            text = text.replace(old, new)
+        return text
+
+    return renamed
+
+
+MODEL_STUDY = (
+    "python",
+    str(REPOSITORY / "benchmarks" / "model_study.py"),
+    *("--output", "study.csv", "--settings", "ols (previous", "sdp auto, min (sign", "ols, friction auto"),
+    "sdp auto, friction auto (default",
+)
+"""The model study of the four settings the manual compares (the defaults for logs, least squares, and each
+with the other friction choice)."""
+SETTINGS = {
+    "sdp auto, min (sign friction: previous default for logs)": "`sdp`, `weight: auto`, `friction=sign`",
+    "sdp auto, friction auto (default for logs)": "**defaults for logs**: `sdp`, `weight: auto`, `friction=auto`",
+    "ols (previous default for logs)": "`ols`",
+    "ols, friction auto": "`ols`, `friction=auto`",
+}
+
+
 def _file_table(pattern: str) -> Callable[[str, Path], str]:
     """The markdown table in the newest file matching ``pattern`` under the folder."""
     return lambda _, folder: first_table(max(folder.glob(pattern)).read_text())
 
+
+NEXT_MOTION = (("python", str(REPOSITORY / "benchmarks" / "next_motion.py"), "--output", "next_motion"),)
+"""One run of the next-motion benchmark prints the four tables of its section."""
 
 SOURCES = {
     "table2": Source(
@@ -90,9 +121,48 @@ SOURCES = {
         _report_table("## Fig. 6"),
         3.0,
     ),
+    "fig6_preset": Source(
+        (("lwrlab", "experiment=paper_fig6_criteria", "task.seeds=[0,1,2]", "tracking=none"),),
+        _printed_table("Mean over joints of the cross-validation error"),
+        3.0,
+    ),
+    "startup": Source(
+        (("python", str(REPOSITORY / "benchmarks" / "startup.py"), "--rounds", "3", "--chain"),),
+        _printed_table("## What a user waits for"),
+        2.0,
+    ),
     "processing": Source(
         (("python", str(REPOSITORY / "benchmarks" / "processing_study.py"), "--output", "study.csv"),),
         _printed_table("on motions not in the fit"),
+        4.0,
+    ),
+    "model_study_lwr4": Source(
+        (
+            (
+                "python",
+                str(REPOSITORY / "benchmarks" / "model_study.py"),
+                *("--data", "lwr4+", "--output", "study.csv"),
+                *("--settings", "ols (previous", "friction auto (default"),
+            ),
+        ),
+        _relabelled(
+            _printed_table("validation ‖τ−τ̂‖/‖τ‖ (%)"),
+            {
+                "column": "split",
+                "ols (previous default for logs)": "ols",
+                "sdp auto, friction auto (default for logs)": "defaults for logs",
+            },
+        ),
+        3.0,
+    ),
+    "model_study": Source(
+        ((*MODEL_STUDY, "--data", "lwr4+", "ours", "second"),),
+        _relabelled(_printed_table("summary over the new-motion splits"), SETTINGS),
+        8.0,
+    ),
+    "model_study_geared": Source(
+        ((*MODEL_STUDY, "--data", "geared"),),
+        _relabelled(_printed_table("summary over the new-motion splits of the geared arms"), SETTINGS),
         4.0,
     ),
     "own_robots": Source(
@@ -122,6 +192,15 @@ SOURCES = {
         )
         for choice in ("friction", "intervals", "thresholds", "prior", "cutoff")
     },
+    "next_motion": Source(
+        NEXT_MOTION,
+        _printed_table("## Errors against robot seconds"),
+        15.0,
+        (("next_motion/next_motion.png", "docs/figures/next_motion.png"),),
+    ),
+    "next_motion_targets": Source(NEXT_MOTION, _printed_table("## Task-aware against D-optimal"), 15.0),
+    "next_motion_timing": Source(NEXT_MOTION, _printed_table("## Designing a 10 s motion conditioned"), 15.0),
+    "next_motion_figures": Source(NEXT_MOTION, _printed_table("## Figures to reach"), 15.0),
 }
 """Every generated table of the site, by the name in its marker."""
 
@@ -134,9 +213,17 @@ def first_table(text: str) -> str:
     return "\n".join(lines[start:end]) + "\n"
 
 
+_printed_outputs: dict[tuple[tuple[str, ...], ...], str] = {}
+"""The output of commands already run in this process: tables printed by one run (sources with the same
+commands) are taken from it, the commands run once."""
+
+
 def produce(name: str) -> str:
-    """Run ``name``'s commands in a fresh folder and return its table."""
+    """Run ``name``'s commands in a fresh folder and return its table (a printed table of commands
+    already run for another table is taken from their output)."""
     source = SOURCES[name]
+    if source.commands in _printed_outputs:
+        return source.table(_printed_outputs[source.commands], Path())
     with tempfile.TemporaryDirectory(prefix=f"readme-{name}-") as tmp:
         folder = Path(tmp)
         output = ""
@@ -157,6 +244,7 @@ def produce(name: str) -> str:
             output = done.stdout
         for pattern, destination in source.figures:
             shutil.copyfile(max(folder.glob(pattern)), REPOSITORY / destination)
+        _printed_outputs[source.commands] = output
         return source.table(output, folder)
 
 

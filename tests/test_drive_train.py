@@ -229,3 +229,83 @@ def test_a_urdfs_transmissions_give_the_gear_ratios(tmp_path: Path) -> None:
     )
     assert coupled.drive_train.gear_ratios.tolist() == [120.0, 80.0]  # the description adds, keeps
     assert coupled.drive_train.coupling[1, 0] == 0.5 and coupled.drive_train.position_side == "motor"
+
+
+def test_an_unusable_transmission_is_a_warning_until_the_drive_train_is_used(tmp_path: Path) -> None:
+    """A URDF exported with a xacro argument left in (``<mechanicalReduction>reduction</…>``): a
+    motion or a joint-side log needs no gear ratio, so the robot loads with a warning naming the
+    joint; a log measured at the motors needs it, so it is an error naming the joint and the fix;
+    gear ratios the description gives make the transmission's unnecessary."""
+    from lwrlab.pipeline.build import build
+
+    path = tmp_path / "leftover.urdf"
+    path.write_text(TWO_LINK_URDF.replace("<mechanicalReduction>80<", "<mechanicalReduction>reduction<"))
+    with pytest.warns(UserWarning, match=r"joint 'elbow'.*'reduction' is not a number"):
+        robot = build("robot", "urdf", path=str(path), collision_geometry=False)
+    assert robot.drive_train.gear_ratios.tolist() == [120.0, 1.0] and not robot.drive_train.motor_side
+    with pytest.raises(
+        ConfigError, match=r"joint 'elbow'.*'reduction' is not a number.*robot\.drive\.gear_ratios"
+    ):
+        build("robot", "urdf", path=str(path), collision_geometry=False, drive={"position_side": "motor"})
+    given = build(
+        "robot",
+        "urdf",
+        path=str(path),
+        collision_geometry=False,
+        drive={"gear_ratios": [100, 50], "torque_side": "motor"},
+    )
+    assert given.drive_train.gear_ratios.tolist() == [100.0, 50.0]
+
+
+def _wrapped(angles: np.ndarray) -> np.ndarray:
+    """Angles as an encoder reading one turn gives them: in (−π, π]."""
+    return -np.remainder(-angles + np.pi, 2 * np.pi) + np.pi
+
+
+def test_raw_encoder_angles_with_their_own_zero_read_as_joint_positions(tmp_path: Path) -> None:
+    """A coupled wrist logged at its motors as the encoders count: θ = R·(q − q₀), each motor's angle
+    wrapping every turn (±π, or counts modulo a turn). With ``position_offsets: q₀`` (and
+    ``encoder_counts`` for counts) the log reads back as the joint positions, no pre-processing."""
+    drive = replace(_coupled(3), position_side="motor")
+    offsets = np.array([0.0, -np.pi / 2, np.pi / 2])
+    t = np.arange(1500) / 500.0
+    q = offsets + np.column_stack([0.8 * np.sin(t * w) for w in (1.0, 2.0, 3.0)])
+    theta = (q - offsets) @ drive.transmission.T  # motors turn many times over the log
+    assert np.ptp(theta, axis=0).min() > 10 * np.pi
+    tau = {f"tau{j + 1}": np.cos(t * (j + 1.5)) for j in range(3)}
+    raw = tmp_path / "raw.csv"
+    pd.DataFrame({"t": t, **{f"q{j + 1}": _wrapped(theta[:, j]) for j in range(3)}, **tau}).to_csv(
+        raw, index=False
+    )
+    reading = build_drive_train(
+        {**drive.to_mapping(), "position_offsets": offsets.tolist(), "position_side": "motor"}, 3, "wrist"
+    )
+    np.testing.assert_allclose(load_log(raw, 3, drive=reading).q, q, atol=1e-9)
+    counts = 4096
+    ticks = np.floor(np.remainder(theta, 2 * np.pi) / (2 * np.pi) * counts)  # 0 … 4095, modulo a turn
+    coded = tmp_path / "counts.csv"
+    pd.DataFrame({"t": t, **{f"q{j + 1}": ticks[:, j] for j in range(3)}, **tau}).to_csv(coded, index=False)
+    counted = build_drive_train({**reading.to_mapping(), "encoder_counts": counts}, 3, "wrist")
+    step = 2 * np.pi / counts / drive.gear_ratios.min()  # one count, at the joints
+    np.testing.assert_allclose(load_log(coded, 3, drive=counted).q, q, atol=2 * step)
+    # without the offsets the joints are off by them: they are not guessed
+    unset = build_drive_train({**reading.to_mapping(), "position_offsets": None}, 3, "wrist")
+    np.testing.assert_allclose(load_log(raw, 3, drive=unset).q, q - offsets, atol=1e-9)
+
+
+def test_a_continuous_joints_wrapping_angle_is_unwrapped(tmp_path: Path) -> None:
+    from lwrlab.model.robot import JointLimits
+
+    t = np.arange(1000) / 500.0
+    q = np.column_stack([3.0 * t, 0.5 * np.sin(t)])  # joint 1 turns past ±π, three times
+    tau = {"tau1": np.cos(2 * t), "tau2": np.sin(3 * t)}
+    logged = pd.DataFrame({"t": t, "q1": _wrapped(q[:, 0]), "q2": q[:, 1], **tau})
+    logged.to_csv(tmp_path / "turning.csv", index=False)
+    limits = JointLimits(
+        position_lower=np.array([-np.inf, -2.0]),
+        position_upper=np.array([np.inf, 2.0]),
+        velocity=np.array([10.0, 10.0]),
+        acceleration=np.array([100.0, 100.0]),
+        torque=np.array([10.0, 10.0]),
+    )
+    np.testing.assert_allclose(load_log(tmp_path / "turning.csv", 2, limits=limits).q, q, atol=1e-12)

@@ -16,7 +16,7 @@ from lwrlab.identification.extrapolation import assess_extrapolation, likely_cau
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
 from lwrlab.pipeline.identification import identify
-from lwrlab.pipeline.identification.report import run_tags
+from lwrlab.pipeline.identification.report import format_report, run_tags
 from plugins.plants.simulated import SimulatedPlant
 
 SLOW = {"duration": 30.0, "harmonics": 2, "seed": 5}
@@ -95,3 +95,14 @@ def test_likely_causes_and_validation_warning() -> None:
     assert validation_warning(0.01, 0.05, causes).startswith("WARNING")
     assert validation_warning(0.01, 0.02, causes) == ""  # twice the fit: a new motion's usual cost
     assert validation_warning(0.001, 0.005, causes) == ""  # both at the noise floor
+
+
+def test_a_reported_standard_set_that_is_not_rigid_bodies_is_explained(slow_ols) -> None:
+    """Least squares on noisy data reports a standard set that is not rigid bodies: the summary says
+    what that means and what to do, not a bare eigenvalue."""
+    assert slow_ols.metrics["min_pseudo_inertia_eigenvalue"] < 0
+    lines = format_report(slow_ols).splitlines()
+    note = next(line for line in lines if line.startswith("NOTE: the reported standard set is not"))
+    assert all(
+        word in note for word in ("rigid bodies", "torques", "URDF", "robot=identified", "estimator=sdp")
+    )

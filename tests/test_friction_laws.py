@@ -14,10 +14,10 @@ import pytest
 from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.dynamics.regressor import log_history, regressor
 from lwrlab.identification.friction_choice import choose_friction, speed_noise
+from lwrlab.identification.log_predictions import process_measurement
 from lwrlab.model.friction_laws import FrictionLaw, SignCoulomb, describe_law, law_from_mapping, law_mapping
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.identification.log_predictions import process_measurement
 from lwrlab.plants.core import Measurement
 from lwrlab.resources import config_group
 from plugins.friction.holding import HoldingFriction

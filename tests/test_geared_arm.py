@@ -3,13 +3,11 @@ motor-side logs that lwrlab reads back into the joint torques the physics gave."
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
+from geared_logs import geared_arms, warped_multisine
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
@@ -17,34 +15,15 @@ from lwrlab.io.logs import load_log
 from lwrlab.model.friction_laws import SignCoulomb
 from lwrlab.plants.geared_arm import GearedArm, MotorSensors
 from lwrlab.plants.planned_motions import (
-    MultisinePath,
     PlannedMotion,
     PointToPoint,
-    RestSchedule,
     WarpedMotion,
 )
-
-_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "geared_arms.py"
-_SPEC = importlib.util.spec_from_file_location("geared_arms", _PATH)
-assert _SPEC is not None and _SPEC.loader is not None
-geared_arms = importlib.util.module_from_spec(_SPEC)
-sys.modules["geared_arms"] = geared_arms  # dataclasses look their module up there
-_SPEC.loader.exec_module(geared_arms)
 
 
 def _short_motion(spec, seed: int = 0) -> WarpedMotion:
     """1.6 s: a rest, a ramp, a fast multisine, a ramp and a rest (801 samples at 500 Hz)."""
-    schedule = RestSchedule((("rest", 0.1), ("up", 0.2), ("move", 0.9), ("down", 0.2), ("rest", 0.2)))
-    path = MultisinePath.random(
-        spec.center,
-        [0.7, 1.5, 2.5],
-        spec.reach,
-        spec.speed,
-        spec.acceleration,
-        schedule.path_length,
-        np.random.default_rng(seed),
-    )
-    return WarpedMotion(path, schedule)
+    return warped_multisine(spec, 0.9, [0.7, 1.5, 2.5], seed, rests=(0.1, 0.2), ramp_s=0.2)
 
 
 @pytest.mark.parametrize("name", ["ur_like", "industrial"])

@@ -614,7 +614,7 @@ def test_pipeline_parts_import_only_the_parts_below() -> None:
 
 
 def test_the_checker_finds_an_arrow_up_between_pipeline_parts() -> None:
-    module = f"{PIPELINE}.identification.rows"
+    module = f"{PIPELINE}.identification.report"
     sources = {
         **SOURCES,
         module: (SOURCES[module][0] + "\n\ndef f():\n    from lwrlab.pipeline.tools import bench\n", False),

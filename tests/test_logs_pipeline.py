@@ -222,6 +222,38 @@ def test_receipt_jittered_stamps_are_regularised_and_noted(
     assert any("time stamps off the regular grid" in note for note in report.notes)
 
 
+def test_artifacts_of_a_regularised_log_sit_at_its_logged_stamps(
+    lwr4: RobotModel, recorded: dict, tmp_path: Path
+) -> None:
+    """A log read on the grid its jittered stamps stand for: predicted_torque.parquet (its head and
+    tail, split for validation) and the monitor's external_torque.parquet keep each sample's logged
+    stamp in ``t`` (what a user joins their own rows on), the grid's beside it in ``t_grid``."""
+    from hydra.utils import instantiate
+
+    rng = np.random.default_rng(5)
+    fit = recorded["fit_a"]
+    stamps = fit.t + 1000.0 + rng.uniform(0.0, 0.4, fit.t.shape) / 500.0
+    path = write_log(Measurement(t=stamps, q=fit.q, tau=fit.tau), tmp_path / "stamped.csv")
+    logged = pd.read_csv(path)["t"].to_numpy()
+    common = ["plant=log", "tracking=none", f"data.paths=[{path}]", "estimator=ols", "friction=sign"]
+    cfg = compose_config("task=identification", *common)
+    instantiate(cfg.task)(cfg, tmp_path / "identified")
+    predicted = pd.read_parquet(tmp_path / "identified" / "predicted_torque.parquet")
+    assert set(predicted["role"]) == {"identification", "validation"} and len(predicted) > 1000
+    rows = np.searchsorted(logged, predicted["t"].to_numpy())
+    np.testing.assert_array_equal(logged[rows], predicted["t"].to_numpy())  # every row a logged stamp
+    grid = predicted["t_grid"].to_numpy()
+    np.testing.assert_allclose(np.diff(grid)[np.diff(rows) == 1], 1 / 500.0, rtol=1e-4)
+    assert 0 < np.max(np.abs(predicted["t"] - grid)) < 0.5 / 500.0
+    cfg = compose_config(
+        "task=monitor", *common, f"task.model={tmp_path / 'identified'}", f"task.calibration_paths=[{path}]"
+    )
+    instantiate(cfg.task)(cfg, tmp_path / "monitor")
+    monitored = pd.read_parquet(tmp_path / "monitor" / "external_torque.parquet")
+    np.testing.assert_array_equal(monitored["t"].to_numpy(), logged)
+    assert np.max(np.abs(monitored["t"] - monitored["t_grid"])) < 0.5 / 500.0
+
+
 def _real_lwr4(fit: list[int], validation: list[int]) -> IdentificationReport:
     """The real LWR4+ identified with the defaults, only the robot and the logs named."""
     logs = {i: REAL_LWR4 / f"measurements_{i}.npz" for i in (1, 2, 3)}
@@ -314,3 +346,31 @@ def test_a_joint_whose_effort_is_no_torque_is_left_out(
         identified("zero")
     with pytest.raises(LogError, match="not a joint"):
         LogPlant(lwr4, paths=[paths["fit_a"]], fitted_joints=["elbow"])
+
+
+def test_a_simulated_robot_records_a_joint_state_bag_that_is_identified_as_a_robots_bag(
+    tmp_path: Path,
+) -> None:
+    """The route of a reader without a robot: play a motion on the simulated robot, record it as
+    ``ros2 bag record /joint_states`` would (``task.file_format=bag``), identify from the bag."""
+    from hydra.utils import instantiate
+
+    logs = tmp_path / "logs"
+    short = ("trajectory=multisine", "trajectory.duration=3", "validation.duration=3")
+    cfg = compose_config("task=write_example_logs", "task.file_format=bag", f"task.directory={logs}", *short)
+    for _ in range(2):  # again: the bags of the first run are replaced, as the CSV files would be
+        instantiate(cfg.task)(cfg, tmp_path / "run")
+    bag = logs / "identification_bag"
+    assert (bag / "metadata.yaml").is_file() and (tmp_path / "run" / "identification_bag").is_dir()
+    robot = build("robot", "kuka_lwr4")
+    recorded = load_log(bag, robot.n_joints, joint_names=robot.joint_names)
+    assert recorded.q.shape == (3001, 7) and np.ptp(recorded.tau) > 1.0
+    report = identify_configured(
+        compose_config(
+            "task=identification",
+            "plant=log",
+            f"data.paths=[{bag}]",
+            f"data.validation_paths=[{logs / 'validation_bag'}]",
+        )
+    )
+    assert report.metrics["validation_rel_error"] < 0.1  # 3 s motions: a model, not a precise one

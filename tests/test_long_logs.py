@@ -21,12 +21,7 @@ from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.least_squares import grouped_least_squares
-from lwrlab.identification.prior_weight import contiguous_folds
-from lwrlab.identification.row_statistics import RowAccumulator, RowStatistics
-from lwrlab.io.logs import LogError, load_log, log_frame, write_log
-from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.build import build
-from lwrlab.pipeline.identification.log_predictions import (
+from lwrlab.identification.log_predictions import (
     SUMMARY_BLOCK_SAMPLES,
     LogPrediction,
     PredictionInterval,
@@ -34,6 +29,11 @@ from lwrlab.pipeline.identification.log_predictions import (
     _parameter_variance,
     predict_measurement,
 )
+from lwrlab.identification.prior_weight import contiguous_folds
+from lwrlab.identification.row_statistics import RowAccumulator, RowStatistics
+from lwrlab.io.logs import LogError, load_log, log_frame, write_log
+from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from lwrlab.plants.core import Measurement
 from lwrlab.signal.processing import process
 

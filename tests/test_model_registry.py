@@ -14,6 +14,7 @@ adds, as Pinocchio's inverse dynamics of the robot with and without it.
 from __future__ import annotations
 
 import json
+import os
 import socket
 import subprocess
 import sys
@@ -28,10 +29,10 @@ import yaml
 from mlflow.tracking import MlflowClient
 from tracking_apps import app_environment, run_app
 
+from lwrlab.identification.log_predictions import process_measurement
 from lwrlab.io.logs import write_log
 from lwrlab.io.payload_model import payload_parameters
 from lwrlab.model.payload import attach_payload
-from lwrlab.pipeline.identification.log_predictions import process_measurement
 from lwrlab.plants.core import Measurement
 from lwrlab.tracking.models import registry
 from lwrlab.tracking.models.resolve import ModelNotFoundError, resolve_model
@@ -278,6 +279,30 @@ def test_a_uri_that_names_nothing_is_one_line_and_a_failed_run(identified: Ident
     assert run.info.status == "FAILED" and f"models:/{NAME}@no_such_alias" in run.data.tags["error"]
 
 
+def test_a_run_id_is_found_where_mlflow_tracking_uri_names_the_store(
+    identified: Identified, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Only ``MLFLOW_TRACKING_URI`` names the store (``tracking=none``): ``task=monitor task.model=<run
+    id>`` looks the model up, then its run's logs, both in that store; the variable stays set."""
+    from composing import compose_config
+    from hydra.utils import instantiate
+
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", identified.uri)
+    monkeypatch.chdir(tmp_path)  # no store of MLflow's default here
+    with np.load(identified.run / "validation_measurement.npz", allow_pickle=False) as stored:
+        log = write_log(Measurement(t=stored["t"], q=stored["q"], tau=stored["tau"]), tmp_path / "free.csv")
+    resolved = resolve_model(identified.run_id)
+    assert resolved.run_id == identified.run_id and resolved.run_file(".hydra/config.yaml") is not None
+    assert os.environ["MLFLOW_TRACKING_URI"] == identified.uri
+    cfg = compose_config(
+        "task=monitor", "plant=log", "tracking=none", f"data.paths=[{log}]", f"task.model={identified.run_id}"
+    )
+    instantiate(cfg.task)(cfg, tmp_path / "monitor")
+    assert os.environ["MLFLOW_TRACKING_URI"] == identified.uri
+    summary = (tmp_path / "monitor" / "summary.md").read_text()
+    assert f"MLflow run {identified.run_id}" in summary and "friction law holding" in summary
+
+
 @pytest.mark.parametrize(
     "source", ["runs:/0123456789abcdef0123456789abcdef/model", "0123456789abcdef0123456789abcdef"]
 )
@@ -338,6 +363,35 @@ def _payload_logs(folder: Path) -> tuple[Path, Path]:
     unloaded = write_log(plant.measure(motion(1)), folder / "unloaded.csv")
     loaded = write_log(plant.with_tool(load_tool("small_roller")).measure(motion(100)), folder / "loaded.csv")
     return unloaded, loaded
+
+
+@pytest.mark.parametrize("form", ["runs", "alias"])
+def test_a_payload_reads_the_unloaded_model_by_its_uri_with_its_law(
+    identified: Identified, tmp_path: Path, form: str
+) -> None:
+    """``task.unloaded_model=runs:/…`` or ``models:/…@champion``: the payload's robot is the model's,
+    with the law it was identified with (the holding law and its breakaway terms), not the payload
+    job's own (``plant=log``: the sign law with offsets)."""
+    from composing import compose_config
+    from hydra.utils import instantiate
+
+    identified.client.set_registered_model_alias(NAME, "champion", "1")
+    source = f"runs:/{identified.run_id}/model" if form == "runs" else f"models:/{NAME}@champion"
+    _, loaded = _payload_logs(tmp_path)
+    cfg = compose_config(
+        "task=payload",
+        "plant=log",
+        f"task.loaded_paths=[{loaded}]",
+        f"task.unloaded_model={source}",
+        f"tracking.uri={identified.uri}",
+    )
+    instantiate(cfg.task)(cfg, tmp_path / "run")
+    read = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())["unloaded_model"]
+    assert read["source"] == source and read["run_id"] == identified.run_id
+    assert read["friction_law"].startswith("holding") and "breakaway" in read["friction_terms"]
+    assert "offset" not in read["friction_terms"]  # plant=log's own terms are not the model's
+    if form == "alias":
+        assert (read["registered_name"], read["registered_version"]) == (NAME, "1")
 
 
 def test_a_payload_run_logs_and_registers_a_model_of_its_payloads_torques(

@@ -242,3 +242,50 @@ def test_a_rejected_motion_fails_the_command_in_one_line_and_the_run_in_mlflow(t
     folder = tmp_path / "run"
     assert (folder / "rejected_exciting_motion.yaml").is_file()
     assert not (folder / "exciting_motion.yaml").exists()
+
+
+def test_pairs_the_optimiser_sees_within_the_clearance_everywhere_are_left_to_the_exact_check() -> None:
+    """A UR5 without an SRDF: wrist 1 and wrist 3 sit 1.4 cm apart in every configuration, inside the
+    1 cm clearance plus the 0.5 cm the optimiser keeps free; no motion can keep them further apart, so
+    the optimiser does not try (it found no feasible start), the note says so, and the exact check
+    still checks the pair. Every pair the optimiser keeps apart can be kept apart somewhere."""
+    from lwrlab.dynamics.base_parameters import random_states
+    from lwrlab.excitation.sphere_distances import SphereDistances
+    from lwrlab.pipeline.build import build
+
+    urdf = example_robots() / "ur_description" / "urdf" / "ur5_robot.urdf"
+    robot = build("robot", "urdf", path=str(urdf), acceleration_limits=10.0)
+    settings = build("trajectory", "optimal", from_file=None).constraints
+    scene = settings.scene(robot)
+    optimised = {scene.pair_label("self", pair) for pair in scene.self_pairs}
+    checked = {scene.pair_label("self", pair) for pair in scene.checked_self_pairs}
+    assert "wrist_1_link–wrist_3_link" not in optimised and "wrist_1_link–wrist_3_link" in checked
+    (note,) = [n for n in scene.notes if n.startswith("wrist_1_link–wrist_3_link")]
+    assert "1.5 cm" in note and "exact check" in note
+
+    distances = SphereDistances(scene)
+    distances.use_hulls = True  # as the optimiser measures
+    q, _, _ = random_states(robot, 200, np.random.default_rng(11))
+    padding = settings.clearance + settings.distance_margin
+    for family, pairs in (("self", scene.self_pairs), ("world", scene.world_pairs)):
+        values, _ = distances.pair_distances(family, pairs, scene.poses(q), q)
+        kept_apart_somewhere = (values >= padding).mean(axis=0) > 0.05
+        assert kept_apart_somewhere.all(), [
+            scene.pair_label(family, p) for p, ok in zip(pairs, kept_apart_somewhere, strict=True) if not ok
+        ]
+
+
+def test_a_motion_no_start_can_find_says_what_to_change() -> None:
+    """The infeasible motion's message ends with the settings that may help: the SRDF pair to disable
+    (MoveIt's syntax), the world, the duration."""
+    from lwrlab.excitation.solver_report import FamilyReport, violation_hint
+
+    reports = [
+        FamilyReport("velocity", -5.6, "rad/s", "joint 1 lower", 2.76),
+        FamilyReport("self_collision", -0.059, "m", "forearm_link–wrist_3_link", 0.99),
+        FamilyReport("world", 0.02, "m", "wrist_2_link–mounting surface", 1.0),
+    ]
+    hint = violation_hint(reports)
+    assert '<disable_collisions link1="forearm_link" link2="wrist_3_link"/>' in hint
+    assert "robot.srdf" in hint and "trajectory.duration" in hint and "world" not in hint
+    assert violation_hint(reports[2:]) == ""

@@ -23,6 +23,7 @@ from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.io.artifacts import save_identified_model
 from lwrlab.io.logs import joint_columns, log_frame, write_log
+from lwrlab.model.drive_train import DriveTrain
 from lwrlab.model.inertia import standard_parameters
 from lwrlab.model.payload import attach_payload
 from lwrlab.model.robot import RobotModel
@@ -163,7 +164,8 @@ def test_noiseless_payload_is_exact(tmp_path: Path, log_robot: RobotModel, metho
             truth.parameter_names,
             truth.parameters,
         )
-        save_identified_model(model, {}, tmp_path / "identified_model.yaml")
+        description = resolved_mapping(compose_config("plant=log").robot, "robot")
+        save_identified_model(model, description, tmp_path / "identified_model.yaml")
         overrides.append(f"task.unloaded_model={tmp_path}")  # the run folder is enough
     metrics = _run(overrides, tmp_path / "run")
     document = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())
@@ -193,6 +195,49 @@ def _check_model_files(run: Path, robot: RobotModel, phi: np.ndarray) -> None:
     moved.rename(run)
 
 
+def test_payload_by_an_identified_model_takes_its_law_and_drive_terms(
+    tmp_path: Path, log_robot: RobotModel
+) -> None:
+    """An identification that chose a law of its own (the holding law, its breakaway terms) stands
+    for the unloaded robot: the payload is identified with that law and those terms, read from the
+    model, whatever the payload job's own robot and friction settings say."""
+    roller = load_tool("large_roller")
+    unloaded, (loaded,), _ = _simulate(log_robot, roller, 3.0, noisy=False)
+    identified = tmp_path / "identified"
+    _run(
+        [
+            "task=identification",
+            "plant=log",
+            f"data.paths={_logs([write_log(unloaded, tmp_path / 'unloaded.csv')])}",
+            "friction=holding",
+            "estimator=ols",
+            *NOISELESS_PROCESSING,
+        ],
+        identified,
+    )
+    stored = yaml.safe_load((identified / "identified_model.yaml").read_text())
+    assert "breakaway" in stored["robot"]["friction_terms"]  # not the payload job's own terms
+    metrics = _run(
+        [
+            "task=payload",
+            "plant=log",
+            f"task.loaded_paths={_logs([write_log(loaded, tmp_path / 'loaded.csv')])}",
+            f"task.unloaded_model={identified}",
+            "task.truth=large_roller",
+            *NOISELESS_PROCESSING,
+        ],
+        tmp_path / "run",
+    )
+    assert abs(metrics["mass_error_pct"]) < 5.0
+    document = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())
+    read = document["unloaded_model"]  # what the payload read from the model
+    assert read["source"] == str(identified.resolve())
+    assert (
+        read["friction_law"].startswith("holding")
+        and read["friction_terms"] == stored["robot"]["friction_terms"]
+    )
+
+
 def test_an_identified_robots_description_is_the_one_its_model_refined(tmp_path: Path) -> None:
     """robot=identified: the payload's model keeps the description the identified model holds."""
     description = resolved_mapping(compose_config().robot, "robot")
@@ -203,9 +248,12 @@ def test_an_identified_robots_description_is_the_one_its_model_refined(tmp_path:
 
 
 def test_an_identified_model_of_other_base_parameters_is_refused(tmp_path: Path) -> None:
-    model = IdentifiedModel(("ZZ1R", "FC1"), np.ones(2), np.zeros(2), ("M1",), np.ones(1))
-    save_identified_model(model, {}, tmp_path / "identified_model.yaml")
-    with pytest.raises(ValueError, match="friction terms"):
+    robot = instantiate(compose_config().robot)
+    model = IdentifiedModel(("ZZ1R", "FX1"), np.ones(2), np.zeros(2), robot.parameter_names, robot.parameters)
+    save_identified_model(
+        model, resolved_mapping(compose_config().robot, "robot"), tmp_path / "identified_model.yaml"
+    )
+    with pytest.raises(ValueError, match=r"task\.unloaded_model=.*\['FX1'\].*friction terms"):
         _run(
             [
                 "task=payload",
@@ -296,3 +344,39 @@ def test_a_payload_on_a_joint_axis_leaves_that_gain_flagged(tmp_path: Path, log_
     )
     assert metrics["gain_relative_std_7"] > 1.0 and metrics["n_weak_gains"] >= 1
     assert "joints [7]" in (tmp_path / "run" / "summary.md").read_text()
+
+
+def test_drive_gains_of_a_robot_measured_at_its_motors_are_its_torque_constants(
+    tmp_path: Path, log_robot: RobotModel
+) -> None:
+    """A robot whose description gives its drive train (gears, motor currents through torque
+    constants, a datasheet's 20 % off): the currents are read as it says, the gains identified are
+    the motors' true torque constants (N·m/A at the motor), and the line to paste sets them."""
+    gears, constants = (
+        np.array([160.0, 160, 100, 100, 100, 80, 80]),
+        np.array([0.12, 0.12, 0.1, 0.1, 0.08, 0.05, 0.05]),
+    )
+    unloaded, (loaded,), _ = _simulate(log_robot, HEAVY_PAYLOAD, 3.0, noisy=False)
+    drive = DriveTrain(gears, np.eye(7), torque_constants=constants, torque_side="motor")
+    paths = [  # currents of the motors: i = R⁻ᵀ·τ / k
+        _write_currents(replace(m, tau=drive.motor_torques(m.tau)), constants, tmp_path / f"{name}.csv")
+        for m, name in ((unloaded, "unloaded"), (loaded, "loaded"))
+    ]
+    nominal = ",".join(map(str, np.round(constants * 1.2, 3)))  # a datasheet's, 20 % off
+    described = (
+        f"{{gear_ratios: [{','.join(map(str, gears))}], torque_constants: [{nominal}], torque_side: motor}}"
+    )
+    overrides = [
+        "task=drive_gains",
+        "plant=log",
+        f"robot.drive={described}",
+        f"task.unloaded_paths={_logs(paths[:1])}",
+        f"task.loaded_paths={_logs(paths[1:])}",
+        "task.payload.mass=2.0",
+        *NOISELESS_PROCESSING,
+    ]
+    _run(overrides, tmp_path / "run")
+    document = yaml.safe_load((tmp_path / "run" / "drive_gains.yaml").read_text())
+    np.testing.assert_allclose(document["drive_gains"], constants, rtol=1e-6)
+    assert document["override"].startswith("robot.drive.torque_constants=[")
+    assert "at the motor" in document["units"]

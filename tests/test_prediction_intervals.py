@@ -17,11 +17,11 @@ import pytest
 from composing import compose_config
 
 from lwrlab.identification.coverage_check import COVERAGE_WARNING, coverage_warning, novelty
+from lwrlab.identification.log_predictions import LogPrediction, PredictionInterval, joint_coverage
 from lwrlab.identification.prediction_error import conformal_scale, drift_parameters
 from lwrlab.model.friction_laws import SignCoulomb, drifting_terms
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.identification import identify_configured
-from lwrlab.pipeline.identification.log_predictions import LogPrediction, PredictionInterval, joint_coverage
 
 REAL_LWR4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "kuka_lwr4_hw"
 NPZ_COLUMNS = "data.column_map={t: times, q: positions, dq: velocities, tau: torques}"

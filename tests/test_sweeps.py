@@ -91,6 +91,46 @@ def test_relaunched_sweep_skips_finished_jobs_and_reruns_the_failed_one(tmp_path
     assert len(runs_of(uri, "resume")) == len(jobs) + len(parents)  # nothing logged twice
 
 
+def test_a_sweep_reusing_finished_jobs_counts_and_compares_them_and_names_its_parent_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Another sweep over configs that already finished reuses their runs ("already finished"): its
+    summary counts them, `lwrlab compare --parent` compares them, and its end names the parent run."""
+    import pandas as pd
+
+    from lwrlab.tracking.reports.compare import main as compare
+
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    first = run_app(
+        TOY_APP,
+        "experiment_name=reuse",
+        "x=1,2",
+        f"hydra.sweep.dir={tmp_path / 'a'}",
+        store=tmp_path,
+        multirun=True,
+    )
+    assert first.returncode == 0, first.stderr
+    second = run_app(
+        TOY_APP,
+        "experiment_name=reuse",
+        "x=1,2,3",
+        f"hydra.sweep.dir={tmp_path / 'b'}",
+        store=tmp_path,
+        multirun=True,
+    )
+    assert second.returncode == 0, second.stderr
+    jobs, parents = jobs_and_parents(runs_of(uri, "reuse"))
+    assert len(jobs) == 3 and len(parents) == 2  # x=1, 2 ran once
+    newer = parents[-1]
+    printed = second.stdout + second.stderr
+    assert f"lwrlab compare --parent {newer.info.run_id}" in printed
+    assert mlflow.MlflowClient(uri).get_run(newer.info.run_id).data.metrics["summary/jobs"] == 3.0
+
+    monkeypatch.chdir(tmp_path)
+    assert compare(["--tracking-uri", uri, "--parent", newer.info.run_id, "--no-log", "--output", "cmp"]) == 0
+    assert sorted(pd.read_csv(tmp_path / "cmp" / "runs.csv")["params.x"]) == [1, 2, 3]
+
+
 @pytest.mark.slow
 def test_eight_parallel_processes_share_one_new_sqlite_store(tmp_path: Path) -> None:
     # Eight independent jobs started at once on a store that does not exist yet: schema creation,

@@ -287,3 +287,25 @@ def test_absolute_tracking_uri(tmp_path: Path) -> None:
     assert absolute_tracking_uri("sqlite:////abs/m.db", tmp_path) == "sqlite:////abs/m.db"
     assert absolute_tracking_uri("http://host:5000", tmp_path) == "http://host:5000"
     assert absolute_tracking_uri("databricks", tmp_path) == "databricks"
+
+
+@pytest.mark.parametrize("variable", [None, "sqlite:///elsewhere.db"])
+def test_mlflows_global_uri_set_for_a_block_leaves_the_environment_as_it_was(
+    variable: str | None, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """MLflow's own setter writes MLFLOW_TRACKING_URI (and unsets it when it restores none): the
+    fluent calls of model logging and run tables must not leave a job reading another store."""
+    import mlflow
+
+    from lwrlab.tracking.store.connection import global_tracking_uri
+
+    if variable is None:
+        monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    else:
+        monkeypatch.setenv("MLFLOW_TRACKING_URI", variable)
+    before = mlflow.get_tracking_uri()
+    inside = f"sqlite:///{tmp_path / 'store.db'}"
+    with global_tracking_uri(inside):
+        assert mlflow.get_tracking_uri() == inside
+    assert os.environ.get("MLFLOW_TRACKING_URI") == variable
+    assert mlflow.get_tracking_uri() == before

@@ -16,7 +16,7 @@ import pytest
 from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.reports.compare import MLFLOW_UI_ADDRESS, main, runs_view_hint
-from lwrlab.tracking.runs.runs_view import share_key, view_name
+from lwrlab.tracking.runs.runs_view import mlflow_executable, share_key, view_name
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -34,7 +34,7 @@ def test_a_local_store_gets_the_mlflow_ui_command_and_the_path() -> None:
     assert hint is not None
     command, url = hint.removeprefix("MLflow UI: ").split(", then open ")
     assert shlex.split(command) == [
-        "mlflow",
+        mlflow_executable(),  # beside the running Python: nothing need be on PATH
         "ui",
         "--backend-store-uri",
         "sqlite:////lab/my outputs/mlflow.db",
@@ -66,7 +66,7 @@ def test_compare_prints_the_hint_after_its_table_with_the_experiment_id(
     store = f"sqlite:///{(tmp_path / 'store' / 'mlflow.db').resolve()}"
     key = share_key(view_name([]))  # the runs differ in the seed only: grouped by run kind
     assert hint == (
-        f"MLflow UI: mlflow ui --backend-store-uri {store}, then open {MLFLOW_UI_ADDRESS}"
+        f"MLflow UI: {mlflow_executable()} ui --backend-store-uri {store}, then open {MLFLOW_UI_ADDRESS}"
         f"/#/experiments/{experiment_id}/runs?viewStateShareKey={key}&workflowType=machine_learning"
     )
 

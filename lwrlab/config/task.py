@@ -27,6 +27,15 @@ class ExcitationTask(Instantiable):
 
     verify_rate_hz: float
     """Hz, rate at which every constraint is checked against the true limits."""
+    known_logs: list[str] | None
+    """Logs already recorded on this robot (read by ``plant=log``): the motion is designed for what
+    they leave unknown."""
+    known_model: str | None
+    """An identified model (its ``identified_model.yaml`` or run folder, or an MLflow model URI): its
+    base-parameter covariance is known information too."""
+    targets: list[Any] | None
+    """Where the model will be used (motion files, logs, inline states: lwrlab/io/target_motions.py):
+    the report gives the expected torque std along them, and ``criterion=target_variance`` aims at them."""
 
 
 @schema
@@ -167,7 +176,8 @@ class WriteExampleLogsTask(Instantiable):
     directory: str
     """Where the logs go (also copied into the run folder)."""
     file_format: str
-    """Log format, the file suffix: ``csv``, ``parquet`` or ``npz``."""
+    """Log format: ``csv``, ``parquet`` or ``npz`` (the file suffix), or ``bag``: a ROS 2 bag of
+    ``sensor_msgs/msg/JointState`` on ``/joint_states`` (folder ``<role>_bag``), as a robot records."""
 
 
 @schema

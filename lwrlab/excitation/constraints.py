@@ -102,6 +102,7 @@ class ConstraintSettings:
             clearance=self.clearance,
             self_collision=self.self_collision,
             n_samples=self.pair_samples,
+            distance_margin=self.distance_margin,
         )
 
     def world_objects(self) -> tuple[WorldObject, ...]:

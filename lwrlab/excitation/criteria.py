@@ -9,13 +9,24 @@ over random states within the joint limits (:func:`lwrlab.excitation.problem.col
 every column is unit-free and of order 1 per row. The gradient is scaled back by the problem.
 ``logdet`` and ``hadamard`` change only by a constant under any fixed column scaling (their optimum
 does not depend on it); ``cond``, ``logcond``, ``a_optimality`` and ``e_optimality`` do.
+
+A criterion aimed at where the model will be used needs the robot (to build the regressor of its
+target motions): it may define ``bind(space) -> Criterion``, called once with the problem's
+:class:`DesignSpace` before the optimisation (:func:`bound_criterion`); the protocol is unchanged.
+Known information enters as rows stacked on ``W_b`` (:mod:`lwrlab.excitation.known_information`),
+so no criterion needs to know about it.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+
+from lwrlab.dynamics.base_parameters import BaseParameters
+from lwrlab.dynamics.regressor import regressor
+from lwrlab.model.robot import RobotModel
 
 
 class Criterion(Protocol):
@@ -27,6 +38,26 @@ class Criterion(Protocol):
     def value_and_gradient(self, w: np.ndarray) -> tuple[float, np.ndarray]:
         """``J`` and ``∂J/∂W`` for a (rows, N_B) regressor ``w`` of full column rank."""
         ...
+
+
+@dataclass(frozen=True)
+class DesignSpace:
+    """The robot, base parameters and column scaling a criterion is evaluated in (what ``bind`` gets)."""
+
+    robot: RobotModel
+    base: BaseParameters
+    scales: np.ndarray
+    """(N_B,) the column scaling ``s`` of the design (``W_b·diag(s)`` is what criteria see)."""
+
+    def scaled_rows(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """``W_b·diag(s)`` (n·N_J, N_B) of joint states (n, N_J), sample-major, exact sign friction."""
+        return self.base.base_regressor(regressor(self.robot, q, dq, ddq)) * self.scales
+
+
+def bound_criterion(criterion: Criterion, space: DesignSpace) -> Criterion:
+    """``criterion.bind(space)`` for a criterion that needs the robot, else the criterion itself."""
+    bind = getattr(criterion, "bind", None)
+    return criterion if bind is None else bind(space)
 
 
 RANK_TOLERANCE = 1e-13

@@ -16,6 +16,7 @@ from lwrlab.excitation.solver_report import (
     RejectedMotionError,
     describe_violations,
     family_reports,
+    violation_hint,
 )
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.parameterisation import LinearParameterisation
@@ -38,6 +39,7 @@ class MotionCheck:
         lines = [describe_violations(self.reports)]
         if self.collisions is not None and self.collisions.contacts:
             lines.append(self.collisions.describe())
+        lines.append(violation_hint(self.reports))
         return "\n  ".join(line for line in lines if line)
 
 

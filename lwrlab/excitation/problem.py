@@ -29,7 +29,8 @@ from lwrlab.dynamics.regressor import regressor
 from lwrlab.dynamics.regressor_vjp import regressor_vjp
 from lwrlab.errors import ConfigError
 from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
-from lwrlab.excitation.criteria import Criterion
+from lwrlab.excitation.criteria import Criterion, DesignSpace, bound_criterion
+from lwrlab.excitation.known_information import ConditionedCriterion, KnownInformation
 from lwrlab.model.position_ranges import finite_range, range_center
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.parameterisation import LinearParameterisation
@@ -111,6 +112,12 @@ class ExcitationProblem:
         ``tanh(q̇/ε)`` during the optimisation. A sign flips whenever a velocity sample crosses zero,
         which makes the criterion and the torques jump and stalls SLSQP's line search; the smooth
         version differs only on the few samples with |q̇| ≲ ε. None keeps the sign.
+    known : information already in hand (:mod:`lwrlab.excitation.known_information`), in these base
+        parameters: the criterion then scores the known rows stacked on the motion's
+        (:class:`~lwrlab.excitation.known_information.ConditionedCriterion`). None: nothing known.
+
+    A criterion with a ``bind(space)`` method (one aimed at target motions) is bound to this robot's
+    :class:`~lwrlab.excitation.criteria.DesignSpace` first; ``criterion`` is the one optimised.
     """
 
     def __init__(
@@ -124,11 +131,11 @@ class ExcitationProblem:
         window_s: float,
         coulomb_smoothing: float | None,
         base: BaseParameters | None = None,
+        known: KnownInformation | None = None,
     ) -> None:
         require_motion_limits(robot)
         self.robot = robot
         self.parameterisation = parameterisation
-        self.criterion = criterion
         self.coulomb_smoothing = coulomb_smoothing if "coulomb" in robot.friction_terms else None
         self.constraint_set = ConstraintSet(robot, constraints, self.coulomb_smoothing)
         if self.coulomb_smoothing is not None:
@@ -137,6 +144,18 @@ class ExcitationProblem:
         self.rate_hz = float(rate_hz)
         self.base = base if base is not None else compute_base_parameters(robot)
         self.scales = column_scales(robot, self.base)
+        self.design_criterion = bound_criterion(criterion, DesignSpace(robot, self.base, self.scales))
+        """The criterion bound to this robot, before conditioning (its targets, if it has some)."""
+        self.criterion = self.design_criterion
+        self.known = known
+        if known is not None:
+            if known.names != self.base.names:
+                raise ValueError(
+                    "the known information is about other base parameters than the design's "
+                    f"({len(known.names)} vs {self.base.count}): build it with this robot's base parameters"
+                )
+            rows = known.rows(self.scales, self.rate_hz)
+            self.criterion = ConditionedCriterion(self.criterion, rows, known.joint_weights())
         self.times = parameterisation.times(rate_hz)
         self.bases = parameterisation.bases(self.times)
         self.parameters = robot.parameters

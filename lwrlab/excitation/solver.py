@@ -31,6 +31,7 @@ from lwrlab.excitation.solver_report import (
     RejectedMotionError,
     describe_violations,
     family_reports,
+    violation_hint,
 )
 from lwrlab.numerics.slsqp import vector_inequality
 from lwrlab.numerics.threads import blas_threads
@@ -200,7 +201,10 @@ class SlsqpOptimizer:
             raise InfeasibleExcitationError(
                 f"no feasible exciting motion for {problem.robot.name} after {self.n_starts} start(s) "
                 f"(last solver message: {messages[-1]}); "
-                f"violated constraints on the {problem.rate_hz:g} Hz grid:\n  " + describe_violations(reports)
+                f"violated constraints on the {problem.rate_hz:g} Hz grid:\n  "
+                + "\n  ".join(
+                    line for line in (describe_violations(reports), violation_hint(reports)) if line
+                )
             )
         cost, x = best
         return ExcitationResult(
@@ -311,4 +315,5 @@ __all__ = [
     "describe_violations",
     "family_reports",
     "verify_motion",
+    "violation_hint",
 ]

@@ -78,6 +78,27 @@ def describe_violations(reports: list[FamilyReport]) -> str:
     )
 
 
+def violation_hint(reports: list[FamilyReport]) -> str:
+    """What may make the violated families satisfiable: one line naming the settings to change."""
+    violated = [r for r in reports if r.violated]
+    hints = []
+    pair = next((r.where for r in violated if r.family == "self_collision"), None)
+    if pair is not None:
+        first, _, second = pair.partition("–")
+        hints.append(
+            f"{pair} built to sit that close (a joint's housing beside the next link): disable the pair "
+            f'in the robot\'s SRDF (<disable_collisions link1="{first}" link2="{second}"/>, robot.srdf=…) '
+            "or lower trajectory.constraints.clearance"
+        )
+    if any(r.family == "world" for r in violated):
+        hints.append(
+            "the world leaves no room: check trajectory.constraints.world (surface height, obstacles)"
+        )
+    if any(r.family in ("position", "velocity", "acceleration", "torque") for r in violated):
+        hints.append("limits: a longer trajectory.duration, or more optimizer.n_starts")
+    return ("what may help: " + "; ".join(hints)) if hints else ""
+
+
 @dataclass
 class ExcitationResult:
     """The optimum of an excitation problem."""

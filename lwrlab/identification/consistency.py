@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from lwrlab.model.inertia import min_pseudo_inertia_eigenvalue, pseudo_inertia
+from lwrlab.model.inertia import from_pseudo_inertia, min_pseudo_inertia_eigenvalue, pseudo_inertia
 
 if TYPE_CHECKING:  # cvxpy costs ~1 s to import: only the convex programmes below load it
     import cvxpy as cp
@@ -104,6 +104,17 @@ def min_pseudo_inertia_eigenvalues(standard: np.ndarray, n_links: int) -> np.nda
     """Smallest pseudo-inertia eigenvalue of every segment of a standard vector (≥ 0: consistent)."""
     standard = np.asarray(standard, dtype=float)
     return np.array([min_pseudo_inertia_eigenvalue(standard[part]) for part in segment_slices(n_links)])
+
+
+def clip_pseudo_inertias(standard: np.ndarray, n_links: int, min_eigenvalue: float) -> np.ndarray:
+    """``standard`` with every segment's pseudo-inertia eigenvalues clipped at ``min_eigenvalue``: a
+    solver's result with its tolerance (eigenvalues ~ −1e-9) undone, consistent exactly."""
+    standard = np.array(standard, dtype=float)
+    for part in segment_slices(n_links):
+        values, vectors = np.linalg.eigh(pseudo_inertia(standard[part]))
+        if values[0] < min_eigenvalue:
+            standard[part] = from_pseudo_inertia((vectors * np.maximum(values, min_eigenvalue)) @ vectors.T)
+    return standard
 
 
 def consistency_margin(

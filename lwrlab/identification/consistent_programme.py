@@ -21,13 +21,14 @@ import cvxpy as cp
 import numpy as np
 
 from lwrlab.identification.consistency import (
+    clip_pseudo_inertias,
     consistency_constraints,
     pseudo_inertia_expression,
     segment_slices,
 )
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.prior_weight import entropic_metric
-from lwrlab.model.inertia import from_pseudo_inertia, pseudo_inertia
+from lwrlab.model.inertia import pseudo_inertia
 
 REGULARIZATIONS = ("none", "euclidean", "entropic")
 """The divergences toward the CAD prior (``none``: only the constraints)."""
@@ -114,11 +115,7 @@ def made_consistent(
     """Undo the solver's tolerance (eigenvalues ~ −1e-9): clip every pseudo-inertia's eigenvalues
     at ``min_eigenvalue`` and dissipative friction at 0, so the result is consistent exactly;
     the base parameters move by about the solver tolerance."""
-    standard = standard.copy()
-    for part in segment_slices(context.n_links):
-        values, vectors = np.linalg.eigh(pseudo_inertia(standard[part]))
-        if values[0] < min_eigenvalue:
-            standard[part] = from_pseudo_inertia((vectors * np.maximum(values, min_eigenvalue)) @ vectors.T)
+    standard = clip_pseudo_inertias(standard, context.n_links, min_eigenvalue)
     if friction_nonnegative:
         index = context.nonnegative_indices()
         standard[index] = np.maximum(standard[index], 0.0)

@@ -25,6 +25,11 @@ class IdentifiedModel:
     """(P,) a standard parameter vector whose base parameters equal ``base_values``: the prior
     (CAD) set moved by the least change that matches the identified combinations. It is not
     guaranteed physically consistent (the SDP estimator gives that)."""
+    base_covariance: np.ndarray | None = None
+    """(N_B, N_B) covariance of the base parameters (the estimator's), or None (a model saved without)."""
+    noise_density: np.ndarray | None = None
+    """(N_J,) torque noise density of each joint (N²·m²·s): the fit's residual variance per row times
+    the seconds between rows, what a next motion's information is weighed with (None: not saved)."""
 
     @property
     def base_relative_std(self) -> np.ndarray:

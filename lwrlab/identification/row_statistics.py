@@ -104,6 +104,15 @@ class RowStatistics:
         extended = np.append(np.asarray(beta, dtype=float), -1.0)
         return np.sum((self.factors @ extended) ** 2, axis=-1)
 
+    def noise_density(self, beta: np.ndarray, rows_rate_hz: float) -> np.ndarray:
+        """(N_J,) torque noise density of each joint at ``beta`` (N²·m²·s): its residual variance per
+        row (over the rows' degrees of freedom) times the seconds per row; inf for a joint without
+        residual (left out of the fit): its rows carry no information."""
+        squares = self.residual_squares(beta).sum(axis=0)
+        dof = max(1.0, self.rows / self.n_joints * (1.0 - self.n_columns / self.rows))
+        with np.errstate(divide="ignore"):
+            return np.where(squares > 0.0, squares / dof / rows_rate_hz, np.inf)
+
     def joint_factors(self) -> np.ndarray:
         """(N_J, P+1, P+1) R of ``[W τ]`` over all folds, per joint."""
         joints = np.eye(self.n_joints, dtype=bool)

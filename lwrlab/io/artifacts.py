@@ -1,7 +1,8 @@
 """Artifact files: Parquet for long series, CSV for what a robot or a spreadsheet reads, YAML for models,
 npz for exactness.
 
-Nothing here unpickles: npz files are read with ``allow_pickle=False`` and YAML with ``safe_load``.
+Nothing here unpickles: npz files are read with ``allow_pickle=False`` and YAML with a safe loader
+(libyaml's ``CSafeLoader`` where there is one).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from lwrlab.errors import MissingFileError
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
+from lwrlab.yaml_files import safe_yaml
 
 
 def _joint_columns(prefix: str, n: int) -> list[str]:
@@ -78,8 +80,23 @@ def identified_model_path(source: str | Path) -> Path:
     return path
 
 
+class _FlowRow(list[float]):
+    """A row of numbers written on one line (``[a, b, …]``): a matrix stays one line per row."""
+
+
+class _ModelDumper(yaml.SafeDumper):
+    """``yaml.safe_dump`` with :class:`_FlowRow` rows in flow style."""
+
+
+_ModelDumper.add_representer(
+    _FlowRow, lambda dumper, row: dumper.represent_sequence("tag:yaml.org,2002:seq", row, flow_style=True)
+)
+
+
 def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], path: Path) -> Path:
-    """Write an identified model as YAML, with the robot description it refines (to rebuild it)."""
+    """Write an identified model as YAML, with the robot description it refines (to rebuild it), and,
+    when the model has them, its base parameters' covariance and the noise it was fitted with (key
+    ``information``: what a next exciting motion is designed with)."""
     document = {
         "robot": robot_config,
         "base_parameters": {
@@ -90,22 +107,31 @@ def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], 
             name: float(v) for name, v in zip(model.standard_names, model.standard_values, strict=True)
         },
     }
-    path.write_text(yaml.safe_dump(document, sort_keys=False))
+    if model.base_covariance is not None and model.noise_density is not None:
+        # what the next exciting motion is designed with (task=excitation task.known_model=…)
+        document["information"] = {
+            "covariance": [_FlowRow(float(v) for v in row) for row in model.base_covariance],
+            "noise_density": _FlowRow(float(v) for v in model.noise_density),
+        }
+    path.write_text(yaml.dump(document, Dumper=_ModelDumper, sort_keys=False))
     return path
 
 
 def load_identified_model(path: Path) -> tuple[IdentifiedModel, dict[str, Any]]:
     """Read an identified model and its robot description written by :func:`save_identified_model`."""
-    document = yaml.safe_load(Path(path).read_text())
+    document = safe_yaml(Path(path).read_text())
     missing = {"robot", "base_parameters", "standard_parameters"} - set(document or {})
     if missing:
         raise ValueError(f"{path}: not an identified model, missing keys {sorted(missing)}")
     base, standard = document["base_parameters"], document["standard_parameters"]
+    information = document.get("information") or {}
     model = IdentifiedModel(
         base_names=tuple(base),
         base_values=np.array([entry["value"] for entry in base.values()]),
         base_std=np.array([entry["std"] for entry in base.values()]),
         standard_names=tuple(standard),
         standard_values=np.array(list(standard.values()), dtype=float),
+        base_covariance=np.array(information["covariance"], dtype=float) if information else None,
+        noise_density=np.array(information["noise_density"], dtype=float) if information else None,
     )
     return model, document["robot"]

@@ -33,8 +33,10 @@ Logs measured at the motors: with the robot's drive train (``robot.drive``,
 angles and speeds (rad, rad/s at the motor shaft); with ``torque_side: motor``, the ``tau`` columns
 hold motor torques (N·m at the motor shaft); with ``torque_constants`` (N·m/A) the ``current``
 columns are motor currents (A), motor-side whatever ``torque_side`` says. They are converted to the
-joint side on reading (``q = R⁻¹·θ``, ``τ = Rᵀ·τ_motor``), before the checks against the joint
-limits; the measurement says which side each signal came from.
+joint side on reading (``q = R⁻¹·θ + q₀``, ``τ = Rᵀ·τ_motor``), before the checks against the joint
+limits; the measurement says which side each signal came from. Encoders that count from their own
+zero (``position_offsets``: ``q₀``), count in counts (``encoder_counts``) or wrap every turn (every
+motor, and continuous joints) are read as :mod:`lwrlab.io.encoder_angles` says.
 
 Other columns are ignored. A log whose columns are named differently is read with
 ``column_map`` (schema name → name in the file), e.g. ``{"t": "timestamp", "q1": "pos_0"}``.
@@ -48,7 +50,9 @@ Resampling: a log whose sampling period varies by more than ``jitter_tolerance``
 median period) is either *regularised* or *resampled*. Stamps that stay within half a period of a
 straight line, on which the positions are smoother than on the stamps, were put on regularly taken
 samples by a recorder's clock (a PC stamping a controller's stream on arrival): the samples are kept
-and read on that line (``stamp_jitter`` says how far the stamps strayed). Otherwise the samples are
+and read on that line (``stamp_jitter`` says how far the stamps strayed; each sample keeps its
+logged stamp, which the artifacts written per sample carry as ``t``, the grid's as ``t_grid``).
+Otherwise the samples are
 linearly interpolated onto the uniform grid ``t_0 + k/rate`` (rate = ``rate_hz`` or 1/median period)
 before anything else; the measurement metadata records it, and the times and torques as logged are
 kept, so that a prediction is scored against what the sensors gave, not against interpolated torques.
@@ -67,6 +71,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.io.column_types import check_column_dtypes
+from lwrlab.io.encoder_angles import joint_positions_of_log, joint_velocities_of_log
 from lwrlab.io.log_findings import LogColumns, raise_for_errors
 from lwrlab.io.log_formats import LogTable, read_frame
 from lwrlab.io.log_schema import POSITION_UNITS, TIME_UNITS, LogError, joint_columns, row_location
@@ -99,6 +104,9 @@ class RecordedLog:
     """(M,) times as logged (s), when resampled."""
     logged_tau: np.ndarray | None = None
     """(M, N_J) torques as logged (N·m), when resampled."""
+    stamps: np.ndarray | None = None
+    """(N,) each sample's stamp as logged (s), when the samples were read on the regular grid ``t``
+    their jittered stamps stand for (``stamp_jitter``)."""
     warnings: tuple[str, ...] = ()
     """Plausibility warnings (:mod:`lwrlab.io.plausibility`): printed and tagged by the pipeline."""
     sides: tuple[str, str] = ("joint", "joint")
@@ -119,6 +127,7 @@ class RecordedLog:
             dq=self.dq,
             logged_t=self.logged_t,
             logged_tau=self.logged_tau,
+            stamps=self.stamps,
             metadata={
                 "source": "log",
                 "path": str(self.path),
@@ -253,6 +262,11 @@ def load_log(
         raise LogError(f"{path}: unknown time_unit {time_unit!r}; valid: {list(TIME_UNITS)}")
     if position_unit not in POSITION_UNITS:
         raise LogError(f"{path}: unknown position_unit {position_unit!r}; valid: {list(POSITION_UNITS)}")
+    if drive is not None and drive.encoder_counts is not None and position_unit != "rad":
+        raise LogError(
+            f"{path}: position_unit={position_unit} with robot.drive.encoder_counts: the positions are "
+            "counts (rad for their velocities only where no counts): drop data.position_unit"
+        )
     if drive_gains is not None and len(drive_gains) != n_joints:
         raise LogError(f"{path}: drive_gains has {len(drive_gains)} values for {n_joints} joints")
     drive = DriveTrain.direct(n_joints) if drive is None else drive
@@ -319,8 +333,17 @@ def load_log(
     q = block("q", POSITION_UNITS[position_unit])
     tau = block("tau") if drive_gains is None else block("current", np.asarray(drive_gains, dtype=float))
     columns = [q, tau] + ([block("dq", POSITION_UNITS[position_unit])] if has_velocity else [])
-    if drive.position_side == "motor":
-        columns = [drive.joint_positions(columns[0]), columns[1], *map(drive.joint_positions, columns[2:])]
+    continuous = (
+        np.zeros(n_joints, dtype=bool)
+        if limits is None
+        else np.isinf(limits.position_lower) & np.isinf(limits.position_upper)
+    )
+    # encoder counts, wraps, the motor side and the encoders' own zero (lwrlab.io.encoder_angles)
+    columns = [
+        joint_positions_of_log(columns[0], drive, continuous),
+        columns[1],
+        *(joint_velocities_of_log(c, drive) for c in columns[2:]),
+    ]
     if drive.torque_side == "motor" or drive.torque_constants is not None:
         columns[1] = drive.joint_torques(columns[1])
     q, tau = columns[0], columns[1]
@@ -351,6 +374,7 @@ def load_log(
         stamp_jitter=float(np.max(np.abs(logged_t - t))) if stamps == "regularised" else None,
         logged_t=logged_t if resampled else None,
         logged_tau=logged_tau if resampled else None,
+        stamps=logged_t if stamps == "regularised" else None,
         warnings=tuple(str(w) for w in warnings),
         sides=(drive.position_side, "motor" if drive.torque_constants is not None else drive.torque_side),
     )

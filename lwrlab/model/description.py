@@ -36,6 +36,8 @@ The keys, as in the robot configs (``conf/robot/<name>.yaml``) or any YAML file 
       position_side: joint                  # joint | motor: where logged positions are measured
       torque_side: joint                    # joint | motor: where logged torques/currents are measured
       rotor_inertia: auto                   # reflected rotor-inertia columns: true | false | auto
+      position_offsets: [...]               # rad, joint positions where the encoders read 0: θ = R·(q − q₀)
+      encoder_counts: null                  # counts per turn when the logged positions are counts
     friction_law: null                      # optional: {_target_: plugins.friction.…}; null: sign law
     collision_urdf:                         # optional: a URDF whose <collision> geometry is this robot's
       path: package://my_arm_description/urdf/my_arm.urdf   # its joint frames must be the table's

@@ -60,6 +60,12 @@ class DriveTrain:
     friction law by cross-validation when ``friction=auto``; off otherwise)."""
     names: tuple[str, ...] = field(default=())
     """Names of the drives (default ``m1`` …)."""
+    position_offsets: np.ndarray | None = None
+    """(N,) joint positions (rad) at which the logged encoders read zero, ``q₀`` in ``θ = R·(q − q₀)``
+    (``R = I`` for positions measured at the joints), or None: zero."""
+    encoder_counts: np.ndarray | None = None
+    """(N,) counts per turn of the position encoders, whose counts the logged positions then are
+    (a turn's worth of counts a turn, wrapping or not), or None: the positions are angles."""
 
     def __post_init__(self) -> None:
         n = len(self.gear_ratios)
@@ -85,6 +91,12 @@ class DriveTrain:
             raise ConfigError(
                 f"robot.drive.torque_constants: expected {n} values, got {np.size(self.torque_constants)}"
             )
+        for key in ("position_offsets", "encoder_counts"):
+            values = getattr(self, key)
+            if values is not None and (np.shape(values) != (n,) or not np.all(np.isfinite(values))):
+                raise ConfigError(f"robot.drive.{key}: expected {n} finite values, got {values}")
+        if self.encoder_counts is not None and np.any(self.encoder_counts <= 0):
+            raise ConfigError(f"robot.drive.encoder_counts must be positive, got {self.encoder_counts}")
         if self.rotor_inertia_columns not in (True, False, "auto"):
             raise ConfigError(
                 f"robot.drive.rotor_inertia: true, false or auto, got {self.rotor_inertia_columns!r}"
@@ -125,6 +137,20 @@ class DriveTrain:
         """Joint positions q = R⁻¹·θ (rad) of motor angles ``theta`` (..., N); velocities alike."""
         return np.linalg.solve(self.transmission, np.asarray(theta, dtype=float).T).T
 
+    def read_positions(self, theta: np.ndarray) -> np.ndarray:
+        """Joint positions ``q = R⁻¹·θ + q₀`` (rad) of the angles a log's encoders give (..., N) (rad,
+        unwrapped: :mod:`lwrlab.io.encoder_angles`), measured at the :attr:`position_side`."""
+        q = self.joint_positions(theta) if self.position_side == "motor" else np.asarray(theta, dtype=float)
+        return q if self.position_offsets is None else q + self.position_offsets
+
+    def measured_positions(self, q: np.ndarray) -> np.ndarray:
+        """The angles (rad, not wrapped) the encoders at the :attr:`position_side` give at joint
+        positions ``q`` (..., N): ``θ = R·(q − q₀)``; the inverse of :meth:`read_positions`."""
+        relative = np.asarray(q, dtype=float) - (
+            0.0 if self.position_offsets is None else self.position_offsets
+        )
+        return self.motor_positions(relative) if self.position_side == "motor" else relative
+
     def joint_torques(self, tau_motor: np.ndarray) -> np.ndarray:
         """Joint torques τ = Rᵀ·τ_motor (N·m) of motor torques (..., N) (N·m at the motor shaft)."""
         return np.asarray(tau_motor) @ self.transmission
@@ -160,10 +186,21 @@ class DriveTrain:
             "position_side": self.position_side,
             "torque_side": self.torque_side,
             "rotor_inertia": self.rotor_inertia_columns,
+            "position_offsets": None if self.position_offsets is None else self.position_offsets.tolist(),
+            "encoder_counts": None if self.encoder_counts is None else self.encoder_counts.tolist(),
         }
 
 
-DRIVE_KEYS = ("gear_ratios", "coupling", "torque_constants", "position_side", "torque_side", "rotor_inertia")
+DRIVE_KEYS = (
+    "gear_ratios",
+    "coupling",
+    "torque_constants",
+    "position_side",
+    "torque_side",
+    "rotor_inertia",
+    "position_offsets",
+    "encoder_counts",
+)
 """Keys of a robot description's ``drive`` block."""
 
 
@@ -213,18 +250,22 @@ def build_drive_train(
         raise ConfigError(
             f"robot {robot!r}: robot.drive.gear_ratios: expected {n} values, got {ratio_array.size}"
         )
-    constants = drive.get("torque_constants")
-    constant_array = None
-    if constants is not None:
-        constant_array = np.asarray(constants, dtype=float).ravel()
-        if constant_array.size == 1:
-            constant_array = np.full(n, float(constant_array[0]))
     rotor = drive.get("rotor_inertia", "auto")
     return DriveTrain(
         gear_ratios=ratio_array,
         coupling=_coupling_matrix(drive.get("coupling"), n),
-        torque_constants=constant_array,
+        torque_constants=_per_drive(drive.get("torque_constants"), n),
         position_side=str(drive.get("position_side", "joint")),
         torque_side=str(drive.get("torque_side", "joint")),
         rotor_inertia_columns=rotor,
+        position_offsets=_per_drive(drive.get("position_offsets"), n),
+        encoder_counts=_per_drive(drive.get("encoder_counts"), n),
     )
+
+
+def _per_drive(values: Any, n: int) -> np.ndarray | None:
+    """One value per drive (a single value: the same for every drive), or None."""
+    if values is None:
+        return None
+    array = np.asarray(values, dtype=float).ravel()
+    return np.full(n, float(array[0])) if array.size == 1 else array

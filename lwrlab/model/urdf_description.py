@@ -236,11 +236,13 @@ def reduced_model(
     return reduced, reduced_geometry
 
 
-def transmission_reductions(document: ElementTree.Element) -> dict[str, float]:
+def transmission_reductions(document: ElementTree.Element) -> tuple[dict[str, float], dict[str, str]]:
     """Gear ratio of each joint a ros_control ``<transmission>`` drives: its ``mechanicalReduction``
-    (in the ``<actuator>``, or beside it in the older format), by joint name. Transmissions of several
-    joints (differentials) are left out: their coupling goes in ``robot.drive.coupling``."""
-    reductions = {}
+    (in the ``<actuator>``, or beside it in the older format), by joint name; and, apart, the text of
+    those that are no number (a xacro argument left in a generated URDF: ``reduction``), by joint
+    name. Transmissions of several joints (differentials) are left out: their coupling goes in
+    ``robot.drive.coupling``."""
+    reductions, unusable = {}, {}
     for transmission in document.iter("transmission"):
         joints = [j.get("name") for j in transmission.findall("joint")]
         reduction = transmission.find("actuator/mechanicalReduction")
@@ -248,10 +250,9 @@ def transmission_reductions(document: ElementTree.Element) -> dict[str, float]:
             reduction = transmission.find("mechanicalReduction")
         if len(joints) != 1 or joints[0] is None or reduction is None or not (reduction.text or "").strip():
             continue
+        text = str(reduction.text).strip()
         try:
-            reductions[joints[0]] = float(str(reduction.text).strip())
-        except ValueError as error:
-            raise ConfigError(
-                f"transmission of joint {joints[0]!r}: mechanicalReduction {reduction.text!r} is not a number"
-            ) from error
-    return reductions
+            reductions[joints[0]] = float(text)
+        except ValueError:
+            unusable[joints[0]] = text
+    return reductions, unusable

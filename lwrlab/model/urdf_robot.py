@@ -33,6 +33,7 @@ identifying from logs needs neither. Acceleration limits, which a URDF lacks, co
 
 from __future__ import annotations
 
+import warnings
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
@@ -44,7 +45,7 @@ import pinocchio as pin
 from lwrlab.errors import ConfigError, MissingFileError, UnknownNameError
 from lwrlab.model.collision_geometry import CollisionSource, package_search_path, resolve_mesh
 from lwrlab.model.description import build_friction, friction_law_of, gravity_vector
-from lwrlab.model.drive_train import build_drive_train
+from lwrlab.model.drive_train import DriveTrain, build_drive_train
 from lwrlab.model.friction_laws import FrictionLaw
 from lwrlab.model.robot import JointLimits, RobotModel
 from lwrlab.model.urdf_description import (
@@ -333,8 +334,12 @@ def load_urdf_robot(
             missing_meshes="drop" if missing_meshes == "drop" else "error",
             locked_joints=tuple((k, float(v)) for k, v in locked.items()),
         )
-    reductions = transmission_reductions(document)
+    reductions, unusable = transmission_reductions(document)
+    unusable = {joint: text for joint, text in unusable.items() if joint in list(model.names)[1:]}
     gears = [reductions.get(joint, 1.0) for joint in list(model.names)[1:]] if reductions else None
+    drive_train = build_drive_train(drive, n, robot_name, gear_ratios=gears)
+    if unusable and (drive or {}).get("gear_ratios") is None:
+        _unusable_transmissions(path, unusable, drive_train)
     return RobotModel(
         name=robot_name,
         model=model,
@@ -342,6 +347,26 @@ def load_urdf_robot(
         friction=build_friction(friction, n, robot_name),
         friction_terms=tuple(friction_terms),
         collision_source=source,
-        drive=build_drive_train(drive, n, robot_name, gear_ratios=gears),
+        drive=drive_train,
         friction_law=friction_law_of(friction_law),
+    )
+
+
+def _unusable_transmissions(path: Path, unusable: Mapping[str, str], drive: DriveTrain) -> None:
+    """Transmissions whose ``mechanicalReduction`` is no number: an error where a log measured at the
+    motors needs the gear ratios, else a warning (their gear ratio is taken as 1, which motions and
+    logs measured at the joints do not use)."""
+    named = ", ".join(
+        f"joint {joint!r}: mechanicalReduction {text!r} is not a number" for joint, text in unusable.items()
+    )
+    what = f"{path}: transmission of {named} (a xacro argument left in the URDF?)"
+    if drive.motor_side or drive.torque_constants is not None:
+        raise ConfigError(
+            f"{what}; the logs are measured at the motors, which needs the gear ratios: give them as "
+            "robot.drive.gear_ratios=[…] (or fix the URDF)"
+        )
+    warnings.warn(
+        f"{what}: gear ratio 1 taken, unused by motions and logs measured at the joints",
+        UserWarning,
+        stacklevel=3,
     )

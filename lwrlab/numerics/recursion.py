@@ -8,7 +8,6 @@ to sample; a Python loop over the samples of a long log would cost more than eve
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import lfilter
 
 MAX_DECAY_EXPONENT = 300.0
 """Largest K·(t − t_start) of one block of the closed-form recursion: e^300 is far below overflow."""
@@ -29,6 +28,8 @@ def first_order_recursion(
     if n_samples == 0:
         return out
     if np.allclose(alpha, alpha[:1], rtol=1e-13, atol=0):
+        from scipy.signal import lfilter  # slow to import (0.7 s): only where a filter runs
+
         for j in range(inputs.shape[1]):
             a = float(alpha[0, j])
             out[:, j] = lfilter([1.0], [1.0, -a], inputs[:, j], zi=[a * initial[j]])[0]

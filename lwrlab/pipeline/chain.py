@@ -15,9 +15,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping
+from lwrlab.pipeline.config_nodes import processing_settings
 from lwrlab.pipeline.identification import identify_configured
 from lwrlab.pipeline.identification.report import format_report, write_report
+from lwrlab.pipeline.identification.task import robot_description
 
 log = logging.getLogger(__name__)
 
@@ -34,9 +35,7 @@ def run_paper_chain(cfg: Any, output_dir: Path, painting: PaintingStage) -> dict
     """
     started = time.perf_counter()
     report = identify_configured(cfg)
-    write_report(
-        report, output_dir, resolved_mapping(cfg.robot, "robot"), processing=processing_settings(cfg)
-    )
+    write_report(report, output_dir, robot_description(cfg), processing=processing_settings(cfg))
     print("# 1. Identification\n\n" + format_report(report) + "\n")
     identified_s = time.perf_counter() - started
 

@@ -1,10 +1,14 @@
-"""Config nodes as the plain values the stages take (a mapping of settings, checked to be one)."""
+"""Config nodes as the plain values the stages take (a mapping of settings, checked to be one), and the
+configured ``plant=log`` reader of the logs a task is given."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from lwrlab.errors import ConfigError
+from lwrlab.model.robot import RobotModel
+from lwrlab.plants.core import Measurement, RecordedPlant, is_recorded
 
 
 def plain(value: Any) -> Any:
@@ -45,3 +49,42 @@ def tracking_uri(cfg: Any) -> str | None:
 
     value = OmegaConf.select(cfg, "tracking.uri", default=None) if OmegaConf.is_config(cfg) else None
     return None if value in (None, "") else str(value)
+
+
+def log_reader(cfg: Any, robot: RobotModel, paths: Sequence[str], unit_gains: bool = False) -> RecordedPlant:
+    """The configured ``plant=log`` reader (its ``data.*`` options), for ``paths``.
+
+    ``unit_gains``: read motor currents (columns ``current1…N``) as they are (gain 1), whatever
+    ``data.drive_gains`` says.
+    """
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    if OmegaConf.select(cfg, "data") is None:
+        raise ConfigError(
+            "this task reads recorded logs: run it with plant=log (and the data.* options the logs need: "
+            "data.column_map, data.time_unit, data.drive_gains, …)"
+        )
+    overrides: dict[str, Any] = {
+        "path": None,
+        "paths": [str(p) for p in paths],
+        "validation_path": None,
+        "validation_paths": None,
+    }
+    if unit_gains:
+        overrides["drive_gains"] = [1.0] * robot.n_joints
+    reader = instantiate(cfg.plant, **overrides)(robot=robot)
+    if not is_recorded(reader):
+        raise ConfigError(f"this task reads recorded logs: plant={type(reader).__name__} does not read them")
+    return reader
+
+
+def read_logs(
+    cfg: Any, robot: RobotModel, paths: Sequence[str] | None, role: str, unit_gains: bool = False
+) -> list[Measurement]:
+    """The logs ``paths`` (none: an empty list) as measurements tagged with ``role``."""
+    paths = [str(p) for p in (paths or [])]
+    if not paths:
+        return []
+    reader = log_reader(cfg, robot, paths, unit_gains)
+    return [reader.load(path, role) for path in paths]

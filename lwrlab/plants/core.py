@@ -30,6 +30,9 @@ class Measurement:
     """(M,) sample times as logged (s), when the log was resampled onto the uniform ``t``; else None."""
     logged_tau: np.ndarray | None = None
     """(M, N_J) torques at ``logged_t`` (N·m): what a prediction is scored against after resampling."""
+    stamps: np.ndarray | None = None
+    """(N,) each sample's time stamp as logged (s), when the samples were kept and read on the
+    regular grid ``t`` their jittered stamps stand for; else None (the stamps are ``t``)."""
 
     def __post_init__(self) -> None:
         n = self.t.shape[0]
@@ -39,6 +42,8 @@ class Measurement:
             )
         if self.dq is not None and self.dq.shape != self.q.shape:
             raise ValueError(f"Measurement shapes disagree: q {self.q.shape}, dq {self.dq.shape}")
+        if self.stamps is not None and self.stamps.shape != self.t.shape:
+            raise ValueError(f"Measurement shapes disagree: t {self.t.shape}, stamps {self.stamps.shape}")
 
     @property
     def name(self) -> str:
@@ -50,6 +55,11 @@ class Measurement:
         if self.logged_t is not None and self.logged_tau is not None:
             return self.logged_t, self.logged_tau
         return self.t, self.tau
+
+    @property
+    def sample_stamps(self) -> np.ndarray:
+        """(N,) each sample's time as logged (s): :attr:`stamps`, else ``t``."""
+        return self.t if self.stamps is None else self.stamps
 
     @property
     def rate_hz(self) -> float:

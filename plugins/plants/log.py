@@ -160,6 +160,7 @@ class LogPlant:
             q=whole.q[part],
             tau=whole.tau[part],
             dq=None if whole.dq is None else whole.dq[part],
+            stamps=None if whole.stamps is None else whole.stamps[part],
             **logged,
             metadata={
                 **whole.metadata,

@@ -20,6 +20,7 @@ from typing import Any
 from lwrlab.dynamics.base_parameters import BaseParameters
 from lwrlab.excitation.constraints import ConstraintSettings
 from lwrlab.excitation.criteria import Criterion
+from lwrlab.excitation.known_information import KnownInformation
 from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.excitation.solver import ExcitationResult, SlsqpOptimizer, check_motion, check_motion_at
 from lwrlab.model.robot import RobotModel
@@ -77,8 +78,11 @@ class OptimalExcitingMotion:
         """The parameterisation of a ``duration`` (s) motion, without coefficients (what is optimised)."""
         return self.parameterisation(duration=duration, coefficients=None)
 
-    def problem(self, robot: RobotModel, base: BaseParameters | None = None) -> ExcitationProblem:
-        """The excitation problem for ``robot`` with these settings (``base`` computed if None)."""
+    def problem(
+        self, robot: RobotModel, base: BaseParameters | None = None, known: KnownInformation | None = None
+    ) -> ExcitationProblem:
+        """The excitation problem for ``robot`` with these settings (``base`` computed if None), its
+        criterion conditioned on the ``known`` information if given."""
         return ExcitationProblem(
             robot,
             self.bare_parameterisation(self.duration),
@@ -88,17 +92,20 @@ class OptimalExcitingMotion:
             window_s=self.window_s,
             base=base,
             coulomb_smoothing=self.coulomb_smoothing,
+            known=known,
         )
 
     def optimise(
-        self, robot: RobotModel, base: BaseParameters | None = None
+        self, robot: RobotModel, base: BaseParameters | None = None, known: KnownInformation | None = None
     ) -> tuple[LinearParameterisation, ExcitationResult, ExcitationProblem]:
         """Solve the excitation problem; the motion (with coefficients), the result and the problem.
 
-        ``base``: the robot's base parameters, when a caller optimising many motions has them.
-        The source itself is left unchanged (no state kept between calls).
+        ``base``: the robot's base parameters, when a caller optimising many motions has them;
+        ``known``: the information already in hand, in those base parameters (the next motion is
+        designed for what it leaves open). The source itself is left unchanged (no state kept between
+        calls).
         """
-        problem = self.problem(robot, base)
+        problem = self.problem(robot, base, known)
         result = self.optimizer.solve(problem)
         return problem.parameterisation.with_coefficients(result.coefficients), result, problem
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import json
 import logging
 import shlex
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -32,8 +32,11 @@ from lwrlab.figures.excitation import motion_figure
 from lwrlab.identification.identifiability import DEFAULT_POOR_COND
 from lwrlab.io.artifacts import save_trajectory_csv
 from lwrlab.io.exciting_motion import save_motion_description
+from lwrlab.io.target_motions import read_target_motions
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
+from lwrlab.pipeline.excitation.known import known_information
+from lwrlab.pipeline.excitation.uncertainty_report import next_motion_report, plant_noise_density
 
 log = logging.getLogger(__name__)
 
@@ -159,8 +162,22 @@ def _check_table(check: Any, verify_rate_hz: float) -> list[str]:
     return lines
 
 
-def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -> dict[str, float]:
+def run_excitation(
+    cfg: Any,
+    output_dir: Path,
+    verify_rate_hz: float = 1000.0,
+    known_logs: Sequence[str] | None = None,
+    known_model: str | None = None,
+    targets: Sequence[Any] | None = None,
+) -> dict[str, float]:
     """Task ``excitation``: optimise the exciting motion of ``cfg.robot``, check it, and write it.
+
+    With ``known_logs`` (read by the ``plant=log`` reader) and/or ``known_model`` (a path or MLflow
+    model URI), the motion is designed for what they leave unknown: the criterion scores the known
+    information and the motion's together (:mod:`lwrlab.pipeline.excitation.known`). The report says
+    the expected std of each base parameter before and after the motion (``parameter_uncertainty.csv``),
+    which stay poorly known, and the expected torque std along the ``targets`` (where the model will be
+    used: :mod:`lwrlab.io.target_motions`; ``criterion=target_variance`` aims the motion at them).
 
     The motion is checked at ``verify_rate_hz`` against every limit and against the robot's own
     collision geometry and world (:func:`lwrlab.excitation.solver.check_motion_at`). Accepted, it is
@@ -181,7 +198,10 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
     robot: RobotModel = instantiate(cfg.robot)
     require_motion_limits(robot)  # before any work, in one line
     source = optimal_source(cfg)
-    motion, result, problem = source.optimise(robot)
+    base = compute_base_parameters(robot)
+    known = known_information(cfg, robot, base, known_logs, known_model)
+    target_motions = read_target_motions(list(targets or []), robot.n_joints, robot.joint_names, robot.drive)
+    motion, result, problem = source.optimise(robot, base, known)
     q, dq, ddq = (b @ result.coefficients for b in problem.bases)
     check = check_motion_at(robot, motion, source.constraints, verify_rate_hz)
     trajectory = motion.sample(robot, verify_rate_hz)
@@ -202,9 +222,10 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
         else ("exact geometry" if collisions.exact else "collision spheres"),
         "accepted": accepted,
         "optimisation_seconds": round(result.seconds, 2),
+        "known": [] if known is None else list(known.sources),
         "command": _command_line(),
     }
-    if provenance["cond_W_b"] > DEFAULT_POOR_COND:
+    if known is None and provenance["cond_W_b"] > DEFAULT_POOR_COND:  # conditioned: alone it needn't
         log.warning(
             "the exciting motion of %s excites its base parameters poorly: cond(W_b) = %.4g (> %g, the "
             "identifiability report's threshold); try more starts (optimizer.n_starts), a longer motion "
@@ -236,6 +257,22 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
         "",
         f"cond(W_b) (unit-norm columns, {problem.rate_hz:g} Hz grid): {provenance['cond_W_b']:.4g}",
     ]
+    density, noise_source = plant_noise_density(cfg)
+    next_motion = next_motion_report(
+        problem, result.coefficients, known, density, noise_source, target_motions
+    )
+    output_dir.mkdir(parents=True, exist_ok=True)
+    next_motion.write(output_dir, robot.name)
+    still_poor = next_motion.parameters.poorly_known(after=True)
+    if still_poor:
+        log.warning(
+            "%d base parameter(s) of %s stay poorly known after this motion (%s): design another for them "
+            "(task.known_logs / task.known_model), or a longer one (trajectory.duration)",
+            len(still_poor),
+            robot.name,
+            ", ".join(still_poor[:8]),
+        )
+    report_lines += ["", *next_motion.lines()]
     scene = problem.constraint_set.scene
     if scene.notes:
         report_lines += ["", "Pairs not checked:", "", *[f"- {note}" for note in scene.notes]]
@@ -301,6 +338,7 @@ def run_excitation(cfg: Any, output_dir: Path, verify_rate_hz: float = 1000.0) -
         "violated_families": float(sum(r.violated for r in check.reports)),
         "accepted": float(accepted),
         **{f"worst_slack_{r.family}": r.worst_slack for r in check.reports},
+        **next_motion.metrics(),
     }
     if collisions is not None:
         metrics["collision_check_seconds"] = collisions.seconds

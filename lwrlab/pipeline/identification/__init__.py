@@ -1,22 +1,17 @@
-"""Task ``identification`` and its stages: from motions (or logs) to an identified model, its report.
+"""Task ``identification``, wired: configured objects in, the identification's files out.
 
-The modules, bottom up (each imports only those above it in this list):
+The computing stages are the core's (:mod:`lwrlab.identification`: measuring, fitting, scoring,
+notes, the result in memory); here, bottom up:
 
-- :mod:`~lwrlab.pipeline.identification.rows`: the identification rows of processed logs, block by block;
-- :mod:`~lwrlab.pipeline.identification.log_predictions`: one log processed and predicted by a model,
-  with its band, its tables and its predicted-torque file;
-- :mod:`~lwrlab.pipeline.identification.result`: :class:`IdentificationReport`, the result in memory;
-- :mod:`~lwrlab.pipeline.identification.measuring`, :mod:`~lwrlab.pipeline.identification.fitting`,
-  :mod:`~lwrlab.pipeline.identification.scoring`, :mod:`~lwrlab.pipeline.identification.notes`: the
-  stages of :func:`identify`;
 - :mod:`~lwrlab.pipeline.identification.report`: the result's tables, arrays and figures on disk;
-- :mod:`~lwrlab.pipeline.identification.task`: :func:`identify`, the configured entry points;
+- :mod:`~lwrlab.pipeline.identification.task`: :func:`identify` (the stages in order), the
+  configured entry points and the robot a config builds;
 - :mod:`~lwrlab.pipeline.identification.example_log`: task ``write_example_logs`` (the simulated
   robot's motions recorded as logs).
 """
 
-from lwrlab.pipeline.identification.result import IdentificationReport
-from lwrlab.pipeline.identification.scoring import prediction_interval
+from lwrlab.identification.result import IdentificationReport
+from lwrlab.identification.scoring import prediction_interval
 from lwrlab.pipeline.identification.task import (
     configured_robot,
     identify,

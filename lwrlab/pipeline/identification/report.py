@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -19,6 +19,12 @@ import pandas as pd
 
 from lwrlab.figures.residuals import residuals_per_log
 from lwrlab.figures.torques import error_per_joint, torque_overlay
+from lwrlab.identification.log_predictions import (
+    LogPrediction,
+    predicted_torque_blocks,
+    prediction_table,
+    process_measurement,
+)
 from lwrlab.io.artifacts import (
     MODEL_INPUT_EXAMPLE_FILE,
     save_identified_model,
@@ -27,17 +33,21 @@ from lwrlab.io.artifacts import (
 )
 from lwrlab.io.urdf_export import UnexportableJointError, export_urdf
 from lwrlab.model.friction_laws import law_mapping
-from lwrlab.pipeline.identification.log_predictions import (
-    prediction_table,
-    process_measurement,
-    write_predicted_torque,
-)
 from lwrlab.plants.core import Measurement
 
 if TYPE_CHECKING:  # the identification module runs this writer: its report type only annotates here
-    from lwrlab.pipeline.identification.result import IdentificationReport
+    from lwrlab.identification.result import IdentificationReport
 
 log = logging.getLogger(__name__)
+
+NOT_RIGID_BODIES = (
+    "NOTE: the reported standard set is not a set of rigid bodies (a pseudo-inertia eigenvalue < 0): "
+    "the base parameters, and the torques they predict, do not depend on which of the equivalent "
+    "standard sets is reported, but a simulator, a URDF and a prior need rigid bodies. No URDF is "
+    "written, and robot=identified uses the nearest rigid bodies (its log says how much the torques "
+    "change); estimator=sdp identifies a model whose every body is a rigid body."
+)
+"""What the summary says of a model whose reported standard set is not rigid bodies."""
 
 RUN_TAGS_FILE = "tags.json"
 """Tags a run carries beside its metrics: what a reader must know before trusting the numbers."""
@@ -74,9 +84,11 @@ def format_report(report: IdentificationReport) -> str:
         f"mean RMS {report.metrics['rms_mean']:.4g} N·m, mean NRMS "
         f"{report.metrics['nrms_mean']:.4g} % (RMS over the measured range), "
         f"cond(W_b) {report.metrics['cond_W_b']:.4g}, smallest pseudo-inertia eigenvalue "
-        f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} of the reported standard set (< 0: "
-        "not a rigid body)",
+        f"{report.metrics['min_pseudo_inertia_eigenvalue']:.3g} kg·m² of the reported standard set "
+        "(≥ 0: rigid bodies)",
     ]
+    if report.metrics["min_pseudo_inertia_eigenvalue"] < 0.0:
+        lines.append(NOT_RIGID_BODIES)
     resampled = [
         m.name for m in [*report.measurements, *report.validation_measurements] if m.metadata.get("resampled")
     ]
@@ -126,6 +138,28 @@ def model_input_example(
     for prefix, values in (("q", states.q), ("dq", states.dq), ("ddq", states.ddq)):
         columns.update({f"{prefix}{j}": values[:, j - 1] for j in range(1, n + 1)})
     return pd.DataFrame(columns)
+
+
+def write_predicted_torque(
+    predictions: Sequence[LogPrediction], path: Path, block_samples: int = 1 << 17
+) -> Path:
+    """The predictions' table (``predicted_torque_frame``) written to Parquet block by block (a long
+    log's frame would not fit in memory): the same file, one row group per block."""
+    import pyarrow as pa  # type: ignore[import-untyped]
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    writer = None
+    try:
+        for frame in predicted_torque_blocks(predictions, block_samples):
+            table = pa.Table.from_pandas(frame, preserve_index=False)
+            if writer is None:  # dictionaries only for the names: trying them on measured floats
+                # costs 8 × the time and a larger file
+                writer = pq.ParquetWriter(path, table.schema, use_dictionary=["log", "role"])
+            writer.write_table(table.cast(writer.schema))
+    finally:
+        if writer is not None:
+            writer.close()
+    return path
 
 
 def write_report(

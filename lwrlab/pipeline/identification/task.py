@@ -1,18 +1,18 @@
 """Task ``identification``: motion → plant → processing → base-parameter estimation → cross-validation.
 
 :func:`identify` is pure computation on configured objects and returns an
-:class:`~lwrlab.pipeline.identification.result.IdentificationReport`, a sequence of stages each with
-one job: :func:`~lwrlab.pipeline.identification.measuring.measure` and
-:func:`~lwrlab.pipeline.identification.measuring.process_measurements`;
-:func:`~lwrlab.pipeline.identification.fitting.choose_drive_terms`,
-:func:`~lwrlab.pipeline.identification.fitting.accumulate_rows`,
-:func:`~lwrlab.pipeline.identification.fitting.assess` and
-:func:`~lwrlab.pipeline.identification.fitting.fit`;
-:func:`~lwrlab.pipeline.identification.scoring.predict`,
-:func:`~lwrlab.pipeline.identification.scoring.tabulate`,
-:func:`~lwrlab.pipeline.identification.scoring.extrapolate` and
-:func:`~lwrlab.pipeline.identification.scoring.score`; then
-:func:`~lwrlab.pipeline.identification.notes.notes`.
+:class:`~lwrlab.identification.result.IdentificationReport`, a sequence of stages each with
+one job: :func:`~lwrlab.identification.measuring.measure` and
+:func:`~lwrlab.identification.measuring.process_measurements`;
+:func:`~lwrlab.identification.fitting.choose_drive_terms`,
+:func:`~lwrlab.identification.fitting.accumulate_rows`,
+:func:`~lwrlab.identification.fitting.assess` and
+:func:`~lwrlab.identification.fitting.fit`;
+:func:`~lwrlab.identification.scoring.predict`,
+:func:`~lwrlab.identification.scoring.tabulate`,
+:func:`~lwrlab.identification.scoring.extrapolate` and
+:func:`~lwrlab.identification.scoring.score`; then
+:func:`~lwrlab.identification.notes.notes`.
 :mod:`lwrlab.pipeline.identification.report` puts its tables, arrays and figures on disk. The
 tracking callback logs the output directory to MLflow, so nothing here knows about MLflow or Hydra
 (``hydra.utils.instantiate`` is imported only by the configured entry points).
@@ -20,21 +20,18 @@ tracking callback logs the output directory to MLflow, so nothing here knows abo
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from lwrlab.identification.core import Estimator
+from lwrlab.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
 from lwrlab.identification.friction_drift import friction_drift
+from lwrlab.identification.measuring import measure, process_measurements
+from lwrlab.identification.notes import notes
 from lwrlab.identification.prediction_error import FRICTION_DRIFT, FRICTION_DRIFT_PRIOR
-from lwrlab.model.friction_laws import drifting_terms
-from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
-from lwrlab.pipeline.identification.fitting import accumulate_rows, assess, choose_drive_terms, fit
-from lwrlab.pipeline.identification.measuring import measure, process_measurements
-from lwrlab.pipeline.identification.notes import notes
-from lwrlab.pipeline.identification.report import format_report, write_report
-from lwrlab.pipeline.identification.result import IdentificationReport
-from lwrlab.pipeline.identification.scoring import (
+from lwrlab.identification.result import IdentificationReport
+from lwrlab.identification.scoring import (
     coverage_checks,
     extrapolate,
     likely_causes_of_poor_validation,
@@ -42,7 +39,13 @@ from lwrlab.pipeline.identification.scoring import (
     score,
     tabulate,
 )
+from lwrlab.model.friction_laws import drifting_terms
+from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
+from lwrlab.pipeline.identification.next_motion import next_motion_note
+from lwrlab.pipeline.identification.report import format_report, write_report
 from lwrlab.plants.core import Plant, is_recorded
+from lwrlab.tracking.models.identified_model import IDENTIFIED_ROBOT_LOADER
 from lwrlab.trajectory.core import MotionSource
 
 
@@ -86,7 +89,8 @@ def identify(
     rows = accumulate_rows(robot, base, processed, estimator, fitted, keep_rows=bootstrap)
     has_prior = bool(getattr(estimator, "uses_prior", False))
     identifiability = assess(robot, base, rows, has_prior)
-    fitting = fit(robot, base, rows, estimator, measured.motion, processed[0])
+    rows_per_second = sum(len(d.index) for d in processed) / sum(len(d.index) / d.rate_hz for d in processed)
+    fitting = fit(robot, base, rows, estimator, measured.motion, processed[0], rows_per_second)
     settings = statistics or {}
     drift = friction_drift(
         settings.get("friction_drift", FRICTION_DRIFT),
@@ -149,6 +153,7 @@ def identify(
             ),
             drift.describe(),
             *coverage_checks(measured, predictions),
+            next_motion_note(robot, base, fitting.identified.base_std),
         ],
         motion=measured.motion,
         validation_motion=measured.validation_motion,
@@ -163,14 +168,37 @@ def identify(
 
 def configured_robot(cfg: Any) -> RobotModel:
     """The robot ``cfg.robot`` builds, with the friction law of ``cfg.friction`` (``auto``: the
-    candidates :func:`identify` chooses from); a robot description that names its own law keeps it."""
+    candidates :func:`identify` chooses from); a robot description that names its own law keeps it,
+    and so does an identified model (``robot=identified``)."""
     from hydra.utils import instantiate
 
     robot: RobotModel = instantiate(cfg.robot)
     law = cfg.get("friction")
-    if law is None or cfg.robot.get("friction_law") is not None:
+    identified = str(cfg.robot.get("_target_", "")).endswith(f".{IDENTIFIED_ROBOT_LOADER}")
+    if law is None or identified or cfg.robot.get("friction_law") is not None:
         return robot
     return robot.with_friction_law(instantiate(law))
+
+
+def saved_robot_description(robot_config: Mapping[str, Any]) -> dict[str, Any]:
+    """The robot description an identified model is saved with: the job's robot settings, or, for an
+    identified robot (``robot=identified``), the description of the model it was built from
+    (:func:`plugins.robots.identified.underlying_description`), so that the model loads on its own."""
+    from hydra.utils import instantiate
+
+    from plugins.robots.identified import underlying_description
+
+    locate = robot_config.get("locate_model")
+    return underlying_description(
+        robot_config,
+        tracking_uri=robot_config.get("tracking_uri"),
+        locate_model=instantiate(locate) if isinstance(locate, Mapping) else None,
+    )
+
+
+def robot_description(cfg: Any) -> dict[str, Any]:
+    """:func:`saved_robot_description` of ``cfg.robot``."""
+    return saved_robot_description(resolved_mapping(cfg.robot, "robot"))
 
 
 def identify_configured(cfg: Any) -> IdentificationReport:
@@ -195,8 +223,6 @@ def identify_configured(cfg: Any) -> IdentificationReport:
 def run_identification(cfg: Any, output_dir: Path, motion_format: str = "parquet") -> dict[str, float]:
     """Task ``identification``: build the configured objects, identify, write and print the report."""
     report = identify_configured(cfg)
-    write_report(
-        report, output_dir, resolved_mapping(cfg.robot, "robot"), motion_format, processing_settings(cfg)
-    )
+    write_report(report, output_dir, robot_description(cfg), motion_format, processing_settings(cfg))
     print(format_report(report))
     return report.metrics

@@ -52,6 +52,7 @@ from lwrlab.monitoring.scoring import detectable_contacts, rms_error, score_dete
 from lwrlab.pipeline.config_nodes import tracking_uri
 from lwrlab.pipeline.tools.log_rows import read_logs
 from lwrlab.plants.core import Measurement
+from lwrlab.tracking.models.identified_model import ReadModel, read_identified_model
 from lwrlab.tracking.models.resolve import ResolvedModel, resolve_model
 
 log = logging.getLogger(__name__)
@@ -60,32 +61,15 @@ SIMULATED_RUN_LOGS = ("measurement.npz", "validation_measurement.npz")
 """What a simulated identification run keeps of its (contact-free) measurements."""
 
 
-def monitoring_robot(robot: RobotModel, model: ResolvedModel | str | None) -> RobotModel:
-    """The model the monitor uses: the identified one at ``model`` (a file, a run folder, or a model
-    :func:`~lwrlab.tracking.models.resolve.resolve_model` resolved), else ``robot``."""
-    if not model:
-        return robot
+def monitoring_robot(cfg: Any, model: ReadModel | None) -> RobotModel:
+    """The robot the monitor reads the logs with and monitors: the identified model's own (its
+    kinematics, drive train, friction law and drive terms), else the robot config's (CAD) model."""
     from hydra.utils import instantiate
-    from omegaconf import OmegaConf
 
-    from lwrlab.resources import config_group
-
-    # built as `robot=identified robot.source=<model>` builds it: the option's own settings
-    node = OmegaConf.load(config_group("robot")["identified"])
-    node.source = str(model.path if isinstance(model, ResolvedModel) else model)
-    model = model.source if isinstance(model, ResolvedModel) else model
-    try:
-        identified: RobotModel = instantiate(node)
-    except Exception as error:
-        cause = error.__cause__ if isinstance(error.__cause__, Exception) else error
-        if isinstance(cause, FileNotFoundError | ValueError):
-            raise ConfigError(f"task.model: {cause}") from error
-        raise
-    if identified.n_joints != robot.n_joints:
-        raise ConfigError(
-            f"task.model {model} describes {identified.n_joints} joints, the robot config {robot.n_joints}"
-        )
-    return identified
+    if model is not None:
+        return model.robot
+    robot: RobotModel = instantiate(cfg.robot)
+    return robot
 
 
 def _simulated_measurement(path: Path) -> Measurement:
@@ -186,11 +170,15 @@ def _torque_frame(
     estimates: ExternalTorques,
     calibrations: dict[str, Calibration | StateCalibration],
     detections: dict[str, list[Detection]],
+    stamps: np.ndarray | None = None,
 ) -> pd.DataFrame:
+    """One row per sample; ``t`` the sample's logged stamp and, where ``stamps`` (the logged stamps
+    of samples read on a regular grid) are given, ``t_grid`` the grid's time."""
     n = estimates.observer.shape[1]
     columns: dict[str, Any] = {
         "log": estimates.name,
-        "t": estimates.t,
+        "t": estimates.t if stamps is None else stamps,
+        **({} if stamps is None else {"t_grid": estimates.t}),
         "monitored": estimates.monitored,
         "signals_disagree": estimates.disagreeing,
     }
@@ -334,7 +322,6 @@ def run_monitor(
     truth_torque : Parquet of the true external torque (``t``, ``tau_ext1…``): RMS errors.
     min_force : contacts weaker than this (N) are not counted as missed.
     """
-    from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
     output_dir.mkdir(parents=True, exist_ok=True)
@@ -356,13 +343,14 @@ def run_monitor(
     )
     if not paths:
         raise ConfigError("task=monitor needs the log(s) to monitor: plant=log 'data.paths=[log.csv, …]'")
-    resolved = resolve_model(model, tracking_uri(cfg), "task.model") if model else None
-    robot = instantiate(cfg.robot)
-    monitor_robot = monitoring_robot(robot, resolved)
+    read = read_identified_model(model, tracking_uri(cfg), "task.model") if model else None
+    monitor_robot = monitoring_robot(cfg, read)
     frame = frame or default_frame(monitor_robot)
     mapping, load_columns = _contact_mapping(monitor_robot, frame, point)
-    contact_free, source = calibration_measurements(cfg, robot, calibration_paths, resolved)
-    monitored = read_logs(cfg, robot, list(paths), "monitored")
+    contact_free, source = calibration_measurements(
+        cfg, monitor_robot, calibration_paths, None if read is None else read.resolved
+    )
+    monitored = read_logs(cfg, monitor_robot, list(paths), "monitored")
     if (truth_contacts or truth_torque) and len(monitored) != 1:
         raise ConfigError("task.truth_contacts and task.truth_torque score one monitored log: give one")
     reference = [estimate_external_torques(monitor_robot, m, settings) for m in contact_free]
@@ -375,7 +363,7 @@ def run_monitor(
             monitor_robot, measurement, settings, progress=_progress(measurement.name)
         )
         found = detect(estimates, calibrations, settings)
-        frames.append(_torque_frame(estimates, calibrations, found))
+        frames.append(_torque_frame(estimates, calibrations, found, measurement.stamps))
         for estimator in ESTIMATORS:
             table = detections_frame(found[estimator])
             loads = contact_loads(monitor_robot, estimates, estimator, found[estimator], frame, point)
@@ -414,13 +402,18 @@ def run_monitor(
         "monitored_hours": hours,
         "observer_us_per_sample": 1e6 * seconds / max(samples, 1),
     }
-    pd.concat(frames, ignore_index=True).to_parquet(output_dir / "external_torque.parquet", index=False)
+    torques = pd.concat(frames, ignore_index=True)
+    if "t_grid" in torques:  # the logs read on their stamps' grid, and the others' stamps
+        torques["t_grid"] = torques["t_grid"].fillna(torques["t"])
+    torques.to_parquet(output_dir / "external_torque.parquet", index=False)
     detections.to_csv(output_dir / "detections.csv", index=False)
     calibration = calibration_table(calibrations)
     calibration.to_csv(output_dir / "calibration.csv", index=False)
     summary = format_summary(
         source, calibration, detections[detections.estimator == "observer"], metrics, settings
     )
+    if read is not None:
+        summary += f"\n\nmodel {read.resolved.source}: {read.describe()}"
     (output_dir / "summary.md").write_text(summary + "\n")
     (output_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
     print(summary)

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
-from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.regressor import LogRegressor
 from lwrlab.errors import ConfigError
 from lwrlab.identification.context import row_joints
 from lwrlab.identification.least_squares import grouped_least_squares
@@ -81,11 +81,15 @@ class ToolBench:
     processing: dict[str, Any]
 
     @classmethod
-    def for_robot(cls, robot: RobotModel, processing: dict[str, Any] | None = None) -> ToolBench:
+    def for_robot(
+        cls, robot: RobotModel, processing: dict[str, Any] | None = None, base: BaseParameters | None = None
+    ) -> ToolBench:
+        """The bench of ``robot``; ``base``: its base parameters (None: all of them), e.g. those an
+        identified model holds."""
         joint, placement = flange_placement(robot)
         return cls(
             robot,
-            compute_base_parameters(robot),
+            compute_base_parameters(robot) if base is None else base,
             frame_change_matrix(placement.rotation, placement.translation),
             joint,
             dict(processing or {}),
@@ -95,7 +99,7 @@ class ToolBench:
         """Execute ``motion`` on ``plant`` and build the regressors from the processed measurement."""
         measurement = plant.measure(motion)
         processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **self.processing)
-        w, tau = processed.rows(lambda q, dq, ddq: regressor(self.robot, q, dq, ddq))
+        w, tau = processed.rows(LogRegressor.of(self.robot, processed.velocities, processed.working_rate_hz))
         return ToolData(
             self.base.base_regressor(w), w[:, tool_columns(self.robot.n_links, self.tool_joint)], tau
         )

@@ -26,7 +26,7 @@ import json
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +37,9 @@ from lwrlab.errors import ConfigError
 from lwrlab.identification.context import row_joints
 from lwrlab.identification.core import column_scaled_condition_number, relative_std
 from lwrlab.identification.least_squares import grouped_least_squares
+from lwrlab.model.friction_laws import describe_law
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES
+from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings
 from lwrlab.pipeline.tools.bench import ToolBench, ToolData
 from lwrlab.pipeline.tools.library import load_tool
@@ -51,6 +53,13 @@ GAIN_METHODS = ("least_squares", "total_least_squares")
 WEAK_GAIN_RELATIVE_STD = 1.0
 """%σ above which a gain is reported as poorly determined (measured: 0.01-0.1 % when the known payload
 loads the joint, 20 % for a joint whose axis passes through the payload's centre of mass)."""
+
+
+JOINT_GAINS = "data.drive_gains"
+"""Gains at the joints: ``τ_j = k_j·i_j`` (a robot whose description has no torque constants)."""
+MOTOR_CONSTANTS = "robot.drive.torque_constants"
+"""Torque constants of the motors: ``τ_motor = k·i``, through the gears (a robot whose drive train
+says its currents are the motors')."""
 
 
 @dataclass(frozen=True)
@@ -68,6 +77,9 @@ class DriveGainEstimate:
     method: str
     cond: float
     """Condition number of the column-scaled system."""
+    setting: str = JOINT_GAINS
+    """The setting the gains are given to: ``data.drive_gains`` (N·m/A at the joints) or, for a
+    robot whose description has its drive train, ``robot.drive.torque_constants`` (at the motors)."""
 
     @property
     def relative_std(self) -> np.ndarray:
@@ -76,7 +88,7 @@ class DriveGainEstimate:
 
     def override(self, digits: int = 8) -> str:
         """The Hydra override line that reads later current logs with these gains."""
-        return "data.drive_gains=[" + ",".join(f"{g:.{digits}g}" for g in self.gains) + "]"
+        return f"{self.setting}=[" + ",".join(f"{g:.{digits}g}" for g in self.gains) + "]"
 
 
 def known_payload(
@@ -181,7 +193,9 @@ def drive_gains_document(
         "drive_gains": [float(g) for g in estimate.gains],
         "std": [float(s) for s in estimate.std],
         "relative_std_pct": [float(s) for s in estimate.relative_std],
-        "units": "N·m/A at the joint (τ_j = k_j·i_j)",
+        "units": "N·m/A at the joint (τ_j = k_j·i_j)"
+        if estimate.setting == JOINT_GAINS
+        else "N·m/A at the motor (τ_motor = k·i, through the gears)",
         "method": estimate.method,
         "known_payload": {
             name: float(v) for name, v, k in zip(LINK_PARAMETER_NAMES, payload, known, strict=True) if k
@@ -189,6 +203,27 @@ def drive_gains_document(
         "cond": estimate.cond,
         "override": estimate.override(),
     }
+
+
+def current_reading(robot: RobotModel) -> tuple[str, np.ndarray | None]:
+    """The setting the gains go to, and the torque constants the logs are read with (None: the
+    currents read as they are, gain 1).
+
+    A robot whose drive train converts currents (``torque_constants``) has them read as its
+    description says (through the gears, with its torque constants: torques a plausibility check can
+    judge); the gains found then scale those constants, each motor driving its own joint (a coupled
+    drive mixes the motors' currents in a joint's torque: one gain per joint would not be a motor's
+    constant).
+    """
+    drive = robot.drive_train
+    if drive.torque_constants is None:
+        return JOINT_GAINS, None
+    if not drive.is_direct:
+        raise ConfigError(
+            f"task=drive_gains: {robot.name}'s drive train couples its motors ({drive.describe()}): its "
+            "motors' torque constants are not one gain per joint; give them as robot.drive.torque_constants"
+        )
+    return MOTOR_CONSTANTS, np.asarray(drive.torque_constants, dtype=float)
 
 
 def run_drive_gains(
@@ -213,8 +248,9 @@ def run_drive_gains(
     weighted : Gautier's weighting per (log set, joint).
     true_gains : the true gains when known (simulation): errors are added to the metrics.
 
-    Writes ``drive_gains.yaml`` (gains and the ``data.drive_gains=[…]`` override), ``summary.md``
-    and ``metrics.json``.
+    Writes ``drive_gains.yaml`` (gains and the ``data.drive_gains=[…]`` override, or for a robot
+    whose drive train converts the currents its motors' ``robot.drive.torque_constants=[…]``:
+    :func:`current_reading`), ``summary.md`` and ``metrics.json``.
     """
     from hydra.utils import instantiate
 
@@ -229,14 +265,25 @@ def run_drive_gains(
     )
     phi, known = known_payload(mass, com, load_tool(tool_name) if tool_name else None)
     robot = instantiate(cfg.robot)
+    setting, constants = current_reading(robot)
     bench = ToolBench.for_robot(robot, processing_settings(cfg))
     start = time.perf_counter()
-    unloaded = log_rows(bench, read_logs(cfg, robot, unloaded_paths, "unloaded", unit_gains=True))
-    loaded = log_rows(bench, read_logs(cfg, robot, loaded_paths, "loaded", unit_gains=True))
+    unit = constants is None
+    unloaded = log_rows(bench, read_logs(cfg, robot, unloaded_paths, "unloaded", unit_gains=unit))
+    loaded = log_rows(bench, read_logs(cfg, robot, loaded_paths, "loaded", unit_gains=unit))
     estimate = estimate_drive_gains(bench, unloaded, loaded, phi, known, method, weighted)
+    if constants is not None:  # gains of the currents read with the description's constants
+        estimate = replace(
+            estimate, gains=estimate.gains * constants, std=estimate.std * constants, setting=setting
+        )
     seconds = time.perf_counter() - start
 
     document = drive_gains_document(estimate, phi, known)
+    document["robot"] = {  # the model the rows were built with (robot=identified: the model's own)
+        "name": robot.name,
+        "friction_law": describe_law(robot.friction_law),
+        "friction_terms": list(robot.friction_terms),
+    }
     (output_dir / "drive_gains.yaml").write_text(
         yaml.safe_dump(document, sort_keys=False, allow_unicode=True)
     )

@@ -10,16 +10,15 @@ on τ and on every regressor column, decimation); the rows of several logs are s
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
-from lwrlab.dynamics.regressor import regressor
+from lwrlab.dynamics.regressor import LogRegressor
 from lwrlab.errors import ConfigError
 from lwrlab.identification.payload import tool_columns
-from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.config_nodes import log_reader, read_logs
 from lwrlab.pipeline.tools.bench import ToolBench, ToolData
-from lwrlab.plants.core import Measurement, RecordedPlant, is_recorded
+from lwrlab.plants.core import Measurement
 from lwrlab.signal.processing import process
 
 
@@ -34,7 +33,8 @@ def log_rows(bench: ToolBench, measurements: Sequence[Measurement]) -> ToolData:
     for measurement in measurements:
         processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **bench.processing)
         print(f"{measurement.name}: {processed.describe()}")
-        w, tau = processed.rows(lambda q, dq, ddq: regressor(bench.robot, q, dq, ddq))
+        # a friction law with memory reads the whole log's motion (LogRegressor)
+        w, tau = processed.rows(LogRegressor.of(bench.robot, processed.velocities, processed.working_rate_hz))
         parts.append(
             ToolData(
                 bench.base.base_regressor(w), w[:, tool_columns(bench.robot.n_links, bench.tool_joint)], tau
@@ -47,40 +47,4 @@ def log_rows(bench: ToolBench, measurements: Sequence[Measurement]) -> ToolData:
     )
 
 
-def log_reader(cfg: Any, robot: RobotModel, paths: Sequence[str], unit_gains: bool = False) -> RecordedPlant:
-    """The configured ``plant=log`` reader (its ``data.*`` options), for ``paths``.
-
-    ``unit_gains``: read motor currents (columns ``current1…N``) as they are (gain 1), whatever
-    ``data.drive_gains`` says.
-    """
-    from hydra.utils import instantiate
-    from omegaconf import OmegaConf
-
-    if OmegaConf.select(cfg, "data") is None:
-        raise ConfigError(
-            "this task reads recorded logs: run it with plant=log (and the data.* options the logs need: "
-            "data.column_map, data.time_unit, data.drive_gains, …)"
-        )
-    overrides: dict[str, Any] = {
-        "path": None,
-        "paths": [str(p) for p in paths],
-        "validation_path": None,
-        "validation_paths": None,
-    }
-    if unit_gains:
-        overrides["drive_gains"] = [1.0] * robot.n_joints
-    reader = instantiate(cfg.plant, **overrides)(robot=robot)
-    if not is_recorded(reader):
-        raise ConfigError(f"this task reads recorded logs: plant={type(reader).__name__} does not read them")
-    return reader
-
-
-def read_logs(
-    cfg: Any, robot: RobotModel, paths: Sequence[str] | None, role: str, unit_gains: bool = False
-) -> list[Measurement]:
-    """The logs ``paths`` (none: an empty list) as measurements tagged with ``role``."""
-    paths = [str(p) for p in (paths or [])]
-    if not paths:
-        return []
-    reader = log_reader(cfg, robot, paths, unit_gains)
-    return [reader.load(path, role) for path in paths]
+__all__ = ["log_reader", "log_rows", "read_logs"]

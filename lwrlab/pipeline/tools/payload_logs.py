@@ -35,38 +35,21 @@ import yaml
 from lwrlab.errors import ConfigError
 from lwrlab.identification.core import relative_std
 from lwrlab.identification.payload import PayloadEstimate
-from lwrlab.io.artifacts import MODEL_INPUT_EXAMPLE_FILE, load_identified_model
+from lwrlab.io.artifacts import MODEL_INPUT_EXAMPLE_FILE
 from lwrlab.io.payload_model import PAYLOAD_FILE, PAYLOAD_PARAMETERS_FILE, write_robot_description
 from lwrlab.io.urdf_export import inertial_element
 from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
-from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, tracking_uri
+from lwrlab.pipeline.config_nodes import processing_settings, tracking_uri
+from lwrlab.pipeline.identification.task import robot_description, saved_robot_description
 from lwrlab.pipeline.tools.bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.pipeline.tools.library import load_library, load_tool
 from lwrlab.pipeline.tools.log_rows import log_rows, read_logs
 from lwrlab.plants.core import Measurement
 from lwrlab.tools.model import Tool
 from lwrlab.tools.recognition import UNKNOWN_TOOL, Recognition, ToolClassifier, UnknownToolWarning
-from lwrlab.tracking.models.resolve import resolve_model
+from lwrlab.tracking.models.identified_model import ReadModel, read_identified_model
 
 log = logging.getLogger(__name__)
-
-
-def earlier_robot_base(bench: ToolBench, model_path: str | Path, store: str | None = None) -> np.ndarray:
-    """The robot's base parameters from an earlier run's ``identified_model.yaml`` (or its folder, or an
-    MLflow model URI looked up in ``store``: see :func:`~lwrlab.tracking.models.resolve.resolve_model`).
-
-    Raises a ``ValueError`` when its base parameters are not this robot's (another robot, other
-    friction terms).
-    """
-    path = resolve_model(model_path, store, "task.unloaded_model").path
-    model, _ = load_identified_model(path)
-    if tuple(model.base_names) != tuple(bench.base.names):
-        raise ConfigError(
-            f"{path}: its base parameters {list(model.base_names)} are not those of {bench.robot.name} with "
-            f"friction terms {list(bench.robot.friction_terms)} ({list(bench.base.names)}); "
-            "identify the unloaded robot with the same robot and robot.friction_terms"
-        )
-    return np.asarray(model.base_values, dtype=float)
 
 
 def identify_payload_from_rows(
@@ -173,30 +156,28 @@ def parameter_table(document: dict[str, Any]) -> pd.DataFrame:
     )
 
 
-IDENTIFIED_ROBOT_LOADER = "load_identified_robot"
-"""The loader of ``robot=identified``: its description is the identified model's own."""
-
-
-def robot_description(cfg: Any) -> dict[str, Any]:
-    """The description of the job's robot (``robot``), as a run folder keeps it: ``robot=identified``
-    gives the description its identified model refined (the kinematics are the same; the payload's
-    columns do not read the identified inertias)."""
-    description = resolved_mapping(cfg.robot, "robot")
-    for _ in range(8):  # an identified model of an identified model …
-        if not str(description.get("_target_", "")).endswith(f".{IDENTIFIED_ROBOT_LOADER}"):
-            return description
-        path = resolve_model(description["source"], tracking_uri(cfg), "robot.source").path
-        _, description = load_identified_model(path)
-    raise ConfigError("robot.source: identified models nested too deep to find the robot's description")
+def payload_robot_description(cfg: Any, model: ReadModel | None = None) -> dict[str, Any]:
+    """The description of the robot the payload was identified on, as a run folder keeps it: the
+    one ``model`` (the unloaded robot's identified model) refined, else the job's robot's; an
+    identified robot's is the description its model refined (:func:`saved_robot_description`: the
+    kinematics are the same; the payload's columns do not read the identified inertias)."""
+    if model is not None:
+        return saved_robot_description(model.description)
+    return robot_description(cfg)
 
 
 def write_payload_model_files(
-    cfg: Any, output_dir: Path, document: dict[str, Any], loaded: Sequence[Measurement]
+    cfg: Any,
+    output_dir: Path,
+    document: dict[str, Any],
+    loaded: Sequence[Measurement],
+    model: ReadModel | None = None,
 ) -> None:
-    """Write what rebuilds the payload's model anywhere (see the module docstring)."""
+    """Write what rebuilds the payload's model anywhere (see the module docstring); ``model``: the
+    unloaded robot's identified model, whose robot carried the payload."""
     from lwrlab.pipeline.identification.report import model_input_example
 
-    write_robot_description(robot_description(cfg), output_dir)
+    write_robot_description(payload_robot_description(cfg, model), output_dir)
     parameter_table(document).to_csv(output_dir / PAYLOAD_PARAMETERS_FILE, index=False, float_format="%.17g")
     example = model_input_example(loaded[0], processing_settings(cfg))
     example.to_csv(output_dir / MODEL_INPUT_EXAMPLE_FILE, index=False, float_format="%.17g")
@@ -311,16 +292,18 @@ def run_payload(
             "task=payload needs the unloaded robot: 'task.unloaded_paths=[unloaded.csv]' or "
             "task.unloaded_model=<run>/identified_model.yaml"
         )
-    robot = instantiate(cfg.robot)
-    bench = ToolBench.for_robot(robot, processing_settings(cfg))
     if unloaded_paths and unloaded_model:
         log.warning("both unloaded logs and an unloaded model given: the logs are used")
-    # before reading logs: fail fast
-    robot_base = (
-        earlier_robot_base(bench, unloaded_model, tracking_uri(cfg))
+    # before reading logs: fail fast. The model's robot is the one that carried the payload, with
+    # the law, drive terms and drive train it was identified with, whatever this job's robot says.
+    model = (
+        read_identified_model(unloaded_model, tracking_uri(cfg), "task.unloaded_model")
         if unloaded_model and not unloaded_paths
         else None
     )
+    robot = instantiate(cfg.robot) if model is None else model.robot
+    bench = ToolBench.for_robot(robot, processing_settings(cfg), None if model is None else model.base)
+    robot_base = None if model is None else np.asarray(model.identified.base_values, dtype=float)
     start = time.perf_counter()
     loaded_logs = read_logs(cfg, robot, loaded_paths, "loaded")
     loaded = log_rows(bench, loaded_logs)
@@ -335,8 +318,10 @@ def run_payload(
     true_tool = (tools[truth] if truth in tools.names else load_tool(truth)) if truth else None
 
     document = payload_document(estimate, recognition, robot.name)
+    if model is not None:
+        document["unloaded_model"] = model.record()
     (output_dir / PAYLOAD_FILE).write_text(yaml.safe_dump(document, sort_keys=False, allow_unicode=True))
-    write_payload_model_files(cfg, output_dir, document, loaded_logs)
+    write_payload_model_files(cfg, output_dir, document, loaded_logs, model)
     snippet = inertial_snippet(estimate.phi_flange)
     (output_dir / "payload_inertial.urdf.xml").write_text(snippet)
     metrics = _payload_metrics(estimate, recognition, true_tool) | {"identification_s": seconds}

@@ -152,14 +152,21 @@ def task_overrides(config: DictConfig) -> list[str]:
     return [str(item) for item in OmegaConf.select(config, "hydra.overrides.task", default=[]) or []]
 
 
-def config_hash(resolved_config: Mapping[str, Any]) -> str:
-    """SHA-256 of the resolved config as YAML, keys sorted (so reordering defaults keeps the hash).
+def hashed_config_text(resolved_config: Mapping[str, Any]) -> str:
+    """The resolved config as YAML, keys sorted, without the ``tracking`` node: the text
+    :func:`config_hash` hashes (computed once per job: its YAML is the slowest part of a run's start)."""
+    kept = {key: value for key, value in resolved_config.items() if key not in NOT_HASHED_KEYS}
+    return OmegaConf.to_yaml(OmegaConf.create(kept), sort_keys=True)
+
+
+def config_hash(resolved_config: Mapping[str, Any], text: str | None = None) -> str:
+    """SHA-256 of the resolved config as YAML, keys sorted (so reordering defaults keeps the hash);
+    ``text``: that YAML when already made (:func:`hashed_config_text`).
 
     The ``tracking`` node (where the run is logged) is left out: the hash names the computation, so a
     re-launched sweep recognises its finished jobs whatever store they went to.
     """
-    kept = {key: value for key, value in resolved_config.items() if key not in NOT_HASHED_KEYS}
-    text = OmegaConf.to_yaml(OmegaConf.create(kept), sort_keys=True)
+    text = hashed_config_text(resolved_config) if text is None else text
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
@@ -234,6 +241,7 @@ __all__ = [
     "TAG_VALUE_MAX_LENGTH",
     "config_hash",
     "flatten_config",
+    "hashed_config_text",
     "mlflow_key",
     "numeric_metrics",
     "plugin_choices",

@@ -58,6 +58,11 @@ HEADLINE_METRICS: dict[str, tuple[str, str]] = {
         "1",
         "‖β̂ − β‖/‖β‖ against the simulated robot's true base parameters (simulated plants only)",
     ),
+    "poorly_known_after": ("1", "base parameters still poorly known after the designed exciting motion"),
+    "target_torque_std_after": (
+        "N·m",
+        "expected std of the torque predicted along the target motions after the designed exciting motion",
+    ),
 }
 """Metric name → (unit, meaning): what ``lwrlab compare`` tabulates and the experiment description lists."""
 PER_JOINT_RMS = re.compile(r"^rms_joint(\d+)$")

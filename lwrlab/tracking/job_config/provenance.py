@@ -104,7 +104,12 @@ def process_tags() -> dict[str, str]:
     return {PID_TAG: str(os.getpid()), HOSTNAME_TAG: socket.gethostname()}
 
 
-def job_tags(config: DictConfig, job_config: Mapping[str, Any], parent_run_id: str | None) -> dict[str, str]:
+def job_tags(
+    config: DictConfig,
+    job_config: Mapping[str, Any],
+    parent_run_id: str | None,
+    hashed_text: str | None = None,
+) -> dict[str, str]:
     """The tags of a job's run: what it computes (overrides, config hash, seed), where and which code ran.
 
     Parameters
@@ -116,11 +121,14 @@ def job_tags(config: DictConfig, job_config: Mapping[str, Any], parent_run_id: s
         :func:`~lwrlab.tracking.job_config.config_params.resolved_job_config`).
     parent_run_id
         The sweep's parent run, if the job is one of a tracked sweep.
+    hashed_text
+        The hashed part of the resolved config as YAML, when already made
+        (:func:`~lwrlab.tracking.job_config.config_params.hashed_config_text`).
     """
     tags = {
         RUN_KIND_TAG: "job",
         "overrides": truncate(" ".join(task_overrides(config)), TAG_VALUE_MAX_LENGTH),
-        "config_hash": config_hash(job_config),
+        "config_hash": config_hash(job_config, hashed_text),
         "hydra_job_name": str(OmegaConf.select(config, "hydra.job.name", default="")),
         "hydra_output_dir": str(config.hydra.runtime.output_dir),
         **provenance_tags(original_cwd(config)),

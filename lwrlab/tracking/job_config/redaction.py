@@ -249,7 +249,8 @@ def _may_name_a_secret_key(data: bytes) -> bool:
     equates with ASCII ones are replaced by them. Byte searches, far faster than the regex on a decoded
     binary file (a Parquet table, an image)."""
     for letter, ascii_letter in _ASCII_CASE_FOLDINGS:
-        data = data.replace(letter, ascii_letter)
+        if letter in data:  # rare: a search spares a copy of a large file
+            data = data.replace(letter, ascii_letter)
     lowered = data.lower()  # ASCII letters only
     return any(word in lowered for word in _SECRET_KEY_WORD_LITERALS)
 

@@ -33,6 +33,7 @@ from omegaconf import DictConfig, OmegaConf
 from lwrlab.tracking.job_config.config_params import (
     NOT_HASHED_KEYS,
     PARAM_VALUE_MAX_LENGTH,
+    hashed_config_text,
     plugin_choices,
     runtime_choices,
     task_overrides,
@@ -149,12 +150,12 @@ def job_params(config: DictConfig, job_config: Mapping[str, Any]) -> dict[str, s
     return run_params(job_config, plugin_choices(runtime_choices(config)), task_overrides(config))
 
 
-def resolved_config_text(job_config: Mapping[str, Any]) -> str:
+def resolved_config_text(job_config: Mapping[str, Any], hashed_text: str | None = None) -> str:
     """The whole resolved config as YAML, keys sorted: the text whose hash is the tag ``config_hash``
-    (the ``tracking`` node, which says where the run is logged, comes last and is not hashed)."""
-    hashed = {key: value for key, value in job_config.items() if key not in NOT_HASHED_KEYS}
+    (the ``tracking`` node, which says where the run is logged, comes last and is not hashed);
+    ``hashed_text``: that hashed part when already made (:func:`hashed_config_text`)."""
     kept = {key: value for key, value in job_config.items() if key in NOT_HASHED_KEYS}
-    text = OmegaConf.to_yaml(OmegaConf.create(hashed), sort_keys=True)
+    text = hashed_config_text(job_config) if hashed_text is None else hashed_text
     return text + (OmegaConf.to_yaml(OmegaConf.create(kept), sort_keys=True) if kept else "")
 
 

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from hydra.core.utils import JobReturn, JobStatus
-from mlflow.entities import DatasetInput
+from mlflow.entities import DatasetInput, Run
 from mlflow.tracking import MlflowClient
 from omegaconf import DictConfig, OmegaConf
 
@@ -68,7 +68,12 @@ from lwrlab.tracking.runs.run_logging import (
     log_params,
     write_error_file,
 )
-from lwrlab.tracking.runs.run_queries import RETRIED_BY_TAG, resume_lookup, sweep_is_stopping
+from lwrlab.tracking.runs.run_queries import (
+    RETRIED_BY_TAG,
+    REUSED_RUN_TAG_PREFIX,
+    resume_lookup,
+    sweep_is_stopping,
+)
 from lwrlab.tracking.store.connection import ensure_experiment
 from lwrlab.tracking.store.settings import TrackingSettings
 from lwrlab.tracking.store.sqlite import retry_locked
@@ -136,6 +141,12 @@ class JobRun:
             found = resume_lookup(client, experiment_id, tags["config_hash"])
             if found.finished is not None:
                 self._skip(found.finished.info.run_id, found.finished.data.metrics)
+                if (
+                    parent_run_id is not None
+                    and found.finished.data.tags.get(PARENT_RUN_TAG) != parent_run_id
+                ):
+                    key = f"{REUSED_RUN_TAG_PREFIX}{found.finished.info.run_id}"
+                    retry_locked(client.set_tag, parent_run_id, key, tags.get("hydra_job_num", ""))
                 return
             self.failed_attempts = found.failed_attempts
         if parent_run_id is not None:
@@ -171,6 +182,17 @@ class JobRun:
         (self.output_dir / RESUMED_FILE).write_text(finished_run_id + "\n", encoding="utf-8")
         log.info("skipping the job: its config already finished as run %s", finished_run_id)
         self.skipped = True
+
+    @staticmethod
+    def _record_reuse(
+        client: MlflowClient, parent_run_id: str | None, finished: Run, tags: Mapping[str, str]
+    ) -> None:
+        """Tag the sweep's parent run with a reused run that is not already one of its jobs
+        (:data:`~lwrlab.tracking.runs.run_queries.REUSED_RUN_TAG_PREFIX`)."""
+        if parent_run_id is None or finished.data.tags.get(PARENT_RUN_TAG) == parent_run_id:
+            return
+        key = REUSED_RUN_TAG_PREFIX + finished.info.run_id
+        retry_locked(client.set_tag, parent_run_id, key, tags.get("hydra_job_num", ""))
 
     def end(self, job_return: JobReturn, config: DictConfig, parent_run_id: str | None) -> None:
         """Log metrics and artifacts, then end the run (or the offline record) with the job's status."""

@@ -51,7 +51,7 @@ from hydra.experimental.callback import Callback
 from mlflow.tracking import MlflowClient
 from omegaconf import DictConfig, OmegaConf
 
-from lwrlab.tracking.job_config.config_params import resolved_job_config
+from lwrlab.tracking.job_config.config_params import hashed_config_text, resolved_job_config
 from lwrlab.tracking.job_config.naming import job_run_name
 from lwrlab.tracking.job_config.provenance import job_tags
 from lwrlab.tracking.job_config.redaction import Redactor
@@ -307,9 +307,10 @@ class InProcessTracking(Callback):
             settings = self.settings_for(config)
             job_config = resolved_job_config(config)
             self._redactor = job.redactor = job_redactor(config, job_config, settings)
-            tags = self._redactor.redact_mapping(job_tags(config, job_config, self._parent_run_id))
+            hashed = hashed_config_text(job_config)  # once: the tag config_hash and the artifact
+            tags = self._redactor.redact_mapping(job_tags(config, job_config, self._parent_run_id, hashed))
             params = self._redactor.redact_mapping(job_params(config, job_config))
-            config_text = self._redactor.redact(resolved_config_text(job_config))
+            config_text = self._redactor.redact(resolved_config_text(job_config, hashed))
             run_name = self._redactor.redact(job_run_name(config, self._swept))
         except Exception as error:  # broad: see above
             self._warn("reading the tracking settings", error)

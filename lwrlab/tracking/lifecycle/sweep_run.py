@@ -130,11 +130,13 @@ def sweep_view_link(client: MlflowClient, run_id: str, config: DictConfig) -> st
 
 def close_sweep_run(client: MlflowClient, run_id: str, config: DictConfig, redactor: Redactor) -> None:
     """Log the sweep config and summary, end the parent run FINISHED unless a job already marked it FAILED,
-    then log the link to its runs in MLflow's UI (:func:`sweep_view_link`)."""
+    then log its id (what ``lwrlab compare --parent`` takes) and the link to its runs in MLflow's UI
+    (:func:`sweep_view_link`)."""
     log_sweep_config(client, run_id, config, redactor)
     log_sweep_summary(client, run_id)
     if retry_locked(client.get_run, run_id).info.status == "RUNNING":
         retry_locked(client.set_terminated, run_id, status="FINISHED")
+    log.info("the sweep's parent run is %s: `lwrlab compare --parent %s` compares its jobs", run_id, run_id)
     link = sweep_view_link(client, run_id, config)
     if link is not None:
         log.info("%s", redactor.redact(link))

@@ -31,7 +31,6 @@ from mlflow.types.schema import ColSpec, Schema, TensorSpec
 
 if TYPE_CHECKING:  # the dynamics load with the model, not with the tracking that logs it
     from lwrlab.dynamics.identified_torques import IdentifiedTorques
-    from lwrlab.model.robot import RobotModel
 
 MODEL_ARTIFACT = "identified_model"
 """Key of ``identified_model.yaml`` among the model's artifacts."""
@@ -78,30 +77,15 @@ def model_signature(n_joints: int) -> ModelSignature:
     return ModelSignature(Schema(inputs), Schema(outputs))
 
 
-def build_identified_robot(path: str | Path) -> RobotModel:
-    """The robot of an ``identified_model.yaml``, built as ``robot=identified robot.source=<path>``
-    builds it (the shipped option's own settings)."""
-    from hydra.utils import instantiate
-    from omegaconf import OmegaConf
-
-    import lwrlab.conf  # noqa: F401  (registers the schemas the option's YAML links)
-    from lwrlab.resources import config_group
-
-    node = OmegaConf.load(config_group("robot")["identified"])
-    node.source = str(path)
-    node.tracking_uri = None
-    robot: RobotModel = instantiate(node)
-    return robot
-
-
 def load_torque_model(path: str | Path, rate_hz: float) -> IdentifiedTorques:
-    """The torque model of an ``identified_model.yaml``; ``rate_hz``: of rows without a ``t`` column."""
-    from lwrlab.dynamics.identified_torques import IdentifiedTorques
-    from lwrlab.io.artifacts import load_identified_model
+    """The torque model of an ``identified_model.yaml``, read as every task reads one
+    (:func:`~lwrlab.tracking.models.identified_model.read_identified_model`); ``rate_hz``: of rows
+    without a ``t`` column."""
+    from lwrlab.tracking.models.identified_model import read_identified_model
+    from lwrlab.tracking.models.resolve import ResolvedModel
 
-    identified, _ = load_identified_model(Path(path))
-    robot = build_identified_robot(path)
-    return IdentifiedTorques.of(robot, identified.base_names, identified.base_values, rate_hz)
+    local = Path(path)  # a file of the model's own: no look-up, not a model this process used
+    return read_identified_model(ResolvedModel(str(local), local), setting="model").torques(rate_hz)
 
 
 def rows_rate(frame: pd.DataFrame) -> float | None:
@@ -151,7 +135,6 @@ __all__ = [
     "TIME_COLUMN",
     "URDF_ARTIFACT",
     "IdentifiedTorqueModel",
-    "build_identified_robot",
     "load_torque_model",
     "model_signature",
     "predict_frame",

@@ -145,22 +145,29 @@ def _shown(tracking_uri: str | None) -> str:
     return f"the MLflow store {uri}"
 
 
+def _store_uris(tracking_uri: str | None) -> tuple[str, str]:
+    """The tracking and registry URIs a look-up uses: ``tracking_uri``, else ``MLFLOW_TRACKING_URI``,
+    else MLflow's default; the registry is the same store unless ``MLFLOW_REGISTRY_URI`` says
+    otherwise. Read, never set: the process's environment and MLflow's globals stay as they are."""
+    import mlflow  # only when a URI is looked up: a job given a file never imports MLflow
+
+    uri = tracking_uri or os.environ.get("MLFLOW_TRACKING_URI") or mlflow.get_tracking_uri()
+    return uri, os.environ.get("MLFLOW_REGISTRY_URI") or uri
+
+
 @contextmanager
 def _store(tracking_uri: str | None) -> Iterator[Any]:
-    """An MLflow client of the store, MLflow's global tracking URI set to it (the registry is the
-    same store unless ``MLFLOW_REGISTRY_URI`` says otherwise); a store error becomes
-    :class:`_LookupFailed`."""
-    import mlflow  # only when a URI is looked up: a job given a file never imports MLflow
+    """An MLflow client of the store with explicit tracking and registry URIs (:func:`_store_uris`);
+    a store error becomes :class:`_LookupFailed`."""
+    import mlflow
     from mlflow.exceptions import MlflowException
-    from mlflow.tracking._tracking_service.utils import _use_tracking_uri
 
-    uri = tracking_uri or mlflow.get_tracking_uri()
+    uri, registry = _store_uris(tracking_uri)
     database = sqlite_database_path(uri)
     if database is not None and not database.is_file():  # looking would create an empty store
         raise _LookupFailed(f"the store {database} does not exist")
     try:
-        with _use_tracking_uri(uri):
-            yield mlflow.MlflowClient(tracking_uri=uri)
+        yield mlflow.MlflowClient(tracking_uri=uri, registry_uri=registry)
     except (MlflowException, OSError) as error:
         raise _LookupFailed(str(error).splitlines()[0] if str(error) else type(error).__name__) from error
 
@@ -182,9 +189,10 @@ def _download(artifact_uri: str, tracking_uri: str | None) -> Path:
     """Download ``artifact_uri`` (a file or folder) into a new temporary folder; its local path."""
     import mlflow.artifacts
 
-    with _store(tracking_uri) as client:
+    uri, registry = _store_uris(tracking_uri)
+    with _store(tracking_uri):
         local = mlflow.artifacts.download_artifacts(
-            artifact_uri=artifact_uri, dst_path=_download_folder(), tracking_uri=client.tracking_uri
+            artifact_uri=artifact_uri, dst_path=_download_folder(), tracking_uri=uri, registry_uri=registry
         )
     return Path(local)
 
@@ -220,11 +228,16 @@ def _logged_model_id(client: Any, run_id: str, name: str) -> str | None:
 def _from_run(source: str, run_id: str, artifact_path: str, tracking_uri: str | None) -> ResolvedModel:
     from lwrlab.io.artifacts import IDENTIFIED_MODEL_FILE
 
+    name, _, inside = artifact_path.partition("/")
     with _store(tracking_uri) as client:
-        model_id = _logged_model_id(client, run_id, artifact_path.split("/")[0])
+        model_id = _logged_model_id(client, run_id, name)
+        # a logged model's files, where this client says they are (MLflow's runs:/ download looks a
+        # logged model up in the process's global store instead)
+        location = None if model_id is None else client.get_logged_model(model_id).artifact_location
     if model_id is None and artifact_path == MODEL_NAME and _RUN_ID.match(source.strip()):
         artifact_path = IDENTIFIED_MODEL_FILE  # a bare run id logged before models were
-    path = _model_file(_download(f"runs:/{run_id}/{artifact_path}", tracking_uri))
+    download = f"runs:/{run_id}/{artifact_path}" if location is None else f"{location}/{inside}".rstrip("/")
+    path = _model_file(_download(download, tracking_uri))
     return ResolvedModel(source, path, run_id, model_id, tracking_uri=tracking_uri)
 
 
@@ -233,7 +246,7 @@ def _from_registry(source: str, tracking_uri: str | None) -> ResolvedModel:
     with _store(tracking_uri) as client:
         if name is None:  # models:/<model id>
             logged = client.get_logged_model(source[len("models:/") :].strip("/"))
-            run_id, model_id, download = logged.source_run_id, logged.model_id, source
+            run_id, model_id, download = logged.source_run_id, logged.model_id, logged.artifact_location
         else:
             found = (
                 client.get_model_version_by_alias(name, alias)
@@ -243,7 +256,9 @@ def _from_registry(source: str, tracking_uri: str | None) -> ResolvedModel:
             run_id, version = found.run_id, str(found.version)
             # a version of a logged model points to it (``models:/<model id>``)
             model_id = found.model_id or _logged_model_of(str(found.source or ""))
-            download = f"models:/{name}/{version}"
+            # where its files are, asked of this client: MLflow's own models:/ download would ask
+            # the process's global registry instead
+            download = client.get_model_version_download_uri(name, version)
     path = _model_file(_download(download, tracking_uri))
     return ResolvedModel(source, path, run_id or None, model_id or None, name, version, tracking_uri)
 

@@ -45,10 +45,12 @@ import re
 from collections.abc import Sequence
 from pathlib import Path
 
+import pandas as pd
 from mlflow.exceptions import MlflowException
 from mlflow.tracking import MlflowClient
 
-from lwrlab.tracking.job_config.provenance import RUN_KIND_TAG, provenance_tags
+from lwrlab.tracking.job_config.config_params import RUN_NAME_MAX_LENGTH, truncate
+from lwrlab.tracking.job_config.provenance import PARENT_RUN_TAG, RUN_KIND_TAG, provenance_tags
 from lwrlab.tracking.job_config.redaction import Redactor
 from lwrlab.tracking.reports.compare_html import comparison_page
 from lwrlab.tracking.reports.comparison import (
@@ -69,6 +71,7 @@ from lwrlab.tracking.reports.comparison import (
 from lwrlab.tracking.reports.derived_runs import derived_key, log_derived_run
 from lwrlab.tracking.reports.run_groups import PARAM_PREFIX, SEED
 from lwrlab.tracking.reports.run_selection import parse_pairs, select_runs, selection_filter
+from lwrlab.tracking.runs.run_queries import reused_run_ids, run_id_filter
 from lwrlab.tracking.runs.runs_view import (
     MLFLOW_UI_ADDRESS,
     MLFLOW_UI_PORT,
@@ -102,6 +105,7 @@ def write_comparison(comparison: Comparison, output_dir: Path, title: str) -> li
             f"- runs: {len(comparison.runs)} FINISHED job runs; grouped by {grouped_by}; "
             "seeds pooled as replication",
             "- mean ± sample standard deviation over each group's runs",
+            *(f"- NOTE: {note}" for note in comparison.notes),
             "",
             to_markdown(comparison),
             "",
@@ -123,11 +127,14 @@ def write_comparison(comparison: Comparison, output_dir: Path, title: str) -> li
     ]
     runs_compared = comparison.runs[columns + [METRIC_PREFIX + m for m in comparison.metrics]]
     runs_compared.to_csv(written[2], index=False)
-    joints = per_joint_rms(comparison.runs, _group_labels(comparison.runs, comparison.groups))
+    labels = _group_labels(comparison.runs, comparison.groups)
+    joints = per_joint_rms(comparison.runs, labels)
     figures = []
     if joints is not None:
-        mean, spread, labels = joints
-        figures.append(rms_per_joint_by_group(mean, spread, labels, output_dir / "rms_per_joint.png", title))
+        mean, spread, groups = joints
+        shown = dict(zip(labels, _group_labels(comparison.runs, comparison.groups, short=True), strict=True))
+        legend = [shown[group] for group in groups]
+        figures.append(rms_per_joint_by_group(mean, spread, legend, output_dir / "rms_per_joint.png", title))
     page = comparison_page(
         title,
         comparison.table,
@@ -136,7 +143,8 @@ def write_comparison(comparison: Comparison, output_dir: Path, title: str) -> li
         runs_compared.rename(columns=_shown_column),
         figures,
         notes=[
-            f"{len(comparison.runs)} FINISHED job runs; grouped by {grouped_by}; seeds pooled as replication"
+            f"{len(comparison.runs)} FINISHED job runs; grouped by {grouped_by}; seeds pooled as replication",
+            *comparison.notes,
         ],
     )
     (output_dir / "compare.html").write_text(page, encoding="utf-8")
@@ -154,6 +162,22 @@ def _experiment_of_parent(client: MlflowClient, parent_run_id: str) -> tuple[str
     parent = retry_locked(client.get_run, parent_run_id)
     experiment = retry_locked(client.get_experiment, parent.info.experiment_id)
     return experiment.experiment_id, experiment.name
+
+
+def sweep_runs(
+    client: MlflowClient, tracking_uri: str, experiment: str, parent_run_id: str, filter_string: str
+) -> pd.DataFrame:
+    """The runs of ``experiment`` matching ``filter_string`` that are jobs of the sweep ``parent_run_id``:
+    those nested under it and those it reused (jobs whose config had already finished elsewhere)."""
+    parent = retry_locked(client.get_run, parent_run_id)
+    reused = reused_run_ids(parent)
+    selections = [f"tags.`{PARENT_RUN_TAG}` = '{parent_run_id}'"]
+    selections += [run_id_filter(reused[start : start + 100]) for start in range(0, len(reused), 100)]
+    tables = [select_runs(tracking_uri, [experiment], f"{filter_string} and {s}") for s in selections]
+    found = [table for table in tables if not table.empty]
+    if not found:
+        return pd.DataFrame()
+    return pd.concat(found, ignore_index=True).drop_duplicates("run_id", ignore_index=True)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -202,18 +226,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     uri = absolute_tracking_uri(arguments.tracking_uri, Path.cwd())
     client = MlflowClient(tracking_uri=uri)
-    extra = arguments.filter
     try:
+        filter_string = selection_filter(
+            parse_pairs(arguments.tag, "tag"), parse_pairs(arguments.param, "param"), arguments.filter
+        )
         if arguments.parent:
             experiment_id, experiment = _experiment_of_parent(client, arguments.parent)
-            nested = f"tags.`mlflow.parentRunId` = '{arguments.parent}'"
-            extra = f"{nested} and {extra}" if extra.strip() else nested
+            runs = sweep_runs(client, uri, experiment, arguments.parent, filter_string)
         else:
             experiment = arguments.experiment
-        filter_string = selection_filter(
-            parse_pairs(arguments.tag, "tag"), parse_pairs(arguments.param, "param"), extra
-        )
-        runs = select_runs(uri, [experiment], filter_string)
+            runs = select_runs(uri, [experiment], filter_string)
         if runs.empty:
             parser.error(f"no FINISHED job run of experiment {experiment!r} matches `{filter_string}`")
         if not arguments.parent:
@@ -243,11 +265,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         tags = {
             RUN_KIND_TAG: "compare",
             "source_runs": str(len(runs)),
-            "grouped_by": ",".join(comparison.groups),
+            "grouped_by": ",".join(comparison.groups)[:5000],
             "filter": filter_string[:5000],
             **provenance_tags(Path.cwd()),
         }
-        run_name = "compare · " + (", ".join(comparison.groups) or ALL_RUNS)
+        run_name = truncate("compare · " + (", ".join(comparison.groups) or ALL_RUNS), RUN_NAME_MAX_LENGTH)
         run_id, logged = log_derived_run(
             client,
             experiment_id,

@@ -9,22 +9,31 @@ figure draws. Pure pandas: no store is read or written here.
 
 from __future__ import annotations
 
+import hashlib
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import PurePath
 
 import numpy as np
 import pandas as pd
 
 from lwrlab.tracking.job_config.config_params import mlflow_key
 from lwrlab.tracking.job_config.naming import HEADLINE_METRICS, PER_JOINT_RMS, is_timing_metric
-from lwrlab.tracking.reports.run_groups import PARAM_PREFIX, swept_parameters
+from lwrlab.tracking.reports.run_groups import PARAM_PREFIX, subject_parameters, swept_parameters
 
 log = logging.getLogger(__name__)
 
 
 METRIC_PREFIX = "metrics."
 ALL_RUNS = "all runs"
+METRIC_KEY = "metric_key"
+"""The table's column naming each group's metrics on the comparison run (``<metric_key>/rms_mean``)."""
+SHOWN_VALUE_LENGTH = 32
+"""Characters of a parameter value a group's metric key and figure legend show (a list of logs: their
+file names; else its end); the table keeps the whole value."""
+GROUP_KEY_LENGTH = 160
+"""Characters of a group's metric key: with ``/<metric>`` within MLflow's 250 for a metric name."""
 
 
 @dataclass
@@ -35,8 +44,11 @@ class Comparison:
     groups: list[str]
     """Parameters the rows are grouped by (``[]``: one row, every run)."""
     table: pd.DataFrame
-    """One row per group: ``runs``, ``seeds``, ``<metric>`` (mean) and ``<metric>_std`` per metric."""
+    """One row per group: its parameters' values, ``runs``, ``seeds``, ``<metric>`` (mean) and
+    ``<metric>_std`` per metric, and :data:`METRIC_KEY` (the group's key on the comparison run)."""
     metrics: list[str]
+    notes: list[str] = field(default_factory=list)
+    """What the reader must know about the grouping (keys added so that runs are not pooled)."""
 
 
 def headline_metrics(runs: pd.DataFrame) -> list[str]:
@@ -46,14 +58,33 @@ def headline_metrics(runs: pd.DataFrame) -> list[str]:
     return ordered + sorted(metric for metric in present if is_timing_metric(metric))
 
 
-def _group_labels(runs: pd.DataFrame, groups: Sequence[str]) -> pd.Series:
+def _group_labels(runs: pd.DataFrame, groups: Sequence[str], short: bool = False) -> pd.Series:
+    """Each run's group, ``key=value, …`` (``short``: values as :func:`shown_value` shows them)."""
     if not groups:
         return pd.Series(ALL_RUNS, index=runs.index)
-    parts = [groups_value(runs, group).radd(f"{group}=") for group in groups]
+    parts = [
+        (groups_value(runs, group).map(shown_value) if short else groups_value(runs, group)).radd(f"{group}=")
+        for group in groups
+    ]
     label = parts[0]
     for part in parts[1:]:
         label = label + ", " + part
     return label
+
+
+def shown_value(value: str) -> str:
+    """A parameter value as a group's metric key and a legend show it: whole when short, a list of
+    paths by its file names, else its last :data:`SHOWN_VALUE_LENGTH` characters.
+
+    Examples
+    --------
+    >>> shown_value("/data/robot_logs/campaign_2024/kuka/measurements_2.npz, /data/robot_logs/m_3.npz")
+    'measurements_2.npz, m_3.npz'
+    """
+    if len(value) <= SHOWN_VALUE_LENGTH:
+        return value
+    names = ", ".join(PurePath(part).name for part in value.split(", "))
+    return names if len(names) <= SHOWN_VALUE_LENGTH else "…" + names[-(SHOWN_VALUE_LENGTH - 1) :]
 
 
 def groups_value(runs: pd.DataFrame, group: str) -> pd.Series:
@@ -78,15 +109,27 @@ def compare_runs(runs: pd.DataFrame, groups: Sequence[str] | None = None) -> Com
         (distinct seeds), and for each metric its mean and its sample standard deviation over the
         group's runs (``nan`` for a single run).
     """
-    groups = list(swept_parameters(runs) if groups is None else groups)
-    missing = [group for group in groups if PARAM_PREFIX + group not in runs]
-    if missing:
-        known = sorted(
-            column[len(PARAM_PREFIX) :] for column in runs.columns if column.startswith(PARAM_PREFIX)
-        )
-        raise ValueError(f"no run has the parameter(s) {missing}; parameters: {known[:40]}")
+    notes = []
+    if groups is None:
+        groups = swept_parameters(runs)
+    else:
+        groups = list(groups)
+        missing = [group for group in groups if PARAM_PREFIX + group not in runs]
+        if missing:
+            known = sorted(
+                column[len(PARAM_PREFIX) :] for column in runs.columns if column.startswith(PARAM_PREFIX)
+            )
+            raise ValueError(f"no run has the parameter(s) {missing}; parameters: {known[:40]}")
+        subjects = subject_parameters(runs, groups)
+        if subjects:  # a robot, a data set, is never pooled with another
+            notes.append(
+                f"runs differ in {', '.join(subjects)} (what they are of): grouped by them too, never "
+                f"pooled; --param {subjects[0]}=… compares one"
+            )
+            groups += subjects
     metrics = headline_metrics(runs)
     labels = _group_labels(runs, groups)
+    shown = _group_labels(runs, groups, short=True)
     seeds = runs["params.seed"] if "params.seed" in runs else pd.Series("", index=runs.index)
     rows = []
     for label in sorted(labels.unique()):
@@ -98,9 +141,12 @@ def compare_runs(runs: pd.DataFrame, groups: Sequence[str] | None = None) -> Com
             values = pd.to_numeric(members[METRIC_PREFIX + metric], errors="coerce").dropna()
             row[metric] = float(values.mean()) if len(values) else np.nan
             row[f"{metric}_std"] = float(values.std(ddof=1)) if len(values) > 1 else np.nan
+        row[METRIC_KEY] = group_key(
+            str(shown[labels == label].iloc[0]), label
+        )  # last: a reader's columns stay
         rows.append(row)
     table = pd.DataFrame(rows).set_index("group")
-    return Comparison(runs=runs, groups=groups, table=table, metrics=metrics)
+    return Comparison(runs=runs, groups=groups, table=table, metrics=metrics, notes=notes)
 
 
 def _unit(metric: str) -> str:
@@ -153,15 +199,26 @@ def _shown_column(column: str) -> str:
     return column
 
 
-def group_key(label: str) -> str:
+def group_key(label: str, full_label: str | None = None) -> str:
     """A group's label as the first part of an MLflow metric key: ``estimator=ols`` → ``estimator:ols``.
+
+    ``label`` may show shortened values (:func:`shown_value`) of ``full_label``; a key shortened, or
+    longer than :data:`GROUP_KEY_LENGTH`, ends with a digest of the full label, so that two groups
+    never share a key.
 
     Examples
     --------
     >>> group_key("estimator=ols, plant.torque_noise_std=0.1")
     'estimator:ols plant.torque_noise_std:0.1'
+    >>> group_key("data.paths=m_2.npz", "data.paths=/logs/m_2.npz")
+    'data.paths:m_2.npz_43763350'
     """
-    return mlflow_key(label.replace("=", ":").replace(", ", " "))
+    key = mlflow_key(label.replace("=", ":").replace(", ", " "))
+    full = label if full_label is None else full_label
+    if full == label and len(key) <= GROUP_KEY_LENGTH:
+        return key
+    digest = hashlib.sha256(full.encode("utf-8")).hexdigest()[:8]
+    return f"{key[: GROUP_KEY_LENGTH - len(digest) - 1]}_{digest}"
 
 
 def _json_table(table: pd.DataFrame) -> pd.DataFrame:
@@ -172,8 +229,8 @@ def _json_table(table: pd.DataFrame) -> pd.DataFrame:
 def comparison_metrics(comparison: Comparison) -> dict[str, float]:
     """The table as metrics of the comparison run: ``<group>/<metric>`` (the mean) and ``<group>/runs``."""
     metrics: dict[str, float] = {}
-    for label, row in comparison.table.iterrows():
-        key = group_key(str(label))
+    for _, row in comparison.table.iterrows():
+        key = str(row[METRIC_KEY])
         metrics[f"{key}/runs"] = float(row["runs"])
         for metric in comparison.metrics:
             if pd.notna(row[metric]):

@@ -4,7 +4,13 @@ A table of runs (``mlflow.search_runs`` layout, ``params.*`` columns) is split i
 vary across runs (swept, or launched separately with other values) and replication (the seed, and any
 parameter that just repeats it, such as ``trajectory.seed: ${seed}``). Where a config-group choice
 varies (``estimator``), the keys under it (``estimator._target_``, ``estimator.weights``) are not
-listed again. Keys that say where a run is logged (``tracking.*``, ``experiment_name``) never count.
+listed again where they follow from it (one value per choice; ``robot.path`` of two URDF robots does
+not follow from ``robot=urdf``). Keys that say where a run is logged (``tracking.*``,
+``experiment_name``) or how it shows progress (``*.show_progress``) never count.
+
+What a run is *of* (its robot, its data: ``robot``, ``plant``, ``data`` and the keys under them,
+:func:`subject_parameters`) is never pooled: a comparison grouped by other keys is grouped by those
+too where runs differ in them.
 
 Examples
 --------
@@ -28,7 +34,8 @@ import pandas as pd
 
 PARAM_PREFIX = "params."
 SEED = "seed"
-_NOT_COMPUTATION = re.compile(r"^(tracking(\..*)?|experiment_name|hydra\..*)$")
+_NOT_COMPUTATION = re.compile(r"^(tracking(\..*)?|experiment_name|hydra\..*|(.*\.)?show_progress)$")
+_SUBJECT = re.compile(r"^(robot|plant|data)(\..*)?$")
 
 
 def _values(runs: pd.DataFrame, column: str) -> pd.Series:
@@ -50,10 +57,28 @@ def swept_parameters(runs: pd.DataFrame) -> list[str]:
         if seed is not None and (values == seed).all():
             continue  # a copy of the seed (``${seed}``): replication, not a parameter
         varying.append(key)
-    # Keys under a varying choice follow from it: `estimator` explains `estimator._target_`.
+    # Keys under a varying choice that follow from it: `estimator` explains `estimator._target_`.
     return [
-        key for key in varying if not any(key.startswith(other + ".") for other in varying if other != key)
+        key
+        for key in varying
+        if not any(
+            key.startswith(other + ".") and _follows(runs, key, other) for other in varying if other != key
+        )
     ]
+
+
+def _follows(runs: pd.DataFrame, key: str, choice: str) -> bool:
+    """Whether ``key`` has one value for each value of ``choice`` across ``runs``."""
+    values = _values(runs, PARAM_PREFIX + key)
+    return bool((values.groupby(_values(runs, PARAM_PREFIX + choice)).nunique() <= 1).all())
+
+
+def subject_parameters(runs: pd.DataFrame, groups: list[str] | tuple[str, ...] = ()) -> list[str]:
+    """The parameters saying what runs are of (robot, plant, data) that differ across ``runs`` and are
+    not in ``groups``: what a comparison by ``groups`` alone would pool."""
+    found = [key for key in swept_parameters(runs) if _SUBJECT.match(key) and key not in groups]
+    order = ("robot", "plant", "data")
+    return sorted(found, key=lambda key: (order.index(key.split(".")[0]), key.count("."), key))
 
 
 def value_summary(runs: pd.DataFrame, parameter: str, limit: int = 6) -> str:
@@ -67,4 +92,4 @@ def short_name(parameter: str) -> str:
     return parameter.rsplit(".", 1)[-1]
 
 
-__all__ = ["short_name", "swept_parameters", "value_summary"]
+__all__ = ["short_name", "subject_parameters", "swept_parameters", "value_summary"]

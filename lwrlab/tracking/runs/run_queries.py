@@ -28,12 +28,27 @@ from mlflow.tracking import MlflowClient
 
 from lwrlab.tracking.job_config.provenance import PARENT_RUN_TAG, RUN_KIND_TAG
 from lwrlab.tracking.runs.finalise import KILLED_BY_TAG, running_runs
+from lwrlab.tracking.store.connection import global_tracking_uri
 from lwrlab.tracking.store.sqlite import absolute_tracking_uri, retry_locked
 
 RESUME_SEARCH_LIMIT = 200
 """Runs of one config read when a job is resumed (newest first)."""
 RETRIED_BY_TAG = "retried_by"
 """Set on a FAILED or KILLED run when a later run of the same config finished."""
+REUSED_RUN_TAG_PREFIX = "reused_run."
+"""``reused_run.<run id>`` on a sweep's parent run: one of its jobs had already FINISHED as that run
+(nested under another sweep, or alone) and was not run again; the value is the job's number."""
+
+
+def reused_run_ids(parent: Run) -> list[str]:
+    """The runs a sweep reused as its jobs (:data:`REUSED_RUN_TAG_PREFIX` tags of its parent run)."""
+    tags = parent.data.tags
+    return sorted(key[len(REUSED_RUN_TAG_PREFIX) :] for key in tags if key.startswith(REUSED_RUN_TAG_PREFIX))
+
+
+def run_id_filter(run_ids: Sequence[str]) -> str:
+    """An MLflow filter clause selecting these runs (``attributes.run_id IN (…)``)."""
+    return "attributes.run_id IN (" + ", ".join(f"'{run_id}'" for run_id in run_ids) + ")"
 
 
 def runs_table(tracking_uri: str, experiment: str, filter_string: str = "") -> pd.DataFrame:
@@ -72,17 +87,13 @@ def search_runs_table(
     tracking_uri: str, experiment_ids: Sequence[str], filter_string: str = ""
 ) -> pd.DataFrame:
     """``mlflow.search_runs`` on a given store (not the global one), oldest run first, as pandas."""
-    previous_uri = mlflow.get_tracking_uri()
-    mlflow.set_tracking_uri(tracking_uri)  # mlflow.search_runs reads the global URI
-    try:
+    with global_tracking_uri(tracking_uri):  # mlflow.search_runs reads the global URI
         table = mlflow.search_runs(
             experiment_ids=list(experiment_ids),
             filter_string=filter_string,
             order_by=["attributes.start_time ASC"],
             output_format="pandas",
         )
-    finally:
-        mlflow.set_tracking_uri(previous_uri)
     assert isinstance(table, pd.DataFrame)
     return table
 
@@ -174,11 +185,14 @@ def sweep_is_stopping(client: MlflowClient, parent_run_id: str) -> bool:
 
 __all__ = [
     "RETRIED_BY_TAG",
+    "REUSED_RUN_TAG_PREFIX",
     "ResumeLookup",
     "earlier_attempts",
     "experiment_ids",
     "previous_sweep_run",
     "resume_lookup",
+    "reused_run_ids",
+    "run_id_filter",
     "run_with_tag",
     "runs_table",
     "runs_tagged",

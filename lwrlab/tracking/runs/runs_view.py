@@ -24,9 +24,12 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import os
 import shlex
+import sys
 import time
 from collections.abc import Iterable, Sequence
+from pathlib import Path
 
 from mlflow.exceptions import MlflowException
 from mlflow.tracking import MlflowClient
@@ -121,8 +124,25 @@ def runs_view_path(experiment_id: str, key: str | None = None) -> str:
     return f"/#/experiments/{experiment_id}/runs?{shared}workflowType=machine_learning"
 
 
+def mlflow_executable() -> str:
+    """The ``mlflow`` command installed beside the running Python (the MLflow lwrlab uses), as a reader
+    types it: relative to the working directory inside it (``.venv/bin/mlflow`` after the README's
+    set-up, which puts nothing on ``PATH``), else its absolute path; ``mlflow`` where there is none."""
+    beside = Path(sys.executable).parent / ("mlflow.exe" if os.name == "nt" else "mlflow")
+    if not beside.is_file():
+        return "mlflow"
+    try:
+        return str(beside.relative_to(Path.cwd()))
+    except ValueError:
+        return str(beside)
+
+
 def runs_view_hint(
-    tracking_uri: str, experiment_id: str, ui_port: int = MLFLOW_UI_PORT, key: str | None = None
+    tracking_uri: str,
+    experiment_id: str,
+    ui_port: int = MLFLOW_UI_PORT,
+    key: str | None = None,
+    mlflow: str | None = None,
 ) -> str | None:
     """How to open an experiment's runs in MLflow's UI: a server's URL, or ``mlflow ui`` for a local store.
 
@@ -136,6 +156,8 @@ def runs_view_hint(
         The port ``mlflow ui`` serves a local store on (``mlflow ui --port``).
     key
         The saved view the link opens (:func:`share_runs_view`); ``None``: the browser's own.
+    mlflow
+        The ``mlflow`` command printed; ``None``: :func:`mlflow_executable`.
 
     Returns
     -------
@@ -146,10 +168,14 @@ def runs_view_hint(
     --------
     >>> runs_view_hint("http://user:secret@mlflow.lab:5000/", "3")
     'MLflow UI: http://mlflow.lab:5000/#/experiments/3/runs?workflowType=machine_learning'
-    >>> runs_view_hint("sqlite:////lab/outputs/mlflow.db", "3", key="13eb")  # doctest: +NORMALIZE_WHITESPACE
-    'MLflow UI: mlflow ui --backend-store-uri sqlite:////lab/outputs/mlflow.db, then open
+    >>> runs_view_hint(
+    ...     "sqlite:////lab/outputs/mlflow.db", "3", key="13eb", mlflow=".venv/bin/mlflow"
+    ... )  # doctest: +NORMALIZE_WHITESPACE
+    'MLflow UI: .venv/bin/mlflow ui --backend-store-uri sqlite:////lab/outputs/mlflow.db, then open
     http://127.0.0.1:5000/#/experiments/3/runs?viewStateShareKey=13eb&workflowType=machine_learning'
-    >>> runs_view_hint("sqlite:////lab/mlflow.db", "3", ui_port=5001)  # doctest: +NORMALIZE_WHITESPACE
+    >>> runs_view_hint(
+    ...     "sqlite:////lab/mlflow.db", "3", ui_port=5001, mlflow="mlflow"
+    ... )  # doctest: +NORMALIZE_WHITESPACE
     'MLflow UI: mlflow ui --backend-store-uri sqlite:////lab/mlflow.db --port 5001, then open
     http://127.0.0.1:5001/#/experiments/3/runs?workflowType=machine_learning'
     """
@@ -160,7 +186,8 @@ def runs_view_hint(
     is_folder = "://" not in tracking_uri and ":" not in tracking_uri  # a plain path: a file store
     if sqlite_database_path(tracking_uri) is None and not tracking_uri.startswith("file:") and not is_folder:
         return None
-    command = f"mlflow ui --backend-store-uri {shlex.quote(tracking_uri)}"
+    executable = shlex.quote(mlflow or mlflow_executable())
+    command = f"{executable} ui --backend-store-uri {shlex.quote(tracking_uri)}"
     if ui_port != MLFLOW_UI_PORT:
         command += f" --port {ui_port}"
     return f"MLflow UI: {command}, then open http://{MLFLOW_UI_HOST}:{ui_port}{path}"
@@ -199,6 +226,7 @@ __all__ = [
     "MLFLOW_UI_PORT",
     "SHARED_VIEW_TAG_PREFIX",
     "SHARE_KEY_PARAMETER",
+    "mlflow_executable",
     "runs_view_hint",
     "runs_view_link",
     "runs_view_path",

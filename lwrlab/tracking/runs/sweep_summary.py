@@ -30,7 +30,7 @@ from lwrlab.tracking.job_config.metric_sections import SUMMARY, plain_metrics
 from lwrlab.tracking.job_config.naming import HEADLINE_METRICS
 from lwrlab.tracking.job_config.provenance import PARENT_RUN_TAG, RUN_KIND_TAG
 from lwrlab.tracking.runs.run_logging import log_metrics
-from lwrlab.tracking.runs.run_queries import RETRIED_BY_TAG
+from lwrlab.tracking.runs.run_queries import RETRIED_BY_TAG, reused_run_ids, run_id_filter
 from lwrlab.tracking.store.sqlite import retry_locked
 
 
@@ -57,13 +57,18 @@ def summary_metrics(statuses: Sequence[str], metrics: Sequence[Mapping[str, floa
 
 
 def sweep_jobs(client: MlflowClient, parent: Run) -> list[Run]:
-    """The job runs of the sweep whose parent run is ``parent``, a retried attempt counted once."""
+    """The job runs of the sweep whose parent run is ``parent``, a retried attempt counted once, with
+    the runs it reused (jobs whose config had already finished elsewhere)."""
     jobs = retry_locked(
         client.search_runs,
         [parent.info.experiment_id],
         f"tags.`{PARENT_RUN_TAG}` = '{parent.info.run_id}' and tags.{RUN_KIND_TAG} = 'job'",
         max_results=10_000,
     )
+    reused = reused_run_ids(parent)
+    for start in range(0, len(reused), 100):
+        chunk = run_id_filter(reused[start : start + 100])
+        jobs += retry_locked(client.search_runs, [parent.info.experiment_id], chunk, max_results=10_000)
     return [run for run in jobs if RETRIED_BY_TAG not in run.data.tags]
 
 

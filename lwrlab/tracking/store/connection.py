@@ -5,6 +5,8 @@
   store that failed is not tried again by the same process (one warning, not one delay per job).
 * :func:`ensure_experiment` finds or creates the experiment (one creator among parallel processes),
   restores it if deleted, and gives it the model-development kind and a description.
+* :func:`global_tracking_uri` points MLflow's fluent API (which reads a global URI) at a store for
+  a block of calls, and leaves the global URI and ``MLFLOW_TRACKING_URI`` as they were.
 
 Examples
 --------
@@ -16,10 +18,13 @@ from __future__ import annotations
 
 import http.client
 import logging
+import os
 import re
 import sqlite3
 import urllib.parse
 import urllib.request
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import mlflow
 from mlflow.exceptions import MlflowException
@@ -37,6 +42,29 @@ from lwrlab.tracking.store.settings import TrackingSettings
 from lwrlab.tracking.store.sqlite import prepare_sqlite_store, retry_locked, store_lock
 
 log = logging.getLogger(__name__)
+
+TRACKING_URI_VARIABLE = "MLFLOW_TRACKING_URI"
+"""The variable MLflow reads its store from, and writes whenever its global URI is set."""
+
+
+@contextmanager
+def global_tracking_uri(uri: str) -> Iterator[None]:
+    """MLflow's global tracking URI set to ``uri`` inside the block, for the fluent calls that read
+    it (``Model.log``, ``mlflow.search_runs``); afterwards the URI and :data:`TRACKING_URI_VARIABLE`
+    are what they were (MLflow's own setter writes the variable, and unsets it when restoring none:
+    a later look-up in this process would read another store)."""
+    previous_uri = mlflow.get_tracking_uri()
+    previous_variable = os.environ.get(TRACKING_URI_VARIABLE)
+    mlflow.set_tracking_uri(uri)
+    try:
+        yield
+    finally:
+        mlflow.set_tracking_uri(previous_uri)
+        if previous_variable is None:
+            os.environ.pop(TRACKING_URI_VARIABLE, None)
+        else:
+            os.environ[TRACKING_URI_VARIABLE] = previous_variable
+
 
 HEALTH_PROBE_TIMEOUT_S = 5
 

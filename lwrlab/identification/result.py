@@ -19,10 +19,10 @@ from lwrlab.identification.identifiability import (
     IdentifiabilityReport,
 )
 from lwrlab.identification.identified import IdentifiedModel
-from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.identification.log_predictions import (
+from lwrlab.identification.log_predictions import (
     LogPrediction,
 )
+from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement
 from lwrlab.trajectory.core import Trajectory
 

@@ -23,22 +23,22 @@ from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.core import Estimator, torque_errors
 from lwrlab.identification.coverage_check import coverage_warning, novelty
 from lwrlab.identification.extrapolation import ExtrapolationReport, assess_extrapolation, likely_causes
+from lwrlab.identification.fitting import Fit
 from lwrlab.identification.friction_choice import FrictionChoice
 from lwrlab.identification.identifiability import IdentifiabilityReport
-from lwrlab.identification.prediction_error import conformal_scale, drift_parameters, held_out_log_error
-from lwrlab.model.friction_laws import drifting_terms
-from lwrlab.model.position_ranges import finite_range, range_span
-from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.identification.fitting import Fit
-from lwrlab.pipeline.identification.log_predictions import (
+from lwrlab.identification.log_predictions import (
     LogPrediction,
     PredictionInterval,
     ResidualSums,
     joint_coverage,
     predict_measurement,
 )
-from lwrlab.pipeline.identification.measuring import Measured
-from lwrlab.pipeline.identification.rows import IdentificationRows
+from lwrlab.identification.measuring import Measured
+from lwrlab.identification.prediction_error import conformal_scale, drift_parameters, held_out_log_error
+from lwrlab.identification.rows import IdentificationRows
+from lwrlab.model.friction_laws import drifting_terms
+from lwrlab.model.position_ranges import finite_range, range_span
+from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement, Plant
 from lwrlab.signal.processing import ProcessedData
 

@@ -13,9 +13,9 @@ from lwrlab.dynamics.base_parameters import BaseParameters
 from lwrlab.identification.extrapolation import ExtrapolationReport, validation_warning
 from lwrlab.identification.friction_choice import FrictionChoice
 from lwrlab.identification.identifiability import IdentifiabilityReport, format_prior_note
+from lwrlab.identification.measuring import Measured
 from lwrlab.identification.prior_weight import prior_doubts
 from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.identification.measuring import Measured
 from lwrlab.signal.processing import ProcessedData
 
 

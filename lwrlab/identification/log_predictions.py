@@ -1,15 +1,15 @@
 """An identified model's torque predictions on each measurement, at its samples as logged, and their tables.
 
 :func:`predict_measurement` filters a measurement's states as the fit did and predicts τ̂ = W·φ at
-every logged sample; :func:`prediction_table` and :func:`predicted_torque_frame` put the predictions
-of an identification in tables (the report's per-log errors, ``predicted_torque.parquet``).
+every logged sample; :func:`prediction_table` and :func:`predicted_torque_frame` (block by block:
+:func:`predicted_torque_blocks`) put the predictions of an identification in tables (the report's
+per-log errors, the rows of ``predicted_torque.parquet``, which the report writes).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,7 +37,7 @@ class LogPrediction:
     role: str
     """``identification`` or ``validation``."""
     t: np.ndarray
-    """(M,) times as logged (s)."""
+    """(M,) times as logged (s): each sample's logged stamp."""
     measured: np.ndarray
     """(M, N_J) measured torques as logged (N·m)."""
     predicted: np.ndarray
@@ -57,6 +57,9 @@ class LogPrediction:
     """(M, N_J) the model's friction torque at every sample (N·m; its dissipative drive terms, see
     :func:`~lwrlab.identification.prediction_error.drift_parameters`), or None: what the interval's
     friction drift scales with."""
+    grid_t: np.ndarray | None = None
+    """(M,) the regular grid (s) the samples were read on, when their logged stamps jitter around it
+    (:attr:`lwrlab.plants.core.Measurement.stamps`); else None (the stamps are the grid)."""
 
     @property
     def interval_coverage(self) -> float:
@@ -248,7 +251,11 @@ def predict_measurement(
                 if friction is not None and friction_torque is not None:
                     friction_torque[samples] = base.torques(full, friction)
     t, measured = measurement.as_logged()
-    if t is not measurement.t:  # resampled log: back to the logged samples
+    on_grid = t  # the times the trimmed span is compared with
+    grid_t = None
+    if t is measurement.t and measurement.stamps is not None:  # the samples as logged, stamps beside
+        grid_t, t = t, measurement.stamps
+    elif t is not measurement.t:  # resampled log: back to the logged samples
         predicted = np.column_stack([np.interp(t, data.t, predicted[:, j]) for j in range(robot.n_joints)])
         if variance is not None:
             variance = np.column_stack([np.interp(t, data.t, variance[:, j]) for j in range(robot.n_joints)])
@@ -257,7 +264,7 @@ def predict_measurement(
                 [np.interp(t, data.t, friction_torque[:, j]) for j in range(robot.n_joints)]
             )
     span = data.row_times
-    scored = (t >= span[0] - 1e-9) & (t <= span[-1] + 1e-9)
+    scored = (on_grid >= span[0] - 1e-9) & (on_grid <= span[-1] + 1e-9)
     cutoff = "no filter" if data.cutoff_hz is None else f"{data.cutoff_hz:.3g} Hz"
     velocity = "logged q̇" if data.velocity.logged else "q̇ = d/dt q"
     return LogPrediction(
@@ -270,6 +277,7 @@ def predict_measurement(
         f"{cutoff}, {velocity}",
         None if variance is None else np.clip(variance, 0.0, None, out=variance),
         friction_torque=friction_torque,
+        grid_t=grid_t,
     )
 
 
@@ -304,20 +312,23 @@ def prediction_table(predictions: Sequence[LogPrediction]) -> pd.DataFrame:
 def predicted_torque_frame(predictions: Sequence[LogPrediction]) -> pd.DataFrame:
     """Measured and predicted torques of every log at its scored samples: the rows its errors come from.
 
-    Columns ``log, role, t, tau1…N, tau_hat1…N`` and, where the model carries its uncertainty,
-    ``tau_lo1…N, tau_hi1…N`` (the prediction interval, 95 % by default). The samples before and
+    Columns ``log, role, t`` (each sample's stamp as logged), ``t_grid`` (only where a log's
+    jittered stamps were read on a regular grid: that grid's time; the other logs' stamps),
+    ``tau1…N, tau_hat1…N`` and, where the model carries its uncertainty, ``tau_lo1…N, tau_hi1…N``
+    (the prediction interval, 95 % by default). The samples before and
     after the trimmed span are left out: there the filtered states carry the filter's edge
     transients, their predictions are several times worse than the rest and no metric scores them,
     so ‖τ − τ̂‖/‖τ‖ over a log's rows
     is its ``validation_rel_error_<log>`` (over the identification logs' rows, ``fit_rel_error``).
     """
-    return pd.concat(_predicted_torque_blocks(predictions, block_samples=None), ignore_index=True)
+    return pd.concat(predicted_torque_blocks(predictions, block_samples=None), ignore_index=True)
 
 
-def _predicted_torque_blocks(
+def predicted_torque_blocks(
     predictions: Sequence[LogPrediction], block_samples: int | None
 ) -> Iterator[pd.DataFrame]:
     """The rows of :func:`predicted_torque_frame`, log by log in blocks of ``block_samples`` samples."""
+    with_grid = any(p.grid_t is not None for p in predictions)  # one schema for every block
     for p in predictions:
         n = p.measured.shape[1]
         scored = np.flatnonzero(p.scored)
@@ -325,31 +336,11 @@ def _predicted_torque_blocks(
         for first in range(0, max(scored.size, 1), max(step, 1)):
             rows = scored[first : first + step]
             frame = pd.DataFrame({"log": p.name, "role": p.role, "t": p.t[rows]})
+            if with_grid:
+                frame["t_grid"] = (p.t if p.grid_t is None else p.grid_t)[rows]
             frame[[f"tau{j}" for j in range(1, n + 1)]] = p.measured[rows]
             frame[[f"tau_hat{j}" for j in range(1, n + 1)]] = p.predicted[rows]
             if p.half_width is not None:
                 frame[[f"tau_lo{j}" for j in range(1, n + 1)]] = p.predicted[rows] - p.half_width[rows]
                 frame[[f"tau_hi{j}" for j in range(1, n + 1)]] = p.predicted[rows] + p.half_width[rows]
             yield frame
-
-
-def write_predicted_torque(
-    predictions: Sequence[LogPrediction], path: Path, block_samples: int = 1 << 17
-) -> Path:
-    """:func:`predicted_torque_frame` written to Parquet block by block (a long log's frame would not
-    fit in memory): the same file, one row group per block."""
-    import pyarrow as pa  # type: ignore[import-untyped]
-    import pyarrow.parquet as pq  # type: ignore[import-untyped]
-
-    writer = None
-    try:
-        for frame in _predicted_torque_blocks(predictions, block_samples):
-            table = pa.Table.from_pandas(frame, preserve_index=False)
-            if writer is None:  # dictionaries only for the names: trying them on measured floats
-                # costs 8 × the time and a larger file
-                writer = pq.ParquetWriter(path, table.schema, use_dictionary=["log", "role"])
-            writer.write_table(table.cast(writer.schema))
-    finally:
-        if writer is not None:
-            writer.close()
-    return path

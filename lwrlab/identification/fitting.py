@@ -2,7 +2,7 @@
 
 :func:`choose_drive_terms` lets the data choose the friction law and rotor columns and drops what the
 fitted joints cannot see; :func:`accumulate_rows` builds the identification rows block by block
-(:mod:`lwrlab.pipeline.identification.rows`); :func:`assess` says what the rows can determine (and
+(:mod:`lwrlab.identification.rows`); :func:`assess` says what the rows can determine (and
 refuses rank-deficient data without a prior); :func:`fit` runs the estimator and gives the
 :class:`~lwrlab.identification.identified.IdentifiedModel`.
 """
@@ -23,8 +23,8 @@ from lwrlab.identification.core import Estimator
 from lwrlab.identification.friction_choice import FrictionChoice, choose_friction
 from lwrlab.identification.identifiability import IdentifiabilityReport, assess_identifiability
 from lwrlab.identification.identified import IdentifiedModel, standard_from_base
+from lwrlab.identification.rows import IdentificationRows, identification_rows
 from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.identification.rows import IdentificationRows, identification_rows
 from lwrlab.signal.processing import ProcessedData
 from lwrlab.trajectory.core import Trajectory
 
@@ -134,8 +134,13 @@ def fit(
     estimator: Estimator,
     motion: Trajectory | None,
     first: ProcessedData,
+    rows_rate_hz: float | None = None,
 ) -> Fit:
-    """Fit ``estimator`` to the rows (in place) and gather the identified model."""
+    """Fit ``estimator`` to the rows (in place) and gather the identified model.
+
+    ``rows_rate_hz``: the rate of the rows (Hz; default the first log's), with which the model's noise
+    density is written (what a next exciting motion is weighed with).
+    """
     context = _context(robot, base, motion, first)
     cpu_start = time.process_time()
     rows.fit(estimator, context)
@@ -143,7 +148,15 @@ def fit(
     standard = getattr(estimator, "standard_phi_", None)  # physically consistent estimators give it
     if standard is None:
         standard = standard_from_base(base, estimator.phi_, robot.parameters)
+    rate = first.rate_hz if rows_rate_hz is None else rows_rate_hz
+    covariance = getattr(estimator, "covariance_", None)  # an estimator of one's own may not give it
     identified = IdentifiedModel(
-        base.names, estimator.phi_.copy(), estimator.std_.copy(), robot.parameter_names, standard
+        base.names,
+        estimator.phi_.copy(),
+        estimator.std_.copy(),
+        robot.parameter_names,
+        standard,
+        base_covariance=None if covariance is None else np.array(covariance, dtype=float),
+        noise_density=None if covariance is None else rows.statistics.noise_density(estimator.phi_, rate),
     )
     return Fit(context, identified, standard, cpu_s)

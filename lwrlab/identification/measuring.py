@@ -2,7 +2,7 @@
 
 :func:`measure` plays the exciting and validation motions on the plant (or takes the logs a recorded
 plant replays); :func:`process_measurements` filters, differentiates and decimates each
-identification log (:func:`lwrlab.pipeline.identification.log_predictions.process_measurement`).
+identification log (:func:`lwrlab.identification.log_predictions.process_measurement`).
 """
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any
 
+from lwrlab.identification.log_predictions import process_measurement
 from lwrlab.model.robot import RobotModel
-from lwrlab.pipeline.identification.log_predictions import process_measurement
 from lwrlab.plants.core import Measurement, Plant, is_recorded
 from lwrlab.signal.processing import ProcessedData
 from lwrlab.trajectory.core import MotionSource, Trajectory, check_limits
