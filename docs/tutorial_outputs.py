@@ -15,7 +15,8 @@ reaches it. Commands that start a server or need a robot or the network (``SKIPP
 
 Rewriting keeps the lines a page shows and takes their text from the new run; an empty ``text`` block
 gets every printed line (abridge it by hand, then rewrite). A line is found again by its text with the
-numbers left out (in a table row, its first cell too), in order. ``--check`` (the slow test
+numbers left out (in a table row, its first cell too), in order; one whose text changed takes the
+printed line most like it, and is listed for a reader to look at. ``--check`` (the slow test
 ``tests/test_tutorials.py``) requires every line the page shows to be printed, in order, with each of its
 numbers within 5 % of the new run's; durations (a number followed by s, ms or min, and the columns of a
 table headed by one) are the machine's and are not compared. Paths, times and ids are written as the
@@ -26,6 +27,7 @@ GLOB -->`` line before an image copies the newest file matching GLOB in the clon
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
 import os
 import re
@@ -57,6 +59,9 @@ SKIPPED = {
 HOME_SHOWN = "/home/you"
 CLONE_SHOWN = f"{HOME_SHOWN}/lwrlab"
 TOLERANCE = 0.05
+LIKENESS = 0.6
+"""How alike (difflib's ratio of the lines without their numbers) a printed line must be to take the
+place of a page's line whose text changed, when rewriting."""
 MARK = "\x1e"
 
 FENCE = re.compile(r"^(?P<indent> *)```(?P<language>\w*)\s*$")
@@ -190,14 +195,30 @@ def duration_columns(shown: list[str], index: int) -> set[int]:
     return {i for i, cell in enumerate(header) if DURATION_COLUMN.search(cell)}
 
 
-def match(shown: list[str], printed: list[str]) -> tuple[list[str], list[str]]:
-    """(the page's lines with the new run's text, the differences): see the module's docstring."""
+def most_like(line: str, printed: list[str], start: int) -> int | None:
+    """The printed line from ``start`` on that reads most like ``line`` (at least :data:`LIKENESS`)."""
+    scores = [
+        (difflib.SequenceMatcher(None, skeleton(line), skeleton(printed[j])).ratio(), j)
+        for j in range(start, len(printed))
+    ]
+    best = max(scores, default=(0.0, None))
+    return best[1] if best[0] >= LIKENESS else None
+
+
+def match(shown: list[str], printed: list[str], adopt: bool = False) -> tuple[list[str], list[str]]:
+    """(the page's lines with the new run's text, the differences): see the module's docstring.
+
+    ``adopt`` (rewriting): a line whose text changed is replaced by the printed line most like it."""
     rewritten, problems, position = list(shown), [], 0
     for i, line in enumerate(shown):
         if not line.strip() or line.strip() == "…":
             continue
         wanted = skeleton(line)
         found = next((j for j in range(position, len(printed)) if skeleton(printed[j]) == wanted), None)
+        if found is None and adopt and (like := most_like(line, printed, position)) is not None:
+            problems.append(f"text changed: {line.strip()}\n    now: {printed[like].strip()}")
+            position, rewritten[i] = like + 1, printed[like]
+            continue
         if found is None:
             problems.append(f"not printed (in this order): {line.strip()}")
             continue
@@ -309,8 +330,8 @@ def rewrite(page: Path, run: Run) -> list[str]:
         if not any(s.strip() for s in shown):
             new = printed
         else:
-            new, differences = match(shown, printed)
-            problems += [d for d in differences if d.startswith("not printed")]
+            new, differences = match(shown, printed, adopt=True)
+            problems += [d for d in differences if d.startswith(("not printed", "text changed"))]
         _replace_block(lines, block.output, new)
     assert run.clone is not None
     for i, line in enumerate(lines):

@@ -100,6 +100,13 @@ CATALOGUE: tuple[MetricFamily, ...] = (
         IDENTIFICATION,
     ),
     MetricFamily(
+        "friction_drift",
+        "1",
+        "ρ: share of the friction torque by which the prediction intervals let friction differ on a new "
+        "motion (measured between the identification logs, else the stated prior)",
+        IDENTIFICATION,
+    ),
+    MetricFamily(
         "prediction_spread",
         "1",
         "predicted-torque spread across the joint limits, over the fit's residual σ (warned above 3)",
