@@ -119,6 +119,39 @@ class SignCoulomb:
         return "SignCoulomb()"
 
 
+class TanhCoulomb:
+    """Coulomb friction smoothed through zero, ``FC·tanh(v/width) + FV·v``: the part the laws that
+    smooth ``sign(v)`` share (``smooth``, ``asymmetric``, ``load``). ``width`` (rad/s, joint side):
+    one value, or a grid chosen by block cross-validation; a law of its own adds its terms by
+    overriding ``extra_terms`` and :meth:`extra_basis`."""
+
+    name = "smooth"
+    extra_terms: tuple[DriveTerm, ...] = ()
+
+    def __init__(self, width: float | Sequence[float]) -> None:
+        self.width = width
+        self._widths = positive_widths(width, "width")
+
+    def coulomb_shape(self, v: np.ndarray) -> np.ndarray:
+        """``tanh(v/width)`` (the grid's first width until one is chosen)."""
+        return np.tanh(v / self._widths[0])
+
+    def extra_basis(self, term: str, v: np.ndarray) -> np.ndarray:
+        """No term of its own."""
+        raise KeyError(term)
+
+    def settings(self) -> dict[str, Any]:
+        """``{"width": ε}`` (rad/s)."""
+        return {"width": grid_setting(self._widths)}
+
+    def candidates(self, speed_noise: np.ndarray) -> tuple[FrictionLaw, ...]:
+        """One law of this kind per width of the grid."""
+        return tuple(type(self)(w) for w in self._widths)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(width={self.width!r})"
+
+
 def positive_widths(width: float | Sequence[float], what: str) -> tuple[float, ...]:
     """``width`` as a tuple of positive speeds (rad/s); a ValueError otherwise."""
     widths = tuple(float(w) for w in np.atleast_1d(np.asarray(width, dtype=float)))

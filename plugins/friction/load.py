@@ -12,30 +12,19 @@ friction band of the thresholds) the law has no load to read: its load term is t
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
-
 import numpy as np
 
-from lwrlab.model.friction_laws import DriveTerm, FrictionLaw, grid_setting, positive_widths
+from lwrlab.model.friction_laws import DriveTerm, TanhCoulomb
 
 LOAD = DriveTerm("load", "FL", "1", True)
 """Growth of the Coulomb level per N·m the drive transmits."""
 
 
-class LoadCoulomb:
+class LoadCoulomb(TanhCoulomb):
     """Smooth Coulomb friction whose level grows with the transmitted torque; ``width`` as in ``smooth``."""
 
     name = "load"
     extra_terms: tuple[DriveTerm, ...] = (LOAD,)
-
-    def __init__(self, width: float | Sequence[float]) -> None:
-        self.width = width
-        self._widths = positive_widths(width, "width")
-
-    def coulomb_shape(self, v: np.ndarray) -> np.ndarray:
-        """``tanh(v/width)``."""
-        return np.tanh(v / self._widths[0])
 
     def extra_basis(self, term: str, v: np.ndarray) -> np.ndarray:
         """Without a load: zero (the ``load`` term needs the state's transmitted torque)."""
@@ -47,15 +36,4 @@ class LoadCoulomb:
         """``|τ_d|·tanh(v/width)`` for ``load`` (``load``: the drives' transmitted torques, N·m)."""
         if term != LOAD.name:
             raise KeyError(term)
-        return np.abs(load) * np.tanh(v / self._widths[0])
-
-    def settings(self) -> dict[str, Any]:
-        """``{"width": ε}`` (rad/s)."""
-        return {"width": grid_setting(self._widths)}
-
-    def candidates(self, speed_noise: np.ndarray) -> tuple[FrictionLaw, ...]:
-        """One law per width of the grid."""
-        return tuple(LoadCoulomb(w) for w in self._widths)
-
-    def __repr__(self) -> str:
-        return f"LoadCoulomb(width={self.width!r})"
+        return np.abs(load) * self.coulomb_shape(v)
