@@ -59,6 +59,8 @@ SKIPPED = {
 HOME_SHOWN = "/home/you"
 CLONE_SHOWN = f"{HOME_SHOWN}/lwrlab"
 TOLERANCE = 0.05
+MAKE_VARIABLES = {"ARGS", "MAKEFLAGS", "MFLAGS", "MAKELEVEL", "MAKEOVERRIDES", "PYTHON"}
+"""What an enclosing make exports to the commands it runs (its command line's variables among them)."""
 LIKENESS = 0.6
 """How alike (difflib's ratio of the lines without their numbers) a printed line must be to take the
 place of a page's line whose text changed, when rewriting."""
@@ -263,7 +265,13 @@ def fresh_clone(folder: Path) -> tuple[Path, Path]:
 def run_page(page: Path, folder: Path) -> Run:
     """Run ``page``'s commands in a fresh clone under ``folder``: what each bash block printed."""
     clone, home = fresh_clone(folder)
-    environment = {k: v for k, v in os.environ.items() if not k.startswith(("MLFLOW_", "VIRTUAL_ENV"))}
+    # a reader's shell: no MLflow or venv settings, nor what an enclosing `make test ARGS=…` exports
+    # (make puts its command line's variables into the environment, which `make run` would read)
+    environment = {
+        k: v
+        for k, v in os.environ.items()
+        if not k.startswith(("MLFLOW_", "VIRTUAL_ENV")) and k not in MAKE_VARIABLES
+    }
     real_home = Path.home()
     environment |= {
         "HOME": str(home),
