@@ -287,8 +287,8 @@ def test_monitor_task_end_to_end(lwr4: RobotModel, tmp_path: Path) -> None:
         "monitored",
     } <= set(frame.columns)
     assert frame["detected"].any() and not frame.loc[frame["t"] < 1.9, "detected"].any()
-    # state thresholds (the default): one per sample, following the friction band, none below the floor
-    assert frame["threshold1"].nunique() > 100
+    # state thresholds (the default): one per sample where the friction band lifts them off the floor
+    assert max(frame[f"threshold{j}"].nunique() for j in range(1, 8)) > 100
     calibration = pd.read_csv(out / "calibration.csv")
     assert {"threshold_at_rest_observer", "friction_share_observer", "floor_residual"} <= set(
         calibration.columns
