@@ -158,6 +158,21 @@ def test_calibration_meets_its_false_alarm_rate() -> None:
         calibrate_thresholds([fresh], [period], 1.0, margin=0.5)
 
 
+def test_constant_thresholds_hold_the_friction_band_at_rest() -> None:
+    """Calibrated on a motion that hardly stops, the level of |r| knows nothing of a joint standing
+    still, where friction may hold anything within its band: the thresholds do not fall below it."""
+    rng = np.random.default_rng(1)
+    moving = 0.05 * rng.normal(size=(20_000, 2))
+    band = np.array([0.8, 0.1])
+    calibration = calibrate_thresholds([moving], [1e-3], 1.0, margin=1.3, rest_friction=band)
+    plain = calibrate_thresholds([moving], [1e-3], 1.0, margin=1.3)
+    assert plain.thresholds[0] < 0.8  # the motion's own level: below the band of joint 1
+    np.testing.assert_allclose(calibration.thresholds, [1.3 * 0.8, plain.thresholds[1]])
+    # a stop holding 90 % of the band stays below the threshold
+    held = 0.9 * band[0] + 0.05 * rng.normal(size=2000)
+    assert np.abs(held).max() < calibration.thresholds[0] and np.abs(held).max() > plain.thresholds[0]
+
+
 def test_detection_hysteresis_and_minimum_duration() -> None:
     t = np.arange(1000) * 1e-3
     r = np.zeros((1000, 2))

@@ -244,7 +244,7 @@ def calibrate(
         margin = settings.margin_of(estimator)
         if settings.thresholds == "constant":
             calibrations[estimator] = calibrate_thresholds(
-                residuals, periods, settings.false_alarm_rate, margin
+                residuals, periods, settings.false_alarm_rate, margin, contact_free[0].rest_friction
             )
             continue
         calibrations[estimator] = calibrate_state_thresholds(
