@@ -318,6 +318,30 @@ def test_monitor_task_end_to_end(lwr4: RobotModel, tmp_path: Path) -> None:
     assert json.loads((out / "metrics.json").read_text())["detections"] == 1
 
 
+def test_the_model_carries_its_friction_drift_to_the_monitor(lwr4: RobotModel, tmp_path: Path) -> None:
+    """An identification from two logs measures how far friction differs between them and writes it
+    into its model; the monitor reading that model says it beside the drift its thresholds cover."""
+    from lwrlab.io.artifacts import load_identified_model
+    from lwrlab.pipeline.monitor.scenario import identify_logs
+
+    logs = _pushed_logs(lwr4, tmp_path)
+    model = identify_logs(tmp_path / "identified_model.yaml", [logs["free"], logs["pushed"]], [logs["free"]])
+    identified, _ = load_identified_model(model)
+    assert identified.friction_drift_source == "logs"
+    assert identified.friction_drift is not None and 0.0 <= identified.friction_drift <= 1.0
+    cfg = compose_config(
+        "task=monitor", "plant=log", f"task.model={model}", f"data.paths=[{logs['pushed']}]",
+        f"task.calibration_paths=[{logs['free']}]",
+    )  # fmt: skip
+    instantiate(cfg.task)(cfg, tmp_path / "run")
+    summary = (tmp_path / "run" / "summary.md").read_text()
+    assert (
+        f"friction drift {identified.friction_drift:.2g} (measured between its identification logs)"
+        in summary
+    )
+    assert "the thresholds cover 0.5 (task.friction_drift)" in summary
+
+
 @pytest.mark.slow
 def test_mujoco_scenario_meets_the_figures(tmp_path: Path) -> None:
     """Identified model: every contact of ≥ 10 N whose true torque crosses the thresholds detected,
