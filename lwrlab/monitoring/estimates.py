@@ -58,8 +58,9 @@ class MonitorSettings:
     observer_gain: float
     """K (1/s) of the momentum observer."""
     velocity_cutoff_hz: float
-    """Low-pass of the velocity (Hz): causal for the observer (what a robot's loop has), zero-phase on
-    q and τ for the direct residual."""
+    """Low-pass of the velocity (Hz): causal for the observer (what a robot's loop has; its q and τ
+    through the same filter, :mod:`~lwrlab.monitoring.observer_inputs`), zero-phase on q and τ for the
+    direct residual."""
     coulomb_smoothing: float
     """ε (rad/s) of ``FC·tanh(q̇/ε)``."""
     false_alarm_rate: float
