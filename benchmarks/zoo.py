@@ -98,6 +98,7 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
     "thresholds": (
         Option("constant", thresholds="constant"),
         Option("state, at rest from the model", thresholds="state at rest from the model"),
+        Option("state, the model's drift", thresholds="state with the model's drift"),
     ),
     "prior": (
         Option("ols", ("estimator=ols",)),
@@ -243,7 +244,8 @@ def prediction_scores(subject: Subject, report: Any) -> dict[str, Any]:
 def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[str, Any]:
     """Collision detection with the identified model and ``kind`` thresholds calibrated on the fit
     logs: pushes at rest detected (of those ≥ :data:`PUSH_NOISE_FACTOR` × the observer's RMS at rest),
-    false alarms on the contact-free new motions (per hour)."""
+    false alarms on the contact-free new motions (per hour; those where the log's velocities
+    contradict its positions counted apart too)."""
     from dataclasses import replace as replace_settings
 
     from benchmarks.monitor import settings as monitor_settings
@@ -256,6 +258,8 @@ def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[s
     settings = replace_settings(monitor_settings(), thresholds="state" if kind.startswith("state") else kind)
     if kind == "state at rest from the model":
         settings = replace_settings(settings, rest_thresholds="model")
+    if kind == "state with the model's drift":  # what its identification measured between its logs
+        settings = replace_settings(settings, friction_drift=float(report.identified.friction_drift))
 
     def estimate(measurement: Any) -> Any:
         return estimate_external_torques(robot, measurement, settings)
@@ -271,12 +275,15 @@ def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[s
         calibrations = calibrate(fit, settings)
         monitored = {m.name: m for m in report.validation_measurements}
         row: dict[str, Any] = {}
-        alarms, hours = 0, 0.0
+        alarms, disagreeing, hours = 0, 0, 0.0
         for name in subject.validation:
             estimates = estimate(monitored[name])
-            alarms += len(detect(estimates, calibrations, settings)["observer"])
+            found = detect(estimates, calibrations, settings)["observer"]
+            alarms += len(found)
+            disagreeing += sum(d.signals_disagree for d in found)
             hours += estimates.monitored_hours
         row["false alarms"] = alarms
+        row["where the log contradicts itself"] = disagreeing
         row["false alarms per hour"] = alarms / hours if hours else float("nan")
         if subject.logs is None or "rest" not in monitored:
             return row
@@ -405,7 +412,8 @@ def coverage_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
 
 def threshold_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
     """Per subject and kind of thresholds: pushes at rest detected (of those ≥ 3 × the noise at rest),
-    false alarms on the contact-free new motions, the thresholds at rest beside the noise there."""
+    false alarms on the contact-free new motions (and those where the log contradicts itself), the
+    thresholds at rest beside the noise there."""
     out = []
     for subject, results in rows.items():
         for label, result in results.items():
@@ -418,6 +426,7 @@ def threshold_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
                     else "",
                     "detected %": result.get("detected %", float("nan")),
                     "false alarms, new motions": result["false alarms"],
+                    "of which the log contradicts itself": result["where the log contradicts itself"],
                     "per hour": result["false alarms per hour"],
                     "false alarms at rest": result.get("false alarms at rest", ""),
                     "threshold at rest / noise": _rest_ratio(result),

@@ -309,3 +309,16 @@ def test_a_continuous_joints_wrapping_angle_is_unwrapped(tmp_path: Path) -> None
         torque=np.array([10.0, 10.0]),
     )
     np.testing.assert_allclose(load_log(tmp_path / "turning.csv", 2, limits=limits).q, q, atol=1e-12)
+
+
+def test_motor_angles_logged_unwrapped_are_kept_however_fast_the_motor_turns(tmp_path: Path) -> None:
+    """A recorder that logs multi-turn motor angles (no wraps) at a low rate: a geared motor turns more
+    than half a turn between samples, which unwrapping would take for wraps. A column spanning more
+    than one turn is no wrapping encoder's: it is read as logged."""
+    drive = build_drive_train({"gear_ratios": [100.0], "position_side": "motor"}, 1, "fast")
+    t = np.arange(200) / 100.0
+    q = 1.2 * np.sin(3.0 * t)[:, None]  # up to 3.6 rad/s: 3.6 rad a sample at the motor
+    theta = 100.0 * q
+    assert np.abs(np.diff(theta, axis=0)).max() > np.pi
+    pd.DataFrame({"t": t, "q1": theta[:, 0], "tau1": np.cos(t)}).to_csv(tmp_path / "fast.csv", index=False)
+    np.testing.assert_allclose(load_log(tmp_path / "fast.csv", 1, drive=drive).q, q, atol=1e-9)

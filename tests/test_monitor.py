@@ -158,6 +158,21 @@ def test_calibration_meets_its_false_alarm_rate() -> None:
         calibrate_thresholds([fresh], [period], 1.0, margin=0.5)
 
 
+def test_constant_thresholds_hold_the_friction_band_at_rest() -> None:
+    """Calibrated on a motion that hardly stops, the level of |r| knows nothing of a joint standing
+    still, where friction may hold anything within its band: the thresholds do not fall below it."""
+    rng = np.random.default_rng(1)
+    moving = 0.05 * rng.normal(size=(20_000, 2))
+    band = np.array([0.8, 0.1])
+    calibration = calibrate_thresholds([moving], [1e-3], 1.0, margin=1.3, rest_friction=band)
+    plain = calibrate_thresholds([moving], [1e-3], 1.0, margin=1.3)
+    assert plain.thresholds[0] < 0.8  # the motion's own level: below the band of joint 1
+    np.testing.assert_allclose(calibration.thresholds, [1.3 * 0.8, plain.thresholds[1]])
+    # a stop holding 90 % of the band stays below the threshold
+    held = 0.9 * band[0] + 0.05 * rng.normal(size=2000)
+    assert np.abs(held).max() < calibration.thresholds[0] and np.abs(held).max() > plain.thresholds[0]
+
+
 def test_detection_hysteresis_and_minimum_duration() -> None:
     t = np.arange(1000) * 1e-3
     r = np.zeros((1000, 2))
@@ -287,8 +302,8 @@ def test_monitor_task_end_to_end(lwr4: RobotModel, tmp_path: Path) -> None:
         "monitored",
     } <= set(frame.columns)
     assert frame["detected"].any() and not frame.loc[frame["t"] < 1.9, "detected"].any()
-    # state thresholds (the default): one per sample, following the friction band, none below the floor
-    assert frame["threshold1"].nunique() > 100
+    # state thresholds (the default): one per sample where the friction band lifts them off the floor
+    assert max(frame[f"threshold{j}"].nunique() for j in range(1, 8)) > 100
     calibration = pd.read_csv(out / "calibration.csv")
     assert {"threshold_at_rest_observer", "friction_share_observer", "floor_residual"} <= set(
         calibration.columns
@@ -301,6 +316,30 @@ def test_monitor_task_end_to_end(lwr4: RobotModel, tmp_path: Path) -> None:
     assert {"force_x", "moment_z"} <= set(detections.columns)
     assert (out / "external_torque.png").is_file() and (out / "calibration.csv").is_file()
     assert json.loads((out / "metrics.json").read_text())["detections"] == 1
+
+
+def test_the_model_carries_its_friction_drift_to_the_monitor(lwr4: RobotModel, tmp_path: Path) -> None:
+    """An identification from two logs measures how far friction differs between them and writes it
+    into its model; the monitor reading that model says it beside the drift its thresholds cover."""
+    from lwrlab.io.artifacts import load_identified_model
+    from lwrlab.pipeline.monitor.scenario import identify_logs
+
+    logs = _pushed_logs(lwr4, tmp_path)
+    model = identify_logs(tmp_path / "identified_model.yaml", [logs["free"], logs["pushed"]], [logs["free"]])
+    identified, _ = load_identified_model(model)
+    assert identified.friction_drift_source == "logs"
+    assert identified.friction_drift is not None and 0.0 <= identified.friction_drift <= 1.0
+    cfg = compose_config(
+        "task=monitor", "plant=log", f"task.model={model}", f"data.paths=[{logs['pushed']}]",
+        f"task.calibration_paths=[{logs['free']}]",
+    )  # fmt: skip
+    instantiate(cfg.task)(cfg, tmp_path / "run")
+    summary = (tmp_path / "run" / "summary.md").read_text()
+    assert (
+        f"friction drift {identified.friction_drift:.2g} (measured between its identification logs)"
+        in summary
+    )
+    assert "the thresholds cover 0.5 (task.friction_drift)" in summary
 
 
 @pytest.mark.slow

@@ -192,7 +192,8 @@ class MonitorTask(Instantiable):
     observer_gain: float
     """1/s, K of the momentum observer."""
     velocity_cutoff_hz: float
-    """Hz, velocity low-pass: causal for the observer, zero-phase on q and τ for the direct residual."""
+    """Hz, velocity low-pass: causal for the observer (its q and τ through the same filter), zero-phase
+    on q and τ for the direct residual."""
     coulomb_smoothing: float
     """rad/s, ε of FC·tanh(q̇/ε)."""
     false_alarm_rate: float

@@ -30,6 +30,11 @@ class IdentifiedModel:
     noise_density: np.ndarray | None = None
     """(N_J,) torque noise density of each joint (N²·m²·s): the fit's residual variance per row times
     the seconds between rows, what a next motion's information is weighed with (None: not saved)."""
+    friction_drift: float | None = None
+    """ρ: the share of its friction torque by which friction differs from one log to the next, as the
+    identification measured or stated it (:mod:`lwrlab.identification.friction_drift`; None: not saved)."""
+    friction_drift_source: str | None = None
+    """Where ρ comes from: ``logs`` (measured between several logs), ``prior`` (one log) or ``set``."""
 
     @property
     def base_relative_std(self) -> np.ndarray:

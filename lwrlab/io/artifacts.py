@@ -96,7 +96,8 @@ _ModelDumper.add_representer(
 def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], path: Path) -> Path:
     """Write an identified model as YAML, with the robot description it refines (to rebuild it), and,
     when the model has them, its base parameters' covariance and the noise it was fitted with (key
-    ``information``: what a next exciting motion is designed with)."""
+    ``information``: what a next exciting motion is designed with) and its friction drift (key
+    ``friction_drift``: value and source, what a monitor's thresholds may cover)."""
     document = {
         "robot": robot_config,
         "base_parameters": {
@@ -113,6 +114,12 @@ def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], 
             "covariance": [_FlowRow(float(v) for v in row) for row in model.base_covariance],
             "noise_density": _FlowRow(float(v) for v in model.noise_density),
         }
+    if model.friction_drift is not None:
+        # how far friction differs between runs: what a monitor's thresholds may cover (task.friction_drift)
+        document["friction_drift"] = {
+            "value": float(model.friction_drift),
+            "source": model.friction_drift_source,
+        }
     path.write_text(yaml.dump(document, Dumper=_ModelDumper, sort_keys=False))
     return path
 
@@ -125,6 +132,7 @@ def load_identified_model(path: Path) -> tuple[IdentifiedModel, dict[str, Any]]:
         raise ValueError(f"{path}: not an identified model, missing keys {sorted(missing)}")
     base, standard = document["base_parameters"], document["standard_parameters"]
     information = document.get("information") or {}
+    drift = document.get("friction_drift") or {}
     model = IdentifiedModel(
         base_names=tuple(base),
         base_values=np.array([entry["value"] for entry in base.values()]),
@@ -133,5 +141,7 @@ def load_identified_model(path: Path) -> tuple[IdentifiedModel, dict[str, Any]]:
         standard_values=np.array(list(standard.values()), dtype=float),
         base_covariance=np.array(information["covariance"], dtype=float) if information else None,
         noise_density=np.array(information["noise_density"], dtype=float) if information else None,
+        friction_drift=float(drift["value"]) if drift else None,
+        friction_drift_source=str(drift.get("source")) if drift else None,
     )
     return model, document["robot"]

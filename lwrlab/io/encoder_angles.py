@@ -9,9 +9,11 @@ positions of the raw columns:
 
 1. counts to angles (``2π / counts`` rad a count), where the encoders give counts;
 2. wraps undone (:func:`unwrapped`) on every motor (a motor turns many times per joint turn) and on
-   the continuous joints of positions measured at the joints; a jump of more than half a turn
-   between two samples is taken as a wrap, so an encoder must turn less than half a turn a sample
-   (at 1 kHz, 30 000 rpm);
+   the continuous joints of positions measured at the joints, where the column stays within one
+   turn as a wrapping encoder's does (a column spanning more was unwrapped by its recorder: a fast
+   motor logged at a low rate turns more than half a turn a sample, which no unwrapping can tell
+   from a wrap); a jump of more than half a turn between two samples is taken as a wrap, so an
+   encoder must turn less than half a turn a sample (at 1 kHz, 30 000 rpm);
 3. ``q = R⁻¹·θ + q₀`` (:meth:`~lwrlab.model.drive_train.DriveTrain.read_positions`).
 
 Velocity columns are scaled alike (counts/s to rad/s) and taken to the joint side, with no offset.
@@ -40,10 +42,12 @@ TURN = 2.0 * np.pi
 
 def unwrapped(angles: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """``angles`` (N, M) (rad) with the jumps of more than half a turn between consecutive samples of
-    the ``columns`` (M,) bool undone (a whole number of turns added from each jump on)."""
+    the ``columns`` (M,) bool undone (a whole number of turns added from each jump on), in those
+    columns that stay within one turn (a wrapping encoder's; one spanning more is left as logged)."""
     angles = np.array(angles, dtype=float)
-    if np.any(columns):
-        angles[:, columns] = np.unwrap(angles[:, columns], period=TURN, axis=0)
+    wraps = np.asarray(columns, dtype=bool) & (np.ptp(angles, axis=0) <= TURN if len(angles) else False)
+    if np.any(wraps):
+        angles[:, wraps] = np.unwrap(angles[:, wraps], period=TURN, axis=0)
     return angles
 
 

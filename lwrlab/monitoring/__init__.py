@@ -5,6 +5,8 @@ From joint positions and link-side torques (a log, or a real-time loop) and a dy
 
 - :mod:`~lwrlab.monitoring.observer`: De Luca's generalized-momentum observer, discrete-time, as a
   pure step function and vectorised over a log;
+- :mod:`~lwrlab.monitoring.observer_inputs`: what the observer reads from a log, q, q̇ and τ at one
+  instant through one causal filter (the velocity filter's delay leaves its balance);
 - :mod:`~lwrlab.monitoring.direct_residual`: the direct residual τ − τ̂(q, q̇, q̈), for comparison;
 - :mod:`~lwrlab.monitoring.contact_force`: the Cartesian wrench or force from external torques
   (eq. (14): (Jᵀ)⁺·τ_ext);

@@ -14,7 +14,8 @@ event, so the level is the largest of
 times ``margin`` (≥ 1), which covers motions the calibration did not contain. Two kinds:
 
 - :func:`calibrate_thresholds`, **constant** thresholds: the level of |r| itself, one value per
-  joint whatever the robot does;
+  joint whatever the robot does, and never below the friction band at rest (a joint that stands
+  still may hold any friction within it, which calibration logs that hardly stop do not show);
 - :func:`calibrate_state_thresholds`, **state** thresholds: the level of the normalised residual
   ``(|r| − ε)/spread``, times the spread of each sample, ``spread² = a + (ρ·φ)²``, plus ε (φ the
   friction band and ε the stamps' share, :mod:`lwrlab.monitoring.spread`: a computed error of the
@@ -116,8 +117,10 @@ def calibrate_thresholds(
     periods: Sequence[float],
     false_alarm_rate: float,
     margin: float = 1.0,
+    rest_friction: np.ndarray | None = None,
 ) -> Calibration:
-    """Constant thresholds per joint from contact-free residuals (one (N, N_J) array per log).
+    """Constant thresholds per joint from contact-free residuals (one (N, N_J) array per log):
+    ``margin·max(level, band)``, the level of |r| for the stated rate and the friction band at rest.
 
     Parameters
     ----------
@@ -125,6 +128,8 @@ def calibrate_thresholds(
     periods : each log's sampling period (s).
     false_alarm_rate : the stated rate, alarms per hour (> 0).
     margin : factor ≥ 1 on the levels.
+    rest_friction : (N_J,) the friction band at rest (N·m), which a joint standing still may fill;
+        None: no floor.
 
     Examples
     --------
@@ -138,8 +143,11 @@ def calibrate_thresholds(
     n_samples, n_joints = stacked.shape
     duration = float(sum(len(r) * period for r, period in zip(residuals, periods, strict=True)))
     probability = exceedance_probability(false_alarm_rate, duration / n_samples, n_joints)
+    level = tail_level(stacked, probability)
+    if rest_friction is not None:
+        level = np.maximum(level, np.asarray(rest_friction, dtype=float))
     return Calibration(
-        thresholds=margin * tail_level(stacked, probability),
+        thresholds=margin * level,
         rms=np.sqrt(np.mean(stacked**2, axis=0)),
         peak=stacked.max(axis=0),
         exceedance_probability=float(probability),

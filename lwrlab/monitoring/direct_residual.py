@@ -5,7 +5,8 @@ The model's torque needs the acceleration: the positions are low-passed by a zer
 measured torque goes through the same filter so that both sides of the residual see the same band
 (Gautier's parallel filtering). Zero-phase filtering looks ahead: the direct residual is an offline
 comparison. The observer (:mod:`lwrlab.monitoring.observer`) needs no acceleration, and its velocity
-is what a robot's loop has (:func:`causal_velocity`): it sees nothing before it happens.
+is what a robot's loop has (:mod:`lwrlab.monitoring.observer_inputs`): it sees nothing before it
+happens.
 """
 
 from __future__ import annotations
@@ -14,7 +15,6 @@ from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
-from scipy.signal import butter, sosfilt, sosfilt_zi
 
 from lwrlab.signal.filters import central_difference, lowpass
 
@@ -66,19 +66,3 @@ def model_torque(
     for k in range(q.shape[0]):
         tau[k] = pin.rnea(robot_model, data, q[k], dq[k], ddq[k])
     return tau + friction
-
-
-def causal_velocity(t: np.ndarray, q: np.ndarray, cutoff_hz: float, order: int = 2) -> np.ndarray:
-    """q̇ (rad/s) as a real-time loop has it: backward differences, then a causal Butterworth low-pass.
-
-    The filter starts in its steady state for the first difference (no start-up transient at rest).
-    Its lag (≈ order/(2π·f_c) at low frequencies) is what a robot's own velocity estimate has too.
-    """
-    t = np.asarray(t, dtype=float)
-    q = np.asarray(q, dtype=float)
-    steps = np.diff(t)[:, None]
-    difference = np.vstack([np.zeros((1, q.shape[1])), np.diff(q, axis=0) / steps])
-    difference[0] = difference[1] if len(difference) > 1 else 0.0
-    sos = butter(order, cutoff_hz, fs=1.0 / float(np.mean(steps)), output="sos")
-    initial = sosfilt_zi(sos)[:, :, None] * difference[0][None, None, :]
-    return sosfilt(sos, difference, axis=0, zi=initial)[0]

@@ -22,14 +22,9 @@ from lwrlab.monitoring.calibration import (
     calibrate_thresholds,
 )
 from lwrlab.monitoring.detection import Detection, detect_contacts
-from lwrlab.monitoring.direct_residual import (
-    causal_velocity,
-    joint_motion,
-    model_torque,
-    smooth,
-    uniform_period,
-)
+from lwrlab.monitoring.direct_residual import joint_motion, model_torque, smooth, uniform_period
 from lwrlab.monitoring.observer import MomentumObserver
+from lwrlab.monitoring.observer_inputs import filtered_like_velocity, observer_inputs
 from lwrlab.monitoring.signal_agreement import (
     SignalDisagreementWarning,
     describe_disagreement,
@@ -63,8 +58,9 @@ class MonitorSettings:
     observer_gain: float
     """K (1/s) of the momentum observer."""
     velocity_cutoff_hz: float
-    """Low-pass of the velocity (Hz): causal for the observer (what a robot's loop has), zero-phase on
-    q and τ for the direct residual."""
+    """Low-pass of the velocity (Hz): causal for the observer (what a robot's loop has; its q and τ
+    through the same filter, :mod:`~lwrlab.monitoring.observer_inputs`), zero-phase on q and τ for the
+    direct residual."""
     coulomb_smoothing: float
     """ε (rad/s) of ``FC·tanh(q̇/ε)``."""
     false_alarm_rate: float
@@ -178,13 +174,13 @@ def _estimates(
     motion = joint_motion(t, measurement.q, settings.velocity_cutoff_hz)
     observer = MomentumObserver(robot, settings.observer_gain, settings.coulomb_smoothing)
     start = time.perf_counter()
-    velocity = causal_velocity(t, measurement.q, settings.velocity_cutoff_hz)
-    estimate, _ = observer.observe(t, measurement.q, velocity, measurement.tau, progress=progress)
+    inputs = observer_inputs(t, measurement.q, measurement.tau, settings.velocity_cutoff_hz)
+    estimate, _ = observer.observe(t, inputs.q, inputs.dq, inputs.tau, progress=progress)
     seconds = time.perf_counter() - start
     friction = observer.friction_torque(motion.dq)
     predicted = model_torque(robot.model, motion.q, motion.dq, motion.ddq, friction)
     residual = smooth(measurement.tau, period, settings.velocity_cutoff_hz) - predicted
-    return estimate, residual, seconds, velocity, motion.dq
+    return estimate, residual, seconds, inputs.dq, motion.dq
 
 
 def estimate_external_torques(
@@ -249,7 +245,7 @@ def calibrate(
         margin = settings.margin_of(estimator)
         if settings.thresholds == "constant":
             calibrations[estimator] = calibrate_thresholds(
-                residuals, periods, settings.false_alarm_rate, margin
+                residuals, periods, settings.false_alarm_rate, margin, contact_free[0].rest_friction
             )
             continue
         calibrations[estimator] = calibrate_state_thresholds(
@@ -325,11 +321,14 @@ def truth_as_estimated(
     truth: np.ndarray, estimates: ExternalTorques, settings: MonitorSettings
 ) -> dict[str, np.ndarray]:
     """The true external torque (N, N_J) as each estimator would see it with an exact model and
-    noiseless sensors: through the observer's first-order dynamics, through the residual's filter.
+    noiseless sensors: through the observer's input filter (its torques',
+    :mod:`~lwrlab.monitoring.observer_inputs`) and first-order dynamics, through the residual's filter.
 
     An estimator's error against this is its model and noise error; against the raw truth it also
-    holds its lag (the observer's 1/K), which the detection delay measures on its own.
+    holds its lag (the input filter's delay and the observer's 1/K), which the detection delay
+    measures on its own.
     """
-    observed = first_order_lowpass(estimates.t, truth, settings.observer_gain, initial=0.0)
+    torque = filtered_like_velocity(estimates.t, truth, settings.velocity_cutoff_hz)
+    observed = first_order_lowpass(estimates.t, torque, settings.observer_gain, initial=0.0)
     filtered = smooth(truth, estimates.period, settings.velocity_cutoff_hz)
     return {"observer": observed, "residual": filtered}

@@ -21,6 +21,7 @@ tracking callback logs the output directory to MLflow, so nothing here knows abo
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -132,7 +133,9 @@ def identify(
     return IdentificationReport(
         robot=robot,
         base=base,
-        identified=fitting.identified,
+        identified=replace(
+            fitting.identified, friction_drift=drift.value, friction_drift_source=drift.source
+        ),
         identifiability=identifiability,
         extrapolation=extrapolation,
         friction_choice=friction_choice,

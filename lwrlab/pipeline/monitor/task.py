@@ -280,6 +280,18 @@ def format_summary(
     return "\n".join(lines)
 
 
+def _drift_note(read: ReadModel, settings: MonitorSettings) -> str:
+    """What the model says of its friction's drift beside what the thresholds cover (state only)."""
+    drift, source = read.identified.friction_drift, read.identified.friction_drift_source
+    if drift is None or settings.thresholds != "state":
+        return ""
+    said = {"logs": "measured between its identification logs", "prior": "the prior for one log"}
+    return (
+        f"; friction drift {drift:.2g} ({said.get(source or '', 'as set')}), the thresholds cover "
+        f"{settings.friction_drift:g} (task.friction_drift)"
+    )
+
+
 def run_monitor(
     cfg: Any,
     output_dir: Path,
@@ -413,7 +425,7 @@ def run_monitor(
         source, calibration, detections[detections.estimator == "observer"], metrics, settings
     )
     if read is not None:
-        summary += f"\n\nmodel {read.resolved.source}: {read.describe()}"
+        summary += f"\n\nmodel {read.resolved.source}: {read.describe()}" + _drift_note(read, settings)
     (output_dir / "summary.md").write_text(summary + "\n")
     (output_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
     print(summary)
