@@ -66,6 +66,7 @@ def measurement_information(
         rows = LogRegressor.of(robot, data.velocities, data.working_rate_hz, base.columns)
         for block in data.row_blocks(rows):
             accumulator.add(block.w, block.tau)
+            del block  # freed before the next block is built
     statistics = accumulator.result()
     seconds = sum(len(data.index) / data.rate_hz for data in processed)
     rows_rate = samples / seconds

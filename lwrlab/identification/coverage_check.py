@@ -24,9 +24,19 @@ OUTSIDE = 0.05
 by more than :data:`OUTSIDE` of the range."""
 
 
+def _speed_percentile(dq: np.ndarray, percent: float = 99.0) -> np.ndarray:
+    """(N_J,) the ``percent`` percentile of each joint's absolute speed, a column at a time."""
+    return np.array([np.percentile(np.abs(dq[:, j]), percent) for j in range(dq.shape[1])])
+
+
 def _still_share(dq: np.ndarray, fast: np.ndarray) -> float:
     """Share of samples at which every joint moves slower than :data:`STILL_SPEED` × ``fast``."""
-    return float(np.mean(np.all(np.abs(dq) < STILL_SPEED * fast, axis=1))) if len(dq) else 0.0
+    if not len(dq):
+        return 0.0
+    still = np.ones(len(dq), dtype=bool)
+    for j in range(dq.shape[1]):  # a column at a time: no (M, N_J) copy of a long log
+        still &= np.abs(dq[:, j]) < STILL_SPEED * fast[j]
+    return float(np.mean(still))
 
 
 def novelty(fit_q: np.ndarray, fit_dq: np.ndarray, q: np.ndarray, dq: np.ndarray) -> list[str]:
@@ -44,8 +54,8 @@ def novelty(fit_q: np.ndarray, fit_dq: np.ndarray, q: np.ndarray, dq: np.ndarray
     ['rests more than the fit (100 % of samples still, fit 3 %)']
     """
     causes = []
-    fast = np.maximum(np.percentile(np.abs(fit_dq), 99, axis=0), 1e-9)
-    ratio = np.percentile(np.abs(dq), 99, axis=0) / fast
+    fast = np.maximum(_speed_percentile(fit_dq), 1e-9)
+    ratio = _speed_percentile(dq) / fast
     faster = [f"q{j + 1} ({ratio[j]:.2g}× its speed)" for j in np.flatnonzero(ratio > FASTER)]
     if faster:
         causes.append(f"faster than the fit on {', '.join(faster)}")

@@ -22,8 +22,9 @@ from lwrlab.numerics.threads import dense_algebra
 from lwrlab.plants.core import Measurement
 from lwrlab.signal.processing import ProcessedData, process
 
-REGRESSOR_BLOCK_SAMPLES = 8192
-"""Samples whose full regressor is built at a time when predicting (8192 × 7 joints × 91 columns: 42 MB)."""
+REGRESSOR_BLOCK_SAMPLES = 4096
+"""Samples whose full regressor is built at a time when predicting (4096 × 7 joints × 91 columns:
+21 MB; a long log's peak memory is one such block, with its products, above its predictions)."""
 SUMMARY_BLOCK_SAMPLES = 1 << 16
 """Samples summed at a time for the errors and the coverage (a copy of a long log's arrays would not fit)."""
 
@@ -187,6 +188,26 @@ class PredictionInterval:
                 part = slice(first, first + SUMMARY_BLOCK_SAMPLES)
                 variance[part] += (self.friction_drift * prediction.friction_torque[part]) ** 2
         return variance
+
+    def normalised_errors(self, prediction: LogPrediction) -> Iterator[np.ndarray]:
+        """``|τ − τ̂| / (z·√variance)`` (n, N_J) at the scored samples of ``prediction``, block by block
+        (:data:`SUMMARY_BLOCK_SAMPLES`; NaN on a joint not scored): the conformal scale's scores,
+        computed as :meth:`variance` is without a long log's (M, N_J) copies."""
+        if prediction.parameter_variance is None:
+            raise ValueError(f"{prediction.name}: predicted without the parameters' covariance")
+        drift = self.friction_drift > 0 and prediction.friction_torque is not None
+        for first in range(0, len(prediction.t), SUMMARY_BLOCK_SAMPLES):
+            part = slice(first, first + SUMMARY_BLOCK_SAMPLES)
+            keep = prediction.scored[part]
+            variance = prediction.parameter_variance[part] + self.error_std**2
+            if drift:
+                variance += (self.friction_drift * prediction.friction_torque[part]) ** 2  # type: ignore[index]
+            half_width = np.sqrt(variance[keep]) * self.z
+            error = np.abs(prediction.measured[part][keep] - prediction.predicted[part][keep])
+            score = error / np.maximum(half_width, 1e-12)
+            if prediction.joints is not None:
+                score[:, ~prediction.joints] = np.nan
+            yield score
 
     def around(self, prediction: LogPrediction) -> LogPrediction:
         """``prediction`` with the interval's half-width at every sample.

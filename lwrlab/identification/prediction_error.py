@@ -79,10 +79,10 @@ def conformal_scale(scores: Iterable[np.ndarray], n_joints: int, level: float) -
     (True, True)
     """
     blocks = [np.asarray(s, dtype=float).reshape(-1, n_joints) for s in scores]
-    stacked = np.vstack(blocks) if blocks else np.empty((0, n_joints))
     scale = np.ones(n_joints)
-    for j in range(n_joints):
-        column = stacked[:, j][np.isfinite(stacked[:, j])]
+    for j in range(n_joints):  # a joint at a time: no stacked copy of a long log's scores
+        column = np.concatenate([b[:, j] for b in blocks]) if blocks else np.empty(0)
+        column = column[np.isfinite(column)]
         if column.size == 0:
             continue
         rank = min(column.size, int(np.ceil((column.size + 1) * level)))

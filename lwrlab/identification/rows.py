@@ -125,6 +125,7 @@ def identification_rows(
                 kept.append((block.w, block.tau))
             for values, part in zip(states, (block.q, block.dq, block.ddq), strict=True):
                 values.append(part)
+            del block  # freed before the next block is built, not after: one block's rows at a time
     return IdentificationRows(
         statistics=accumulator.result(),
         w_base=np.vstack([w for w, _ in kept]) if keep else None,

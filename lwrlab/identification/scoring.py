@@ -74,15 +74,9 @@ def prediction_interval(
         error_variance = error_variance + np.clip(held_out_square - in_sample, 0.0, None)
     interval = PredictionInterval(np.sqrt(error_variance), level, friction_drift)
     n_joints = len(error_variance)
-    scores = []
-    for p in fit_predictions:
-        if p.parameter_variance is None:
-            continue
-        half_width = np.sqrt(interval.variance(p)[p.scored]) * interval.z
-        score = np.abs(p.measured[p.scored] - p.predicted[p.scored]) / np.maximum(half_width, 1e-12)
-        if p.joints is not None:
-            score[:, ~p.joints] = np.nan
-        scores.append(score)
+    scores = [
+        s for p in fit_predictions if p.parameter_variance is not None for s in interval.normalised_errors(p)
+    ]
     return replace(interval, scale=conformal_scale(scores, n_joints, level)) if scores else interval
 
 
@@ -273,9 +267,11 @@ def _speeds(measurement: Measurement, smoothing: int = 5) -> np.ndarray:
     samples (enough to compare the speed ranges of two logs of one robot)."""
     if measurement.dq is not None:
         return np.asarray(measurement.dq)
-    dq = np.gradient(measurement.q, measurement.t, axis=0)
     kernel = np.ones(smoothing) / smoothing
-    return np.column_stack([np.convolve(dq[:, j], kernel, mode="same") for j in range(dq.shape[1])])
+    speeds = np.empty_like(measurement.q, dtype=float)
+    for j in range(measurement.q.shape[1]):  # a column at a time: no (M, N_J) temporaries of a long log
+        speeds[:, j] = np.convolve(np.gradient(measurement.q[:, j], measurement.t), kernel, mode="same")
+    return speeds
 
 
 def coverage_checks(measured: Measured, predictions: Predictions, level: float = 0.95) -> list[str]:
@@ -284,8 +280,9 @@ def coverage_checks(measured: Measured, predictions: Predictions, level: float =
     the identification logs did not."""
     if not measured.measurements:
         return []
-    fit_q = np.vstack([m.q for m in measured.measurements])
-    fit_dq = np.vstack([_speeds(m) for m in measured.measurements])
+    fits = measured.measurements
+    fit_q = fits[0].q if len(fits) == 1 else np.vstack([m.q for m in fits])
+    fit_dq = _speeds(fits[0]) if len(fits) == 1 else np.vstack([_speeds(m) for m in fits])
     lines = []
     for m, p in zip(measured.validation_measurements, predictions.validation, strict=True):
         coverage = joint_coverage([p])

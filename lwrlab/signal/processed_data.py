@@ -276,12 +276,14 @@ _STATE_NAMES = ("t", "q", "dq", "ddq", "tau")
 
 def _block_regressor(regressor: Regressor, states: States) -> tuple[np.ndarray, int]:
     """``(W, P)``: the regressor at every sample of ``states`` as one row per sample (n, N_J·P),
-    built :data:`REGRESSOR_SAMPLES` at a time, column-major: the filter reads and writes its
-    columns as contiguous runs (row-major, a few columns taken at a time cost it a third more)."""
+    built :data:`REGRESSOR_SAMPLES` (or the regressor's ``chunk_samples``) at a time, column-major:
+    the filter reads and writes its columns as contiguous runs (row-major, a few columns taken at a
+    time cost it a third more)."""
     n, n_joints = states.q.shape
+    chunk = int(getattr(regressor, "chunk_samples", REGRESSOR_SAMPLES))  # a wide regressor: fewer
 
     def part(first: int) -> np.ndarray:
-        chosen = slice(first, first + REGRESSOR_SAMPLES)
+        chosen = slice(first, first + chunk)
         if getattr(regressor, "takes_start", False):  # a friction law's memory: the samples' index
             rows = regressor(  # type: ignore[call-arg]
                 states.q[chosen], states.dq[chosen], states.ddq[chosen], start=states.start + first
@@ -293,6 +295,6 @@ def _block_regressor(regressor: Regressor, states: States) -> tuple[np.ndarray, 
     head = part(0)
     w = np.empty((n, head.shape[1]), order="F")
     w[: head.shape[0]] = head
-    for first in range(REGRESSOR_SAMPLES, n, REGRESSOR_SAMPLES):
-        w[first : first + REGRESSOR_SAMPLES] = part(first)
+    for first in range(chunk, n, chunk):
+        w[first : first + chunk] = part(first)
     return w, head.shape[1] // n_joints
