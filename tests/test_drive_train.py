@@ -309,3 +309,20 @@ def test_a_continuous_joints_wrapping_angle_is_unwrapped(tmp_path: Path) -> None
         torque=np.array([10.0, 10.0]),
     )
     np.testing.assert_allclose(load_log(tmp_path / "turning.csv", 2, limits=limits).q, q, atol=1e-12)
+
+
+def test_a_fast_motors_continuous_angle_is_read_as_logged() -> None:
+    """A motor angle logged continuous (already unwrapped: it spans many turns) is not unwrapped
+    again, even where a fast motor turns more than half a turn between two samples (100 Hz, gear 100)."""
+    from lwrlab.io.encoder_angles import joint_positions_of_log
+
+    drive = DriveTrain(gear_ratios=np.array([100.0]), coupling=np.eye(1), position_side="motor")
+    t = np.arange(400) / 100.0
+    q = 1.2 * np.sin(3.0 * t)[:, None]  # up to 3.6 rad/s: 3.6 rad of motor a sample
+    theta = 100.0 * q
+    assert np.max(np.abs(np.diff(theta[:, 0]))) > np.pi
+    np.testing.assert_allclose(joint_positions_of_log(theta, drive, np.array([False])), q, atol=1e-12)
+    wrapped = _wrapped(theta / 10.0)  # a slower one, as its encoder wraps, is still unwrapped
+    np.testing.assert_allclose(
+        joint_positions_of_log(wrapped, drive, np.array([False])), q / 10.0, atol=1e-12
+    )

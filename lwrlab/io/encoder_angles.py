@@ -9,7 +9,9 @@ positions of the raw columns:
 
 1. counts to angles (``2π / counts`` rad a count), where the encoders give counts;
 2. wraps undone (:func:`unwrapped`) on every motor (a motor turns many times per joint turn) and on
-   the continuous joints of positions measured at the joints; a jump of more than half a turn
+   the continuous joints of positions measured at the joints, where a column's values stay within
+   one turn (a wrapping encoder's do; a column that spans more has been unwrapped already, and a
+   fast motor's half turns between samples are its motion); a jump of more than half a turn
    between two samples is taken as a wrap, so an encoder must turn less than half a turn a sample
    (at 1 kHz, 30 000 rpm);
 3. ``q = R⁻¹·θ + q₀`` (:meth:`~lwrlab.model.drive_train.DriveTrain.read_positions`).
@@ -40,8 +42,10 @@ TURN = 2.0 * np.pi
 
 def unwrapped(angles: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """``angles`` (N, M) (rad) with the jumps of more than half a turn between consecutive samples of
-    the ``columns`` (M,) bool undone (a whole number of turns added from each jump on)."""
+    the ``columns`` (M,) bool undone (a whole number of turns added from each jump on), on the
+    columns whose values stay within one turn (the others are continuous already)."""
     angles = np.array(angles, dtype=float)
+    columns = np.asarray(columns, dtype=bool) & (np.ptp(angles, axis=0) <= TURN * (1 + 1e-9))
     if np.any(columns):
         angles[:, columns] = np.unwrap(angles[:, columns], period=TURN, axis=0)
     return angles
