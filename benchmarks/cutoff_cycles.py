@@ -112,7 +112,7 @@ def summary(results: pd.DataFrame) -> pd.DataFrame:
     out = []
     keys = ["member", "seed"]
     default = results[results["option"] == "default"].set_index(keys)
-    for label in OPTIONS:
+    for label in [label for label in OPTIONS if label != "default"]:
         mine = results[results["option"] == label].set_index(keys)
         entry: dict[str, Any] = {"option": label}
         for column, name in ERRORS.items():

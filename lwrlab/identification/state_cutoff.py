@@ -13,8 +13,8 @@ torque noise adds the same to every factor (the same samples are compared), so t
 is the factor whose states serve the model best; a new log's states then take that factor of its
 own rows' cut-off.
 
-The comparison runs on at most :data:`SAMPLES_PER_LOG` samples of each fit log (evenly spread over
-its trimmed span), so it costs a fraction of the fit.
+The comparison runs on at most :data:`SAMPLES_PER_LOG` samples of each fit log (:data:`WINDOWS` runs
+spread over its trimmed span), so it costs a fraction of the fit whatever the log's length.
 
 Examples
 --------
@@ -44,6 +44,8 @@ FACTORS = (1.0, 1.5, 2.0, 3.0, 4.0)
 """Candidate states' cut-offs, in multiples of each log's rows' cut-off."""
 SAMPLES_PER_LOG = 1500
 """Samples of each fit log compared (evenly spread over its trimmed span)."""
+WINDOWS = 30
+"""Runs of consecutive samples they come in (each filtered from a window around it)."""
 
 
 @dataclass(frozen=True)
@@ -81,20 +83,25 @@ def raw_torque_sums(
     joints: np.ndarray,
     samples: int = SAMPLES_PER_LOG,
 ) -> tuple[float, float]:
-    """``(Σ (τ − τ̂)², Σ τ²)`` over ``samples`` samples of the trimmed span of ``data`` (processed with
-    ``every_sample``), on ``joints`` (N_J,) bool: the raw torques against ``phi``'s prediction."""
-    chosen = data.index[:: max(1, data.index.size // samples)]
-    if chosen.size == 0:
+    """``(Σ (τ − τ̂)², Σ τ²)`` over about ``samples`` samples of the trimmed span of ``data`` (processed
+    with ``every_sample``), on ``joints`` (N_J,) bool: the raw torques against ``phi``'s prediction.
+
+    The samples are :data:`WINDOWS` runs of consecutive ones spread evenly over the span, each filtered
+    from a window around it (:meth:`ProcessedData.states`), so a long log costs no more than a short
+    one (but for a friction law with memory, whose columns read the whole log's velocities).
+    """
+    span = data.index
+    if span.size == 0:
         return 0.0, 0.0
+    length = max(1, min(span.size // WINDOWS, samples // WINDOWS))
+    starts = np.unique(np.linspace(span[0], span[-1] + 1 - length, WINDOWS).round().astype(int))
     history = log_history(robot, data.velocities(), data.working_rate_hz)
     residual = measured = 0.0
-    for block in data.state_blocks(int(chosen[0]), int(chosen[-1]) + 1):
-        rows = chosen[(chosen >= block.start) & (chosen < block.start + len(block.t))]
-        local = rows - block.start
+    for start in starts:
+        states = data.states(int(start), int(start) + length)
+        rows = np.arange(start, start + length)
         part = None if history is None else {term: values[rows] for term, values in history.items()}
-        full = regressor(
-            robot, block.q[local], block.dq[local], block.ddq[local], stacked=False, history=part
-        )
+        full = regressor(robot, states.q, states.dq, states.ddq, stacked=False, history=part)
         tau = data.raw_tau[rows * data.step][:, joints]
         residual += float(np.sum((tau - base.torques(full, phi)[:, joints]) ** 2))
         measured += float(np.sum(tau**2))
@@ -157,4 +164,11 @@ def _as_fitted(processing: dict[str, Any], data: ProcessedData, factor: float) -
     }
 
 
-__all__ = ["FACTORS", "SAMPLES_PER_LOG", "StateCutoffChoice", "choose_state_factor", "raw_torque_sums"]
+__all__ = [
+    "FACTORS",
+    "SAMPLES_PER_LOG",
+    "WINDOWS",
+    "StateCutoffChoice",
+    "choose_state_factor",
+    "raw_torque_sums",
+]
