@@ -11,10 +11,12 @@ Data sets (each with a fit and a validation split that plays motions the fit has
   fit on two motions, validated on a third.
 
 Settings compared: the old processing (τ filtered at 10 Hz, regressor not; every 20th sample;
-weighted least squares; no offset friction), the new defaults (the same zero-phase filter on q, τ
-and every regressor column at an automatic cut-off, 5 × cut-off rows, velocity auto, offsets and OLS
-for logs: the estimator is held at least squares here, the shipped estimator for logs, ``sdp``, was
-chosen afterwards by ``benchmarks/model_study.py``), and one change at a time around the defaults.
+weighted least squares; no offset friction), the new defaults (the same zero-phase filter on τ
+and every regressor column at an automatic cut-off, the positions filtered at the states' automatic
+cut-off, predictions at the factor the fit logs choose, 5 × cut-off rows, velocity auto, offsets and
+OLS for logs: the estimator is held at least squares here, the shipped estimator for logs, ``sdp``, was
+chosen afterwards by ``benchmarks/model_study.py``), and one change at a time around the defaults (a
+fixed cut-off is one filter on q, τ and W).
 The score is ‖τ − τ̂‖/‖τ‖ (%) on the validation logs' raw torques at their logged samples; for
 simulators also the base-parameter error.
 
@@ -41,6 +43,7 @@ sys.path.insert(0, str(REPOSITORY))
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters  # noqa: E402
 from lwrlab.dynamics.regressor import regressor  # noqa: E402
 from lwrlab.identification.log_predictions import predict_measurement  # noqa: E402
+from lwrlab.identification.state_cutoff import choose_state_factor  # noqa: E402
 from lwrlab.io.logs import load_log  # noqa: E402
 from lwrlab.model.robot import RobotModel  # noqa: E402
 from lwrlab.pipeline.build import build  # noqa: E402
@@ -82,13 +85,21 @@ class Setting:
 
 DEFAULTS = {
     "cutoff_hz": "auto",
+    "state_cutoff_hz": "auto",
     "order": 5,
     "difference_accuracy": 2,
     "trim_s": 0.2,
     "rate_hz": None,
     "velocity": "auto",
 }
-OLD = {"cutoff_hz": 10.0, "order": 5, "difference_accuracy": 2, "trim_s": 0.2, "velocity": "differentiated"}
+OLD = {
+    "cutoff_hz": 10.0,
+    "state_cutoff_hz": None,
+    "order": 5,
+    "difference_accuracy": 2,
+    "trim_s": 0.2,
+    "velocity": "differentiated",
+}
 SETTINGS = [
     Setting(
         "old: τ-only filter 10 Hz, every 20th sample, wls, no offset",
@@ -98,9 +109,10 @@ SETTINGS = [
         offset="off",
     ),
     Setting("defaults", DEFAULTS),
-    Setting("cut-off 10 Hz", {**DEFAULTS, "cutoff_hz": 10.0}),
-    Setting("cut-off 4 Hz", {**DEFAULTS, "cutoff_hz": 4.0}),
-    Setting("cut-off 2 Hz", {**DEFAULTS, "cutoff_hz": 2.0}),
+    Setting("states at the rows' cut-off (one filter)", {**DEFAULTS, "state_cutoff_hz": None}),
+    Setting("cut-off 10 Hz", {**DEFAULTS, "cutoff_hz": 10.0, "state_cutoff_hz": None}),
+    Setting("cut-off 4 Hz", {**DEFAULTS, "cutoff_hz": 4.0, "state_cutoff_hz": None}),
+    Setting("cut-off 2 Hz", {**DEFAULTS, "cutoff_hz": 2.0, "state_cutoff_hz": None}),
     Setting("no decimation", {**DEFAULTS, "rate_hz": 1e6}),
     Setting("τ-only filter", DEFAULTS, parallel=False),
     Setting("velocity logged", {**DEFAULTS, "velocity": "logged"}),
@@ -138,9 +150,10 @@ def evaluate(data_set: DataSet, setting: Setting) -> dict[str, float]:
         return base.base_regressor(regressor(robot, q, dq, ddq))
 
     started = time.perf_counter()
-    blocks = []
+    blocks, processed = [], []
     for measurement in data_set.fit:
         data = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **processing)
+        processed.append(data)
         blocks.append(data.rows(regress) if setting.parallel else _old_rows(data, regress, 20))
     w = np.vstack([b[0] for b in blocks])
     tau = np.concatenate([b[1] for b in blocks])
@@ -148,6 +161,9 @@ def evaluate(data_set: DataSet, setting: Setting) -> dict[str, float]:
     estimator = (
         build("estimator", "ols") if kind == "ols" else build("estimator", "wls", n_joints=robot.n_joints)
     ).fit(w, tau)
+    # predictions filter the states as an identification does: at the factor the fit logs choose
+    states = choose_state_factor(robot, base, estimator.phi_, data_set.fit, processed, processing)
+    processing = processing if states is None else states.processing(processing)
     row = {
         "validation_%": float(
             np.mean(

@@ -17,7 +17,9 @@ subject, with the ratios the defaults are held to (default ≤ 1.05 × simplest,
 - ``intervals``: the 95 % prediction intervals' coverage on new motions (``statistics.friction_drift``);
 - ``thresholds``: collision thresholds (``task.thresholds``): pushes at rest detected, false alarms;
 - ``prior``: the SDP's weight toward the description's inertials (``estimator.weight: auto``);
-- ``cutoff``: the processing's low-pass cut-off (``measurement.processing.cutoff_hz: auto``).
+- ``cutoff``: the processing's low-pass cut-offs (``measurement.processing.cutoff_hz`` and
+  ``state_cutoff_hz``, both ``auto``) against one fixed filter on q, τ and W, and against the rows'
+  automatic cut-off used on the states too (``auto, one filter``).
 
 Results are kept in ``outputs/zoo/results/<code hash>/`` (the hash of lwrlab/, plugins/ and conf/):
 a table is rebuilt at once while the code is unchanged.
@@ -107,8 +109,15 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
         Option("sdp, weight 1e-2", ("estimator.weight=1e-2",)),
         Option("sdp, one_se", ("estimator.selection=one_se",)),
     ),
-    "cutoff": tuple(
-        Option(f"{hz:g} Hz", (f"measurement.processing.cutoff_hz={hz:g}",)) for hz in (2.0, 5.0, 10.0, 20.0)
+    "cutoff": (
+        *(
+            Option(
+                f"{hz:g} Hz",
+                (f"measurement.processing.cutoff_hz={hz:g}", "measurement.processing.state_cutoff_hz=null"),
+            )
+            for hz in (2.0, 5.0, 10.0, 20.0)
+        ),
+        Option("auto, one filter", ("measurement.processing.state_cutoff_hz=null",)),
     ),
 }
 """Each choice's options besides the default; the first is the simplest."""

@@ -192,6 +192,11 @@ SOURCES = {
         )
         for choice in ("friction", "intervals", "thresholds", "prior", "cutoff")
     },
+    "cutoff_cycles": Source(
+        (("python", str(REPOSITORY / "benchmarks" / "cutoff_cycles.py")),),
+        _printed_table("## Cut-offs on point-to-point cycles, against the default"),
+        8.0,
+    ),
     "next_motion": Source(
         NEXT_MOTION,
         _printed_table("## Errors against robot seconds"),

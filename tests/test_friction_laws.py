@@ -90,9 +90,11 @@ def strong_friction(lwr4: RobotModel) -> RobotModel:
 
 
 def test_speed_noise_is_the_encoder_noise_through_the_processing(lwr4: RobotModel) -> None:
-    quiet = process_measurement(_measured(lwr4, noise_q=2e-5), {"cutoff_hz": 10.0})
-    loud = process_measurement(_measured(lwr4, noise_q=2e-4), {"cutoff_hz": 10.0})
-    expected = 2e-5 * 2 * np.pi * np.sqrt(2 * 10.0**3 / (3 * 500.0))
+    # the states' low-pass (on q, before differentiating) sets the speed noise, not the rows' (τ and W)
+    settings = {"cutoff_hz": 10.0, "state_cutoff_hz": 20.0}
+    quiet = process_measurement(_measured(lwr4, noise_q=2e-5), settings)
+    loud = process_measurement(_measured(lwr4, noise_q=2e-4), settings)
+    expected = 2e-5 * 2 * np.pi * np.sqrt(2 * 20.0**3 / (3 * 500.0))
     np.testing.assert_allclose(speed_noise([quiet], lwr4), expected, rtol=0.2)
     np.testing.assert_allclose(speed_noise([loud], lwr4) / speed_noise([quiet], lwr4), 10.0, rtol=0.2)
 

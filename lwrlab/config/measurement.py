@@ -12,7 +12,11 @@ class ProcessingSettings:
     """Filter, differences, trimming and decimation of every measurement (keywords of ``process``)."""
 
     cutoff_hz: Any
-    """Low-pass cut-off: a number (Hz), ``auto`` or null (a union OmegaConf cannot type: see the rules)."""
+    """The rows' low-pass cut-off (on τ and W): a number (Hz), ``auto`` or null (a union OmegaConf
+    cannot type: see the rules)."""
+    state_cutoff_hz: Any
+    """The states' low-pass cut-off (on q before differentiating): a number (Hz), ``auto`` or null (the
+    rows' cut-off)."""
     order: int
     """Butterworth order."""
     difference_accuracy: int

@@ -8,6 +8,7 @@ The estimator protocol and the statistics of estimated parameters (:mod:`.core`,
 - :mod:`.log_predictions`: one log processed and predicted by a model, with its interval and tables;
 - :mod:`.measuring`, :mod:`.fitting`, :mod:`.scoring`, :mod:`.notes`: measure and process, choose
   the drive terms and fit, predict and score, and the notes a reader needs;
+- :mod:`.state_cutoff`: the states' cut-off a model predicts with, chosen by its fit logs' raw torques;
 - :mod:`.result`: :class:`~lwrlab.identification.result.IdentificationReport`, the result in memory.
 
 Pure computation: the task that wires them from a config and writes the files is

@@ -146,7 +146,7 @@ def speed_noise(processed: Sequence[ProcessedData], robot: RobotModel) -> np.nda
 
     The position noise σ_q of each joint comes from the raw samples' third differences (blind to
     motions up to quadratic in time: ``var(Δ³q) = 20·σ_q²``, a robust MAD estimate); the processing's
-    zero-phase low-pass at ``f_c`` and the differentiation make it a speed noise of
+    zero-phase low-pass of the positions at ``f_c`` and the differentiation make it a speed noise of
     ``σ_q·2π·√(2·f_c³ / (3·f_s))`` (white noise through an ideal low-pass and a derivative), or
     ``σ_q·f_s/√2`` without a filter (centred differences).
     """
@@ -158,10 +158,11 @@ def speed_noise(processed: Sequence[ProcessedData], robot: RobotModel) -> np.nda
             continue
         third = np.diff(q, n=3, axis=0)
         sigma_q = 1.4826 * np.median(np.abs(third - np.median(third, axis=0)), axis=0) / np.sqrt(20.0)
-        if data.cutoff_hz is None:
+        cutoff = data.state_cutoff_hz
+        if cutoff is None:
             gain = rate / np.sqrt(2.0)
         else:
-            gain = 2 * np.pi * np.sqrt(2.0 * data.cutoff_hz**3 / (3.0 * rate))
+            gain = 2 * np.pi * np.sqrt(2.0 * cutoff**3 / (3.0 * rate))
         variances.append((sigma_q * gain) ** 2)
     joint_variance = np.mean(variances, axis=0) if variances else np.zeros(robot.n_joints)
     coupling = robot.drive_train.coupling

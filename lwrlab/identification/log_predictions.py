@@ -286,7 +286,7 @@ def predict_measurement(
             )
     span = data.row_times
     scored = (on_grid >= span[0] - 1e-9) & (on_grid <= span[-1] + 1e-9)
-    cutoff = "no filter" if data.cutoff_hz is None else f"{data.cutoff_hz:.3g} Hz"
+    cutoff = "no filter" if data.state_cutoff_hz is None else f"q at {data.state_cutoff_hz:.3g} Hz"
     velocity = "logged q̇" if data.velocity.logged else "q̇ = d/dt q"
     return LogPrediction(
         measurement.name,

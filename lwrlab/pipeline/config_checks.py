@@ -185,6 +185,16 @@ RULES: tuple[Rule, ...] = (
         _below_nyquist,
         lambda cfg: "below the Nyquist frequency of the simulated sensors, measurement.rate_hz / 2",
     ),
+    rule(
+        "measurement.processing.state_cutoff_hz",
+        lambda v: v is None or v == "auto" or (_number(v) and v > 0),
+        "a number > 0 (Hz), auto or null",
+    ),
+    Rule(
+        "measurement.processing.state_cutoff_hz",
+        _below_nyquist,
+        lambda cfg: "below the Nyquist frequency of the simulated sensors, measurement.rate_hz / 2",
+    ),
     rule("measurement.processing.order", lambda v: _integer(v) and 1 <= v <= 12, "an integer in [1, 12]"),
     one_of("measurement.processing.difference_accuracy", 2, 4),
     rule(

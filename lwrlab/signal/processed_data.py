@@ -86,7 +86,7 @@ class ProcessedData:
     index: np.ndarray
     """(M,) working samples kept as identification rows (trimmed, decimated)."""
     cutoff_hz: float | None
-    """Cut-off used (Hz); None: no filter."""
+    """The rows' cut-off (Hz), of the low-pass on τ and W; None: no filter."""
     order: int
     """Butterworth order."""
     difference_accuracy: int
@@ -99,6 +99,8 @@ class ProcessedData:
     """Where the velocities come from, and why."""
     block_samples: int
     """Working samples per block of :meth:`state_blocks` and :meth:`row_blocks`."""
+    state_cutoff_hz: float | None
+    """The states' cut-off (Hz), of the low-pass on the positions (and logged velocities); None: no filter."""
 
     @property
     def filtered(self) -> bool:
@@ -155,13 +157,14 @@ class ProcessedData:
         """(N, N_J) filtered torques (N·m)."""
         return self._whole.tau
 
-    def _filtered_span(self, x: np.ndarray, start: int, stop: int) -> np.ndarray:
-        """Working samples ``[start, stop)`` of the raw signal ``x`` low-passed (or not) and thinned."""
+    def _filtered_span(self, x: np.ndarray, start: int, stop: int, cutoff_hz: float | None) -> np.ndarray:
+        """Working samples ``[start, stop)`` of the raw signal ``x`` low-passed at ``cutoff_hz`` (None: not)
+        and thinned."""
         raw_start, raw_stop = start * self.step, (stop - 1) * self.step + 1
-        if self.cutoff_hz is None:
+        if cutoff_hz is None:
             return x[raw_start : raw_stop : self.step]
         rate = self.working_rate_hz * self.step
-        return lowpass_span(x, raw_start, raw_stop, rate, self.cutoff_hz, self.order)[:: self.step]
+        return lowpass_span(x, raw_start, raw_stop, rate, cutoff_hz, self.order)[:: self.step]
 
     def states(self, start: int, stop: int, velocity: VelocityChoice | None = None) -> States:
         """States and torques at the working samples ``[start, stop)``, equal to the whole log's.
@@ -170,11 +173,11 @@ class ProcessedData:
         """
         choice = self.velocity if velocity is None else velocity
         lo, hi = max(0, start - STATE_HALO), min(self.n_working, stop + STATE_HALO)
-        q = self._filtered_span(self.raw_q, lo, hi)
+        q = self._filtered_span(self.raw_q, lo, hi, self.state_cutoff_hz)
         dt = 1.0 / self.working_rate_hz
         velocities = central_difference(q, dt, self.difference_accuracy)
         if choice.logged and self.raw_dq is not None:
-            velocities = choice.apply(self._filtered_span(self.raw_dq, lo, hi))
+            velocities = choice.apply(self._filtered_span(self.raw_dq, lo, hi, self.state_cutoff_hz))
         accelerations = central_difference(velocities, dt, self.difference_accuracy)
         kept = slice(start - lo, stop - lo)
         return States(
@@ -183,7 +186,7 @@ class ProcessedData:
             q[kept],
             velocities[kept],
             accelerations[kept],
-            self._filtered_span(self.raw_tau, start, stop),
+            self._filtered_span(self.raw_tau, start, stop, self.cutoff_hz),
         )
 
     def state_blocks(self, start: int = 0, stop: int | None = None) -> Iterator[States]:
@@ -262,7 +265,8 @@ class ProcessedData:
         cutoff = (
             "no filter"
             if self.cutoff_hz is None
-            else f"low-pass {self.cutoff_hz:.3g} Hz (order {self.order}) on q, τ and W"
+            else f"low-pass {self.cutoff_hz:.3g} Hz (order {self.order}) on τ and W, "
+            f"{self.state_cutoff_hz:.3g} Hz on q"
         )
         return (
             f"{cutoff}; {len(self.index)} rows at {self.rate_hz:.4g} Hz "

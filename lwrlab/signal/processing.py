@@ -12,11 +12,20 @@ the paper's §III.E):
 3. decimation to ``rate_hz`` (the filter is the anti-aliasing filter), after trimming the filter's
    edge transients.
 
-The cut-off defaults to ten times the motion's frequency (``cutoff_hz: auto``, Gautier's rule of a
-filter ten times faster than the dynamics), measured on the positions of each log; the decimated
-rate to five times the cut-off, whatever the log's rate. At high log rates the filtered signals are
-first thinned to a working rate of 50 × the cut-off (the filter already removed everything above it),
-so a long 1 kHz log does not build a 1 kHz regressor.
+Two cut-offs, as in Gautier's processing: the **rows'** (the parallel low-pass on τ and W, and the
+decimation) and the **states'** (the low-pass on the positions before they are differentiated). The
+rows' defaults to 15 times the motion's frequency (``cutoff_hz: auto``, Gautier's rule of a filter
+ten times faster than the dynamics), measured on the positions of each log; the decimated rate to
+five times it, whatever the log's rate. The states' (``state_cutoff_hz: auto``) is ``state_factor``
+times the rows' (2 for a fit), but never above what the positions' noise allows
+(:func:`lwrlab.signal.noise_limit.noise_limited_cutoff`) nor above a fifth of the log's rate: a low
+cut-off on the states rounds off the starts and stops of a motion (where friction switches), and
+W evaluated there is wrong before any filter acts on it, while the rows' band is the band the model
+is fitted in. A model's predictions take the factor its fit logs' raw torques choose
+(:mod:`lwrlab.identification.state_cutoff`). ``state_cutoff_hz: null`` filters the states at the
+rows' cut-off (one filter). At high log rates the filtered signals are first thinned to a working rate
+of 50 × the rows' cut-off (at least 10 × the states'; the filter already removed everything above
+it), so a long 1 kHz log does not build a 1 kHz regressor.
 
 Long logs are processed in blocks of ``block_s`` seconds (:meth:`ProcessedData.row_blocks`,
 :meth:`ProcessedData.state_blocks`): each block is filtered from a window that reaches
@@ -25,6 +34,7 @@ whole-signal filter to rounding (the start transient of a window has decayed bel
 memory no longer grows with the log's length. A log shorter than a block is one block.
 
 The parts: :mod:`lwrlab.signal.filters` (the low-pass, the differences, the automatic cut-off),
+:mod:`lwrlab.signal.noise_limit` (the states' highest cut-off),
 :mod:`lwrlab.signal.processed_data` (the processed log, its states and rows block by block); this
 module chooses the processing of one log (:func:`process`).
 """
@@ -37,6 +47,7 @@ import numpy as np
 
 from lwrlab.errors import ConfigError
 from lwrlab.signal.filters import auto_cutoff, central_difference, lowpass, motion_frequency
+from lwrlab.signal.noise_limit import noise_limited_cutoff
 from lwrlab.signal.processed_data import ProcessedData
 from lwrlab.signal.velocity import VelocityChoice, choose_velocity
 
@@ -45,13 +56,25 @@ DECIMATED_RATE_PER_CUTOFF = 5.0
 Butterworth leaves 1e-4 of the signal."""
 WORKING_RATE_PER_CUTOFF = 50.0
 """Filtered signals are thinned to at least this × the cut-off before building the regressor."""
+STATE_FACTOR = 2.0
+"""Auto states' cut-off = this × the rows' cut-off (within the noise's limit) for a fit."""
+STATES_PER_WORKING_RATE = 10.0
+"""The working rate is at least this × the states' cut-off (centred differences of what it passes)."""
 TRIM_PER_CUTOFF_PERIOD = 2.0
 """Auto trimming at each end = this / cut-off seconds: a few time constants of the filter."""
 VELOCITY_SOURCES = ("auto", "logged", "differentiated")
 DEFAULT_BLOCK_S = 60.0
 """Seconds of log processed at a time (the regressor of a block at the working rate, filtered)."""
 
-__all__ = ["ProcessedData", "auto_cutoff", "central_difference", "lowpass", "motion_frequency", "process"]
+__all__ = [
+    "ProcessedData",
+    "auto_cutoff",
+    "central_difference",
+    "lowpass",
+    "motion_frequency",
+    "noise_limited_cutoff",
+    "process",
+]
 
 
 def _resolve_cutoff(cutoff_hz: float | str | None, q: np.ndarray, rate: float) -> float | None:
@@ -73,6 +96,31 @@ def _resolve_cutoff(cutoff_hz: float | str | None, q: np.ndarray, rate: float) -
     return cutoff
 
 
+def _resolve_state_cutoff(
+    state_cutoff_hz: float | str | None, cutoff: float | None, q: np.ndarray, rate: float, factor: float
+) -> float | None:
+    if cutoff is None:
+        return None  # no filter at all (noiseless data)
+    if state_cutoff_hz is None:
+        return cutoff
+    if isinstance(state_cutoff_hz, str):
+        if state_cutoff_hz != "auto":
+            raise ConfigError(
+                "measurement.processing.state_cutoff_hz must be a number (Hz), auto or null, "
+                f"got {state_cutoff_hz!r}"
+            )
+        if not factor > 0:
+            raise ValueError(f"the states' cut-off factor must be positive, got {factor}")
+        return float(min(factor * cutoff, noise_limited_cutoff(q, rate), rate / 5.0))
+    state = float(state_cutoff_hz)
+    if not 0.0 < state < rate / 2:
+        raise ConfigError(
+            f"measurement.processing.state_cutoff_hz = {state:g} Hz must lie in (0, {rate / 2:g}) Hz, "
+            f"the Nyquist band of a {rate:g} Hz measurement"
+        )
+    return state
+
+
 def process(
     t: np.ndarray,
     q: np.ndarray,
@@ -87,6 +135,8 @@ def process(
     velocity: str = "auto",
     every_sample: bool = False,
     block_s: float | None = DEFAULT_BLOCK_S,
+    state_cutoff_hz: float | str | None = "auto",
+    state_factor: float = STATE_FACTOR,
 ) -> ProcessedData:
     """Filter, differentiate, trim and decimate one measurement (see the module docstring).
 
@@ -94,8 +144,8 @@ def process(
     ----------
     t, q, tau : raw times (s), positions (rad) and torques (N·m) on a uniform grid.
     dq : logged velocities (rad/s), or None.
-    cutoff_hz : Butterworth cut-off (Hz), ``"auto"`` (15 × the motion's frequency ‖q̈‖/(2π‖q̇‖), see
-        :func:`auto_cutoff`), or ``None`` for no filter (noiseless simulations).
+    cutoff_hz : the rows' Butterworth cut-off (Hz), on τ and W, ``"auto"`` (15 × the motion's frequency
+        ‖q̈‖/(2π‖q̇‖), see :func:`auto_cutoff`), or ``None`` for no filter at all (noiseless simulations).
     order : Butterworth order.
     difference_accuracy : order of the centred differences, 2 (paper) or 4.
     trim_s : seconds dropped at each end (filter edge transients); None: 2 / cut-off (0 without filter).
@@ -106,6 +156,10 @@ def process(
         predicts the logged torques.
     block_s : seconds of log processed at a time (None: the whole log at once); the result does
         not depend on it beyond rounding.
+    state_cutoff_hz : the states' cut-off (Hz), on the positions (and logged velocities): ``"auto"``
+        (``state_factor`` × the rows' cut-off, within :func:`noise_limited_cutoff` and a fifth of the
+        rate), a number, or ``None``: the rows' cut-off.
+    state_factor : see ``state_cutoff_hz``.
     """
     if velocity not in VELOCITY_SOURCES:
         raise ConfigError(
@@ -119,12 +173,12 @@ def process(
         raise ConfigError(f"measurement.processing.block_s must be positive (s) or null, got {block_s}")
     rate = float((len(t) - 1) / (t[-1] - t[0]))
     cutoff = _resolve_cutoff(cutoff_hz, q, rate)
+    state_cutoff = _resolve_state_cutoff(state_cutoff_hz, cutoff, q, rate, state_factor)
     # Thin the filtered signals to a working rate (no aliasing: the filter removed what lies above).
-    step = (
-        max(1, int(np.floor(rate / (WORKING_RATE_PER_CUTOFF * cutoff))))
-        if cutoff is not None and not every_sample
-        else 1
-    )
+    step = 1
+    if cutoff is not None and state_cutoff is not None and not every_sample:
+        fastest = max(WORKING_RATE_PER_CUTOFF * cutoff, STATES_PER_WORKING_RATE * state_cutoff)
+        step = max(1, int(np.floor(rate / fastest)))
     working_rate = rate / step
     n_working = -(-len(t) // step)
     block = n_working if block_s is None else max(1, min(n_working, round(block_s * working_rate)))
@@ -167,12 +221,14 @@ def process(
             "requested" if velocity == "differentiated" else "no logged velocities"
         ),
         block_samples=block,
+        state_cutoff_hz=state_cutoff,
     )
     if data.raw_dq is None:
         return data
     # The logged velocities are checked against the derivative of the positions over the whole log.
     pairs = [
-        (data._filtered_span(data.raw_dq, b.start, b.start + len(b.t)), b.dq) for b in data.state_blocks()
+        (data._filtered_span(data.raw_dq, b.start, b.start + len(b.t), data.state_cutoff_hz), b.dq)
+        for b in data.state_blocks()
     ]
     logged = np.concatenate([logged for logged, _ in pairs])
     differentiated = np.concatenate([d for _, d in pairs])

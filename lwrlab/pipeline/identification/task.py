@@ -8,6 +8,7 @@ one job: :func:`~lwrlab.identification.measuring.measure` and
 :func:`~lwrlab.identification.fitting.accumulate_rows`,
 :func:`~lwrlab.identification.fitting.assess` and
 :func:`~lwrlab.identification.fitting.fit`;
+:func:`~lwrlab.identification.state_cutoff.choose_state_factor`;
 :func:`~lwrlab.identification.scoring.predict`,
 :func:`~lwrlab.identification.scoring.tabulate`,
 :func:`~lwrlab.identification.scoring.extrapolate` and
@@ -40,6 +41,7 @@ from lwrlab.identification.scoring import (
     score,
     tabulate,
 )
+from lwrlab.identification.state_cutoff import choose_state_factor
 from lwrlab.model.friction_laws import drifting_terms
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, resolved_mapping, statistics_settings
@@ -101,7 +103,11 @@ def identify(
         rows.log_grams,
         rows.log_samples,
     )
-    predictions = predict(robot, base, estimator, measured, processed, processing, rows, fitted, drift.value)
+    states = choose_state_factor(
+        robot, base, estimator.phi_, measured.measurements, processed, processing, fitted
+    )
+    predicting = processing if states is None else states.processing(processing)
+    predictions = predict(robot, base, estimator, measured, processed, predicting, rows, fitted, drift.value)
     tables = tabulate(
         robot,
         base,
@@ -155,6 +161,7 @@ def identify(
                 share,
             ),
             drift.describe(),
+            *([] if states is None else [states.describe()]),
             *coverage_checks(measured, predictions),
             next_motion_note(robot, base, fitting.identified.base_std),
         ],

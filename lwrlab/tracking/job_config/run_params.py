@@ -54,6 +54,7 @@ KNOBS: tuple[str, ...] = (
     "trajectory.duration",
     "validation.duration",
     "measurement.processing.cutoff_hz",
+    "measurement.processing.state_cutoff_hz",
     "measurement.processing.rate_hz",
     "robot.friction_terms",
     "data.paths",
