@@ -198,13 +198,14 @@ def evaluate(split: Split, setting: Setting) -> dict[str, float]:
     covariance = np.asarray(estimator.covariance_)
     drift = setting.friction_drift
     drifting = drifting_terms(robot.friction_law)
-    friction = drift_parameters(base.names, estimator.phi_, drifting) if drift > 0 else None
+    drifting_values = drift_parameters(base.names, estimator.phi_, drifting) if drift > 0 else None
+    friction = None if drifting_values is None else drift * drifting_values  # ρ·φ_f: ρ·τ̂_f
 
     def predicted(m: Measurement) -> LogPrediction:
         return predict_measurement(robot, base, estimator.phi_, m, DEFAULTS, covariance, friction)
 
     in_sample = np.mean((tau - w @ estimator.phi_).reshape(-1, robot.n_joints) ** 2, axis=0)
-    interval = prediction_interval(estimator, [predicted(m) for m in split.fit], in_sample, drift)
+    interval = prediction_interval(estimator, [predicted(m) for m in split.fit], in_sample)
     predictions = [interval.around(predicted(m)) for m in split.validation]
     joints = joint_coverage(predictions)
     row = {

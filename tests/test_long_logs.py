@@ -170,7 +170,7 @@ def _prediction(rng: np.random.Generator, samples: int, name: str) -> LogPredict
         measured + 0.1 * rng.normal(size=measured.shape),
         rng.uniform(size=samples) > 0.1,
         "",
-        parameter_variance=rng.uniform(0.0, 0.02, size=measured.shape),
+        prediction_variance=rng.uniform(0.0, 0.02, size=measured.shape),
     )
 
 
@@ -178,7 +178,7 @@ def test_summed_errors_and_coverage_equal_those_of_the_whole_arrays() -> None:
     rng = np.random.default_rng(5)
     band = PredictionInterval(np.array([0.05, 0.1, 0.02]))
     predictions = [band.around(_prediction(rng, n, f"log{n}")) for n in (2 * SUMMARY_BLOCK_SAMPLES + 17, 900)]
-    assert all(p.parameter_variance is None and p.half_width is not None for p in predictions)
+    assert all(p.prediction_variance is None and p.half_width is not None for p in predictions)
     measured = np.vstack([p.measured[p.scored] for p in predictions])
     error = measured - np.vstack([p.predicted[p.scored] for p in predictions])
     inside = np.vstack([(np.abs(p.measured - p.predicted) <= p.half_width)[p.scored] for p in predictions])

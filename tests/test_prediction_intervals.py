@@ -17,11 +17,19 @@ import pytest
 from composing import compose_config
 
 from lwrlab.identification.coverage_check import COVERAGE_WARNING, coverage_warning, novelty
-from lwrlab.identification.log_predictions import LogPrediction, PredictionInterval, joint_coverage
+from lwrlab.dynamics.base_parameters import compute_base_parameters
+from lwrlab.identification.log_predictions import (
+    LogPrediction,
+    PredictionInterval,
+    joint_coverage,
+    predict_measurement,
+)
 from lwrlab.identification.prediction_error import conformal_scale, drift_parameters
 from lwrlab.model.friction_laws import SignCoulomb, drifting_terms
 from lwrlab.model.robot import RobotModel
+from lwrlab.pipeline.build import build
 from lwrlab.pipeline.identification import identify_configured
+from lwrlab.plants.core import Measurement
 
 REAL_LWR4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "kuka_lwr4_hw"
 NPZ_COLUMNS = "data.column_map={t: times, q: positions, dq: velocities, tau: torques}"
@@ -31,8 +39,7 @@ needs_real_logs = pytest.mark.skipif(
 )
 
 
-def _prediction(rng: np.random.Generator, friction: np.ndarray, noise: float = 0.1) -> LogPrediction:
-    n = len(friction)
+def _prediction(rng: np.random.Generator, n: int, noise: float = 0.1) -> LogPrediction:
     predicted = rng.normal(size=(n, 2))
     measured = predicted + noise * rng.normal(size=(n, 2))
     return LogPrediction(
@@ -43,21 +50,36 @@ def _prediction(rng: np.random.Generator, friction: np.ndarray, noise: float = 0
         predicted,
         np.ones(n, dtype=bool),
         "",
-        parameter_variance=np.full((n, 2), 1e-4),
-        friction_torque=np.column_stack([friction, np.zeros(n)]),
+        prediction_variance=np.full((n, 2), 1e-4),
     )
 
 
-def test_the_interval_widens_with_the_friction_torque_and_only_there() -> None:
-    rng = np.random.default_rng(0)
-    friction = np.where(np.arange(1000) < 500, 0.0, 2.0)  # standing still, then moving
-    band = PredictionInterval(np.array([0.1, 0.1]), friction_drift=0.5).around(_prediction(rng, friction))
-    assert band.half_width is not None
-    still = band.half_width[:500, 0]
-    np.testing.assert_allclose(still, 1.959964 * np.sqrt(1e-4 + 0.01), rtol=1e-6)
-    np.testing.assert_allclose(band.half_width[500:, 0], 1.959964 * np.sqrt(1e-4 + 0.01 + 1.0), rtol=1e-6)
-    np.testing.assert_allclose(band.half_width[:, 1], still[0], rtol=1e-12)  # no friction on joint 2
-    assert band.friction_torque is None  # consumed with the variance
+def test_the_variance_widens_by_the_drifting_friction_torque_and_only_there(lwr4: RobotModel) -> None:
+    """The variance a prediction carries is ``wᵀΣw + (ρ·τ̂_f)²``, τ̂_f the torque of the drifting friction
+    terms alone, which is the model's own prediction with every other parameter zero."""
+    base = compute_base_parameters(lwr4)
+    phi = base.base_values(lwr4.parameters)
+    motion = build("trajectory", "multisine", duration=3.0, harmonics=4, seed=3).sample(lwr4, 500.0)
+    motion_tau = lwr4.inverse_dynamics(motion.q, motion.dq, motion.ddq)
+    log = Measurement(motion.t, motion.q, motion_tau, {"name": "log"})
+    covariance = np.diag((1e-3 * (1.0 + np.abs(phi))) ** 2)
+    drifting = drift_parameters(base.names, phi, drifting_terms(lwr4.friction_law))
+    assert drifting is not None and np.any(drifting != 0) and np.any((drifting == 0) & (phi != 0))
+    settings = {"velocity": "differentiated"}
+    rho = 0.4
+    plain = predict_measurement(lwr4, base, phi, log, settings, covariance)
+    drifted = predict_measurement(lwr4, base, phi, log, settings, covariance, rho * drifting)
+    friction = predict_measurement(lwr4, base, drifting, log, settings).predicted
+    assert plain.prediction_variance is not None and drifted.prediction_variance is not None
+    np.testing.assert_array_equal(drifted.predicted, plain.predicted)
+    widening = drifted.prediction_variance - plain.prediction_variance
+    np.testing.assert_allclose(widening, (rho * friction) ** 2, rtol=1e-9, atol=1e-12)
+    assert np.all(widening[np.abs(friction) > 1e-3] > 0)
+    band = PredictionInterval(np.array([0.1] * lwr4.n_joints)).around(drifted)
+    assert band.half_width is not None and band.prediction_variance is None  # consumed in place
+    np.testing.assert_allclose(
+        band.half_width, 1.959964 * np.sqrt(plain.prediction_variance + widening + 0.01), rtol=1e-6
+    )
 
 
 def test_a_joint_whose_fit_found_no_friction_drifts_like_the_median_joint() -> None:
@@ -74,7 +96,6 @@ def test_interval_and_thresholds_drift_with_the_same_friction_terms(lwr4: RobotM
     """Every law's terms: the ones the prediction interval lets drift are the ones the collision
     thresholds' friction band holds (offsets and rotor inertias neither)."""
     from lwrlab.monitoring.spread import friction_band
-    from lwrlab.pipeline.build import build
 
     for name in ("sign", "smooth", "stribeck", "holding", "asymmetric"):
         law = build("friction", name)
@@ -100,7 +121,7 @@ def test_the_conformal_scale_brings_heavy_tails_to_the_stated_level() -> None:
 
 def test_joint_coverage_counts_each_joint_and_skips_joints_not_fitted() -> None:
     rng = np.random.default_rng(2)
-    p = PredictionInterval(np.array([0.1, 0.1])).around(_prediction(rng, np.zeros(4000)))
+    p = PredictionInterval(np.array([0.1, 0.1])).around(_prediction(rng, 4000))
     coverage = joint_coverage([p])
     assert np.all(np.abs(coverage - 0.95) < 0.02)
     only_first = joint_coverage([LogPrediction(**{**p.__dict__, "joints": np.array([True, False])})])

@@ -141,6 +141,16 @@ class FrictionChoice:
         )
 
 
+def third_difference_mad(x: np.ndarray) -> np.ndarray:
+    """(N_J,) the robust spread (1.4826 × the median absolute deviation) of each column's third
+    differences, a column at a time (a long log's (N, N_J) differences are not held at once)."""
+    spread = np.empty(x.shape[1])
+    for j in range(x.shape[1]):
+        third = np.diff(x[:, j], n=3)
+        spread[j] = 1.4826 * np.median(np.abs(third - np.median(third)))
+    return spread
+
+
 def speed_noise(processed: Sequence[ProcessedData], robot: RobotModel) -> np.ndarray:
     """(N_D,) noise of the processed drive speeds (rad/s): the encoder noise through the processing.
 
@@ -156,8 +166,7 @@ def speed_noise(processed: Sequence[ProcessedData], robot: RobotModel) -> np.nda
         q = data.raw_q
         if len(q) < 8:
             continue
-        third = np.diff(q, n=3, axis=0)
-        sigma_q = 1.4826 * np.median(np.abs(third - np.median(third, axis=0)), axis=0) / np.sqrt(20.0)
+        sigma_q = third_difference_mad(q) / np.sqrt(20.0)
         cutoff = data.state_cutoff_hz
         if cutoff is None:
             gain = rate / np.sqrt(2.0)
@@ -197,8 +206,7 @@ def torque_noise_share(processed: Sequence[ProcessedData], grams: np.ndarray) ->
     for data in processed:
         if len(data.raw_tau) < 8 or not data.index.size:
             continue
-        third = np.diff(data.raw_tau, n=3, axis=0)
-        sigma2 = (1.4826 * np.median(np.abs(third - np.median(third, axis=0)), axis=0)) ** 2 / 20.0
+        sigma2 = third_difference_mad(data.raw_tau) ** 2 / 20.0
         rate = data.working_rate_hz * data.step
         variances.append(sigma2 * _filter_noise_gain(data.cutoff_hz, rate, data.order))
         weights.append(len(data.index))

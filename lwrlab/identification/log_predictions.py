@@ -47,17 +47,14 @@ class LogPrediction:
     """(M,) samples inside the trimmed span, where the filtered states are free of edge transients."""
     processing: str
     """What the processing chose for this log (cut-off, velocity source)."""
-    parameter_variance: np.ndarray | None = None
-    """(M, N_J) variance of τ̂ from the parameters' covariance, ``wᵀ·Σ·w`` (N·m²), or None (also once
-    :meth:`PredictionInterval.around` has turned it into :attr:`half_width`)."""
+    prediction_variance: np.ndarray | None = None
+    """(M, N_J) the variance of τ̂ known at the prediction (N·m²): ``wᵀ·Σ·w`` of the parameters'
+    covariance plus ``(ρ·τ̂_f)²`` of the friction drift (see :func:`predict_measurement`), or None (also
+    once :meth:`PredictionInterval.around` has turned it into :attr:`half_width`)."""
     half_width: np.ndarray | None = None
     """(M, N_J) half-width of the prediction interval ``τ̂ ± half_width`` (N·m), or None."""
     joints: np.ndarray | None = None
     """(N_J,) the joints scored (``data.fitted_joints``), or None: every joint."""
-    friction_torque: np.ndarray | None = None
-    """(M, N_J) the model's friction torque at every sample (N·m; its dissipative drive terms, see
-    :func:`~lwrlab.identification.prediction_error.drift_parameters`), or None: what the interval's
-    friction drift scales with."""
     grid_t: np.ndarray | None = None
     """(M,) the regular grid (s) the samples were read on, when their logged stamps jitter around it
     (:attr:`lwrlab.plants.core.Measurement.stamps`); else None (the stamps are the grid)."""
@@ -153,11 +150,11 @@ class PredictionInterval:
     """What makes a prediction on a new motion uncertain beyond its parameters: the model's error.
 
     The interval of τ̂_j at a sample x is ``τ̂_j ± z·c_j·√(wᵀ·Σ·w + s_j² + (ρ·τ̂_f,j(x))²)``:
-    ``wᵀ·Σ·w`` the parameters' part (:attr:`LogPrediction.parameter_variance`, from the base
-    parameters' covariance Σ at the sample's regressor row w), ``s_j`` the torque error the model makes
-    on joint j on samples it was not fitted on (sensor noise, unmodelled dynamics), ``ρ·τ̂_f,j(x)`` the
-    friction drift (friction changes between motions with temperature and speed range by a share ρ of
-    the friction torque τ̂_f at the state, :attr:`LogPrediction.friction_torque`), ``z`` the normal
+    ``wᵀ·Σ·w`` the parameters' part (from the base parameters' covariance Σ at the sample's regressor
+    row w), ``ρ·τ̂_f,j(x)`` the friction drift (friction changes between motions with temperature and
+    speed range by a share ρ of the friction torque τ̂_f at the state) — the two known at the
+    prediction (:attr:`LogPrediction.prediction_variance`) —, ``s_j`` the torque error the model makes
+    on joint j on samples it was not fitted on (sensor noise, unmodelled dynamics), ``z`` the normal
     quantile of ``level`` and ``c_j ≥ 1`` the conformal scale that makes the identification logs'
     residuals fall inside at ``level`` (heavy tails).
     """
@@ -166,8 +163,6 @@ class PredictionInterval:
     """(N_J,) model error per joint (N·m)."""
     level: float = 0.95
     """Probability the interval is meant to cover."""
-    friction_drift: float = 0.0
-    """ρ: share of the friction torque by which friction may differ on another motion."""
     scale: np.ndarray | None = None
     """(N_J,) conformal scale c_j ≥ 1, or None: 1."""
 
@@ -179,30 +174,21 @@ class PredictionInterval:
         return float(ndtri(0.5 + self.level / 2))
 
     def variance(self, prediction: LogPrediction, out: np.ndarray | None = None) -> np.ndarray:
-        """(M, N_J) ``wᵀ·Σ·w + s_j² + (ρ·τ̂_f)²`` of ``prediction`` (written into ``out`` if given)."""
-        if prediction.parameter_variance is None:
+        """(M, N_J) ``wᵀ·Σ·w + (ρ·τ̂_f)² + s_j²`` of ``prediction`` (written into ``out`` if given)."""
+        if prediction.prediction_variance is None:
             raise ValueError(f"{prediction.name}: predicted without the parameters' covariance")
-        variance = np.add(prediction.parameter_variance, self.error_std**2, out=out)
-        if self.friction_drift > 0 and prediction.friction_torque is not None:
-            for first in range(0, len(variance), SUMMARY_BLOCK_SAMPLES):  # no copy of a long log
-                part = slice(first, first + SUMMARY_BLOCK_SAMPLES)
-                variance[part] += (self.friction_drift * prediction.friction_torque[part]) ** 2
-        return variance
+        return np.add(prediction.prediction_variance, self.error_std**2, out=out)
 
     def normalised_errors(self, prediction: LogPrediction) -> Iterator[np.ndarray]:
         """``|τ − τ̂| / (z·√variance)`` (n, N_J) at the scored samples of ``prediction``, block by block
         (:data:`SUMMARY_BLOCK_SAMPLES`; NaN on a joint not scored): the conformal scale's scores,
         computed as :meth:`variance` is without a long log's (M, N_J) copies."""
-        if prediction.parameter_variance is None:
+        if prediction.prediction_variance is None:
             raise ValueError(f"{prediction.name}: predicted without the parameters' covariance")
-        drift = self.friction_drift > 0 and prediction.friction_torque is not None
         for first in range(0, len(prediction.t), SUMMARY_BLOCK_SAMPLES):
             part = slice(first, first + SUMMARY_BLOCK_SAMPLES)
             keep = prediction.scored[part]
-            variance = prediction.parameter_variance[part] + self.error_std**2
-            if drift:
-                variance += (self.friction_drift * prediction.friction_torque[part]) ** 2  # type: ignore[index]
-            half_width = np.sqrt(variance[keep]) * self.z
+            half_width = np.sqrt(prediction.prediction_variance[part][keep] + self.error_std**2) * self.z
             error = np.abs(prediction.measured[part][keep] - prediction.predicted[part][keep])
             score = error / np.maximum(half_width, 1e-12)
             if prediction.joints is not None:
@@ -212,13 +198,13 @@ class PredictionInterval:
     def around(self, prediction: LogPrediction) -> LogPrediction:
         """``prediction`` with the interval's half-width at every sample.
 
-        The parameters' variance becomes the half-width in place (a long log's array is not copied):
+        The prediction's variance becomes the half-width in place (a long log's array is not copied):
         ``prediction`` itself is not to be used afterwards.
         """
-        half_width = self.variance(prediction, out=prediction.parameter_variance)
+        half_width = self.variance(prediction, out=prediction.prediction_variance)
         np.sqrt(half_width, out=half_width)
         half_width *= self.z if self.scale is None else self.z * self.scale
-        return replace(prediction, parameter_variance=None, half_width=half_width, friction_torque=None)
+        return replace(prediction, prediction_variance=None, half_width=half_width)
 
 
 def joint_coverage(predictions: Sequence[LogPrediction]) -> np.ndarray:
@@ -246,14 +232,14 @@ def predict_measurement(
 ) -> LogPrediction:
     """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit).
 
-    With the base parameters' ``covariance``, also the variance it gives τ̂ at every sample, and with
-    ``friction`` (base values of the friction terms alone), the friction torque at every sample
-    (:class:`PredictionInterval` turns both into an interval).
+    With the base parameters' ``covariance``, also the variance of τ̂ at every sample: ``wᵀ·Σ·w``, plus
+    with ``friction`` the square of the torque it gives (base values of the drifting friction terms
+    alone, times the drift ρ: ``(ρ·τ̂_f)²``), added here rather than kept as a third array of a long
+    log (:class:`PredictionInterval` turns the variance into an interval).
     """
     data = process_measurement(measurement, processing, every_sample=True)
     predicted = np.empty((data.n_working, robot.n_joints))
     variance = None if covariance is None else np.empty_like(predicted)
-    friction_torque = None if friction is None else np.empty_like(predicted)
     # Block by block: the full regressor of every sample of a long log would not fit in memory.
     # One BLAS thread: products of this size lose to a second thread on a busy core.
     # a friction law with memory reads its columns from the whole log, by sample index
@@ -269,8 +255,8 @@ def predict_measurement(
                 predicted[samples] = base.torques(full, phi)
                 if covariance is not None and variance is not None:
                     variance[samples] = _parameter_variance(base.base_regressor(full), covariance)
-                if friction is not None and friction_torque is not None:
-                    friction_torque[samples] = base.torques(full, friction)
+                    if friction is not None:
+                        variance[samples] += base.torques(full, friction) ** 2
     t, measured = measurement.as_logged()
     on_grid = t  # the times the trimmed span is compared with
     grid_t = None
@@ -280,10 +266,6 @@ def predict_measurement(
         predicted = np.column_stack([np.interp(t, data.t, predicted[:, j]) for j in range(robot.n_joints)])
         if variance is not None:
             variance = np.column_stack([np.interp(t, data.t, variance[:, j]) for j in range(robot.n_joints)])
-        if friction_torque is not None:
-            friction_torque = np.column_stack(
-                [np.interp(t, data.t, friction_torque[:, j]) for j in range(robot.n_joints)]
-            )
     span = data.row_times
     scored = (on_grid >= span[0] - 1e-9) & (on_grid <= span[-1] + 1e-9)
     cutoff = "no filter" if data.state_cutoff_hz is None else f"q at {data.state_cutoff_hz:.3g} Hz"
@@ -297,7 +279,6 @@ def predict_measurement(
         scored,
         f"{cutoff}, {velocity}",
         None if variance is None else np.clip(variance, 0.0, None, out=variance),
-        friction_torque=friction_torque,
         grid_t=grid_t,
     )
 

@@ -47,7 +47,6 @@ def prediction_interval(
     estimator: Estimator,
     fit_predictions: list[LogPrediction],
     in_sample: np.ndarray,
-    friction_drift: float = 0.0,
     level: float = 0.95,
     held_out_logs: np.ndarray | None = None,
 ) -> PredictionInterval:
@@ -59,9 +58,9 @@ def prediction_interval(
     measured it (``cv_joint_rms_``), or, where larger, what the model errs on each identification log
     when refitted without it (``held_out_logs``, N·m², per joint:
     :func:`~lwrlab.identification.prediction_error.held_out_log_error`). The friction drift widens it
-    where the model predicts friction (:mod:`lwrlab.identification.prediction_error`); the conformal
-    scale makes the identification logs (``fit_predictions``, predicted with the parameters' variance
-    and the friction torque) fall inside at ``level``. Measured on motions unlike the fit's
+    where the model predicts friction (:mod:`lwrlab.identification.prediction_error`: in the variance
+    each prediction carries); the conformal scale makes the identification logs (``fit_predictions``,
+    predicted with their variance) fall inside at ``level``. Measured on motions unlike the fit's
     (``benchmarks/zoo.py --choice intervals``): the held-out blocks alone cover a new motion's torques
     on the real LWR4+ 43–60 % of the time on its worst joint, with the drift of one log 89–97 %.
     """
@@ -72,10 +71,10 @@ def prediction_interval(
         held_out_square = np.maximum(held_out_logs, 0.0 if held_out_square is None else held_out_square)
     if held_out_square is not None:
         error_variance = error_variance + np.clip(held_out_square - in_sample, 0.0, None)
-    interval = PredictionInterval(np.sqrt(error_variance), level, friction_drift)
+    interval = PredictionInterval(np.sqrt(error_variance), level)
     n_joints = len(error_variance)
     scores = [
-        s for p in fit_predictions if p.parameter_variance is not None for s in interval.normalised_errors(p)
+        s for p in fit_predictions if p.prediction_variance is not None for s in interval.normalised_errors(p)
     ]
     return replace(interval, scale=conformal_scale(scores, n_joints, level)) if scores else interval
 
@@ -121,7 +120,8 @@ def predict(
     """
     covariance = np.asarray(estimator.covariance_)
     drifting = drifting_terms(robot.friction_law)
-    friction = drift_parameters(base.names, estimator.phi_, drifting) if friction_drift > 0 else None
+    drifting_values = drift_parameters(base.names, estimator.phi_, drifting) if friction_drift > 0 else None
+    friction = None if drifting_values is None else friction_drift * drifting_values  # ρ·φ_f: ρ·τ̂_f
     fit_predictions = [
         replace(
             predict_measurement(
@@ -138,9 +138,7 @@ def predict(
     held_out_logs = held_out_log_error(rows.log_grams, rows.log_samples, estimator.phi_)
     if held_out_logs is not None and fitted is not None:
         held_out_logs = np.where(fitted, held_out_logs, 0.0)
-    band = prediction_interval(
-        estimator, fit_predictions, in_sample, friction_drift, held_out_logs=held_out_logs
-    )
+    band = prediction_interval(estimator, fit_predictions, in_sample, held_out_logs=held_out_logs)
     fit_predictions = [band.around(p) for p in fit_predictions]
     validation_predictions = [
         band.around(

@@ -55,16 +55,16 @@ CANDIDATES = 60
 def acceleration_spectrum(q: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """``(f, S)``: frequencies (Hz) and the one-sided spectrum (rad²/s⁴/Hz) of each column of the
     second differences of ``q`` (N, N_J) (Welch, Hann segments, see the module docstring)."""
-    acceleration = np.diff(np.asarray(q, dtype=float), n=2, axis=0) * rate_hz**2
-    n = acceleration.shape[0]
+    positions = np.asarray(q, dtype=float)
+    n = positions.shape[0] - 2  # second differences; taken segment by segment (no copy of a long log)
     length = int(2 ** np.floor(np.log2(max(8, min(n, SEGMENT_S * rate_hz)))))
     window = np.hanning(length)
     starts = np.arange(0, n - length + 1, length // 2)
     if starts.size > MAX_SEGMENTS:
         starts = starts[np.linspace(0, starts.size - 1, MAX_SEGMENTS).round().astype(int)]
-    power = np.zeros((length // 2 + 1, acceleration.shape[1]))
+    power = np.zeros((length // 2 + 1, positions.shape[1]))
     for start in starts:
-        segment = acceleration[start : start + length]
+        segment = np.diff(positions[start : start + length + 2], n=2, axis=0) * rate_hz**2
         segment = (segment - segment.mean(axis=0)) * window[:, None]
         power += np.abs(np.fft.rfft(segment, axis=0)) ** 2
     scale = 2.0 / (rate_hz * np.sum(window**2) * max(starts.size, 1))
