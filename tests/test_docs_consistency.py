@@ -174,12 +174,12 @@ CLAIMS = [
     ),
     Claim(
         "docs/paper.md",
-        r"only FC3 \(([\d.]+) N·m",
+        r"and FC3 \(([\d.]+) N·m",
         lambda t: float(_row(t["table2"], parameter="FC3")["truth"]),
     ),
     Claim(
         "docs/paper.md",
-        r"only FC3 \([\d.]+ N·m, %σ ([\d.]+)\)",
+        r"and FC3 \([\d.]+ N·m, %σ ([\d.]+)\)",
         lambda t: float(_row(t["table2"], parameter="FC3")["pct_sigma"]),
     ),
 ]
