@@ -8,6 +8,10 @@ never visited.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import partial
+
 import numpy as np
 
 COVERAGE_WARNING = 0.85
@@ -24,19 +28,65 @@ OUTSIDE = 0.05
 by more than :data:`OUTSIDE` of the range."""
 
 
-def _speed_percentile(dq: np.ndarray, percent: float = 99.0) -> np.ndarray:
-    """(N_J,) the ``percent`` percentile of each joint's absolute speed, a column at a time."""
-    return np.array([np.percentile(np.abs(dq[:, j]), percent) for j in range(dq.shape[1])])
+@dataclass(frozen=True)
+class FitMotion:
+    """The identification logs' motion, as a new log is compared with it: each joint's 99th percentile
+    speed ``fast`` (N_J,), the share of samples with every joint still, and each joint's range."""
+
+    fast: np.ndarray
+    still: float
+    low: np.ndarray
+    high: np.ndarray
+
+    @classmethod
+    def of(cls, q_logs: Sequence[np.ndarray], speed: Callable[[int, int], np.ndarray]) -> FitMotion:
+        """From the positions ``q_logs`` (each (M_k, N_J)) and ``speed(k, j)``, log k's joint j speeds
+        (M_k,): a column at a time, so a long log's (M, N_J) speeds are never held at once."""
+        n_joints = q_logs[0].shape[1]
+        fast = np.array(
+            [
+                np.percentile(np.abs(np.concatenate([speed(k, j) for k in range(len(q_logs))])), 99)
+                for j in range(n_joints)
+            ]
+        )
+        fast = np.maximum(fast, 1e-9)
+        still = 0
+        for k, q in enumerate(q_logs):
+            still += _still_count(len(q), partial(speed, k), fast)
+        samples = sum(len(q) for q in q_logs)
+        low = np.min([q.min(axis=0) for q in q_logs], axis=0)
+        high = np.max([q.max(axis=0) for q in q_logs], axis=0)
+        return cls(fast, still / samples if samples else 0.0, low, high)
+
+    def novelty(self, q: np.ndarray, dq: np.ndarray) -> list[str]:
+        """What the motion ``q, dq`` (n, N_J) does that the fit's did not (see :func:`novelty`)."""
+        causes = []
+        ratio = np.array([np.percentile(np.abs(dq[:, j]), 99) for j in range(dq.shape[1])]) / self.fast
+        faster = [f"q{j + 1} ({ratio[j]:.2g}× its speed)" for j in np.flatnonzero(ratio > FASTER)]
+        if faster:
+            causes.append(f"faster than the fit on {', '.join(faster)}")
+        still = _still_count(len(dq), lambda j: dq[:, j], self.fast) / max(len(dq), 1)
+        if still > self.still + MORE_STILL:
+            share, fit_share = 100 * still, 100 * self.still
+            causes.append(f"rests more than the fit ({share:.0f} % of samples still, fit {fit_share:.0f} %)")
+        margin = OUTSIDE * np.maximum(self.high - self.low, 1e-9)
+        outside = np.mean((q < self.low - margin) | (q > self.high + margin), axis=0)
+        away = [
+            f"q{j + 1} ({100 * outside[j]:.0f} % of samples outside its range)"
+            for j in np.flatnonzero(outside > OUTSIDE)
+        ]
+        if away:
+            causes.append(f"poses not visited on {', '.join(away)}")
+        return causes
 
 
-def _still_share(dq: np.ndarray, fast: np.ndarray) -> float:
-    """Share of samples at which every joint moves slower than :data:`STILL_SPEED` × ``fast``."""
-    if not len(dq):
-        return 0.0
-    still = np.ones(len(dq), dtype=bool)
-    for j in range(dq.shape[1]):  # a column at a time: no (M, N_J) copy of a long log
-        still &= np.abs(dq[:, j]) < STILL_SPEED * fast[j]
-    return float(np.mean(still))
+def _still_count(samples: int, speed: Callable[[int], np.ndarray], fast: np.ndarray) -> int:
+    """Samples at which every joint (``speed(j)``: its speeds, one joint's at a time) moves slower than
+    :data:`STILL_SPEED` × its ``fast``."""
+    still = np.ones(samples, dtype=bool)
+    for j in range(len(fast)):
+        still &= np.abs(speed(j)) < STILL_SPEED * fast[j]
+    return int(np.count_nonzero(still))
 
 
 def novelty(fit_q: np.ndarray, fit_dq: np.ndarray, q: np.ndarray, dq: np.ndarray) -> list[str]:
@@ -53,27 +103,7 @@ def novelty(fit_q: np.ndarray, fit_dq: np.ndarray, q: np.ndarray, dq: np.ndarray
     >>> novelty(fit_q, fit_dq, np.zeros((500, 2)), np.zeros((500, 2)))
     ['rests more than the fit (100 % of samples still, fit 3 %)']
     """
-    causes = []
-    fast = np.maximum(_speed_percentile(fit_dq), 1e-9)
-    ratio = _speed_percentile(dq) / fast
-    faster = [f"q{j + 1} ({ratio[j]:.2g}× its speed)" for j in np.flatnonzero(ratio > FASTER)]
-    if faster:
-        causes.append(f"faster than the fit on {', '.join(faster)}")
-    still, fit_still = _still_share(dq, fast), _still_share(fit_dq, fast)
-    if still > fit_still + MORE_STILL:
-        causes.append(
-            f"rests more than the fit ({100 * still:.0f} % of samples still, fit {100 * fit_still:.0f} %)"
-        )
-    low, high = fit_q.min(axis=0), fit_q.max(axis=0)
-    margin = OUTSIDE * np.maximum(high - low, 1e-9)
-    outside = np.mean((q < low - margin) | (q > high + margin), axis=0)
-    away = [
-        f"q{j + 1} ({100 * outside[j]:.0f} % of samples outside its range)"
-        for j in np.flatnonzero(outside > OUTSIDE)
-    ]
-    if away:
-        causes.append(f"poses not visited on {', '.join(away)}")
-    return causes
+    return FitMotion.of([fit_q], lambda _, j: fit_dq[:, j]).novelty(q, dq)
 
 
 def coverage_warning(log: str, coverage: np.ndarray, level: float, causes: list[str]) -> str | None:

@@ -21,7 +21,7 @@ from lwrlab.identification.bootstrap import block_bootstrap
 from lwrlab.identification.consistency import min_pseudo_inertia_eigenvalues
 from lwrlab.identification.context import IdentificationContext
 from lwrlab.identification.core import Estimator, torque_errors
-from lwrlab.identification.coverage_check import coverage_warning, novelty
+from lwrlab.identification.coverage_check import FitMotion, coverage_warning
 from lwrlab.identification.extrapolation import ExtrapolationReport, assess_extrapolation, likely_causes
 from lwrlab.identification.fitting import Fit
 from lwrlab.identification.friction_choice import FrictionChoice
@@ -260,16 +260,13 @@ def likely_causes_of_poor_validation(
     )
 
 
-def _speeds(measurement: Measurement, smoothing: int = 5) -> np.ndarray:
-    """(M, N_J) joint speeds of a log: as logged, else differentiated and averaged over ``smoothing``
+def _speed(measurement: Measurement, joint: int, smoothing: int = 5) -> np.ndarray:
+    """(M,) a joint's speeds in a log: as logged, else differentiated and averaged over ``smoothing``
     samples (enough to compare the speed ranges of two logs of one robot)."""
     if measurement.dq is not None:
-        return np.asarray(measurement.dq)
+        return np.asarray(measurement.dq[:, joint])
     kernel = np.ones(smoothing) / smoothing
-    speeds = np.empty_like(measurement.q, dtype=float)
-    for j in range(measurement.q.shape[1]):  # a column at a time: no (M, N_J) temporaries of a long log
-        speeds[:, j] = np.convolve(np.gradient(measurement.q[:, j], measurement.t), kernel, mode="same")
-    return speeds
+    return np.convolve(np.gradient(measurement.q[:, joint], measurement.t), kernel, mode="same")
 
 
 def coverage_checks(measured: Measured, predictions: Predictions, level: float = 0.95) -> list[str]:
@@ -279,14 +276,14 @@ def coverage_checks(measured: Measured, predictions: Predictions, level: float =
     if not measured.measurements:
         return []
     fits = measured.measurements
-    fit_q = fits[0].q if len(fits) == 1 else np.vstack([m.q for m in fits])
-    fit_dq = _speeds(fits[0]) if len(fits) == 1 else np.vstack([_speeds(m) for m in fits])
+    fit = FitMotion.of([m.q for m in fits], lambda k, j: _speed(fits[k], j))
     lines = []
     for m, p in zip(measured.validation_measurements, predictions.validation, strict=True):
         coverage = joint_coverage([p])
         if np.all(~np.isfinite(coverage)):
             continue
-        line = coverage_warning(p.name, coverage, level, novelty(fit_q, fit_dq, m.q, _speeds(m)))
+        speeds = np.column_stack([_speed(m, j) for j in range(m.q.shape[1])])
+        line = coverage_warning(p.name, coverage, level, fit.novelty(m.q, speeds))
         lines += [] if line is None else [line]
     return lines
 
