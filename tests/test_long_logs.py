@@ -219,7 +219,7 @@ def test_a_csv_log_is_read_in_the_schema_columns_only(tmp_path: Path, long_measu
 
 
 MEMORY_CAP_MB = 1000
-"""A 20 min log peaks at 0.72 GB (README, "Hour-long logs"); an hour's target is 1.5 GB."""
+"""A 20 min log peaks at 0.72 GB (manual, "Hour-long logs"); an hour's target is 1.5 GB."""
 
 
 @pytest.mark.slow
