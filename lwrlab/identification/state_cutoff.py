@@ -39,6 +39,7 @@ from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
 from lwrlab.plants.core import Measurement
 from lwrlab.signal.processing import ProcessedData
+from lwrlab.signal.zero_phase import butterworth_sos, settling_samples
 
 FACTORS = (1.0, 1.5, 2.0, 3.0, 4.0)
 """Candidate states' cut-offs, in multiples of each log's rows' cut-off."""
@@ -97,15 +98,39 @@ def raw_torque_sums(
     starts = np.unique(np.linspace(span[0], span[-1] + 1 - length, WINDOWS).round().astype(int))
     history = log_history(robot, data.velocities(), data.working_rate_hz)
     residual = measured = 0.0
-    for start in starts:
-        states = data.states(int(start), int(start) + length)
-        rows = np.arange(start, start + length)
+    for first, stop in _runs(starts, length, 2 * _filter_overlap(data)):
+        states = data.states(first, stop)
+        rows = np.concatenate([np.arange(s, s + length) for s in starts if first <= s < stop])
+        kept = rows - first
         part = None if history is None else {term: values[rows] for term, values in history.items()}
-        full = regressor(robot, states.q, states.dq, states.ddq, stacked=False, history=part)
+        full = regressor(
+            robot, states.q[kept], states.dq[kept], states.ddq[kept], stacked=False, history=part
+        )
         tau = data.raw_tau[rows * data.step][:, joints]
         residual += float(np.sum((tau - base.torques(full, phi)[:, joints]) ** 2))
         measured += float(np.sum(tau**2))
     return residual, measured
+
+
+def _filter_overlap(data: ProcessedData) -> int:
+    """Working samples the states' filter reaches beyond a window on each side (0: no filter)."""
+    if data.state_cutoff_hz is None:
+        return 0
+    rate = data.working_rate_hz * data.step
+    return -(-settling_samples(butterworth_sos(data.order, data.state_cutoff_hz, rate)) // data.step)
+
+
+def _runs(starts: np.ndarray, length: int, gap: int) -> list[tuple[int, int]]:
+    """``[first, stop)`` runs covering the windows ``[s, s + length)``, windows closer than ``gap``
+    merged: filtering the samples between two windows costs less than filtering each window's own
+    overlap (a short log is one run, a long one as many runs as windows)."""
+    runs: list[tuple[int, int]] = []
+    for start in (int(s) for s in starts):
+        if runs and start - runs[-1][1] < gap:
+            runs[-1] = (runs[-1][0], start + length)
+        else:
+            runs.append((start, start + length))
+    return runs
 
 
 def choose_state_factor(
