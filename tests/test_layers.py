@@ -17,6 +17,7 @@ and of ``lwrlab.pipeline`` import only the parts below them::
     reports ──────────────────────────────► runs, store, job_config
 
     chain ──► studies, painting, monitor ──► tools ──► identification ──► config_nodes, config_checks, build
+              live ──► monitor
               studies, painting ──────────► excitation ─────────────────► config_nodes, config_checks, build
 
 Every ``import`` counts, at module level or inside a function (the whole syntax tree is walked),
@@ -576,6 +577,11 @@ PIPELINE_PARTS: dict[str, SubPackage] = {
             "monitor",
             (*_SHARED, "identification", "tools"),
             "monitoring reads models and logs; no task reads monitoring",
+        ),
+        SubPackage(
+            "live",
+            (*_SHARED, "identification", "tools", "monitor"),
+            "the live tasks run the monitor beside a robot over ROS 2; no task reads them",
         ),
         SubPackage(
             "painting",

@@ -228,6 +228,87 @@ class MonitorTask(Instantiable):
 
 
 @schema
+class LiveMonitorTask(MonitorTask):
+    """``task=live_monitor``: the monitor on a robot's ROS 2 joint states, live (every
+    ``task=monitor`` setting, the same calibration)."""
+
+    joint_names: list[str] | None
+    """The names the joint states use, in the model's joint order; null: the model's joint names."""
+    drive_gains: list[float] | None
+    """N·m/A per joint: the efforts are motor currents; null: as the model's drive train says."""
+    topics: dict[str, str]
+    """ROS 2 topic of each stream: ``joint_states`` (in), ``external_torque``, ``contact_wrench``,
+    ``collision``, ``diagnostics`` (out)."""
+    input_qos: str
+    """QoS profile of the joint states: ``default`` (reliable, keep last 10) or ``sensor_data``."""
+    output_qos: str
+    """QoS profile of what the monitor publishes."""
+    domain_id: int | None
+    """ROS 2 domain; null: ``ROS_DOMAIN_ID``."""
+    localhost_only: bool | None
+    """Loopback only; null: as ROS 2's environment says (``ROS_AUTOMATIC_DISCOVERY_RANGE``)."""
+    rate_hz: float | None
+    """Hz, the joint states' rate the causal filter is designed for; null: measured on the first
+    samples (the observer's start-up)."""
+    duration_s: float | None
+    """s, stop after this long; null: until SIGINT/SIGTERM or idle."""
+    idle_stop_s: float | None
+    """s without a sample (after the first) that stops the run; null: never."""
+    wait_s: float
+    """s to wait for the first sample before failing."""
+    max_gap_s: float
+    """s between two samples' stamps beyond which the observer restarts (samples lost: its filter
+    and momentum cannot bridge the gap)."""
+    diagnostics_hz: float
+    """Hz of ``/diagnostics`` (also on every contact raised or ended)."""
+    record: bool
+    """Record the inputs and outputs as a rosbag2 (MCAP) in the run folder (``live_bag``)."""
+
+
+@schema
+class SimRobotTask(Instantiable):
+    """``task=sim_robot``: a simulated arm that speaks ROS 2 like a ``ros2_control`` robot."""
+
+    motion: str
+    """``trajectory``: play the configured ``trajectory`` (held still ``start_delay_s`` before and
+    ``hold_after_s`` after it); ``hold``: stand still at ``hold_pose`` for ``duration_s``."""
+    hold_pose: list[float] | None
+    """rad, the pose held (``motion: hold``); null: the middle of the joint ranges."""
+    rate_hz: float
+    """Hz, the joint states' rate (the simulation's step)."""
+    duration_s: float
+    """s, how long ``motion: hold`` stands."""
+    hold_after_s: float
+    """s the robot stands still after the motion."""
+    realtime: bool
+    """Publish at the wall clock's pace (a robot); false: as fast as it goes (tests)."""
+    stamps: str
+    """``wall`` (the header stamp is the wall clock, as a robot's driver stamps) or ``sim`` (the
+    simulation's time from 0)."""
+    pushes: list[dict[str, Any]] | None
+    """Scripted pushes: ``{start, duration, link, force: [x, y, z], point: [x, y, z]}`` (s, N, m)."""
+    random_pushes: int
+    """Pushes drawn at random (links, directions, 20–60 N) beside the scripted ones."""
+    seed: int
+    """Seed of the sensors' noise and the random pushes (the true robot is ``plant``'s, from its seed)."""
+    start_delay_s: float
+    """s the robot stands still before the motion starts."""
+    push_force: list[float]
+    """N, the range of the random pushes' peak forces."""
+    topics: dict[str, str]
+    """ROS 2 topic of each stream: ``joint_states``, ``truth_torque`` (the true external torque, a
+    JointState's effort), ``truth_contact`` (std_msgs/Bool: a force acts)."""
+    qos: str
+    """QoS profile of the joint states."""
+    domain_id: int | None
+    """ROS 2 domain; null: ``ROS_DOMAIN_ID``."""
+    localhost_only: bool | None
+    """Loopback only; null: as ROS 2's environment says."""
+    wait_for_subscriber_s: float
+    """s to wait for a subscriber of the joint states before publishing (0: do not wait)."""
+
+
+@schema
 class PaperChainTask(Instantiable):
     """``task=paper_chain``: the whole chain of the paper's Fig. 1."""
 
@@ -247,6 +328,8 @@ TASK_SCHEMAS: dict[str, type] = {
     "tool_recognition_benchmark": ToolRecognitionBenchmarkTask,
     "write_example_logs": WriteExampleLogsTask,
     "monitor": MonitorTask,
+    "live_monitor": LiveMonitorTask,
+    "sim_robot": SimRobotTask,
     "paper_chain": PaperChainTask,
     "painting": PaintingTask,
 }

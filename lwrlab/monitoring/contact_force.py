@@ -74,3 +74,40 @@ def _solve_transposed(jacobians: np.ndarray, torque: np.ndarray, rcond: float) -
     """``pinv(Jᵀ)·τ`` per sample: (N, m, N_J) Jacobians, (N, N_J) torques → (N, m)."""
     pseudo_inverse = np.linalg.pinv(np.swapaxes(jacobians, 1, 2), rcond=rcond)  # (N, m, N_J)
     return np.einsum("kmj,kj->km", pseudo_inverse, torque)
+
+
+class FrameLoad:
+    """The wrench (or pure force at a point) at one frame, one sample at a time: the same numbers as
+    :func:`point_jacobians` with :func:`wrench_from_torques` (or :func:`force_from_torques`), with
+    the Pinocchio scratch made once (a live loop's per-sample call).
+
+    Parameters
+    ----------
+    robot : the model.
+    frame : the frame's name.
+    point : (3,) a point of the frame taking a pure force (m, frame axes); None: the frame's wrench.
+    rcond : the pseudo-inverse's cut-off.
+    """
+
+    def __init__(
+        self, robot: RobotModel, frame: str, point: np.ndarray | None = None, rcond: float = 1e-3
+    ) -> None:
+        self.model = robot.model
+        self.data = robot.model.createData()
+        self.frame = frame_id(robot, frame)
+        self.point = None if point is None else np.asarray(point, dtype=float)
+        self.rcond = rcond
+
+    def __call__(self, q: np.ndarray, external_torque: np.ndarray) -> np.ndarray:
+        """(6,) wrench ``[f; m]`` or (3,) force (N, N·m) behind ``external_torque`` (N_J,) at ``q``."""
+        jacobian = pin.computeFrameJacobian(self.model, self.data, q, self.frame, _BASE_AXES)
+        if self.point is not None:
+            r = self.data.oMf[self.frame].rotation @ self.point
+            jacobian = jacobian[:3] - np.cross(r[:, None], jacobian[3:], axis=0)
+        # (J·Jᵀ)⁻¹·J·τ is the pseudo-inverse's solution where no singular value falls below rcond of
+        # the largest (a fifth of its cost); near a singularity the pseudo-inverse itself
+        gram = jacobian @ jacobian.T
+        eigenvalues = np.linalg.eigvalsh(gram)
+        if eigenvalues[0] > (self.rcond**2) * eigenvalues[-1]:
+            return np.linalg.solve(gram, jacobian @ external_torque)
+        return np.linalg.pinv(jacobian.T, rcond=self.rcond) @ external_torque

@@ -137,6 +137,16 @@ class ExternalTorques:
     resting: np.ndarray | None = None
     """(N,) True where the arm stands still (:func:`~lwrlab.monitoring.spread.resting`: every joint
     slower than the observer's Coulomb width for its settling time), or None: not known."""
+    started: np.ndarray | None = None
+    """(N,) True once the observer's start-up is over: where its contacts are detected (a causal
+    estimate has no edge at a log's end, unlike the direct residual's zero-phase filter; the live
+    monitor, :mod:`lwrlab.monitoring.stream`, sees the same samples); None: ``monitored``."""
+
+    def watched(self, estimator: str) -> np.ndarray:
+        """(N,) the samples whose contacts ``estimator`` detects."""
+        if estimator == "observer" and self.started is not None:
+            return self.started
+        return self.monitored
 
     def estimate(self, estimator: str) -> np.ndarray:
         """The estimate named ``observer`` or ``residual``."""
@@ -229,6 +239,7 @@ def estimate_external_torques(
         rest,
         disagreeing,
         resting(t, velocity, settings.coulomb_smoothing, SETTLING_TIME_CONSTANTS / settings.observer_gain),
+        elapsed >= settings.start_skip,
     )
 
 
@@ -286,7 +297,7 @@ def detect(
     logged velocities contradict its positions are labelled ``signals_disagree``."""
     found = {}
     for estimator in ESTIMATORS:
-        estimate = np.where(estimates.monitored[:, None], estimates.estimate(estimator), 0.0)
+        estimate = np.where(estimates.watched(estimator)[:, None], estimates.estimate(estimator), 0.0)
         detections = detect_contacts(
             estimates.t,
             estimate,

@@ -51,6 +51,62 @@ def sliding_speed(robot: RobotModel) -> float:
     return float(speeds[reached[0]]) if reached.size else float(speeds[-1])
 
 
+class FrictionBand:
+    """The friction band of one model (:func:`friction_band`), its constants made once: called per
+    sample in a live loop, per log offline, with the same numbers.
+
+    Parameters
+    ----------
+    robot : the model whose friction law, coefficients and drive train set the band.
+    """
+
+    def __init__(self, robot: RobotModel) -> None:
+        self.robot = robot
+        self.sliding_speed = sliding_speed(robot)
+        law = robot.friction_law
+        definitions = term_definitions(law)
+        self._terms = [
+            (term, np.abs(robot.friction.value(term)))
+            for term in robot.friction_terms
+            if definitions[term].drifts  # offsets and rotor inertias are not friction
+        ]
+        self._extra = {t.name for t in law.extra_terms}
+        self._load = has_load(law)
+        self._data = robot.model.createData() if self._load else None
+        drive = robot.drive_train
+        self._spread = None if drive.is_direct else np.abs(drive.coupling)
+
+    def __call__(self, dq: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """(N, N_J) the band (N·m) at velocities ``dq`` (N, N_J) and, for a law whose friction
+        grows with the load, positions ``q`` (None: no load)."""
+        robot, law = self.robot, self.robot.friction_law
+        drive = robot.drive_train
+        speed = np.maximum(np.abs(drive.drive_values(np.atleast_2d(dq))), self.sliding_speed)
+        band = np.zeros_like(speed)
+        load = None
+        if q is not None and self._load:
+            model, data = robot.model, self._data
+            gravity = np.stack([pin.computeGeneralizedGravity(model, data, x) for x in np.atleast_2d(q)])
+            load = drive_loads(drive, gravity)
+        for term, coefficient in self._terms:
+            if term == "coulomb":
+                band += coefficient
+            elif term == "viscous":
+                band += coefficient * speed
+            elif load is not None and term in self._extra:
+                basis = np.maximum(
+                    np.abs(drive_basis(law, term, speed, load=load)),
+                    np.abs(drive_basis(law, term, -speed, load=load)),
+                )
+                band += coefficient * basis
+            else:
+                basis = np.maximum(
+                    np.abs(law.extra_basis(term, speed)), np.abs(law.extra_basis(term, -speed))
+                )
+                band += coefficient * basis
+        return band if self._spread is None else band @ self._spread
+
+
 def friction_band(robot: RobotModel, dq: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
     """(N, N_J) the model's friction torque magnitude (N·m) at joint velocities ``dq`` (rad/s) and, for
     a law whose friction grows with the load, positions ``q`` (rad; the load: the gravity torque
@@ -74,34 +130,7 @@ def friction_band(robot: RobotModel, dq: np.ndarray, q: np.ndarray | None = None
     >>> bool(np.allclose(band[1], robot.friction.coulomb + robot.friction.viscous))
     True
     """
-    drive = robot.drive_train
-    speed = np.maximum(np.abs(drive.drive_values(np.atleast_2d(dq))), sliding_speed(robot))
-    band = np.zeros_like(speed)
-    definitions = term_definitions(robot.friction_law)
-    law = robot.friction_law
-    load = None
-    if q is not None and has_load(law):
-        data = robot.model.createData()
-        gravity = np.stack([pin.computeGeneralizedGravity(robot.model, data, x) for x in np.atleast_2d(q)])
-        load = drive_loads(drive, gravity)
-    for term in robot.friction_terms:
-        if not definitions[term].drifts:  # offsets and rotor inertias are not friction
-            continue
-        coefficient = np.abs(robot.friction.value(term))
-        if term == "coulomb":
-            band += coefficient
-        elif term == "viscous":
-            band += coefficient * speed
-        elif load is not None and term in {t.name for t in law.extra_terms}:
-            basis = np.maximum(
-                np.abs(drive_basis(law, term, speed, load=load)),
-                np.abs(drive_basis(law, term, -speed, load=load)),
-            )
-            band += coefficient * basis
-        else:
-            basis = np.maximum(np.abs(law.extra_basis(term, speed)), np.abs(law.extra_basis(term, -speed)))
-            band += coefficient * basis
-    return band if drive.is_direct else band @ np.abs(drive.coupling)
+    return FrictionBand(robot)(dq, q)
 
 
 def resting(t: np.ndarray, velocity: np.ndarray, speed: float, settle: float) -> np.ndarray:

@@ -14,6 +14,7 @@ It reads logs through :mod:`lwrlab.pipeline.tools.log_rows` and models through
 
 from lwrlab.pipeline.monitor.task import (
     SIMULATED_RUN_LOGS,
+    calibrated_thresholds,
     calibration_measurements,
     calibration_table,
     contact_loads,
@@ -24,6 +25,7 @@ from lwrlab.pipeline.monitor.task import (
 
 __all__ = [
     "SIMULATED_RUN_LOGS",
+    "calibrated_thresholds",
     "calibration_measurements",
     "calibration_table",
     "contact_loads",

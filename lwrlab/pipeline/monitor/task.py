@@ -122,6 +122,22 @@ def calibration_measurements(
     )
 
 
+def calibrated_thresholds(
+    cfg: Any,
+    robot: RobotModel,
+    calibration_paths: Sequence[str] | None,
+    read: ReadModel | None,
+    settings: MonitorSettings,
+) -> tuple[dict[str, Calibration | StateCalibration], str, list[ExternalTorques]]:
+    """Both estimators' thresholds calibrated on the contact-free logs
+    (:func:`calibration_measurements`), where they came from, and the logs' estimates."""
+    contact_free, source = calibration_measurements(
+        cfg, robot, calibration_paths, None if read is None else read.resolved
+    )
+    reference = [estimate_external_torques(robot, m, settings) for m in contact_free]
+    return calibrate(reference, settings), source, reference
+
+
 def _progress(name: str) -> Any:
     marks = iter(range(10, 101, 10))
     state = {"next": next(marks)}
@@ -359,14 +375,12 @@ def run_monitor(
     monitor_robot = monitoring_robot(cfg, read)
     frame = frame or default_frame(monitor_robot)
     mapping, load_columns = _contact_mapping(monitor_robot, frame, point)
-    contact_free, source = calibration_measurements(
-        cfg, monitor_robot, calibration_paths, None if read is None else read.resolved
+    calibrations, source, reference = calibrated_thresholds(
+        cfg, monitor_robot, calibration_paths, read, settings
     )
     monitored = read_logs(cfg, monitor_robot, list(paths), "monitored")
     if (truth_contacts or truth_torque) and len(monitored) != 1:
         raise ConfigError("task.truth_contacts and task.truth_torque score one monitored log: give one")
-    reference = [estimate_external_torques(monitor_robot, m, settings) for m in contact_free]
-    calibrations = calibrate(reference, settings)
     metrics: dict[str, float] = {"false_alarm_rate": held_out_false_alarm_rate(reference, settings)}
     frames, tables, alarms, hours, seconds, samples = [], [], dict.fromkeys(ESTIMATORS, 0), 0.0, 0.0, 0
     suspect = 0  # observer detections where the log's velocities contradict its positions
