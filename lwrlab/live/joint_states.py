@@ -42,8 +42,13 @@ class Refusal:
 
     reason: str
     """One line naming what is wrong (joints, array, value)."""
-    other_robot: bool = False
-    """The message names none of the robot's joints: another publisher's, skipped."""
+    kind: str
+    """What kind of wrong: ``other robot``, ``joints missing``, ``arrays``, ``non-finite``."""
+
+    @property
+    def other_robot(self) -> bool:
+        """The message names none of the robot's joints: another publisher's, skipped."""
+        return self.kind == "other robot"
 
 
 class JointStateReader:
@@ -91,11 +96,12 @@ class JointStateReader:
         found = [where.get(name) for name in self.names]
         if all(i is None for i in found):
             order: np.ndarray | Refusal = Refusal(
-                f"none of the robot's joints {list(self.names)} in a message of {list(names)[:8]}", True
+                f"none of the robot's joints {list(self.names)} in a message of {list(names)[:8]}",
+                "other robot",
             )
         elif any(i is None for i in found):
             missing = [name for name, i in zip(self.names, found, strict=True) if i is None]
-            order = Refusal(f"joints missing: {missing} (the message has {list(names)})")
+            order = Refusal(f"joints missing: {missing} (the message has {list(names)})", "joints missing")
         else:
             order = np.array(found, dtype=int)
         self._orders[names] = order
@@ -111,14 +117,15 @@ class JointStateReader:
         if len(position) != len(names) or len(effort) != len(names):
             return Refusal(
                 f"{len(names)} names but {len(position)} positions and {len(effort)} efforts "
-                "(the monitor needs both for every joint)"
+                "(the monitor needs both for every joint)",
+                "arrays",
             )
         q = np.asarray(position, dtype=float)[order]
         tau = np.asarray(effort, dtype=float)[order]
         bad = ~np.isfinite(q) | ~np.isfinite(tau)
         if bad.any():
             joints = [self.names[j] for j in np.flatnonzero(bad)]
-            return Refusal(f"non-finite position or effort of {joints}")
+            return Refusal(f"non-finite position or effort of {joints}", "non-finite")
         return JointSample(float(stamp), self._joint_positions(q), self._joint_torques(tau))
 
     def _joint_positions(self, measured: np.ndarray) -> np.ndarray:

@@ -193,7 +193,7 @@ class LiveMonitorLoop:
         self._next_diagnostics = 0
         self._latencies = np.full(LATENCY_WINDOW, np.nan)
         self._last_event: Detection | None = None
-        self._zero_stamps = False
+        self._zero_stamp = False
         self._unstamped = False
         self._last_sample: JointSample | None = None
 
@@ -209,13 +209,16 @@ class LiveMonitorLoop:
             if self.record is not None:
                 self.record(self.topics["joint_states"], received.received_ns, received.raw)
             stamp_ns = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
-            if self._unstamped or (stamp_ns == 0 and self._zero_stamps):
-                # stamps of 0 again: an unstamped publisher (one 0 is a simulation clock's start)
-                if not self._unstamped:
-                    self._unstamped = True
-                    self._say("joint states unstamped (header stamps 0): their publication times used")
+            if not self._unstamped and stamp_ns == 0 and self._zero_stamp:
+                # two stamps of 0 in a row: an unstamped publisher (one 0 is a simulation clock's start)
+                self._unstamped = True
+                self._say("joint states unstamped (header stamps 0): their publication times used")
+                self.base_ns, self._last_t = None, float("nan")  # a new clock: no gap to it
+                if self.stream is not None:
+                    self.stream.reset()
+            self._zero_stamp = stamp_ns == 0
+            if self._unstamped:
                 stamp_ns = received.published_ns
-            self._zero_stamps = self._zero_stamps or stamp_ns == 0
             if self.base_ns is None:
                 self.base_ns = stamp_ns
             sample = self.reader.read(
@@ -232,10 +235,10 @@ class LiveMonitorLoop:
     def _refuse(self, refusal: Refusal) -> None:
         if refusal.other_robot:
             self.counts.other_robot += 1
-            self._say("another robot's joint states skipped: " + refusal.reason)
+            self._say("another robot's joint states skipped: " + refusal.reason, refusal.kind)
         else:
             self.counts.refused += 1
-            self._say("joint state refused: " + refusal.reason)
+            self._say("joint state refused: " + refusal.reason, refusal.kind)
 
     def _measure_rate(self, sample: JointSample, received: Received) -> None:
         if self._pending and sample.t <= self._pending[-1][0].t:
@@ -344,9 +347,10 @@ class LiveMonitorLoop:
 
     # --- what the loop says ---------------------------------------------------------------------
 
-    def _say(self, text: str) -> None:
-        """Say ``text`` once in the run's log and keep it for ``/diagnostics`` and the summary."""
-        kind = text.split(":")[0]
+    def _say(self, text: str, kind: str | None = None) -> None:
+        """Say ``text`` once per ``kind`` (None: the text before its first colon) in the run's log, and
+        keep it for ``/diagnostics`` and the summary."""
+        kind = kind or text.split(":")[0]
         if kind in self._said:
             return
         self._said.add(kind)
