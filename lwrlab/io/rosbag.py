@@ -7,9 +7,9 @@ arrays in the robot's joint order, and writes such bags (to convert a log, or fo
 Reading rules
 -------------
 
-- **Topic**: ``topic``, or else the single JointState topic of the bag, or ``/joint_states`` among
-  several (a live monitor's bag holds its estimates beside them); several others: an error listing
-  them, to be chosen with ``data.topic``.
+- **Topic**: ``topic``, or else the single JointState topic of the bag that is not lwrlab's own
+  (``/lwrlab/…``: a live monitor's bag holds its estimates beside the robot's states); several: an
+  error listing them, to be chosen with ``data.topic``.
 - **Joints by name**: every message is mapped through its own ``name`` list, so messages may list
   the joints in another order or carry more joints (a gripper). Messages that carry none of the
   robot's joints (another publisher on the same topic, e.g. a gripper driver) are skipped and
@@ -61,8 +61,8 @@ from lwrlab.io.log_schema import LogError
 
 JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 """The ROS 2 message type read and written."""
-DEFAULT_TOPIC = "/joint_states"
-"""The topic a robot publishes its joint states on (ROS 2's convention): chosen among several."""
+OWN_TOPICS = "/lwrlab/"
+"""Where lwrlab publishes (its estimates are JointStates too): never a robot's states."""
 STORAGES: dict[str, StoragePlugin] = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}
 """Storage plugins the writer offers (the reader recognises both from the bag)."""
 _NS = 1_000_000_000
@@ -134,8 +134,9 @@ def _joint_state_topic(bag: Path, topics: dict[str, TopicInfo], topic: str | Non
         return topic
     if not joint_state_topics:
         raise LogError(f"{bag}: no {JOINT_STATE_TYPE} topic; the bag has {sorted(topics)}")
-    if len(joint_state_topics) > 1 and DEFAULT_TOPIC in joint_state_topics:
-        return DEFAULT_TOPIC  # a robot's own states beside estimates (a live monitor's bag)
+    robots = [name for name in joint_state_topics if not name.startswith(OWN_TOPICS)]
+    if len(joint_state_topics) > 1 and len(robots) == 1:
+        return robots[0]  # a robot's states beside lwrlab's estimates (a live monitor's bag)
     if len(joint_state_topics) > 1:
         raise LogError(
             f"{bag}: several {JOINT_STATE_TYPE} topics {joint_state_topics}; set data.topic to one of them"
