@@ -29,7 +29,7 @@ from lwrlab.live.messages import (
     WrenchStamped,
     ros_type_name,
 )
-from lwrlab.live.wire import BOOL_BYTES, StampedEncoder, WireError, decode_joint_state
+from lwrlab.live.wire import BOOL_BYTES, JointStateEncoder, StampedEncoder, WireError, decode_joint_state
 
 STORE = get_typestore(Stores.ROS2_HUMBLE)
 ARRAY_TYPES = ("sensor_msgs/msg/JointState", "std_msgs/msg/Float64MultiArray")
@@ -134,6 +134,11 @@ def test_the_sample_paths_codec_equals_the_serialisers(seed: int) -> None:
     expected = WrenchStamped(Header(stamp, "flange"), Wrench(Vector3(*load[:3]), Vector3(*load[3:])))
     assert wrench.encode(stamp_ns, load) == expected.serialize()
     assert BOOL_BYTES[True] == Bool(True).serialize() and BOOL_BYTES[False] == Bool(False).serialize()
+    q, dq, tau = rng.normal(size=(3, len(names)))
+    for velocity in (True, False):
+        states = JointStateEncoder(names, "base", velocity=velocity)
+        full = JointState(Header(stamp, "base"), names, q.tolist(), dq.tolist() if velocity else [], tau.tolist())
+        assert states.encode(stamp_ns, q, dq, tau) == full.serialize()
 
 
 def test_a_cut_message_is_a_wire_error() -> None:

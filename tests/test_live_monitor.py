@@ -377,3 +377,25 @@ def test_a_live_monitor_without_joint_states_fails_in_mlflow(tmp_path: Path, ide
     runs = client.search_runs([e.experiment_id for e in client.search_experiments()])
     assert runs and runs[0].info.status == "FAILED"
     assert "no joint states on /joint_states within 2 s" in done.stderr + done.stdout
+
+
+def test_thresholds_are_calibrated_once_per_logs_model_and_settings(
+    lwr4: RobotModel, recorded, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from lwrlab.pipeline.live import calibration_cache
+    from lwrlab.plants.core import Measurement
+    from lwrlab.tracking.store.schema_template import CACHE_ENVIRONMENT_VARIABLE
+
+    monkeypatch.setenv(CACHE_ENVIRONMENT_VARIABLE, str(tmp_path))
+    pushed, _ = recorded
+    log = Measurement(t=pushed.t[:1500], q=pushed.q[:1500], tau=pushed.tau[:1500])
+    monkeypatch.setattr(calibration_cache, "calibration_measurements", lambda *args: ([log], "a log"))
+    calls = []
+    real = calibration_cache.calibrate
+    monkeypatch.setattr(calibration_cache, "calibrate", lambda *a: calls.append(1) or real(*a))
+    first, source = calibration_cache.cached_calibration(None, lwr4, None, None, SETTINGS)
+    again, _ = calibration_cache.cached_calibration(None, lwr4, None, None, SETTINGS)
+    assert source == "a log" and len(calls) == 1
+    np.testing.assert_array_equal(again["observer"].floor, first["observer"].floor)  # type: ignore[union-attr]
+    calibration_cache.cached_calibration(None, lwr4, None, None, replace(SETTINGS, margin=1.4))
+    assert len(calls) == 2 and len(list((tmp_path / "calibrations").glob("*.pickle"))) == 2

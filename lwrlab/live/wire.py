@@ -8,7 +8,8 @@ messages on the sample path have a fixed shape, so:
   ``numpy.frombuffer``;
 - :class:`StampedEncoder` writes a message whose only changing parts are its header stamp and its
   trailing float64 values (the external torques' JointState, a WrenchStamped): the bytes of a
-  template message with those two parts replaced.
+  template message with those two parts replaced; :class:`JointStateEncoder` writes a robot's
+  joint states (fixed names; positions, velocities and efforts) the same way.
 
 Both equal Cyclone's own serialiser and ``rosbags``' (tests hold them so); the bytes go to DDS
 and, unchanged, to the bag.
@@ -108,8 +109,61 @@ class StampedEncoder:
         return b"".join((ENCAPSULATION, stamp, self._middle, array.tobytes()))
 
 
+class JointStateEncoder:
+    """The CDR bytes of ``sensor_msgs/JointState`` messages of fixed joint names and frame: the header
+    stamp, positions, velocities and efforts written into a template's bytes at their offsets.
+
+    Parameters
+    ----------
+    names : the joints' names, every message's.
+    frame : the header's frame.
+    velocity : whether the messages carry velocities (else an empty array).
+    """
+
+    def __init__(self, names: list[str], frame: str = "", velocity: bool = True) -> None:
+        n = len(names)
+        arrays = [np.full(n, 1.0e300 + k * 1.0e290) if n else np.zeros(0) for k in range(3)]
+        template = JointState(
+            Header(Time(), frame),
+            list(names),
+            arrays[0].tolist(),
+            arrays[1].tolist() if velocity else [],
+            arrays[2].tolist(),
+        )
+        self._template = template.serialize()
+        self._n = n
+        # where each array's first value sits (after the encapsulation header)
+        self._offsets = [
+            self._template.index(array[:1].astype("<f8").tobytes()) if n else 0
+            for array, kept in zip(arrays, (True, velocity, True), strict=True)
+            if kept
+        ]
+        self.velocity = velocity
+
+    def encode(
+        self, stamp_ns: int, position: np.ndarray, velocity: np.ndarray | None, effort: np.ndarray
+    ) -> bytes:
+        """One message's bytes (``velocity`` ignored when the messages carry none)."""
+        data = bytearray(self._template)
+        data[4:12] = _STAMP.pack(stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000)
+        values = [position, *([velocity] if self.velocity else []), effort]
+        for offset, array in zip(self._offsets, values, strict=True):
+            raw = np.ascontiguousarray(array, dtype="<f8")
+            if raw.size != self._n:
+                raise ValueError(f"expected {self._n} values, got {raw.size}")
+            data[offset : offset + 8 * self._n] = raw.tobytes()
+        return bytes(data)
+
+
 BOOL_BYTES = {False: ENCAPSULATION + b"\x00", True: ENCAPSULATION + b"\x01"}
 """A ``std_msgs/Bool``'s bytes."""
 
 
-__all__ = ["BOOL_BYTES", "ENCAPSULATION", "StampedEncoder", "WireError", "decode_joint_state"]
+__all__ = [
+    "BOOL_BYTES",
+    "ENCAPSULATION",
+    "JointStateEncoder",
+    "StampedEncoder",
+    "WireError",
+    "decode_joint_state",
+]

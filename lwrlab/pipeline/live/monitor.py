@@ -39,7 +39,8 @@ from lwrlab.monitoring.estimates import MonitorSettings
 from lwrlab.monitoring.stream import MonitorStream
 from lwrlab.pipeline.config_nodes import tracking_uri
 from lwrlab.pipeline.live.stopping import StopConditions
-from lwrlab.pipeline.monitor import calibrated_thresholds, calibration_table, format_summary, monitoring_robot
+from lwrlab.pipeline.live.calibration_cache import cached_calibration
+from lwrlab.pipeline.monitor import calibration_table, format_summary, monitoring_robot
 from lwrlab.tracking.models.identified_model import read_identified_model
 
 log = logging.getLogger(__name__)
@@ -135,6 +136,8 @@ def run_live_monitor(
         friction_drift,
         rest_thresholds,
     )
+    # the participant first: its discovery runs while the model is read and the thresholds calibrated
+    node = dds.Node(domain_id, localhost_only)
     read = read_identified_model(model, tracking_uri(cfg), "task.model") if model else None
     robot = monitoring_robot(cfg, read)
     frame = frame or default_frame(robot)
@@ -145,12 +148,11 @@ def run_live_monitor(
         reader = joint_states.JointStateReader(robot, joint_names, drive_gains)
     except ValueError as error:
         raise ConfigError(str(error)) from error
-    calibrations, source, _ = calibrated_thresholds(cfg, robot, calibration_paths, read, settings)
+    calibrations, source = cached_calibration(cfg, robot, calibration_paths, read, settings)
 
     def stream_of(period: float) -> MonitorStream:
         return MonitorStream.of(robot, settings, calibrations["observer"], period)
 
-    node = dds.Node(domain_id, localhost_only)
     publish = {
         key: node.publisher(topics[key], message, output_qos)
         for key, message in zip(
@@ -299,7 +301,7 @@ def _write_run(
     table.to_csv(output_dir / "detections.csv", index=False)
     calibration = calibration_table(calibrations)
     calibration.to_csv(output_dir / "calibration.csv", index=False)
-    latency = 1e3 * rows["latency"]
+    latency = 1e3 * rows["latency"][np.isfinite(rows["latency"])]  # filled-in samples have none
     metrics = {
         "samples": float(counts.samples),
         "messages": float(counts.messages),

@@ -200,7 +200,7 @@ def run_sim_robot(
 ) -> dict[str, float]:
     """Task ``sim_robot`` (see the module); conf/task/sim_robot.yaml gives every setting's value."""
     try:
-        from lwrlab.live import dds, messages
+        from lwrlab.live import dds, messages, wire
     except ImportError as error:  # pragma: no cover - the test suite installs the extra
         raise ConfigError(
             f"task=sim_robot needs Cyclone DDS ({error}): pip install 'lwrlab[ros2]'"
@@ -228,8 +228,18 @@ def run_sim_robot(
     names = list(nominal.joint_names)
     node = dds.Node(domain_id, localhost_only)
     publish = node.publisher(topics["joint_states"], messages.JointState, qos)
-    truth_torque = node.publisher(topics["truth_torque"], messages.JointState, qos)
-    truth_contact = node.publisher(topics["truth_contact"], messages.Bool, qos)
+    truth_torque = (
+        node.publisher(topics["truth_torque"], messages.JointState, qos)
+        if topics.get("truth_torque")
+        else None
+    )
+    truth_contact = (
+        node.publisher(topics["truth_contact"], messages.Bool, qos) if topics.get("truth_contact") else None
+    )
+    states = wire.JointStateEncoder(names)
+    truths = wire.StampedEncoder(
+        messages.JointState(messages.Header(), names, [], [], [0.0] * len(names)), len(names)
+    )
     waited = time.monotonic()
     while wait_for_subscriber_s > 0 and not publish.matched:
         if time.monotonic() - waited > wait_for_subscriber_s:
@@ -247,12 +257,13 @@ def run_sim_robot(
     assert dq is not None
     lags = np.zeros(len(measurement.t))
     sent = 0
+    log.info("publishing %d joint states at %g Hz on %s", len(measurement.t), rate_hz, topics["joint_states"])
     with StopConditions(None, None) as stop:
         start_ns = time.time_ns()
         origin = start_ns if stamps == "wall" else 0
         clock = time.perf_counter()
         for k in range(len(measurement.t)):
-            if stop.reason(float("nan")) is not None:
+            if stop.signal is not None:
                 break
             if realtime:
                 due = clock + k * period_ns * 1e-9
@@ -263,10 +274,11 @@ def run_sim_robot(
                     pass
                 lags[k] = time.perf_counter() - due
             stamp_ns = origin + k * period_ns
-            header = messages.Header(messages.Time(stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000), "")
-            publish(messages.JointState(header, names, q[k].tolist(), dq[k].tolist(), tau[k].tolist()))
-            truth_torque(messages.JointState(header, names, [], [], run.external_torque[k].tolist()))
-            truth_contact(messages.Bool(bool(contact[k])))
+            publish.raw(states.encode(stamp_ns, q[k], dq[k], tau[k]))
+            if truth_torque is not None:
+                truth_torque.raw(truths.encode(stamp_ns, run.external_torque[k]))
+            if truth_contact is not None:
+                truth_contact.raw(wire.BOOL_BYTES[bool(contact[k])])
             sent += 1
     node.close()
     stamps_s = (origin + np.arange(sent) * period_ns) * 1e-9
