@@ -235,13 +235,20 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--rate-seconds", type=float, default=20.0, help="each rate's run (s)")
     parser.add_argument("--pushes", type=int, default=12)
     parser.add_argument("--output", type=Path, default=REPOSITORY / "outputs" / "live_monitor")
+    parser.add_argument(
+        "--only", choices=["pushes", "endurance", "rates"], nargs="*", help="some parts (default: all)"
+    )
     args = parser.parse_args(argv)
     model = args.output / "identified"
     if not (model / "identified_model.yaml").is_file():
         _run(["task=identification", f"hydra.run.dir={model}", "tracking=none"], _environment(30))
-    print(pushes(args.output, model, args.pushes), flush=True)
-    print(endurance(args.output, model, args.minutes), flush=True)
-    print(rates(args.output, model, args.rates, args.rate_seconds), flush=True)
+    parts = args.only or ["pushes", "endurance", "rates"]
+    if "pushes" in parts:
+        print(pushes(args.output, model, args.pushes), flush=True)
+    if "endurance" in parts:
+        print(endurance(args.output, model, args.minutes), flush=True)
+    if "rates" in parts:
+        print(rates(args.output, model, args.rates, args.rate_seconds), flush=True)
     print(f"machine: {os.cpu_count()} cores; runs in {args.output}")
 
 

@@ -181,6 +181,14 @@ SOURCES = {
         _printed_table("## Collision detection on the MuJoCo scenario"),
         5.0,
     ),
+    **{
+        f"live_monitor_{part}": Source(
+            (("python", str(REPOSITORY / "benchmarks" / "live_monitor.py"), "--only", part),),
+            _printed_table(f"## Live monitor: {part}"),
+            minutes,
+        )
+        for part, minutes in (("pushes", 2.0), ("endurance", 12.0), ("rates", 3.0))
+    },
     "zoo_members": Source(
         (("python", str(REPOSITORY / "benchmarks" / "zoo.py"), "--list"),), _printed_table("## members"), 0.1
     ),

@@ -40,6 +40,8 @@ EXCITATION = "excitation"
 MONITOR = "monitor"
 CHAIN = "paper_chain, painting, paper_table4_force"
 TOOLS = "payload, table3_tools, tool_recognition_benchmark"
+LIVE = "live_monitor"
+SIM_ROBOT = "sim_robot"
 
 CATALOGUE: tuple[MetricFamily, ...] = (
     # identification: errors on the motions not fitted, then diagnostics
@@ -257,6 +259,40 @@ CATALOGUE: tuple[MetricFamily, ...] = (
         "N·m",
         "RMS error of the external-torque estimate against the truth (simulations)",
         MONITOR,
+    ),
+    # the live monitor and the simulated robot (ROS 2)
+    MetricFamily("samples", "1", "joint states the live monitor estimated from", LIVE),
+    MetricFamily("messages", "1", "JointState messages the live monitor received", LIVE),
+    MetricFamily(
+        "dropped_samples", "1", "samples the stream's stamps say are missing, and out-of-order ones", LIVE
+    ),
+    MetricFamily(
+        "refused_messages", "1", "messages refused (joints missing, arrays, non-finite values)", LIVE
+    ),
+    MetricFamily("other_robot_messages", "1", "messages naming none of the robot's joints", LIVE),
+    MetricFamily("out_of_order_samples", "1", "messages stamped at or before the last one", LIVE),
+    MetricFamily("restarts", "1", "times the observer started anew (a stall, a publisher restarting)", LIVE),
+    MetricFamily(
+        "latency_<statistic>_ms",
+        "ms",
+        "a sample's publication to its estimates' publication: median, p99 (99th percentile), max",
+        LIVE,
+    ),
+    MetricFamily("cpu_share", "1", "the live monitor's CPU time over its wall time (of one core)", LIVE),
+    MetricFamily("duration_s", "s", "how long the live monitor ran", LIVE),
+    MetricFamily(
+        "start_to_first_estimate_s", "s", "from the process's start to the live monitor's first estimate", LIVE
+    ),
+    MetricFamily("samples_published", "1", "joint states the simulated robot published", SIM_ROBOT),
+    MetricFamily("pushes", "1", "forces the simulated robot was pushed by", SIM_ROBOT),
+    MetricFamily(
+        "publication_lag_<statistic>_ms",
+        "ms",
+        "how late the simulated robot published a sample after its due time: median, p99",
+        SIM_ROBOT,
+    ),
+    MetricFamily(
+        "late_publications", "1", "samples the simulated robot published more than a period late", SIM_ROBOT
     ),
     # painting and force control
     MetricFamily("coverage_<roller>_<model>_<feedback>", "1", "share of the planned area painted", CHAIN),
