@@ -61,8 +61,17 @@ ENCODER_NOISE = 1e-5
 CASES = {
     "noisy": {"encoder_resolution": RESOLUTION, "encoder_noise": ENCODER_NOISE / RESOLUTION},
     "exact q": {"encoder_resolution": 1e-12, "encoder_noise": 0.0},
-    "exact τ": {"encoder_resolution": RESOLUTION, "encoder_noise": ENCODER_NOISE / RESOLUTION, "noise_share": 1e-9},
-    "noise-free": {"encoder_resolution": 1e-12, "encoder_noise": 0.0, "noise_share": 1e-9, "offset_share": 0.0},
+    "exact τ": {
+        "encoder_resolution": RESOLUTION,
+        "encoder_noise": ENCODER_NOISE / RESOLUTION,
+        "noise_share": 1e-9,
+    },
+    "noise-free": {
+        "encoder_resolution": 1e-12,
+        "encoder_noise": 0.0,
+        "noise_share": 1e-9,
+        "offset_share": 0.0,
+    },
 }
 """How the logs are written: what the sensors of ``panda_sign`` are changed to."""
 FITS = {
@@ -155,7 +164,9 @@ def _played_member(
         tau_log = reading + rng.normal(size=reading.shape) * sensors.noise_share * scale
         paths[name] = _write(folder / f"{name}.parquet", {"t": t, "q": q_log, "tau": tau_log}, "parquet")
         _write_truth(
-            folder / f"{name}_truth.parquet", t, {"tau": reading, "tau_ext": 0 * q, "q": q, "dq": dq, "ddq": ddq}
+            folder / f"{name}_truth.parquet",
+            t,
+            {"tau": reading, "tau_ext": 0 * q, "q": q, "dq": dq, "ddq": ddq},
         )
     return paths
 
@@ -187,7 +198,11 @@ def main() -> None:
                 row = score(logs, FITS[fit], args.overrides)
                 row = {"seed": seed, "positions": case, "fit": fit} | row
                 row["s"] = round(time.perf_counter() - started, 1)
-                print("  ", {k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()}, flush=True)
+                print(
+                    "  ",
+                    {k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()},
+                    flush=True,
+                )
                 rows.append(row)
     if args.real:
         for subject in real_subjects()[:1]:

@@ -16,7 +16,7 @@ Examples
 --------
 >>> rng = np.random.default_rng(0)
 >>> q = 1e-5 * rng.standard_normal((5000, 2))  # an arm standing still, encoder noise 1e-5 rad
->>> speeds = rest_speeds(q, 1000.0, 20.0)
+>>> speeds = rest_speeds(q, 1000.0, 20.0, sigmas=3.0)
 >>> bool(np.all((speeds > 1e-4) & (speeds < 1e-2)))
 True
 >>> float(rest_speeds(np.zeros((5000, 1)), 1000.0, 20.0)[0]) == REST_FLOOR
