@@ -4,8 +4,8 @@ A MuJoCo Panda whose friction is exactly the model class (sign + viscous, the zo
 truth) plays a short exciting multi-sine (``exciting``, 5 s of motion between rests) and a 30 s
 point-to-point cycle with rests (``cycle``, what a cell runs). Its logs are written as its sensors
 read them: torque noise and offsets, and positions with encoder noise (σ 1e-5 rad) and 20-bit
-quantisation (``noisy``), or exact positions (``exact q``), or exact positions and torques
-(``noise-free``). Each fit set (exciting alone, exciting + cycle, cycle alone) is identified as
+quantisation (``noisy``; ``quiet τ``: a tenth of the torque noise), or exact positions (``exact q``),
+or exact torques (``exact τ``), or exact positions and torques (``noise-free``). Each fit set (exciting alone, exciting + cycle, cycle alone) is identified as
 ``lwrlab task=identification plant=log`` identifies a user's logs, and judged on new motions (faster,
 slower, point to point) against the **true** torque. The real LWR4+ split 2→3
 (``../shared/data/kuka_lwr4_hw``, skipped without it) is scored beside them, against its measured
@@ -60,6 +60,11 @@ ENCODER_NOISE = 1e-5
 """σ of the encoders' noise before quantisation (rad)."""
 CASES = {
     "noisy": {"encoder_resolution": RESOLUTION, "encoder_noise": ENCODER_NOISE / RESOLUTION},
+    "quiet τ": {
+        "encoder_resolution": RESOLUTION,
+        "encoder_noise": ENCODER_NOISE / RESOLUTION,
+        "noise_share": 4e-4,
+    },
     "exact q": {"encoder_resolution": 1e-12, "encoder_noise": 0.0},
     "exact τ": {
         "encoder_resolution": RESOLUTION,
@@ -171,11 +176,36 @@ def _played_member(
     return paths
 
 
+MOVING = 0.02
+"""rad/s: a joint whose true speed is above this moves (its friction is the law's); below, it stands
+or stops (its friction anywhere in the static band: no truth to score a model's point against)."""
+
+
+def moving_scores(logs: MemberLogs, report: Any) -> dict[str, float]:
+    """The error on the new motions (% of the true torque) over the joints' moving samples and over
+    their standing ones (true speed above and below :data:`MOVING`)."""
+    n = report.robot.n_joints
+    sums = np.zeros((2, 2))  # (moving, standing) × (error², truth²)
+    for p in report.validation_predictions:
+        if p.name not in VALIDATION:
+            continue
+        truth = logs.truth(p.name)
+        tau = truth[[f"tau{j + 1}" for j in range(n)]].to_numpy()
+        speed = np.abs(truth[[f"dq{j + 1}" for j in range(n)]].to_numpy())
+        scored = np.broadcast_to(p.scored.reshape(len(tau), -1), tau.shape)
+        for k, mask in enumerate((scored & (speed > MOVING), scored & (speed <= MOVING))):
+            sums[k] += [np.sum((tau - p.predicted)[mask] ** 2), np.sum(tau[mask] ** 2)]
+    return {
+        "moving %": 100 * float(np.sqrt(sums[0, 0] / sums[0, 1])),
+        "standing %": 100 * float(np.sqrt(sums[1, 0] / max(sums[1, 1], 1e-300))),
+    }
+
+
 def score(logs: MemberLogs, fit: tuple[str, ...], extra: list[str]) -> dict[str, Any]:
     """Identify from ``fit`` logs; the error on the new motions against the true torque."""
     subject = Subject(logs.member.name, logs.overrides(fit=fit, validation=VALIDATION) + extra, logs)
     _, report = identify(subject.overrides)
-    return prediction_scores(subject, report) | {"weights": report.metrics.get("log_weights", "")}
+    return prediction_scores(subject, report) | moving_scores(logs, report)
 
 
 def main() -> None:
@@ -210,7 +240,7 @@ def main() -> None:
             row = {"positions": "real", "fit": subject.name} | prediction_scores(subject, report)
             print("  ", row, flush=True)
             rows.append(row)
-    columns = ["seed", "positions", "fit", "error %", "noise floor %", "law", "weights"]
+    columns = ["seed", "positions", "fit", "error %", "moving %", "standing %", "noise floor %", "law"]
     table = pd.DataFrame(rows)
     print(table[[c for c in columns if c in table]].to_markdown(index=False, floatfmt=".4g"))
 
