@@ -1,15 +1,19 @@
 """Logs as robots in operation write them: one exciting motion, a point-to-point cycle with rests, both.
 
-A MuJoCo Panda whose friction is exactly the model class (sign + viscous, the zoo's ``panda_sign``
-truth) plays a short exciting multi-sine (``exciting``, 5 s of motion between rests) and a 30 s
-point-to-point cycle with rests (``cycle``, what a cell runs). Its logs are written as its sensors
-read them: torque noise and offsets, and positions with encoder noise (σ 1e-5 rad) and 20-bit
-quantisation (``noisy``; ``quiet τ``: a tenth of the torque noise), or exact positions (``exact q``),
-or exact torques (``exact τ``), or exact positions and torques (``noise-free``). Each fit set (exciting alone, exciting + cycle, cycle alone) is identified as
-``lwrlab task=identification plant=log`` identifies a user's logs, and judged on new motions (faster,
-slower, point to point) against the **true** torque. The real LWR4+ split 2→3
-(``../shared/data/kuka_lwr4_hw``, skipped without it) is scored beside them, against its measured
-torques.
+A Panda (the zoo's ``panda_sign`` truth: its bodies perturbed by 10 %, friction sign + viscous) plays
+a short exciting multi-sine (``exciting``, 5 s of motion between rests) and a 30 s point-to-point
+cycle with rests (``cycle``, what a cell runs), either exactly (``--engine played``, the default: its
+torques by RNEA + ``FC·sign(q̇) + FV·q̇``, the model class, friction zero at rest) or in MuJoCo under
+PD control (``--engine mujoco``, the zoo member's own arm). Its logs are written as its sensors read
+them: torque noise and offsets, and positions with encoder noise (σ 1e-5 rad) and 20-bit
+quantisation (``noisy``; ``quiet τ``: a tenth of the torque noise), or exact positions
+(``exact q``), or exact torques (``exact τ``), or exact positions and torques (``noise-free``).
+Each fit set (exciting alone, exciting + cycle, cycle alone) is identified as ``lwrlab
+task=identification plant=log`` identifies a user's logs, and judged on new motions (faster, slower,
+point to point) against the **true** torque: over every sample, where the joints move, and where
+they stand or stop (a standing joint's friction is anywhere in its static band: no true value to
+score a model against). ``--real`` scores the real LWR4+ split 2→3 (``../shared/data/kuka_lwr4_hw``)
+beside them, against its measured torques.
 
     nice -n 10 .venv/bin/python benchmarks/operation_logs.py                # every case (a few minutes)
     nice -n 10 .venv/bin/python benchmarks/operation_logs.py --cases noisy --fits exciting "exciting + cycle"
@@ -43,9 +47,9 @@ from benchmarks.zoo_members import (  # noqa: E402
     Member,
     MemberLogs,
     _joint_side_member,
+    _point_to_point,
     _write,
     _write_truth,
-    _point_to_point,
     member_motions,
     nominal_robot,
     torque_scale,
