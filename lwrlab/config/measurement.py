@@ -27,6 +27,9 @@ class ProcessingSettings:
     """Hz, rate of the identification rows after the filter; null = 5 × the cut-off."""
     velocity: str
     """Velocity source: ``auto``, ``logged`` or ``differentiated``."""
+    rest_sigmas: float | None
+    """A joint whose processed speed is below this many σ of its positions' speed noise stands (its
+    velocity is zero); null: every speed is kept."""
     block_s: float | None
     """s of log processed at a time (memory independent of the log's length); null = the whole log."""
 

@@ -45,6 +45,8 @@ from lwrlab.model.friction_laws import (
 )
 from lwrlab.model.robot import RobotModel
 from lwrlab.signal.processing import ProcessedData
+from lwrlab.signal.rest import speed_noise as joint_speed_noise
+from lwrlab.signal.rest import third_difference_mad
 
 RIDGE = 1e-6
 """Ridge of the cross-validation fits toward the robot's own (CAD) base parameters, relative to the
@@ -141,16 +143,6 @@ class FrictionChoice:
         )
 
 
-def third_difference_mad(x: np.ndarray) -> np.ndarray:
-    """(N_J,) the robust spread (1.4826 × the median absolute deviation) of each column's third
-    differences, a column at a time (a long log's (N, N_J) differences are not held at once)."""
-    spread = np.empty(x.shape[1])
-    for j in range(x.shape[1]):
-        third = np.diff(x[:, j], n=3)
-        spread[j] = 1.4826 * np.median(np.abs(third - np.median(third)))
-    return spread
-
-
 def speed_noise(processed: Sequence[ProcessedData], robot: RobotModel) -> np.ndarray:
     """(N_D,) noise of the processed drive speeds (rad/s): the encoder noise through the processing.
 
@@ -160,19 +152,11 @@ def speed_noise(processed: Sequence[ProcessedData], robot: RobotModel) -> np.nda
     ``σ_q·2π·√(2·f_c³ / (3·f_s))`` (white noise through an ideal low-pass and a derivative), or
     ``σ_q·f_s/√2`` without a filter (centred differences).
     """
-    variances = []
-    for data in processed:
-        rate = data.working_rate_hz * data.step  # the raw rate
-        q = data.raw_q
-        if len(q) < 8:
-            continue
-        sigma_q = third_difference_mad(q) / np.sqrt(20.0)
-        cutoff = data.state_cutoff_hz
-        if cutoff is None:
-            gain = rate / np.sqrt(2.0)
-        else:
-            gain = 2 * np.pi * np.sqrt(2.0 * cutoff**3 / (3.0 * rate))
-        variances.append((sigma_q * gain) ** 2)
+    variances = [
+        joint_speed_noise(data.raw_q, data.working_rate_hz * data.step, data.state_cutoff_hz) ** 2
+        for data in processed
+        if len(data.raw_q) >= 8
+    ]
     joint_variance = np.mean(variances, axis=0) if variances else np.zeros(robot.n_joints)
     coupling = robot.drive_train.coupling
     return np.sqrt(np.square(coupling) @ joint_variance)

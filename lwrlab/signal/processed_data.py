@@ -15,6 +15,7 @@ from functools import cached_property
 import numpy as np
 
 from lwrlab.signal.filters import _padlen, _window, central_difference, lowpass_span
+from lwrlab.signal.rest import at_rest
 from lwrlab.signal.velocity import VelocityChoice
 from lwrlab.signal.zero_phase import butterworth_sos, settling_samples, sosfiltfilt_window
 
@@ -101,6 +102,9 @@ class ProcessedData:
     """Working samples per block of :meth:`state_blocks` and :meth:`row_blocks`."""
     state_cutoff_hz: float | None
     """The states' cut-off (Hz), of the low-pass on the positions (and logged velocities); None: no filter."""
+    rest_speeds: np.ndarray | None = None
+    """(N_J,) rad/s: speeds below which a joint stands (its velocity is set to zero, see
+    :mod:`lwrlab.signal.rest`); None: every speed is kept."""
 
     @property
     def filtered(self) -> bool:
@@ -184,7 +188,8 @@ class ProcessedData:
             start,
             self.raw_t[start * self.step : (stop - 1) * self.step + 1 : self.step],
             q[kept],
-            velocities[kept],
+            # after the accelerations: a standing joint's speed is zero, its acceleration not stepped
+            at_rest(velocities[kept], self.rest_speeds),
             accelerations[kept],
             self._filtered_span(self.raw_tau, start, stop, self.cutoff_hz),
         )

@@ -49,6 +49,7 @@ from lwrlab.errors import ConfigError
 from lwrlab.signal.filters import auto_cutoff, central_difference, lowpass, motion_frequency
 from lwrlab.signal.noise_limit import noise_limited_cutoff
 from lwrlab.signal.processed_data import ProcessedData
+from lwrlab.signal.rest import REST_SIGMAS, rest_speeds
 from lwrlab.signal.velocity import VelocityChoice, choose_velocity
 
 DECIMATED_RATE_PER_CUTOFF = 5.0
@@ -137,6 +138,7 @@ def process(
     block_s: float | None = DEFAULT_BLOCK_S,
     state_cutoff_hz: float | str | None = "auto",
     state_factor: float = STATE_FACTOR,
+    rest_sigmas: float | None = REST_SIGMAS,
 ) -> ProcessedData:
     """Filter, differentiate, trim and decimate one measurement (see the module docstring).
 
@@ -160,6 +162,9 @@ def process(
         (``state_factor`` × the rows' cut-off, within :func:`noise_limited_cutoff` and a fifth of the
         rate), a number, or ``None``: the rows' cut-off.
     state_factor : see ``state_cutoff_hz``.
+    rest_sigmas : a joint whose processed speed is below this many times the speed noise of its
+        positions stands: its velocity is zero (:func:`lwrlab.signal.rest.rest_speeds`); None: every
+        speed is kept.
     """
     if velocity not in VELOCITY_SOURCES:
         raise ConfigError(
@@ -168,6 +173,10 @@ def process(
     if velocity == "logged" and dq is None:
         raise ConfigError(
             "data.velocity=logged, but the log has no velocities (columns dq1…dqN, or a mapped dq array)"
+        )
+    if rest_sigmas is not None and not rest_sigmas >= 0:
+        raise ConfigError(
+            f"measurement.processing.rest_sigmas must be a non-negative number or null, got {rest_sigmas}"
         )
     if block_s is not None and not block_s > 0:
         raise ConfigError(f"measurement.processing.block_s must be positive (s) or null, got {block_s}")
@@ -222,6 +231,7 @@ def process(
         ),
         block_samples=block,
         state_cutoff_hz=state_cutoff,
+        rest_speeds=None if rest_sigmas is None else rest_speeds(q, rate, state_cutoff, rest_sigmas),
     )
     if data.raw_dq is None:
         return data
