@@ -137,7 +137,9 @@ def test_the_sample_paths_codec_equals_the_serialisers(seed: int) -> None:
     q, dq, tau = rng.normal(size=(3, len(names)))
     for velocity in (True, False):
         states = JointStateEncoder(names, "base", velocity=velocity)
-        full = JointState(Header(stamp, "base"), names, q.tolist(), dq.tolist() if velocity else [], tau.tolist())
+        full = JointState(
+            Header(stamp, "base"), names, q.tolist(), dq.tolist() if velocity else [], tau.tolist()
+        )
         assert states.encode(stamp_ns, q, dq, tau) == full.serialize()
 
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from pushed_logs import SETTINGS, pushed_log
 
 from lwrlab.live.dds import Node, Received
 from lwrlab.live.joint_states import JointSample, JointStateReader, Refusal
@@ -29,13 +30,11 @@ from lwrlab.live.wire import decode_joint_state
 from lwrlab.model.drive_train import DriveTrain
 from lwrlab.model.robot import RobotModel
 from lwrlab.monitoring.contact_force import FrameLoad
-from lwrlab.monitoring.estimates import MonitorSettings, calibrate, detect, estimate_external_torques
+from lwrlab.monitoring.estimates import calibrate, detect, estimate_external_torques
 from lwrlab.monitoring.stream import MonitorStream
-from lwrlab.pipeline.build import build
-from lwrlab.plants.pushed_arm import ExternalForce, PushedArm
+from lwrlab.plants.pushed_arm import ExternalForce
 
 LOOPBACK = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
-SETTINGS = MonitorSettings(100.0, 30.0, 0.01, 1.0, 1.3, 0.003, 0.5, 1.5, "state", 0.5)
 TOPICS = {
     "joint_states": "/test/joint_states",
     "external_torque": "/test/external_torque",
@@ -62,7 +61,7 @@ def test_joint_states_are_read_by_name(lwr4: RobotModel) -> None:
     assert isinstance(short, Refusal) and "efforts" in short.reason
     bad = reader.read(1.0, names, [*q[:6], np.nan], tau.tolist())
     assert isinstance(bad, Refusal) and names[6] in bad.reason
-    with pytest.raises(ValueError, match="task.joint_names"):
+    with pytest.raises(ValueError, match=r"task\.joint_names"):
         JointStateReader(lwr4, ["a", "b"])
     renamed = JointStateReader(lwr4, [f"arm_{i}" for i in range(7)])
     assert isinstance(
@@ -101,27 +100,14 @@ def test_motor_side_joint_states_reach_the_joint_side(lwr4: RobotModel) -> None:
 
 @pytest.fixture(scope="module")
 def recorded(lwr4: RobotModel):
-    """A contact-free log, and a pushed one (two pushes) from MuJoCo, 3 s each at 1 kHz."""
-    arm = PushedArm(
-        lwr4,
-        lwr4,
-        kp=[2000, 2000, 1000, 1000, 300, 300, 100],
-        kd=[100, 100, 50, 50, 15, 15, 5],
-        substeps=1,
-        torque_noise_std=0.05,
-        encoder_noise_std=1e-6,
-        seed=0,
-    )
-    motion = build("trajectory", "multisine", duration=3.0, harmonics=4, seed=5, limit_fraction=0.4)
-    free = arm.run(motion.sample(lwr4, 1000.0), [], "free").measurement
+    """A pushed log (two pushes) and thresholds calibrated on a contact-free one, 3 s each."""
     pushes = [
         ExternalForce(1.0, 0.3, 4, np.array([0.0, 0.05, 0.1]), np.array([0.0, 30.0, 0.0])),
         ExternalForce(2.0, 0.2, 6, np.array([0.0, 0.0, 0.05]), np.array([20.0, 0.0, 0.0])),
     ]
-    other = build("trajectory", "multisine", duration=3.0, harmonics=4, seed=6, limit_fraction=0.4)
-    pushed = arm.run(other.sample(lwr4, 1000.0), pushes, "pushed").measurement
+    free = pushed_log(lwr4, 5, [], "free")
     calibrations = calibrate([estimate_external_torques(lwr4, free, SETTINGS)], SETTINGS)
-    return pushed, calibrations
+    return pushed_log(lwr4, 6, pushes, "pushed"), calibrations
 
 
 def _loop(robot: RobotModel, calibrations, node: Node, rate_hz: float | None = 1000.0) -> LiveMonitorLoop:

@@ -21,6 +21,7 @@ import pinocchio as pin
 import pytest
 from composing import compose_config
 from hydra.utils import instantiate
+from pushed_logs import pushed_arm
 
 from lwrlab.io.logs import write_log
 from lwrlab.model.robot import RobotModel
@@ -29,7 +30,7 @@ from lwrlab.monitoring.contact_force import force_from_torques, point_jacobians,
 from lwrlab.monitoring.detection import detect_contacts
 from lwrlab.monitoring.observer import MomentumObserver, observer_step
 from lwrlab.pipeline.build import build
-from lwrlab.plants.pushed_arm import ExternalForce, PushedArm
+from lwrlab.plants.pushed_arm import ExternalForce
 
 REAL_LWR4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "kuka_lwr4_hw"
 NPZ_COLUMNS = "data.column_map={t: times, q: positions, dq: velocities, tau: torques}"
@@ -251,16 +252,7 @@ def test_force_mapping_recovers_known_wrenches(lwr4: RobotModel) -> None:
 
 def _pushed_logs(lwr4: RobotModel, folder: Path) -> dict[str, Path]:
     """A contact-free log and a log with one 30 N push on link 4, 4 s each, from MuJoCo."""
-    arm = PushedArm(
-        lwr4,
-        lwr4,
-        kp=[2000, 2000, 1000, 1000, 300, 300, 100],
-        kd=[100, 100, 50, 50, 15, 15, 5],
-        substeps=1,
-        torque_noise_std=0.05,
-        encoder_noise_std=1e-6,
-        seed=0,
-    )
+    arm = pushed_arm(lwr4)
     free = build("trajectory", "multisine", duration=4.0, harmonics=4, seed=5, limit_fraction=0.4)
     pushed = build("trajectory", "multisine", duration=4.0, harmonics=4, seed=6, limit_fraction=0.4)
     push = ExternalForce(

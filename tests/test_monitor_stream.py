@@ -12,58 +12,30 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from pushed_logs import SETTINGS, pushed_log
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
 from lwrlab.model.robot import RobotModel
 from lwrlab.monitoring.detection import detect_contacts
 from lwrlab.monitoring.estimates import (
-    MonitorSettings,
     calibrate,
     detect,
     estimate_external_torques,
     thresholds_of,
 )
 from lwrlab.monitoring.stream import CausalLowpass, ContactDetector, MonitorStream, replay
-from lwrlab.pipeline.build import build
-from lwrlab.plants.pushed_arm import ExternalForce, PushedArm
-
-SETTINGS = MonitorSettings(
-    observer_gain=100.0,
-    velocity_cutoff_hz=30.0,
-    coulomb_smoothing=0.01,
-    false_alarm_rate=1.0,
-    margin=1.3,
-    min_duration=0.003,
-    release=0.5,
-    residual_margin=1.5,
-    thresholds="state",
-    friction_drift=0.5,
-)
+from lwrlab.plants.pushed_arm import ExternalForce
 
 
 @pytest.fixture(scope="module")
 def pushed(lwr4: RobotModel):
-    """A contact-free log and one with three pushes (3 s each."""
-    arm = PushedArm(
-        lwr4,
-        lwr4,
-        kp=[2000, 2000, 1000, 1000, 300, 300, 100],
-        kd=[100, 100, 50, 50, 15, 15, 5],
-        substeps=1,
-        torque_noise_std=0.05,
-        encoder_noise_std=1e-6,
-        seed=0,
-    )
-    motion = build("trajectory", "multisine", duration=3.0, harmonics=4, seed=5, limit_fraction=0.4)
-    free = arm.run(motion.sample(lwr4, 1000.0), [], "free").measurement
+    """A contact-free log and one with three pushes, 3 s each."""
     pushes = [
         ExternalForce(1.0, 0.3, 4, np.array([0.0, 0.05, 0.1]), np.array([0.0, 30.0, 0.0])),
         ExternalForce(1.8, 0.2, 6, np.array([0.0, 0.0, 0.05]), np.array([20.0, 0.0, 0.0])),
         ExternalForce(2.75, 0.5, 4, np.array([0.0, 0.05, 0.1]), np.array([0.0, 80.0, 0.0])),
     ]
-    other = build("trajectory", "multisine", duration=3.0, harmonics=4, seed=6, limit_fraction=0.4)
-    monitored = arm.run(other.sample(lwr4, 1000.0), pushes, "pushed").measurement
-    return free, monitored
+    return pushed_log(lwr4, 5, [], "free"), pushed_log(lwr4, 6, pushes, "pushed")
 
 
 def test_causal_lowpass_equals_sosfilt() -> None:

@@ -38,8 +38,8 @@ from lwrlab.monitoring.detection import Detection, detection_flags, detections_f
 from lwrlab.monitoring.estimates import MonitorSettings
 from lwrlab.monitoring.stream import MonitorStream
 from lwrlab.pipeline.config_nodes import tracking_uri
-from lwrlab.pipeline.live.stopping import StopConditions
 from lwrlab.pipeline.live.calibration_cache import cached_calibration
+from lwrlab.pipeline.live.stopping import StopConditions
 from lwrlab.pipeline.monitor import calibration_table, format_summary, monitoring_robot
 from lwrlab.tracking.models.identified_model import read_identified_model
 

@@ -35,16 +35,12 @@ import pandas as pd
 from lwrlab.errors import ConfigError
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.live.stopping import StopConditions
+from lwrlab.pipeline.monitor.scenario import PD_GAINS
 from lwrlab.plants.pushed_arm import ExternalForce, PushedArm, PushedRun, chained, random_forces
 from lwrlab.trajectory.core import Trajectory
 
 log = logging.getLogger(__name__)
 
-PD_GAINS = (
-    (2000.0, 2000.0, 1000.0, 1000.0, 300.0, 300.0, 100.0),
-    (100.0, 100.0, 50.0, 50.0, 15.0, 15.0, 5.0),
-)
-"""Joint PD gains of a 7-axis arm's controller (N·m/rad, N·m·s/rad); other arms scale them by joint."""
 CONTACT_LINKS_FROM = 3
 """Random pushes act on this link and those after it (the first links barely move under a push)."""
 SPIN_S = 2e-4
@@ -314,4 +310,4 @@ def run_sim_robot(
     return metrics
 
 
-__all__ = ["PD_GAINS", "played_motion", "run_sim_robot", "simulate"]
+__all__ = ["played_motion", "run_sim_robot", "simulate"]

@@ -281,7 +281,10 @@ CATALOGUE: tuple[MetricFamily, ...] = (
     MetricFamily("cpu_share", "1", "the live monitor's CPU time over its wall time (of one core)", LIVE),
     MetricFamily("duration_s", "s", "how long the live monitor ran", LIVE),
     MetricFamily(
-        "start_to_first_estimate_s", "s", "from the process's start to the live monitor's first estimate", LIVE
+        "start_to_first_estimate_s",
+        "s",
+        "from the process's start to the live monitor's first estimate",
+        LIVE,
     ),
     MetricFamily("samples_published", "1", "joint states the simulated robot published", SIM_ROBOT),
     MetricFamily("pushes", "1", "forces the simulated robot was pushed by", SIM_ROBOT),
