@@ -183,7 +183,16 @@ SOURCES = {
     ),
     **{
         f"live_monitor_{part}": Source(
-            (("python", str(REPOSITORY / "benchmarks" / "live_monitor.py"), "--only", part),),
+            (
+                (
+                    "python",
+                    str(REPOSITORY / "benchmarks" / "live_monitor.py"),
+                    "--only",
+                    part,
+                    "--nice",
+                    "-10",
+                ),
+            ),
             _printed_table(f"## Live monitor: {part}"),
             minutes,
         )
