@@ -102,9 +102,7 @@ class Setting:
 SETTINGS = [
     Setting("ols (sign friction)", "ols"),
     Setting("wls", "wls"),
-    Setting(
-        "sdp, fixed euclidean 1e-2", "sdp", {"regularization": "euclidean", "weight": 1e-2}
-    ),
+    Setting("sdp, fixed euclidean 1e-2", "sdp", {"regularization": "euclidean", "weight": 1e-2}),
     Setting("sdp, no prior", "sdp", {"regularization": "none", "weight": 0.0}),
     Setting("sdp auto, min (sign friction)", "sdp"),
     Setting("sdp auto, one_se", "sdp", {"selection": "one_se"}),
