@@ -100,13 +100,11 @@ class Setting:
 
 
 SETTINGS = [
-    Setting("ols (previous default for logs)", "ols"),
+    Setting("ols (sign friction)", "ols"),
     Setting("wls", "wls"),
-    Setting(
-        "sdp, fixed euclidean 1e-2 (previous sdp)", "sdp", {"regularization": "euclidean", "weight": 1e-2}
-    ),
+    Setting("sdp, fixed euclidean 1e-2", "sdp", {"regularization": "euclidean", "weight": 1e-2}),
     Setting("sdp, no prior", "sdp", {"regularization": "none", "weight": 0.0}),
-    Setting("sdp auto, min (sign friction: previous default for logs)", "sdp"),
+    Setting("sdp auto, min (sign friction)", "sdp"),
     Setting("sdp auto, one_se", "sdp", {"selection": "one_se"}),
     Setting("sdp auto, euclidean", "sdp", {"regularization": "euclidean"}),
     Setting("sdp auto, 3 folds", "sdp", {"folds": 3}),

@@ -102,7 +102,7 @@ OLD = {
 }
 SETTINGS = [
     Setting(
-        "old: τ-only filter 10 Hz, every 20th sample, wls, no offset",
+        "τ-only filter 10 Hz, every 20th sample, wls, no offset",
         {**OLD, "rate_hz": None},
         parallel=False,
         estimator="wls",

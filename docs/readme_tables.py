@@ -78,15 +78,15 @@ def _relabelled(table: Callable[[str, Path], str], labels: dict[str, str]) -> Ca
 MODEL_STUDY = (
     "python",
     str(REPOSITORY / "benchmarks" / "model_study.py"),
-    *("--output", "study.csv", "--settings", "ols (previous", "sdp auto, min (sign", "ols, friction auto"),
+    *("--output", "study.csv", "--settings", "ols (sign", "sdp auto, min (sign", "ols, friction auto"),
     "sdp auto, friction auto (default",
 )
 """The model study of the four settings the manual compares (the defaults for logs, least squares, and each
 with the other friction choice)."""
 SETTINGS = {
-    "sdp auto, min (sign friction: previous default for logs)": "`sdp`, `weight: auto`, `friction=sign`",
+    "sdp auto, min (sign friction)": "`sdp`, `weight: auto`, `friction=sign`",
     "sdp auto, friction auto (default for logs)": "**defaults for logs**: `sdp`, `weight: auto`, `friction=auto`",
-    "ols (previous default for logs)": "`ols`",
+    "ols (sign friction)": "`ols`",
     "ols, friction auto": "`ols`, `friction=auto`",
 }
 
@@ -100,6 +100,11 @@ NEXT_MOTION = (("python", str(REPOSITORY / "benchmarks" / "next_motion.py"), "--
 """One run of the next-motion benchmark prints the four tables of its section."""
 
 SOURCES = {
+    "config_groups": Source(
+        (("python", str(DOCS / "config_overview.py")),),
+        lambda output, _: first_table(output),
+        0.1,
+    ),
     "table2": Source(
         (("lwrlab", "experiment=paper_table2"), ("lwrlab", "report", "--experiment", "paper_table2")),
         _report_table("## Table II"),
@@ -142,14 +147,14 @@ SOURCES = {
                 "python",
                 str(REPOSITORY / "benchmarks" / "model_study.py"),
                 *("--data", "lwr4+", "--output", "study.csv"),
-                *("--settings", "ols (previous", "friction auto (default"),
+                *("--settings", "ols (sign", "friction auto (default"),
             ),
         ),
         _relabelled(
             _printed_table("validation ‖τ−τ̂‖/‖τ‖ (%)"),
             {
                 "column": "split",
-                "ols (previous default for logs)": "ols",
+                "ols (sign friction)": "ols",
                 "sdp auto, friction auto (default for logs)": "defaults for logs",
             },
         ),

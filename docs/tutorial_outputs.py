@@ -56,6 +56,16 @@ SKIPPED = {
     "cd lwrlab": "the clone is the working folder",
 }
 """Commands not run, by a fragment, with the reason."""
+PRINTED_FILE = ".printed"
+"""What the lesson printed so far, in the clone (``$LWRLAB_PRINTED``): where an id the page asks the
+reader to copy is read."""
+COPIED = {
+    "compare --parent <id>": (
+        'compare --parent "$(grep -o \'compare --parent [0-9a-f]\\{32\\}\' "$LWRLAB_PRINTED"'
+        " | tail -1 | cut -d' ' -f3)\""
+    ),
+}
+"""Placeholders of a command filled as the reader fills them: the parent run id the sweep printed."""
 HOME_SHOWN = "/home/you"
 CLONE_SHOWN = f"{HOME_SHOWN}/lwrlab"
 TOLERANCE = 0.05
@@ -279,7 +289,8 @@ def run_page(page: Path, folder: Path) -> Run:
         "MPLCONFIGDIR": environment.get("MPLCONFIGDIR", str(real_home / ".cache" / "matplotlib")),
         "LWRLAB_CACHE_DIR": environment.get("LWRLAB_CACHE_DIR", str(real_home / ".cache" / "lwrlab")),
     }
-    script = ["exec 2>&1", f"cd {clone}"]
+    printed = clone / PRINTED_FILE
+    script = [f"cd {clone}", f"export LWRLAB_PRINTED='{printed}'", f"exec > >(tee -a '{printed}') 2>&1"]
     ordered = blocks(page.read_text())
     for index, block in enumerate(ordered):
         target = _files_to_write(block, clone, home)
@@ -295,6 +306,8 @@ def run_page(page: Path, folder: Path) -> Run:
         for command in commands(block):
             if skipped(command):
                 continue
+            for placeholder, filled in COPIED.items():
+                command = command.replace(placeholder, filled)
             script += [f"printf '{MARK}BLOCK {index}\\n'", command, f"printf '{MARK}EXIT %d\\n' $?"]
     done = subprocess.run(
         ["bash", "-c", "\n".join(script)], env=environment, stdout=subprocess.PIPE, timeout=1800, check=False

@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import json
 import re
+import warnings
 import zlib
 from pathlib import Path
 
@@ -336,18 +337,15 @@ def test_compare_on_an_experiment_of_simulated_runs_and_logs_of_several_robots_i
     assert len(keys) == 5 and all(len(key) <= 250 for key in compared.data.metrics)
     table = pd.read_csv(tmp_path / "all" / "compare.csv")
     assert sorted(table["runs"]) == [1, 1, 1, 1, 2]
-    assert any(f"{logs}_2.npz, {logs}_3.npz" in label for label in table["group"])  # the full value
+    assert f"{logs}_2.npz, {logs}_3.npz" in set(table["data.paths"])  # the full value
+    assert "estimator=sdp, data.paths=measurements_3.npz" in set(table["group"])  # named by its file name
     assert {f"{key}/runs" for key in table["metric_key"]} == set(keys)
 
     assert main(["--tracking-uri", uri, "--experiment", "identification", "--by", "estimator"]) == 0
     printed = capsys.readouterr().out
-    assert (
-        "runs differ in robot, robot.path, plant, data.paths" in printed and "grouped by them too" in printed
-    )
+    assert "runs differ in data.paths (what they are of)" in printed and "grouped by them too" in printed
     by_estimator = compare_runs(plain_metric_columns(_finished(uri)), ["estimator"])
-    assert by_estimator.groups[0] == "estimator" and {"robot", "data.paths", "robot.path"} <= set(
-        by_estimator.groups
-    )
+    assert by_estimator.groups == ["estimator", "data.paths"]  # the robot follows from the data
     assert len(by_estimator.table) == 5  # sdp on three robots or data sets is three rows, not one
 
 
@@ -355,3 +353,45 @@ def _finished(uri: str) -> pd.DataFrame:
     from lwrlab.tracking.reports.run_selection import select_runs, selection_filter
 
     return select_runs(uri, ["identification"], selection_filter())
+
+
+def test_runs_of_the_lessons_are_told_apart_by_few_choices_with_short_labels(tmp_path: Path) -> None:
+    """The lessons one after the other in one store: simulated runs of two estimators, logs read with
+    their own column maps and friction choice, a UR5 by its URDF. Their groups are named by the few
+    choices that tell them apart (never how a log's columns are read), in short labels, and the
+    figure is drawn without a layout warning."""
+    simulated = {"plant": "simulated", "robot": "kuka_lwr4", "friction": "coulomb_viscous"}
+    logs = {
+        "plant": "log",
+        "robot": "kuka_lwr4",
+        "friction": "auto",
+        "validation": "holdout",
+        "robot.friction_terms": "coulomb, viscous, offset",
+        "measurement.processing.state_cutoff_hz": "auto",
+        "data.paths": "/home/you/lwrlab/outputs/example_logs/identification.csv",
+        **{f"data.column_map.{c}": f"{c}_column" for c in ("t", "q1", "q5", "tau1", "tau5")},
+    }
+    ur5 = {
+        **logs,
+        "robot": "urdf",
+        "robot.path": "/home/you/ur5_robot.urdf",
+        "data.paths": "/home/you/ur5.csv",
+    }
+    ur5 |= {f"data.column_map.{c}": f"{c}_ur" for c in ("t", "q1", "q5", "tau1", "tau5")}
+    settings = [*[simulated | {"estimator": e} for e in ("ols", "wls", "sdp")], logs | {"estimator": "sdp"}]
+    settings.append(ur5 | {"estimator": "sdp"})
+    rows = [
+        {f"params.{k}": v for k, v in (setting | {"seed": str(seed)}).items()}
+        | {"run_id": f"run{index}{seed}", "metrics.rms_mean": 0.1 + index, "metrics.rms_joint1": 0.1}
+        | {"metrics.rms_joint2": 0.2}
+        for index, setting in enumerate(settings)
+        for seed in (0, 1)
+    ]
+    comparison = compare_runs(pd.DataFrame(rows))
+    assert len(comparison.groups) == 3 and not any("." in group for group in comparison.groups)  # choices
+    assert len(comparison.table) == len(settings)  # nothing pooled
+    assert max(len(label) for label in comparison.table.index) <= 60
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # "Tight layout not applied" among them
+        write_comparison(comparison, tmp_path, "identification: comparison")
+    assert (tmp_path / "rms_per_joint.png").exists()

@@ -247,6 +247,27 @@ def test_the_citation_is_the_papers() -> None:
     assert doi.group(1) in PAPER.read_text()
 
 
+# --- lists generated from the code --------------------------------------------------------------
+
+
+def test_the_configuration_overview_lists_every_option_of_every_group() -> None:
+    """The overview's table is the config tree's (``docs/config_overview.py``): an option added to a
+    group and not to the page fails here; ``docs/readme_tables.py config_groups`` rewrites it."""
+    overview = _script("config_overview")
+    page = (DOCS / "explanation" / "configuration.md").read_text()
+    block = re.search(r"<!-- generated: config_groups -->\n(.*?)<!-- /generated -->", page, re.S)
+    assert block is not None, "configuration.md has no generated config_groups table"
+    missing = [
+        f"{group}={option}"
+        for group in overview.groups()
+        for option in overview.config_group(group)
+        if f"`{option}`"
+        not in next((row for row in block.group(1).splitlines() if f"| `{group}` |" in row), "")
+    ]
+    assert missing == [], f"options missing from the page: {missing}"
+    assert block.group(1) == overview.overview_table()
+
+
 # --- history and commands ----------------------------------------------------------------------
 
 HISTORY = [
@@ -258,6 +279,10 @@ HISTORY = [
     r"\bprevious code\b",
     r"\bwhat changed\b(?! from one version)(?! between versions)(?!:)",
     r"\bflaky\b",
+    r"\bprevious (?:default|release|sdp)\b",
+    r"\bthe release before\b",
+    r"\bas before\b",
+    r"\bold: ",
     r"\bwas \d[\d.,]*\s*(?:s|min|ms|%)\b",
     r"\bbefore, \d",
     r"\bnow: wall\b",

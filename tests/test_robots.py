@@ -25,6 +25,7 @@ from omegaconf.errors import MissingMandatoryValue
 
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.dynamics.serial_chain import serial_chain
+from lwrlab.errors import ConfigError
 from lwrlab.model.inertia import is_physically_consistent
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
@@ -422,3 +423,46 @@ def test_mdh_yaml_errors_name_the_problem(tmp_path: Path) -> None:
     path.write_text(yaml.safe_dump(description))
     with pytest.raises(ValueError, match=r"limits lack \['acceleration'\]"):
         load_robot_yaml(path)
+
+
+def test_the_arm_of_a_bigger_robot_by_its_chain_or_its_planning_group() -> None:
+    """TALOS (legs, torso, two arms, grippers, a head) and TIAGo Pro (wheels, torso, two arms): the
+    left arm by its links or by the SRDF's group, every other joint locked, none listed by hand."""
+    example = pytest.importorskip("plugins.robots.example_robot")
+    try:
+        talos = example.example_robot_file("talos_data/robots/talos_full_v2.urdf")
+        srdf = example.example_robot_file("talos_data/srdf/talos.srdf")
+        tiago = example.example_robot_file("tiago_pro_description/robots/tiago_pro.urdf")
+    except (FileNotFoundError, ImportError) as error:
+        pytest.skip(f"example-robot-data is not installed ({error})")
+    arm = tuple(f"arm_left_{j}_joint" for j in range(1, 8))
+    by_chain = build(
+        "robot", "urdf", path=talos, collision_geometry=False, chain=["torso_2_link", "arm_left_7_link"]
+    )
+    by_group = build("robot", "urdf", path=talos, collision_geometry=False, group="l_arm", srdf=srdf)
+    assert by_chain.joint_names == by_group.joint_names == arm
+    # the rest stands where it is locked: the arm hangs from the torso turned as locked_joints says
+    turned = build(
+        "robot",
+        "urdf",
+        path=talos,
+        collision_geometry=False,
+        chain=["torso_2_link", "arm_left_7_link"],
+        locked_joints={"torso_2_joint": 0.5},
+    )
+    q = np.zeros(7)
+    assert not np.allclose(turned.inverse_dynamics(q, q, q), by_chain.inverse_dynamics(q, q, q))
+    pro = build(
+        "robot", "urdf", path=tiago, collision_geometry=False, chain=["torso_lift_link", "arm_left_7_link"]
+    )
+    assert pro.joint_names == arm
+    with pytest.raises(
+        ConfigError, match=r"robot.chain=\[arm_left_7_link, torso_2_link\]: 'arm_left_7_link' is not above"
+    ):
+        build(
+            "robot", "urdf", path=talos, collision_geometry=False, chain=["arm_left_7_link", "torso_2_link"]
+        )
+    with pytest.raises(ConfigError, match=r"robot\.group=no_arm: the SRDF .* has no such group"):
+        build("robot", "urdf", path=talos, collision_geometry=False, group="no_arm", srdf=srdf)
+    with pytest.raises(ConfigError, match=r"give robot\.srdf too"):
+        build("robot", "urdf", path=talos, collision_geometry=False, group="l_arm")

@@ -20,7 +20,7 @@
 #      with joint 6) would be `coupling: [[7, 6, 0.3]]` in DRIVE below.
 #
 # With your own robot: robot=urdf robot.path=my_arm.urdf (no acceleration limits needed for logs) and
-# your files in data.paths; other column names through data.column_map (README, "Formats").
+# your files in data.paths; other column names through data.column_map (docs/reference/log-formats.md, "Files and columns").
 #
 # Run:     examples/logs/run.sh [OUTPUT_FOLDER]        (default: a new temporary folder); about a minute
 # Options: LWRLAB=.venv/bin/lwrlab   the lwrlab command (default: `lwrlab` on the PATH)

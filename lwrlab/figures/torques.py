@@ -86,7 +86,13 @@ def rms_per_joint_by_group(
         )
     ax.set(xlabel="joint", ylabel="cross-validation RMS [N·m]", xticks=positions, title=title)
     ax.grid(axis="y", alpha=0.3)
-    ax.legend(fontsize=8, ncol=min(groups, 4))
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    longest = max((len(label) for label in labels), default=1)
+    # below the bars, as many columns as the labels' length lets fit: never over the bars, never clipped
+    ax.legend(
+        fontsize=8,
+        ncol=max(1, min(groups, 4, 120 // longest)),
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.16),
+    )
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     return path

@@ -47,6 +47,7 @@ from lwrlab.model.collision_geometry import CollisionSource, package_search_path
 from lwrlab.model.description import build_friction, friction_law_of, gravity_vector
 from lwrlab.model.drive_train import DriveTrain, build_drive_train
 from lwrlab.model.friction_laws import FrictionLaw
+from lwrlab.model.kinematic_chain import arm_joints, locked_outside
 from lwrlab.model.robot import JointLimits, RobotModel
 from lwrlab.model.urdf_description import (
     check_joint_limit_names,
@@ -206,6 +207,8 @@ def load_urdf_robot(
     gravity: Sequence[float],
     flange_frame: str | None,
     locked_joints: Sequence[str] | Mapping[str, float] | None,
+    chain: Sequence[str] | None,
+    group: str | None,
     package_dirs: Sequence[str],
     srdf: str | None,
     joint_limits: str | None,
@@ -235,6 +238,10 @@ def load_urdf_robot(
     locked_joints : joints removed from the model and merged into their parent segment, a list of
         names (locked at 0) or a mapping name → position (rad or m), e.g. the fingers of a gripper
         or a mobile base's wheels; None or empty: none.
+    chain : ``[root link, tip link]``: the arm of a bigger description, every moving joint off the
+        path between them locked (at 0 or the position ``locked_joints`` gives; what hangs from the
+        arm, a gripper, merged into its last segment), or None (:mod:`lwrlab.model.kinematic_chain`).
+    group : an SRDF planning group (of ``srdf``) naming the arm, the same way; None: none.
     package_dirs : folders holding the ROS packages that ``package://NAME/…`` mesh names refer to
         (``DIR/NAME/``), searched before ``ROS_PACKAGE_PATH``.
     srdf : a MoveIt SRDF whose ``disable_collisions`` pairs are never checked, or None. The links of
@@ -273,6 +280,19 @@ def load_urdf_robot(
     document = read_urdf_document(path)
     continuous = revolute_for_continuous(document)
     urdf_links, urdf_joints = description_names(document)
+    if chain is not None or group is not None:  # the arm of a bigger robot: every other joint locked
+        found = (
+            None if srdf is None else resolve_mesh(str(srdf), Path.cwd(), package_search_path(package_dirs))
+        )
+        if srdf is not None and found is None:
+            raise MissingFileError(f"{path}: robot.srdf file {srdf} does not exist")
+        arm = arm_joints(document, chain=chain, group=group, srdf=found)
+        given = (
+            dict(locked_joints)
+            if isinstance(locked_joints, Mapping)
+            else dict.fromkeys(locked_joints or (), 0.0)
+        )
+        locked_joints = locked_outside(document, arm, given)
     try:  # fixed base: no root joint
         model = pin.buildModelFromXML(ElementTree.tostring(document, encoding="unicode"))
     except (ValueError, RuntimeError) as error:

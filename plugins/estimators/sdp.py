@@ -34,6 +34,11 @@ parameters) and re-solved for every fold and weight. Rich data choose the smalle
 only keeps what they cannot see near the prior; thin data lean on the prior, and ``prior_share_``
 says for which base parameters.
 
+The prior is made of solid bodies first (:mod:`lwrlab.identification.solid_prior`): a link whose
+description breaks the triangle inequality, or is a point mass, a rod or a sheet, is replaced by the
+nearest solid body of its mass and centre of mass (``prior_projections_`` says which, and the run's
+notes name the link), so the entropic pull is bounded and the programme well posed.
+
 The solver is CLARABEL; when it fails (an error, or a status other than optimal), SCS is tried,
 a warning names both, and the learned attributes ``solver_`` and ``solver_fallback_`` (also in
 ``diagnostics_``, which the pipeline returns as metrics) record it.
@@ -45,6 +50,7 @@ import logging
 import time
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Self
 
 import cvxpy as cp
@@ -78,6 +84,7 @@ from lwrlab.identification.prior_weight import (
     prior_share,
 )
 from lwrlab.identification.row_statistics import RowStatistics
+from lwrlab.identification.solid_prior import ProjectedBody, solid_prior
 from lwrlab.numerics.threads import dense_algebra
 
 log = logging.getLogger(__name__)
@@ -119,8 +126,10 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     exact while no constraint is active), plus ``standard_phi_`` (P,) the consistent standard
     parameters, ``min_eigenvalues_`` (N_L,) their pseudo-inertias' smallest eigenvalues,
     ``solver_`` (the solver that produced the result), ``solver_fallback_`` (bool),
-    ``solver_status_``, ``solve_time_`` (s, problem build + solve) and ``diagnostics_`` (numbers
-    for the run's metrics). With ``weight: auto`` also ``weight_`` (the chosen relative weight),
+    ``solver_status_``, ``solve_time_`` (s, problem build + solve), ``prior_projections_`` (the
+    prior's links replaced by the nearest solid body,
+    :class:`~lwrlab.identification.solid_prior.ProjectedBody`) and ``diagnostics_`` (numbers for the
+    run's metrics). With ``weight: auto`` also ``weight_`` (the chosen relative weight),
     ``prior_share_`` (N_B,) the share of each base parameter's estimate that came from the prior,
     ``cv_joint_rms_`` (N_J,) the held-out residual RMS per joint at the chosen weight (N·m),
     ``cv_worst_joint_rms_`` (N_J,) the same in the worst held-out block of each joint, and
@@ -138,6 +147,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     solver_fallback_: bool
     solver_status_: str
     solve_time_: float
+    prior_projections_: tuple[ProjectedBody, ...]
     diagnostics_: dict[str, float]
     weight_: float
     prior_share_: np.ndarray
@@ -205,6 +215,11 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
                     "(factors of the CAD masses)"
                 )
         return context
+
+    def _solid(self, context: IdentificationContext) -> IdentificationContext:
+        """The context with its prior made of solid bodies (``prior_projections_`` records the changes)."""
+        prior, self.prior_projections_ = solid_prior(context.prior, context.n_links)
+        return replace(context, prior=prior) if self.prior_projections_ else context
 
     def _constraints(self, phi: cp.Expression, context: IdentificationContext) -> list[cp.Constraint]:
         return physical_constraints(
@@ -371,6 +386,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         if rows != tau.shape[0]:
             raise ValueError(f"W has {rows} rows but tau has {tau.shape[0]}")
         if self.weight != "auto" and not self.compress:  # the uncompressed rows, to measure the gain
+            context = self._solid(context)
             start = time.perf_counter()
             problem, phi = self._problem(W, tau, context)
             self._solve(problem)
@@ -389,7 +405,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     ) -> Self:
         """Fit to rows given by their R factors per fold and joint (:class:`RowStatistics`,
         accumulated block by block; ``statistics_folds`` folds)."""
-        context = self._check(context)
+        context = self._solid(self._check(context))
         start = time.perf_counter()
         if self.weight == "auto":
             self.standard_phi_ = self._fit_auto(statistics, context)

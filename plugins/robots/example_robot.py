@@ -109,6 +109,8 @@ def load_example_robot(
         gravity=gravity,
         flange_frame=entry.flange_frame,
         locked_joints=dict(entry.locked_joints),
+        chain=None,
+        group=None,
         package_dirs=[],
         srdf=None if entry.srdf is None else example_robot_file(entry.srdf),
         joint_limits=None,

@@ -41,6 +41,7 @@ from lwrlab.identification.scoring import (
     score,
     tabulate,
 )
+from lwrlab.identification.solid_prior import projection_notes
 from lwrlab.identification.state_cutoff import choose_state_factor
 from lwrlab.model.friction_laws import drifting_terms
 from lwrlab.model.robot import RobotModel
@@ -160,6 +161,7 @@ def identify(
                 has_prior,
                 share,
             ),
+            *projection_notes(robot, getattr(estimator, "prior_projections_", ())),
             drift.describe(),
             *([] if states is None else [states.describe()]),
             *coverage_checks(measured, predictions),

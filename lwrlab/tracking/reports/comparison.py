@@ -20,7 +20,7 @@ import pandas as pd
 
 from lwrlab.tracking.job_config.config_params import mlflow_key
 from lwrlab.tracking.job_config.naming import HEADLINE_METRICS, PER_JOINT_RMS, is_timing_metric
-from lwrlab.tracking.reports.run_groups import PARAM_PREFIX, subject_parameters, swept_parameters
+from lwrlab.tracking.reports.run_groups import PARAM_PREFIX, subject_parameters, telling_parameters
 
 log = logging.getLogger(__name__)
 
@@ -100,7 +100,8 @@ def compare_runs(runs: pd.DataFrame, groups: Sequence[str] | None = None) -> Com
     runs
         FINISHED job runs (``mlflow.search_runs`` layout).
     groups
-        Parameter keys to group by; ``None`` finds them with :func:`swept_parameters`.
+        Parameter keys to group by; ``None`` finds the few that tell the runs apart
+        (:func:`~lwrlab.tracking.reports.run_groups.telling_parameters`).
 
     Returns
     -------
@@ -111,7 +112,7 @@ def compare_runs(runs: pd.DataFrame, groups: Sequence[str] | None = None) -> Com
     """
     notes = []
     if groups is None:
-        groups = swept_parameters(runs)
+        groups = telling_parameters(runs)
     else:
         groups = list(groups)
         missing = [group for group in groups if PARAM_PREFIX + group not in runs]
@@ -120,7 +121,7 @@ def compare_runs(runs: pd.DataFrame, groups: Sequence[str] | None = None) -> Com
                 column[len(PARAM_PREFIX) :] for column in runs.columns if column.startswith(PARAM_PREFIX)
             )
             raise ValueError(f"no run has the parameter(s) {missing}; parameters: {known[:40]}")
-        subjects = subject_parameters(runs, groups)
+        subjects = telling_parameters(runs, subject_parameters(runs, groups), given=groups)[len(groups) :]
         if subjects:  # a robot, a data set, is never pooled with another
             notes.append(
                 f"runs differ in {', '.join(subjects)} (what they are of): grouped by them too, never "
@@ -132,9 +133,11 @@ def compare_runs(runs: pd.DataFrame, groups: Sequence[str] | None = None) -> Com
     shown = _group_labels(runs, groups, short=True)
     seeds = runs["params.seed"] if "params.seed" in runs else pd.Series("", index=runs.index)
     rows = []
+    # a group is named by its short values (file names, ends of long values) where those tell it apart
+    named = shown if shown.nunique() == labels.nunique() else labels
     for label in sorted(labels.unique()):
         members = runs[labels == label]
-        row: dict[str, object] = {"group": label}
+        row: dict[str, object] = {"group": str(named[labels == label].iloc[0])}
         row.update({group: groups_value(members, group).iloc[0] for group in groups})
         row.update(runs=len(members), seeds=int(seeds[labels == label].nunique()))
         for metric in metrics:

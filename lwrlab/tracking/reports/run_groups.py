@@ -12,6 +12,12 @@ What a run is *of* (its robot, its data: ``robot``, ``plant``, ``data`` and the 
 :func:`subject_parameters`) is never pooled: a comparison grouped by other keys is grouped by those
 too where runs differ in them.
 
+Runs launched separately (the lessons of the manual, one after the other) differ in many keys at
+once; :func:`telling_parameters` keeps the few that tell them apart: plugin choices first
+(``estimator``, ``friction``, ``robot``), then the keys under them, the shallowest first, a key kept
+only where it splits runs the kept ones leave together. How a log's columns are read
+(``data.column_map.*``) never counts; paths come last (a comparison shows them by file name).
+
 Examples
 --------
 >>> import pandas as pd
@@ -29,6 +35,7 @@ Examples
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 
 import pandas as pd
 
@@ -36,6 +43,9 @@ PARAM_PREFIX = "params."
 SEED = "seed"
 _NOT_COMPUTATION = re.compile(r"^(tracking(\..*)?|experiment_name|hydra\..*|(.*\.)?show_progress)$")
 _SUBJECT = re.compile(r"^(robot|plant|data)(\..*)?$")
+_READING = re.compile(r"^data\.column_map(\..*)?$")
+"""How a log's columns are read: not what the run is of, nor how it computes."""
+_PATH = re.compile(r"(^|\.|_)paths?$")
 
 
 def _values(runs: pd.DataFrame, column: str) -> pd.Series:
@@ -54,6 +64,8 @@ def swept_parameters(runs: pd.DataFrame) -> list[str]:
         values = _values(runs, column)
         if values.nunique() <= 1 or _NOT_COMPUTATION.match(key) or key.rsplit(".", 1)[-1] == SEED:
             continue
+        if _READING.match(key):
+            continue
         if seed is not None and (values == seed).all():
             continue  # a copy of the seed (``${seed}``): replication, not a parameter
         varying.append(key)
@@ -71,6 +83,44 @@ def _follows(runs: pd.DataFrame, key: str, choice: str) -> bool:
     """Whether ``key`` has one value for each value of ``choice`` across ``runs``."""
     values = _values(runs, PARAM_PREFIX + key)
     return bool((values.groupby(_values(runs, PARAM_PREFIX + choice)).nunique() <= 1).all())
+
+
+def _telling_order(key: str) -> tuple[int, int, str]:
+    """Plugin choices first, then keys under them (shallowest first), paths last."""
+    return (2 if _PATH.search(key) else 0 if "." not in key else 1, key.count("."), key)
+
+
+def telling_parameters(
+    runs: pd.DataFrame, candidates: list[str] | None = None, given: Sequence[str] = ()
+) -> list[str]:
+    """The few of ``candidates`` (default: :func:`swept_parameters`) that tell ``runs`` apart.
+
+    Taken in :func:`_telling_order` after the ``given`` keys (kept, first), a key is kept when it
+    splits runs that the keys kept before it leave in one group, so the kept keys group the runs
+    exactly as all of them do.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> runs = pd.DataFrame({
+    ...     "params.estimator": ["ols", "sdp", "ols", "ols"],
+    ...     "params.plant": ["sim", "sim", "log", "log"],
+    ...     "params.data.paths": ["<unset>", "<unset>", "a.csv", "b.csv"],
+    ...     "params.plant.rate_hz": ["1000", "1000", "100", "100"],
+    ... })
+    >>> telling_parameters(runs)
+    ['estimator', 'plant', 'data.paths']
+    """
+    candidates = swept_parameters(runs) if candidates is None else candidates
+    kept = list(given)
+    groups = len(runs[[PARAM_PREFIX + k for k in kept]].drop_duplicates()) if kept else 1
+    for key in sorted((k for k in candidates if k not in kept), key=_telling_order):
+        split = runs[[PARAM_PREFIX + k for k in (*kept, key)]].fillna("<unset>").astype(str)
+        count = len(split.drop_duplicates())
+        if count > groups:
+            kept.append(key)
+            groups = count
+    return kept
 
 
 def subject_parameters(runs: pd.DataFrame, groups: list[str] | tuple[str, ...] = ()) -> list[str]:
@@ -92,4 +142,4 @@ def short_name(parameter: str) -> str:
     return parameter.rsplit(".", 1)[-1]
 
 
-__all__ = ["short_name", "subject_parameters", "swept_parameters", "value_summary"]
+__all__ = ["short_name", "subject_parameters", "swept_parameters", "telling_parameters", "value_summary"]
