@@ -32,7 +32,6 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.errors import ConfigError
-from lwrlab.figures.monitor import external_torques
 from lwrlab.monitoring.contact_force import FrameLoad, default_frame, frame_id
 from lwrlab.monitoring.detection import Detection, detection_flags, detections_frame
 from lwrlab.monitoring.estimates import MonitorSettings
@@ -318,6 +317,8 @@ def _write_run(
         **timing,
     }
     if len(rows["t"]):
+        from lwrlab.figures.monitor import external_torques  # matplotlib: after the run, not before it
+
         external_torques(
             rows["t"],
             rows["external_torque"],

@@ -3,8 +3,9 @@
 The user's robot when they have none, and the tests' robot. The true robot is ``plant=simulated``'s
 (the robot config perturbed from the plant's seed: the robot ``task=identification`` identifies on
 the same defaults), simulated in MuJoCo under inverse-dynamics feedforward of the nominal model and
-joint PD (:class:`~lwrlab.plants.pushed_arm.PushedArm`), with the plant's sensor noise and forces
-pushing its links (scripted in ``task.pushes``, or ``task.random_pushes`` drawn from the seed). It
+joint PD (:class:`~lwrlab.plants.pushed_arm.PushedArm`), with the plant's sensor noise and encoder
+resolution, and forces pushing its links (scripted in ``task.pushes``, or ``task.random_pushes``
+drawn from the seed). It
 stands still, plays the configured ``trajectory``, stands still again, and publishes at
 ``task.rate_hz``:
 
@@ -250,6 +251,9 @@ def run_sim_robot(
     period_ns = round(1e9 / rate_hz)
     contact = np.any(run.force != 0.0, axis=1)
     q, tau, dq = measurement.q, measurement.tau, run.velocity
+    resolution = float(cfg.plant.get("encoder_resolution") or 0.0)
+    if resolution > 0:  # the plant's encoders read whole steps
+        q = np.round(q / resolution) * resolution
     assert dq is not None
     lags = np.zeros(len(measurement.t))
     sent = 0
