@@ -51,6 +51,47 @@ def tracking_uri(cfg: Any) -> str | None:
     return None if value in (None, "") else str(value)
 
 
+def command_overrides(cfg: Any) -> list[str]:
+    """The overrides the job's command line gave (``hydra.overrides.task``): the config's own ``hydra``
+    node where it kept one (a test's composition), else the running Hydra job's; [] outside Hydra."""
+    from omegaconf import OmegaConf
+
+    kept = OmegaConf.select(cfg, "hydra.overrides.task", default=None) if OmegaConf.is_config(cfg) else None
+    if kept is not None:
+        return [str(item) for item in kept]
+    from hydra.core.hydra_config import HydraConfig
+
+    return [str(item) for item in HydraConfig.get().overrides.task] if HydraConfig.initialized() else []
+
+
+def command_robot_settings(cfg: Any) -> dict[str, Any]:
+    """The robot settings the command line gives, with their resolved values: each ``robot.<key>=…``
+    (a nested key as its whole top-level setting) and, for ``robot=<option>``, its ``_target_`` (under
+    :data:`plugins.robots.identified.BUILDER`).
+
+    What a task reading an identified model whole hands its robot
+    (:func:`lwrlab.tracking.models.identified_model.read_identified_model`): a frame to mount a tool on
+    is taken, a setting that contradicts the model is refused by name. The robot's defaults (its
+    option's YAML, ``plant=log``'s friction terms) are not the command's and are left out.
+    """
+    from plugins.robots.identified import BUILDER
+
+    keys: list[str] = []
+    for item in command_overrides(cfg):
+        key = item.split("=", 1)[0].lstrip("+~")
+        if key == "robot":
+            keys.append("_target_")
+        elif key.startswith("robot."):
+            keys.append(key.split(".")[1])
+    if not keys or "robot" not in cfg:
+        return {}
+    robot = resolved_mapping(cfg.robot, "robot")
+    given = {key: robot[key] for key in dict.fromkeys(keys) if key in robot}
+    if "_target_" in given:  # named apart: Hydra would build a mapping holding a _target_
+        given[BUILDER] = given.pop("_target_")
+    return given
+
+
 def log_reader(cfg: Any, robot: RobotModel, paths: Sequence[str], unit_gains: bool = False) -> RecordedPlant:
     """The configured ``plant=log`` reader (its ``data.*`` options), for ``paths``.
 

@@ -56,6 +56,24 @@ _ALLOWED_LAW_PREFIX = ("plugins.friction.", "lwrlab.model.friction_laws.")
 
 _MODEL_URI_SCHEMES = ("runs:/", "models:/")
 
+COMMAND_SETTINGS = frozenset(
+    {
+        "name",
+        "flange_frame",
+        "acceleration_limits",
+        "joint_limits",
+        "srdf",
+        "package_dirs",
+        "collision_geometry",
+        "collision_urdf",
+        "missing_meshes",
+    }
+)
+"""Robot settings a command gives a model read whole, which the rebuilt robot takes: a frame to mount a
+tool on, limits and collision checks of new motions — none changes the dynamics that were identified.
+Any other setting given (the description file, locked joints, gravity, the drive train, friction) must
+equal the model's own, or the model is refused with the conflict named."""
+
 
 def _is_file_reference(source: str) -> bool:
     """A path (a separator or a YAML suffix) rather than an MLflow model URI or run id."""
@@ -93,6 +111,62 @@ _KEYS_ADDED_SINCE: dict[str, dict[str, object]] = {
 an ``identified_model.yaml`` written before them still loads."""
 
 
+BUILDER = "builder"
+"""The key of a command's robot settings naming the ``_target_`` of its ``robot=<option>`` (not
+``_target_`` itself, which Hydra would build)."""
+
+
+def _same_setting(saved: Any, given: Any) -> bool:
+    """Whether a setting given on the command line says what the model's saved one says (two names of
+    one file, or files of the same content, are the same description)."""
+    if saved == given:
+        return True
+    if isinstance(saved, str) and isinstance(given, str):
+        first, second = Path(saved).expanduser(), Path(given).expanduser()
+        if first.is_file() and second.is_file():
+            return first.resolve() == second.resolve() or first.read_bytes() == second.read_bytes()
+    return False
+
+
+def with_command_settings(
+    description: Mapping[str, Any], settings: Mapping[str, Any] | None, source: str | Path
+) -> dict[str, Any]:
+    """The model's robot ``description`` with the robot ``settings`` a command gives (``robot.<key>``
+    values; :data:`BUILDER` the ``_target_`` of its ``robot=<option>``): those of
+    :data:`COMMAND_SETTINGS` taken, any other checked against the model's.
+
+    Raises
+    ------
+    ConfigError
+        A setting that would change what was identified (another description file, locked joints,
+        drive train, …) and differs from the model's, named with both values.
+
+    Examples
+    --------
+    >>> saved = {"_target_": "plugins.robots.urdf.load_urdf_robot", "path": "arm.urdf", "flange_frame": None}
+    >>> with_command_settings(saved, {"flange_frame": "tool0"}, "model.yaml")["flange_frame"]
+    'tool0'
+    """
+    merged = dict(description)
+    for key, given in (settings or {}).items():
+        if key == BUILDER:
+            if given not in (description.get("_target_"), _THIS_PLUGIN):
+                raise ConfigError(
+                    f"{source}: identified on a robot built by {description.get('_target_')}, while the "
+                    f"command's robot=… is built by {given}: leave robot=… out (the model's robot is read "
+                    "whole) or give a model of that robot"
+                )
+        elif key in COMMAND_SETTINGS:
+            merged[key] = given
+        elif not _same_setting(description.get(key), given):
+            raise ConfigError(
+                f"{source}: robot.{key}={given!r} conflicts with the model, identified with "
+                f"robot.{key}={description.get(key)!r}: leave robot.{key} out (the model's robot is read "
+                f"whole) or identify again with it; a command may set {', '.join(sorted(COMMAND_SETTINGS))}"
+            )
+    return merged
+
+
 def load_identified_robot(
     source: str,
     *,
@@ -101,6 +175,7 @@ def load_identified_robot(
     build_robot: RobotBuilder,
     locate_model: ModelLocator | None,
     rigid_bodies: bool,
+    settings: Mapping[str, Any] | None = None,
 ) -> RobotModel:
     """The robot identified by an earlier run.
 
@@ -122,6 +197,8 @@ def load_identified_robot(
     rigid_bodies : replace a standard set that is not rigid bodies by the nearest rigid bodies (what a
         simulated plant, MuJoCo and a prior need); False: keep the set as identified, for a task that
         only predicts its torques (a monitor, an MLflow Model), which the base parameters decide.
+    settings : robot settings given beside the model (``robot.flange_frame=tool0``; a task reading a
+        model whole hands in its command's): :func:`with_command_settings` (None: the model's own).
 
     Examples
     --------
@@ -152,7 +229,7 @@ def load_identified_robot(
             f"({' or '.join(p + '*' for p in _ALLOWED_LAW_PREFIX)})"
         )
     defaults = _KEYS_ADDED_SINCE.get(target.rsplit(".", 1)[-1], {})
-    description = {**defaults, **robot_config}
+    description = with_command_settings({**defaults, **robot_config}, settings, path)
     if friction_terms is not None:  # added to the model's own: a model is never stripped of a term
         own = list(description.get("friction_terms") or [])
         description["friction_terms"] = own + [term for term in friction_terms if term not in own]
