@@ -130,8 +130,8 @@ def test_known_logs_are_read_like_plant_log_and_their_noise_comes_from_their_res
     dq = np.gradient(q, t, axis=0)
     measurement = plant.measure(Trajectory(t, q, dq, np.gradient(dq, t, axis=0)))
     log = write_log(measurement, tmp_path / "swing.csv")
-    with pytest.raises(ConfigError, match="plant=log"):
-        run_excitation(excitation, tmp_path / "a", known_logs=[str(log)])
+    # the known logs imply reading logs: without plant=log, its reader's defaults
+    implied = run_excitation(excitation, tmp_path / "a", known_logs=[str(log)])
     cfg = compose_config(
         "task=excitation", *QUICK, f"task.known_logs=[{log}]", "plant=log", f"data.paths=[{log}]"
     )
@@ -140,6 +140,8 @@ def test_known_logs_are_read_like_plant_log_and_their_noise_comes_from_their_res
     assert "Known before this motion: logs swing" in report
     assert "the residual of a least-squares fit of the known logs" in report
     assert metrics["poorly_known_after"] < metrics["poorly_known_before"]
+    assert "Known before this motion: logs swing" in (tmp_path / "a" / "excitation_report.md").read_text()
+    assert implied["poorly_known_after"] < implied["poorly_known_before"]
 
 
 def test_a_model_of_another_robot_is_refused(tmp_path: Path, excitation: DictConfig) -> None:

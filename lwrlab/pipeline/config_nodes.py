@@ -92,16 +92,33 @@ def command_robot_settings(cfg: Any) -> dict[str, Any]:
     return given
 
 
-def log_reader(cfg: Any, robot: RobotModel, paths: Sequence[str], unit_gains: bool = False) -> RecordedPlant:
+def shipped_log_reader() -> Any:
+    """The ``plant`` node of the shipped ``plant=log`` option with its own ``data.*`` defaults: how logs
+    are read where a setting implies them without ``plant=log`` (``task.known_logs``)."""
+    from omegaconf import OmegaConf
+
+    from lwrlab.resources import config_group
+
+    option = OmegaConf.load(config_group("plant")["log"])
+    return OmegaConf.create({"data": option.data, "plant": option.plant}).plant
+
+
+def log_reader(
+    cfg: Any, robot: RobotModel, paths: Sequence[str], unit_gains: bool = False, implied: bool = False
+) -> RecordedPlant:
     """The configured ``plant=log`` reader (its ``data.*`` options), for ``paths``.
 
     ``unit_gains``: read motor currents (columns ``current1…N``) as they are (gain 1), whatever
-    ``data.drive_gains`` says.
+    ``data.drive_gains`` says. ``implied``: the setting that gave ``paths`` implies logs, so without
+    ``plant=log`` they are read with its defaults (:func:`shipped_log_reader`) rather than refused.
     """
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
-    if OmegaConf.select(cfg, "data") is None:
+    plant = cfg.plant if OmegaConf.select(cfg, "data") is not None else None
+    if plant is None and implied:
+        plant = shipped_log_reader()
+    if plant is None:
         raise ConfigError(
             "this task reads recorded logs: run it with plant=log (and the data.* options the logs need: "
             "data.column_map, data.time_unit, data.drive_gains, …)"
@@ -114,18 +131,24 @@ def log_reader(cfg: Any, robot: RobotModel, paths: Sequence[str], unit_gains: bo
     }
     if unit_gains:
         overrides["drive_gains"] = [1.0] * robot.n_joints
-    reader = instantiate(cfg.plant, **overrides)(robot=robot)
+    reader = instantiate(plant, **overrides)(robot=robot)
     if not is_recorded(reader):
         raise ConfigError(f"this task reads recorded logs: plant={type(reader).__name__} does not read them")
     return reader
 
 
 def read_logs(
-    cfg: Any, robot: RobotModel, paths: Sequence[str] | None, role: str, unit_gains: bool = False
+    cfg: Any,
+    robot: RobotModel,
+    paths: Sequence[str] | None,
+    role: str,
+    unit_gains: bool = False,
+    implied: bool = False,
 ) -> list[Measurement]:
-    """The logs ``paths`` (none: an empty list) as measurements tagged with ``role``."""
+    """The logs ``paths`` (none: an empty list) as measurements tagged with ``role``; ``unit_gains``,
+    ``implied``: as :func:`log_reader`."""
     paths = [str(p) for p in (paths or [])]
     if not paths:
         return []
-    reader = log_reader(cfg, robot, paths, unit_gains)
+    reader = log_reader(cfg, robot, paths, unit_gains, implied)
     return [reader.load(path, role) for path in paths]
