@@ -42,4 +42,6 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     """Fail a run that left MLflow's default store at the repository root."""
     if STRAY_STORE.exists() and not _STRAY_STORE_BEFORE:
         session.exitstatus = pytest.ExitCode.TESTS_FAILED
-        print(f"\n{STRAY_STORE}: a test made MLflow's default store at the repository root (no tracking URI?)")
+        print(
+            f"\n{STRAY_STORE}: a test made MLflow's default store at the repository root (no tracking URI?)"
+        )
