@@ -67,14 +67,14 @@ def command_overrides(cfg: Any) -> list[str]:
 def command_robot_settings(cfg: Any) -> dict[str, Any]:
     """The robot settings the command line gives, with their resolved values: each ``robot.<key>=…``
     (a nested key as its whole top-level setting) and, for ``robot=<option>``, its ``_target_`` (under
-    :data:`plugins.robots.identified.BUILDER`).
+    :data:`lwrlab.model.command_settings.BUILDER`).
 
     What a task reading an identified model whole hands its robot
     (:func:`lwrlab.tracking.models.identified_model.read_identified_model`): a frame to mount a tool on
     is taken, a setting that contradicts the model is refused by name. The robot's defaults (its
     option's YAML, ``plant=log``'s friction terms) are not the command's and are left out.
     """
-    from plugins.robots.identified import BUILDER
+    from lwrlab.model.command_settings import BUILDER
 
     keys: list[str] = []
     for item in command_overrides(cfg):

@@ -33,6 +33,7 @@ import numpy as np
 from lwrlab.errors import ConfigError, MissingFileError
 from lwrlab.identification.rigid_bodies import are_rigid_bodies, nearest_rigid_bodies
 from lwrlab.io.artifacts import identified_model_path, load_identified_model
+from lwrlab.model.command_settings import with_command_settings
 from lwrlab.model.robot import RobotModel
 
 log = logging.getLogger(__name__)
@@ -55,24 +56,6 @@ _ALLOWED_LAW_PREFIX = ("plugins.friction.", "lwrlab.model.friction_laws.")
 
 
 _MODEL_URI_SCHEMES = ("runs:/", "models:/")
-
-COMMAND_SETTINGS = frozenset(
-    {
-        "name",
-        "flange_frame",
-        "acceleration_limits",
-        "joint_limits",
-        "srdf",
-        "package_dirs",
-        "collision_geometry",
-        "collision_urdf",
-        "missing_meshes",
-    }
-)
-"""Robot settings a command gives a model read whole, which the rebuilt robot takes: a frame to mount a
-tool on, limits and collision checks of new motions — none changes the dynamics that were identified.
-Any other setting given (the description file, locked joints, gravity, the drive train, friction) must
-equal the model's own, or the model is refused with the conflict named."""
 
 
 def _is_file_reference(source: str) -> bool:
@@ -111,62 +94,6 @@ _KEYS_ADDED_SINCE: dict[str, dict[str, object]] = {
 an ``identified_model.yaml`` written before them still loads."""
 
 
-BUILDER = "builder"
-"""The key of a command's robot settings naming the ``_target_`` of its ``robot=<option>`` (not
-``_target_`` itself, which Hydra would build)."""
-
-
-def _same_setting(saved: Any, given: Any) -> bool:
-    """Whether a setting given on the command line says what the model's saved one says (two names of
-    one file, or files of the same content, are the same description)."""
-    if saved == given:
-        return True
-    if isinstance(saved, str) and isinstance(given, str):
-        first, second = Path(saved).expanduser(), Path(given).expanduser()
-        if first.is_file() and second.is_file():
-            return first.resolve() == second.resolve() or first.read_bytes() == second.read_bytes()
-    return False
-
-
-def with_command_settings(
-    description: Mapping[str, Any], settings: Mapping[str, Any] | None, source: str | Path
-) -> dict[str, Any]:
-    """The model's robot ``description`` with the robot ``settings`` a command gives (``robot.<key>``
-    values; :data:`BUILDER` the ``_target_`` of its ``robot=<option>``): those of
-    :data:`COMMAND_SETTINGS` taken, any other checked against the model's.
-
-    Raises
-    ------
-    ConfigError
-        A setting that would change what was identified (another description file, locked joints,
-        drive train, …) and differs from the model's, named with both values.
-
-    Examples
-    --------
-    >>> saved = {"_target_": "plugins.robots.urdf.load_urdf_robot", "path": "arm.urdf", "flange_frame": None}
-    >>> with_command_settings(saved, {"flange_frame": "tool0"}, "model.yaml")["flange_frame"]
-    'tool0'
-    """
-    merged = dict(description)
-    for key, given in (settings or {}).items():
-        if key == BUILDER:
-            if given not in (description.get("_target_"), _THIS_PLUGIN):
-                raise ConfigError(
-                    f"{source}: identified on a robot built by {description.get('_target_')}, while the "
-                    f"command's robot=… is built by {given}: leave robot=… out (the model's robot is read "
-                    "whole) or give a model of that robot"
-                )
-        elif key in COMMAND_SETTINGS:
-            merged[key] = given
-        elif not _same_setting(description.get(key), given):
-            raise ConfigError(
-                f"{source}: robot.{key}={given!r} conflicts with the model, identified with "
-                f"robot.{key}={description.get(key)!r}: leave robot.{key} out (the model's robot is read "
-                f"whole) or identify again with it; a command may set {', '.join(sorted(COMMAND_SETTINGS))}"
-            )
-    return merged
-
-
 def load_identified_robot(
     source: str,
     *,
@@ -198,7 +125,8 @@ def load_identified_robot(
         simulated plant, MuJoCo and a prior need); False: keep the set as identified, for a task that
         only predicts its torques (a monitor, an MLflow Model), which the base parameters decide.
     settings : robot settings given beside the model (``robot.flange_frame=tool0``; a task reading a
-        model whole hands in its command's): :func:`with_command_settings` (None: the model's own).
+        model whole hands in its command's), taken or refused by
+        :func:`lwrlab.model.command_settings.with_command_settings` (None: the model's own).
 
     Examples
     --------

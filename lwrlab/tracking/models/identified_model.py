@@ -58,7 +58,7 @@ class ReadModel:
     """The setting that named the model, for errors."""
     robot_settings: dict[str, Any] = field(default_factory=dict)
     """The robot settings the command gave beside the model, which its robot took (a flange frame, …;
-    :func:`plugins.robots.identified.with_command_settings`)."""
+    :func:`lwrlab.model.command_settings.with_command_settings`)."""
 
     @property
     def base(self) -> BaseParameters:
@@ -117,7 +117,7 @@ def build_identified_robot(path: str | Path, robot_settings: Mapping[str, Any] |
     builds it (the shipped option's own settings), its standard set kept as identified: a task that
     reads a model predicts its torques, which the base parameters decide (nothing to solve).
     ``robot_settings``: the command's robot settings, taken or refused by name
-    (:func:`plugins.robots.identified.with_command_settings`)."""
+    (:func:`lwrlab.model.command_settings.with_command_settings`)."""
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
@@ -178,7 +178,7 @@ def read_identified_model(
         if isinstance(cause, FileNotFoundError | ValueError | KeyError):
             raise ConfigError(f"{setting}={resolved.source}: {cause}") from error
         raise
-    from plugins.robots.identified import COMMAND_SETTINGS
+    from lwrlab.model.command_settings import COMMAND_SETTINGS
 
     taken = {k: v for k, v in (robot_settings or {}).items() if k in COMMAND_SETTINGS}
     return ReadModel(resolved, identified, dict(description), robot, setting, taken)
