@@ -28,6 +28,7 @@ WITHOUT_LOOKUP: dict[str, Any] = {
     "build_robot": instantiate,
     "locate_model": None,
     "rigid_bodies": True,
+    "settings": None,
 }
 """The plugin's edges, with no way to look a run up: a file or folder must be given."""
 
@@ -78,6 +79,7 @@ def test_a_model_uri_is_located_through_the_given_lookup(
         build_robot=instantiate,
         locate_model=locate,
         rigid_bodies=True,
+        settings=None,
     )
     assert calls == [(source, "sqlite:///x.db")]
     np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)

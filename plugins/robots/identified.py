@@ -102,7 +102,7 @@ def load_identified_robot(
     build_robot: RobotBuilder,
     locate_model: ModelLocator | None,
     rigid_bodies: bool,
-    settings: Mapping[str, Any] | None = None,
+    settings: Mapping[str, Any] | None,
 ) -> RobotModel:
     """The robot identified by an earlier run.
 
@@ -138,6 +138,7 @@ def load_identified_robot(
     ...     build_robot=hydra.utils.instantiate,
     ...     locate_model=None,
     ...     rigid_bodies=True,
+    ...     settings=None,
     ... )  # doctest: +SKIP
     """
     path = _locate(str(source).strip(), tracking_uri, locate_model)
