@@ -24,6 +24,7 @@ from omegaconf import DictConfig, OmegaConf
 import lwrlab.conf  # noqa: F401  (registers the schemas: Hydra's --info defaults looks them up first)
 from lwrlab.errors import UserError
 from lwrlab.garbage_collection import freeze_heap_at_exit, relax_garbage_collection
+from lwrlab.hydra_error_lines import one_line_user_errors
 from lwrlab.numerics.threads import limit_process_blas_threads
 from lwrlab.pipeline.config_checks import check_config
 from lwrlab.resources import CONFIG_SEARCH_PATH
@@ -135,10 +136,11 @@ def main() -> Any:
     """``lwrlab report|compare|sync ...`` (see their ``--help``), otherwise the Hydra app.
 
     A stop signal (SIGINT, SIGTERM) ends the process with the shell's status for it (130, 143) after
-    the tracking callback has ended the runs KILLED. BLAS runs one thread unless the environment
-    says otherwise (:func:`~lwrlab.numerics.threads.limit_process_blas_threads`), and the garbage
-    collector runs less often, and not over the whole heap again at exit
-    (:mod:`lwrlab.garbage_collection`).
+    the tracking callback has ended the runs KILLED. A user's error is one ``lwrlab:`` line
+    (:mod:`lwrlab.hydra_error_lines`; ``HYDRA_FULL_ERROR=1`` prints its whole traceback). BLAS runs
+    one thread unless the environment says otherwise
+    (:func:`~lwrlab.numerics.threads.limit_process_blas_threads`), and the garbage collector runs less
+    often, and not over the whole heap again at exit (:mod:`lwrlab.garbage_collection`).
     """
     limit_process_blas_threads()  # before anything imports numpy
     relax_garbage_collection()
@@ -152,7 +154,8 @@ def main() -> Any:
     if early_companion.may_log_a_single_run(sys.argv[1:]):
         early_companion.launch()  # MLflow loads while Hydra composes the config
     try:
-        return hydra_app()
+        with one_line_user_errors():  # HYDRA_FULL_ERROR=1: Hydra's whole output, the traceback
+            return hydra_app()
     except JobInterrupted as stop:
         print(f"lwrlab: {stop}; runs in flight ended KILLED", file=sys.stderr)
         sys.exit(stop.exit_status)

@@ -30,3 +30,18 @@ def lwr4() -> RobotModel:
 def panda() -> RobotModel:
     """The Franka Emika Panda of conf/robot/panda.yaml."""
     return load_robot_yaml(CONF / "robot" / "panda.yaml")
+
+
+STRAY_STORE = REPOSITORY / "mlflow.db"
+"""MLflow's default store in the working folder: what a look-up without a tracking URI creates. The
+repository's store is ``outputs/mlflow.db``; the root stays clean."""
+_STRAY_STORE_BEFORE = STRAY_STORE.exists()
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """Fail a run that left MLflow's default store at the repository root."""
+    if STRAY_STORE.exists() and not _STRAY_STORE_BEFORE:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+        print(
+            f"\n{STRAY_STORE}: a test made MLflow's default store at the repository root (no tracking URI?)"
+        )

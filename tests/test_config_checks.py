@@ -73,6 +73,7 @@ from lwrlab.pipeline.config_checks import RULES, check_config, violations
             "task.painting.contact.duration_scale=0.0: must be a number > 0",
         ),
         (("task=painting", "plant.torque_noise_std=-1"), "plant.torque_noise_std=-1"),
+        (("plant=log", "data.path=[a.csv]"), "several logs go in data.paths=[a.csv, b.csv]"),
         (
             ("task=identification", "+plant.torque_noise_stdd=0.1"),
             "plant.torque_noise_stdd: no such setting (SimulatedPlantSettings: mode, parameter_spread",

@@ -28,6 +28,7 @@ WITHOUT_LOOKUP: dict[str, Any] = {
     "build_robot": instantiate,
     "locate_model": None,
     "rigid_bodies": True,
+    "settings": None,
 }
 """The plugin's edges, with no way to look a run up: a file or folder must be given."""
 
@@ -78,6 +79,7 @@ def test_a_model_uri_is_located_through_the_given_lookup(
         build_robot=instantiate,
         locate_model=locate,
         rigid_bodies=True,
+        settings=None,
     )
     assert calls == [(source, "sqlite:///x.db")]
     np.testing.assert_allclose(robot.parameters, standard, rtol=1e-12)
@@ -232,3 +234,22 @@ def test_the_model_of_a_run_on_an_identified_robot_loads_as_its_mlflow_model_doe
     third = _model_file(lwr4, standard, tmp_path / "third" / "identified_model.yaml", saved)
     first.unlink()  # self-contained: the model it refined is no longer needed
     np.testing.assert_allclose(build_identified_robot(third).parameters, standard, rtol=1e-12)
+
+
+def test_a_model_read_whole_takes_a_frame_and_refuses_what_it_contradicts(tmp_path: Path) -> None:
+    from lwrlab.errors import ConfigError
+    from lwrlab.model.command_settings import BUILDER, with_command_settings
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text("<robot name='arm'/>")
+    (tmp_path / "copy.urdf").write_text(urdf.read_text())
+    saved = {"_target_": "plugins.robots.urdf.load_urdf_robot", "path": str(urdf), "locked_joints": None}
+    given = {BUILDER: saved["_target_"], "path": str(tmp_path / "copy.urdf"), "flange_frame": "tool0"}
+    taken = with_command_settings(saved, given, "model.yaml")  # the same description under another name
+    assert taken["flange_frame"] == "tool0" and taken["path"] == str(urdf)
+    with pytest.raises(
+        ConfigError, match=r"robot\.locked_joints=\['finger'\] conflicts .* robot\.locked_joints=None"
+    ):
+        with_command_settings(saved, {"locked_joints": ["finger"]}, "model.yaml")
+    with pytest.raises(ConfigError, match=r"built by plugins\.robots\.mdh\.load_robot_yaml"):
+        with_command_settings(saved, {BUILDER: "plugins.robots.mdh.load_robot_yaml"}, "model.yaml")

@@ -84,6 +84,35 @@ def test_column_map_units_and_currents(tmp_path: Path) -> None:
     np.testing.assert_allclose(log.tau, measurement.tau, rtol=1e-13)
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".npz"])
+@pytest.mark.parametrize("first", [1, 0])
+def test_a_block_in_the_column_map_is_the_prefix_of_its_joints_columns(
+    tmp_path: Path, suffix: str, first: int
+) -> None:
+    """``{q: pos_, tau: eff_}`` reads ``pos_1, pos_2`` (or ``pos_0, pos_1``) in every format."""
+    measurement = _measurement()
+    columns = {"time": measurement.t}
+    for j in range(2):
+        columns[f"pos_{j + first}"] = measurement.q[:, j]
+        columns[f"eff_{j + first}"] = measurement.tau[:, j]
+    path = tmp_path / f"prefixed{suffix}"
+    if suffix == ".npz":
+        np.savez(path, **columns)
+    elif suffix == ".parquet":
+        pd.DataFrame(columns).to_parquet(path, index=False)
+    else:
+        _write_frame(pd.DataFrame(columns), path)
+    log = load_log(path, n_joints=2, column_map={"t": "time", "q": "pos_", "tau": "eff_"})
+    np.testing.assert_array_equal(log.q, measurement.q)
+    np.testing.assert_array_equal(log.tau, measurement.tau)
+
+
+def test_a_missing_column_names_the_setting_that_maps_it(tmp_path: Path) -> None:
+    frame = log_frame(_measurement()).rename(columns={"tau1": "effort_1", "tau2": "effort_2"})
+    with pytest.raises(LogError, match=r"missing column 'tau1'.*data\.column_map.*\{tau: <prefix>\}"):
+        load_log(_write_frame(frame, tmp_path / "efforts.csv"), n_joints=2)
+
+
 def test_irregular_time_is_resampled_onto_a_uniform_grid(tmp_path: Path) -> None:
     rng = np.random.default_rng(0)
     t = np.cumsum(np.full(500, 1e-3) * (1 + 0.3 * rng.uniform(-1, 1, 500)))

@@ -3,7 +3,8 @@
 One shared store (a temporary folder is the working directory, its ``outputs/`` the runs and the
 MLflow store), every task and subcommand driven with the inputs the pages give: the README, getting
 started, the own-robot tutorial (example-robot-data's UR5 as "my arm", no SRDF), the logs tutorial,
-the sweep tutorial, and, for the tasks those pages only name, the how-to pages' commands. Each
+the sweep tutorial, and, for the tasks those pages only name, the how-to pages' commands (a log with
+columns of its own read through a prefix column map, known logs that a motion is designed around). Each
 command runs as a reader types it (``.venv/bin/…`` is the running environment's, ``make run
 ARGS="…"`` its ``lwrlab …``, nothing on ``PATH`` but the system's); where a page's command would run
 long, overrides shrink its durations or its sweep (``shrink``), never its inputs. The sweep
@@ -72,6 +73,14 @@ def _current_logs(root: Path) -> None:
         for j, gain in enumerate(GAINS, start=1):
             log[f"current{j}"] = log.pop(f"tau{j}") / gain
         log.to_csv(root / target, index=False)
+
+
+def _prefixed_log(root: Path) -> None:
+    """The reader's log with columns of their own: ``time, pos_1…, eff_1…`` (the simulated log's)."""
+    log = pd.read_csv(root / "outputs" / "example_logs" / "identification.csv")
+    joints = range(1, len(GAINS) + 1)
+    names = {"t": "time"} | {f"q{j}": f"pos_{j}" for j in joints} | {f"tau{j}": f"eff_{j}" for j in joints}
+    log.rename(columns=names).to_csv(root / "outputs" / "my_log.csv", index=False)
 
 
 SHORT_MOTIONS = ("validation.duration=4",)
@@ -172,6 +181,17 @@ STEPS = (
         ".venv/bin/lwrlab task=identification plant=log "
         '"data.paths=[outputs/example_logs/identification.csv]" '
         '"data.validation_paths=[outputs/example_logs/validation.csv]"',
+    ),
+    Step(
+        "reference/log-formats.md",
+        '.venv/bin/lwrlab task=identification plant=log "data.paths=[outputs/my_log.csv]" '
+        "'data.column_map={t: time, q: pos_, tau: eff_}'",
+        prepare=_prefixed_log,
+    ),
+    Step(
+        "tutorials/next-motion.md",
+        ".venv/bin/lwrlab task=excitation task.known_logs=[outputs/example_logs/identification.csv]",
+        ("trajectory.duration=3", "optimizer.max_iterations=40"),
     ),
     # a sweep compared in MLflow
     Step(
@@ -330,7 +350,7 @@ class Newcomer:
             done.returncode == 1 and len(user_lines) == 1 and step.fails_with in user_lines[0]
         ):
             problems.append(f"exit {done.returncode}, not one `lwrlab:` line naming {step.fails_with!r}")
-        if done.returncode != 0 and len(user_lines) != 1:
+        if done.returncode != 0 and (len(user_lines) != 1 or "HYDRA_FULL_ERROR" in done.stderr):
             problems.append("a failure that is not one `lwrlab:` line")
         if problems:
             problems.append(f"output:\n{output[-3000:]}")

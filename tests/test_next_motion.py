@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from composing import CONF
 from omegaconf import OmegaConf
 from test_criteria import central_difference_gradient, regressor_like
@@ -242,6 +243,16 @@ def test_an_identified_model_keeps_its_covariance_and_noise(tmp_path: Path, rng:
     assert (
         load_identified_model(save_identified_model(bare, {}, tmp_path / "n.yaml"))[0].base_covariance is None
     )
+
+
+def test_an_identified_model_says_which_parameters_the_prior_gave(tmp_path: Path) -> None:
+    model = IdentifiedModel(
+        ("a", "b"), np.ones(2), np.ones(2), ("x",), np.zeros(1), prior_share=np.array([0.9, 0.1])
+    )
+    path = save_identified_model(model, {}, tmp_path / "m.yaml")
+    saved = yaml.safe_load(path.read_text())["base_parameters"]
+    assert saved["a"]["from"] == "prior" and saved["b"]["from"] == "data"
+    np.testing.assert_array_equal(load_identified_model(path)[0].prior_share, model.prior_share)
 
 
 def test_a_model_gives_back_its_own_std(lwr4, rng) -> None:

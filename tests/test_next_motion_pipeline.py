@@ -130,8 +130,8 @@ def test_known_logs_are_read_like_plant_log_and_their_noise_comes_from_their_res
     dq = np.gradient(q, t, axis=0)
     measurement = plant.measure(Trajectory(t, q, dq, np.gradient(dq, t, axis=0)))
     log = write_log(measurement, tmp_path / "swing.csv")
-    with pytest.raises(ConfigError, match="plant=log"):
-        run_excitation(excitation, tmp_path / "a", known_logs=[str(log)])
+    # the known logs imply reading logs: without plant=log, its reader's defaults
+    implied = run_excitation(excitation, tmp_path / "a", known_logs=[str(log)])
     cfg = compose_config(
         "task=excitation", *QUICK, f"task.known_logs=[{log}]", "plant=log", f"data.paths=[{log}]"
     )
@@ -140,6 +140,8 @@ def test_known_logs_are_read_like_plant_log_and_their_noise_comes_from_their_res
     assert "Known before this motion: logs swing" in report
     assert "the residual of a least-squares fit of the known logs" in report
     assert metrics["poorly_known_after"] < metrics["poorly_known_before"]
+    assert "Known before this motion: logs swing" in (tmp_path / "a" / "excitation_report.md").read_text()
+    assert implied["poorly_known_after"] < implied["poorly_known_before"]
 
 
 def test_a_model_of_another_robot_is_refused(tmp_path: Path, excitation: DictConfig) -> None:
@@ -214,3 +216,19 @@ def test_the_identification_says_which_motion_would_help_next(lwr4) -> None:
         report = identify(lwr4, motion, validation, plant, build("estimator", "wls"))
         (note,) = [line for line in report.notes if line.lower().startswith("next motion")]
         assert note.startswith(expected) and "task=excitation task.known_model=" in note
+
+
+def test_a_parameter_given_by_the_prior_is_not_called_well_known(lwr4) -> None:
+    """A small σ from the prior is not knowledge from the data: the note names those parameters."""
+    from lwrlab.dynamics.base_parameters import compute_base_parameters
+    from lwrlab.pipeline.identification.next_motion import next_motion_note
+
+    base = compute_base_parameters(lwr4)
+    tiny = np.full(base.count, 1e-9)  # every σ far below what moves the torque
+    assert next_motion_note(lwr4, base, tiny).startswith("next motion: every base parameter is well known")
+    share = np.zeros(base.count)
+    share[[0, 3]] = 0.9
+    note = next_motion_note(lwr4, base, tiny, share)
+    assert note.startswith(f"NEXT MOTION: 2 of {base.count} base parameters are not determined by the data")
+    listed = note.split("the motion barely excites them): ", 1)[1].split("; a motion designed", 1)[0]
+    assert set(listed.split(", ")) == {base.names[0], base.names[3]}

@@ -120,7 +120,13 @@ def test_payload_from_noisy_logs_is_within_1_percent_and_2_mm_and_recognised(
     assert np.linalg.norm(com - roller.center_of_mass) < 0.002 and metrics["com_error_mm"] < 2.0
     assert metrics["recognised_large_roller"] == 1.0 and metrics["recognised_correct"] == 1.0
     document = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())
-    assert document["recognised"]["tool"] == "large_roller" and document["method"] == "joint"
+    # a rigid body by default, and the logs' word on each of the URDF's values
+    assert document["method"] == "joint+consistent" and document["physically_consistent"] is True
+    assert document["recognised"]["tool"] == "large_roller"
+    determined = document["determined_by_the_logs"]
+    assert determined["mass"]["determined"] == "well"
+    assert 0 < determined["mass"]["std"] < 0.01 * roller.mass  # σ within the 1 % the mass is held to
+    assert determined["com_z"]["value"] == pytest.approx(com[2])
     assert document["mass"] == pytest.approx(metrics["mass"]) and list(document["parameters"]) == [
         "M",
         "MSX",
@@ -169,7 +175,7 @@ def test_noiseless_payload_is_exact(tmp_path: Path, log_robot: RobotModel, metho
         overrides.append(f"task.unloaded_model={tmp_path}")  # the run folder is enough
     metrics = _run(overrides, tmp_path / "run")
     document = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())
-    assert document["method"] == method
+    assert document["method"] == f"{method}+consistent"  # a rigid body by default
     phi = np.array(list(document["parameters"].values()))
     scale = np.where(roller.parameters != 0, np.abs(roller.parameters), np.abs(roller.parameters[4:7]).max())
     assert np.max(np.abs(phi - roller.parameters) / scale) < 1e-6
@@ -380,3 +386,74 @@ def test_drive_gains_of_a_robot_measured_at_its_motors_are_its_torque_constants(
     np.testing.assert_allclose(document["drive_gains"], constants, rtol=1e-6)
     assert document["override"].startswith("robot.drive.torque_constants=[")
     assert "at the motor" in document["units"]
+
+
+# --- a model read whole, with the robot settings the command gives ----------------------------------
+
+
+def _ur5_arm() -> list[str]:
+    """example-robot-data's UR5 as a user's URDF arm: no flange frame in its description."""
+    from test_own_robot_motion import example_robots
+
+    return ["robot=urdf", f"robot.path={example_robots() / 'ur_description' / 'urdf' / 'ur5_robot.urdf'}"]
+
+
+def _run_command(overrides: list[str], output_dir: Path) -> dict[str, float]:
+    """:func:`_run` with the command's overrides kept (``hydra.overrides.task``), as ``lwrlab`` has them."""
+    cfg = compose_config(*overrides, hydra_node=True)
+    return instantiate(cfg.task)(cfg, output_dir)
+
+
+@pytest.mark.slow
+def test_payload_by_a_model_takes_the_flange_frame_the_command_gives(tmp_path: Path) -> None:
+    """The UR5 identified without a flange; the payload command names its flange frame
+    (``robot.flange_frame=tool0``): the model's robot takes it, the 2.8 kg payload on noisy logs comes
+    out within 3 % as a rigid body; without the flag, or with a setting the model contradicts, one line
+    names the setting."""
+    arm = _ur5_arm()
+    with_flange = instantiate(compose_config(*arm, "robot.flange_frame=tool0", "plant=log").robot)
+    payload = standard_parameters(2.805, np.array([0.01, -0.02, 0.06]), np.diag([0.006, 0.005, 0.003]))
+    unloaded, (loaded,), _ = _simulate(with_flange, payload, 4.0, noisy=True)
+    identified = tmp_path / "identified"
+    _run(
+        [
+            "task=identification",
+            "plant=log",
+            *arm,
+            "estimator=ols",
+            "friction=sign",
+            f"data.paths={_logs([write_log(unloaded, tmp_path / 'unloaded.csv')])}",
+        ],
+        identified,
+    )
+    assert yaml.safe_load((identified / "identified_model.yaml").read_text())["robot"]["flange_frame"] is None
+    command = [
+        "task=payload",
+        "plant=log",
+        *arm,
+        f"task.unloaded_model={identified}",
+        f"task.loaded_paths={_logs([write_log(loaded, tmp_path / 'loaded.csv')])}",
+    ]
+    metrics = _run_command([*command, "robot.flange_frame=tool0"], tmp_path / "run")
+
+    assert abs(metrics["mass"] / 2.805 - 1) < 0.03
+    document = yaml.safe_load((tmp_path / "run" / "payload.yaml").read_text())
+    assert document["physically_consistent"] is True and "urdf_projected" not in document
+    inertial = ET.fromstring((tmp_path / "run" / "payload_inertial.urdf.xml").read_text())
+    values = {k: float(v) for k, v in inertial.find("inertia").attrib.items()}
+    inertia = np.array(
+        [
+            [values["ixx"], values["ixy"], values["ixz"]],
+            [values["ixy"], values["iyy"], values["iyz"]],
+            [values["ixz"], values["iyz"], values["izz"]],
+        ]
+    )
+    principal = np.linalg.eigvalsh(inertia)
+    assert principal[0] > 0 and principal[2] <= principal[0] + principal[1]  # a body a simulator takes
+    saved = yaml.safe_load((tmp_path / "run" / "payload_robot.yaml").read_text())
+    assert saved["flange_frame"] == "tool0"  # the payload's model carries the flange it was given
+
+    with pytest.raises(ValueError, match=r"no 'flange' frame.*robot\.flange_frame"):
+        _run_command(command, tmp_path / "without")
+    with pytest.raises(ValueError, match=r"task\.unloaded_model=.*robot\.gravity=.*conflicts with the model"):
+        _run_command([*command, "robot.flange_frame=tool0", "robot.gravity=[0,0,-9.7]"], tmp_path / "other")

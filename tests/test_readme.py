@@ -198,7 +198,7 @@ def _write_readme_files(root: Path) -> None:
     ``root``."""
     text = documents_text()
     for body in re.findall(r"```(?:python|yaml)\n(.*?)```", text, flags=re.S):
-        match = re.match(r"# (?:~/my_lab/)?((?:conf|plugins)/\S+|\w+\.py)\n", body)
+        match = re.match(r"# (?:~/my_lab/)?((?:conf|plugins)/\S+|(?:outputs/)?\w+\.py)\n", body)
         if match:
             path = root / match.group(1)
             path.parent.mkdir(parents=True, exist_ok=True)

@@ -10,6 +10,7 @@ import pytest
 
 from lwrlab.dynamics.base_parameters import BaseParameters
 from lwrlab.errors import ConfigError
+from lwrlab.identification.state_cutoff import StateCutoffChoice
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.planned_motions import PointToPoint
 from lwrlab.signal.noise_limit import noise_limited_cutoff
@@ -150,3 +151,12 @@ def test_predictions_take_the_factor_whose_states_serve_the_model_best(
         assert choice.factor <= 1.5
     fixed = {"state_cutoff_hz": 10.0}
     assert choose_state_factor(log.robot, log.base, phi, [logged], [data], fixed) is None
+
+
+def test_the_line_prints_the_cut_off_applied_not_the_factor_times_the_rows() -> None:
+    """1 × a 12.6 Hz rows' cut-off held at 4.67 Hz by the positions' noise: 4.67 Hz is printed, and why."""
+    line = StateCutoffChoice(1.0, {1.0: 0.0037}, (4.67,), (12.6,)).describe()
+    assert line.startswith(
+        "states for predictions: q at 4.67 Hz on the fit logs (1 × the rows' cut-off 12.6 Hz"
+    )
+    assert "held by the positions' noise" in line and "every factor tried gives these cut-offs" in line

@@ -3,8 +3,9 @@
 ``docs/tutorial_outputs.py --check``, one page at a time: the page's commands run in order in a new
 folder holding the repository's tracked files and its ``.venv`` (no ``outputs/``, no ``../shared``, a
 new home), and every line each output block shows must be printed again, in order, its numbers within
-5 % (durations excepted), and every metric the runs logged must be in the metric catalogue (the
-manual's metric reference). A page whose commands changed what they print is rewritten by
+5 % (durations excepted), every metric the runs logged must be in the metric catalogue (the
+manual's metric reference), and nothing is left at the clone's root (scratch files go under
+``outputs/``). A page whose commands changed what they print is rewritten by
 ``.venv/bin/python docs/tutorial_outputs.py <page>``. Slow: about three minutes for all on two cores.
 """
 
@@ -41,6 +42,12 @@ def test_a_lesson_prints_what_its_page_shows(page: Path, tmp_path: Path) -> None
         f"metric {name} is not in lwrlab.tracking.job_config.metric_catalogue"
         for name in sorted(logged)
         if describe(name) is None
+    ]
+    # a lesson's scratch files go under outputs/ (git ignores it): the clone's root stays as cloned
+    problems += [
+        f"{entry.name} left at the clone's root (write scratch files under outputs/)"
+        for entry in sorted(run.clone.iterdir())
+        if not entry.is_symlink() and entry.name != "outputs"
     ]
     assert problems == [], (
         f"{page.name} differs from a new run (rewrite it: docs/tutorial_outputs.py {page.stem}):\n"

@@ -41,12 +41,13 @@ class SimulatedPlantSettings(Instantiable):
 class LogReaderSettings:
     """How recorded logs are found and read (:mod:`lwrlab.io.logs`)."""
 
-    path: str | None
-    """Identification log (.csv, .parquet, .npz, or a ROS 2 bag folder) …"""
+    path: Any
+    """Identification log (.csv, .parquet, .npz, or a ROS 2 bag folder) … Untyped, so that a list given
+    here is refused by the checks with the key for several logs (``data.paths``), not by OmegaConf."""
     paths: list[str] | None
     """… or several, processed one by one and stacked after processing."""
-    validation_path: str | None
-    """Validation log …"""
+    validation_path: Any
+    """Validation log … (untyped, as ``path``)"""
     validation_paths: list[str] | None
     """… or several, each scored on its own."""
     validation_fraction: float

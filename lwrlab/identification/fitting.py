@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -158,5 +159,12 @@ def fit(
         standard,
         base_covariance=None if covariance is None else np.array(covariance, dtype=float),
         noise_density=None if covariance is None else rows.statistics.noise_density(estimator.phi_, rate),
+        prior_share=_prior_share(estimator),
     )
     return Fit(context, identified, standard, cpu_s)
+
+
+def _prior_share(estimator: Any) -> np.ndarray | None:
+    """The estimator's ``prior_share_`` as a copy (None: it fitted without a prior)."""
+    share = getattr(estimator, "prior_share_", None)
+    return None if share is None else np.array(share, dtype=float)

@@ -35,6 +35,9 @@ class IdentifiedModel:
     identification measured or stated it (:mod:`lwrlab.identification.friction_drift`; None: not saved)."""
     friction_drift_source: str | None = None
     """Where ρ comes from: ``logs`` (measured between several logs), ``prior`` (one log) or ``set``."""
+    prior_share: np.ndarray | None = None
+    """(N_B,) share of each base parameter's estimate that came from the prior, not the data
+    (:func:`lwrlab.identification.prior_weight.prior_share`; None: fitted without a prior)."""
 
     @property
     def base_relative_std(self) -> np.ndarray:

@@ -14,16 +14,17 @@ from lwrlab.identification.extrapolation import ExtrapolationReport, validation_
 from lwrlab.identification.friction_choice import FrictionChoice
 from lwrlab.identification.identifiability import IdentifiabilityReport, format_prior_note
 from lwrlab.identification.measuring import Measured
-from lwrlab.identification.prior_weight import prior_doubts
+from lwrlab.identification.prior_weight import prior_doubts, prior_given
 from lwrlab.model.robot import RobotModel
 from lwrlab.signal.processing import ProcessedData
 
 
-def _prior_note(names: tuple[str, ...] | list[str], share: np.ndarray | None, threshold: float = 0.5) -> str:
+def _prior_note(names: tuple[str, ...] | list[str], share: np.ndarray | None) -> str:
     """A line naming the base parameters whose estimate came mostly from the prior ('' if none)."""
-    if share is None:
+    given = prior_given(share)
+    if share is None or given is None:
         return ""
-    leaning = [f"{name} ({100 * s:.0f} %)" for name, s in zip(names, share, strict=True) if s > threshold]
+    leaning = [f"{name} ({100 * s:.0f} %)" for name, s, g in zip(names, share, given, strict=True) if g]
     if not leaning:
         return ""
     return (
@@ -75,7 +76,9 @@ def notes(
         extrapolation.warning_text(),
         validation_warning(metrics["fit_rel_error"], metrics["validation_rel_error"], causes),
     ]
-    if not identifiability.ok and has_prior:
+    if not identifiability.ok and has_prior and prior_share is None:
+        # the weak directions' reading of the prior; an estimator that measures its prior's share
+        # says it below instead, by one measure (the one NEXT MOTION and the model's metadata use)
         lines.append(format_prior_note(identifiability))
     lines.append(_prior_note(base.names, prior_share))
     doubts = prior_doubts(robot.parameters, robot.n_links) if has_prior else []

@@ -92,6 +92,17 @@ def posterior_covariance(
     return sigma2 * regrouping @ np.linalg.pinv(information, hermitian=True) @ regrouping.T
 
 
+PRIOR_DOMINATED_SHARE = 0.5
+"""Share of its estimate from the prior above which a base parameter is given by the prior, not
+determined by the data (:func:`prior_share`): the summary's note, the next-motion note and the model's
+metadata (``from: prior``) all say so by this one threshold."""
+
+
+def prior_given(share: np.ndarray | None) -> np.ndarray | None:
+    """(N_B,) bool: the base parameters whose estimate came mostly from the prior (None: no prior)."""
+    return None if share is None else np.asarray(share, dtype=float) > PRIOR_DOMINATED_SHARE
+
+
 def prior_share(unit_covariance: np.ndarray, gram: np.ndarray) -> np.ndarray:
     """(N_B,) share of each base parameter's estimate that comes from the prior (0 = all from the data).
 

@@ -18,10 +18,11 @@ spread over its trimmed span), so it costs a fraction of the fit whatever the lo
 
 Examples
 --------
->>> choice = StateCutoffChoice(2.0, {1.0: 0.012, 2.0: 0.010, 3.0: 0.011}, (11.8, 7.1))
+>>> choice = StateCutoffChoice(2.0, {1.0: 0.012, 2.0: 0.010, 3.0: 0.011}, (11.8, 7.1), (5.9, 4.2))
 >>> print(choice.describe())  # doctest: +NORMALIZE_WHITESPACE
-states for predictions: positions low-passed at 2 × the rows' cut-off (11.8, 7.1 Hz on the fit logs),
-the factor whose predictions best match the fit logs' raw torques (1: 1.2 %, 2: 1 %, 3: 1.1 %)
+states for predictions: q at 11.8, 7.1 Hz on the fit logs (2 × the rows' cut-off 5.9, 4.2 Hz, held
+by the positions' noise or a fifth of the rate where lower), the factor whose predictions best match
+the fit logs' raw torques (1: 1.2 %, 2: 1 %, 3: 1.1 %)
 """
 
 from __future__ import annotations
@@ -59,20 +60,33 @@ class StateCutoffChoice:
     errors: dict[float, float]
     """Per factor tried, ‖τ − τ̂‖/‖τ‖ over the fit logs' compared samples (raw torques)."""
     cutoffs: tuple[float, ...]
-    """The states' cut-off (Hz) the chosen factor gives each fit log."""
+    """The states' cut-off (Hz) the chosen factor gives each fit log: what its predictions apply."""
+    row_cutoffs: tuple[float, ...]
+    """Each fit log's rows' cut-off (Hz), which the factor multiplies."""
 
     def processing(self, settings: dict[str, Any]) -> dict[str, Any]:
         """``settings`` (keywords of :func:`lwrlab.signal.processing.process`) with the chosen factor."""
         return {**settings, "state_factor": self.factor}
 
     def describe(self) -> str:
-        """One line: the factor, the cut-offs it gives the fit logs, and the errors it was chosen by."""
+        """One line: the cut-offs the predictions apply on the fit logs (those the prediction table
+        prints), the factor of the rows' cut-off they come from, and the errors it was chosen by."""
         cutoffs = ", ".join(f"{c:.3g}" for c in self.cutoffs)
+        rows = ", ".join(f"{c:.3g}" for c in self.row_cutoffs)
+        held = any(
+            c < self.factor * r * (1 - 1e-9) for c, r in zip(self.cutoffs, self.row_cutoffs, strict=True)
+        )
         errors = ", ".join(f"{k:g}: {100 * e:.2g} %" for k, e in self.errors.items())
+        chosen = (
+            "the factor whose predictions best match the fit logs' raw torques"
+            if len(self.errors) > 1
+            else "every factor tried gives these cut-offs"
+        )
         return (
-            f"states for predictions: positions low-passed at {self.factor:g} × the rows' cut-off "
-            f"({cutoffs} Hz on the fit logs), the factor whose predictions best match the fit logs' raw "
-            f"torques ({errors})"
+            f"states for predictions: q at {cutoffs} Hz on the fit logs ({self.factor:g} × the rows' cut-off "
+            f"{rows} Hz"
+            + (", held by the positions' noise or a fifth of the rate where lower" if held else "")
+            + f"), {chosen} ({errors})"
         )
 
 
@@ -176,7 +190,8 @@ def choose_state_factor(
     if not errors:
         return None
     best = min(errors, key=lambda factor: errors[factor])
-    return StateCutoffChoice(best, errors, cutoffs[best])
+    rows = tuple(float(d.cutoff_hz or 0.0) for d in processed)
+    return StateCutoffChoice(best, errors, cutoffs[best], rows)
 
 
 def _as_fitted(processing: dict[str, Any], data: ProcessedData, factor: float) -> dict[str, Any]:

@@ -93,6 +93,17 @@ _ModelDumper.add_representer(
 )
 
 
+def _source(model: IdentifiedModel, index: int) -> dict[str, Any]:
+    """Where base parameter ``index`` comes from, for a model fitted with a prior: ``from`` (``data`` or
+    ``prior``, :data:`~lwrlab.identification.prior_weight.PRIOR_DOMINATED_SHARE`) and ``prior_share``."""
+    if model.prior_share is None:
+        return {}
+    from lwrlab.identification.prior_weight import PRIOR_DOMINATED_SHARE
+
+    share = float(model.prior_share[index])
+    return {"from": "prior" if share > PRIOR_DOMINATED_SHARE else "data", "prior_share": share}
+
+
 def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], path: Path) -> Path:
     """Write an identified model as YAML, with the robot description it refines (to rebuild it), and,
     when the model has them, its base parameters' covariance and the noise it was fitted with (key
@@ -101,8 +112,10 @@ def save_identified_model(model: IdentifiedModel, robot_config: dict[str, Any], 
     document = {
         "robot": robot_config,
         "base_parameters": {
-            name: {"value": float(v), "std": float(s)}
-            for name, v, s in zip(model.base_names, model.base_values, model.base_std, strict=True)
+            name: {"value": float(v), "std": float(s), **_source(model, i)}
+            for i, (name, v, s) in enumerate(
+                zip(model.base_names, model.base_values, model.base_std, strict=True)
+            )
         },
         "standard_parameters": {
             name: float(v) for name, v in zip(model.standard_names, model.standard_values, strict=True)
@@ -143,5 +156,10 @@ def load_identified_model(path: Path) -> tuple[IdentifiedModel, dict[str, Any]]:
         noise_density=np.array(information["noise_density"], dtype=float) if information else None,
         friction_drift=float(drift["value"]) if drift else None,
         friction_drift_source=str(drift.get("source")) if drift else None,
+        prior_share=(
+            np.array([entry["prior_share"] for entry in base.values()], dtype=float)
+            if all("prior_share" in entry for entry in base.values()) and base
+            else None
+        ),
     )
     return model, document["robot"]

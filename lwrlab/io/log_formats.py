@@ -85,15 +85,41 @@ def _parquet_table(path: Path) -> LogTable:
     return LogTable(names, parquet.metadata.num_rows, dtypes[names], read)
 
 
-def _csv_table(path: Path, wanted: set[str]) -> LogTable:
+def per_joint_mapping(mapping: Mapping[str, str], columns: Sequence[str], n_joints: int) -> dict[str, str]:
+    """``mapping`` with each block it maps (``q``, ``dq``, ``tau``, ``current``) read as the prefix of
+    per-joint columns: ``{q: pos_}`` maps ``q1…qN`` to ``pos_1…pos_N``, or to ``pos_0…pos_{N-1}``
+    where the file numbers its joints from 0. A per-joint entry (``q1: angle_a``) wins over its block's.
+
+    Examples
+    --------
+    >>> per_joint_mapping({"q": "pos_", "t": "time"}, ["time", "pos_0", "pos_1"], 2)
+    {'t': 'time', 'q1': 'pos_0', 'q2': 'pos_1'}
+    """
+    expanded = {key: value for key, value in mapping.items() if key not in _BLOCKS}
+    present = set(columns)
+    for block in _BLOCKS:
+        prefix = mapping.get(block)
+        if prefix is None:
+            continue
+        from_zero = [f"{prefix}{j}" for j in range(n_joints)]
+        first = 0 if present.issuperset(from_zero) and f"{prefix}{n_joints}" not in present else 1
+        for j in range(n_joints):
+            expanded.setdefault(f"{block}{j + 1}", f"{prefix}{j + first}")
+    return expanded
+
+
+def _csv_header(path: Path) -> list[str]:
+    try:
+        return list(pd.read_csv(path, nrows=0).columns)
+    except pd.errors.EmptyDataError as error:
+        raise LogError(f"{path}: empty file, no header row and no samples") from error
+
+
+def _csv_table(path: Path, wanted: set[str], header: list[str]) -> LogTable:
     """A CSV file's columns that the schema (or ``column_map``) names, parsed in C.
 
     A column with a cell that is no number stays text; its reader reports the cell.
     """
-    try:
-        header = list(pd.read_csv(path, nrows=0).columns)
-    except pd.errors.EmptyDataError as error:
-        raise LogError(f"{path}: empty file, no header row and no samples") from error
     used = [c for c in header if c in wanted] or header[:1]  # one column at least: the row count
     frame = pd.read_csv(path, keep_default_na=False, usecols=used)
     return LogTable.of_frame(frame, header)
@@ -133,6 +159,9 @@ def _npz_table(path: Path, mapping: dict[str, str], n_joints: int) -> tuple[LogT
     for key, array in arrays.items():  # per-joint 1-D arrays named by the schema (q1, …) or the map
         if array.ndim == 1 and key not in columns:
             columns[key] = array
+    prefixes = {b: mapping[b] for b in _BLOCKS if b in mapping and mapping[b] not in arrays}
+    for schema, key in per_joint_mapping(prefixes, list(arrays), n_joints).items():
+        names.setdefault(schema, key)  # a block's prefix: its per-joint 1-D arrays (pos_1, …)
     lengths = {key: len(value) for key, value in columns.items()}
     if len(set(lengths.values())) > 1:
         raise LogError(f"{path}: arrays of different lengths {lengths}")
@@ -179,8 +208,11 @@ def read_frame(
     if suffix == ".npz":
         return _npz_table(path, mapping, n_joints)
     if suffix in (".parquet", ".pq"):
-        return _parquet_table(path), mapping
+        table = _parquet_table(path)
+        return table, per_joint_mapping(mapping, list(table.columns), n_joints)
     if suffix in (".csv", ".txt"):
+        header = _csv_header(path)
+        mapping = per_joint_mapping(mapping, header, n_joints)
         schema = ["t", *(f"{block}{j + 1}" for block in _BLOCKS for j in range(n_joints))]
-        return _csv_table(path, {mapping.get(c, c) for c in schema}), mapping
+        return _csv_table(path, {mapping.get(c, c) for c in schema}, header), mapping
     raise LogError(f"{path}: unknown log format {path.suffix!r}; formats: {', '.join(FORMATS)}")

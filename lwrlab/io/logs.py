@@ -39,7 +39,9 @@ zero (``position_offsets``: ``q₀``), count in counts (``encoder_counts``) or w
 motor, and continuous joints) are read as :mod:`lwrlab.io.encoder_angles` says.
 
 Other columns are ignored. A log whose columns are named differently is read with
-``column_map`` (schema name → name in the file), e.g. ``{"t": "timestamp", "q1": "pos_0"}``.
+``column_map`` (schema name → name in the file), e.g. ``{"t": "timestamp", "q1": "pos_0"}``; a block
+(``q``, ``dq``, ``tau``, ``current``) maps the prefix of its per-joint columns, in every format:
+``{"q": "pos_", "tau": "eff_"}`` reads ``pos_1…`` (or ``pos_0…`` where the file counts from 0).
 
 Validation: a missing column, a non-numeric or non-finite (NaN, inf) value, too few samples,
 non-increasing time, or a gap in time larger than ``max_gap`` sampling periods raises
@@ -144,8 +146,13 @@ class RecordedLog:
 
 def _numeric_column(frame: LogTable, name: str, schema_name: str, path: Path) -> np.ndarray:
     if name not in frame.columns:
-        mapped = f" (schema column {schema_name!r}, mapped by column_map)" if name != schema_name else ""
-        raise LogError(f"{path}: missing column {name!r}{mapped}; the file has {list(frame.columns)}")
+        mapped = f" (schema column {schema_name!r}, mapped by data.column_map)" if name != schema_name else ""
+        block = schema_name.rstrip("0123456789")
+        raise LogError(
+            f"{path}: missing column {name!r}{mapped}; the file has {list(frame.columns)}: name the file's "
+            f"columns with data.column_map, e.g. '{{{schema_name}: <column>}}' or a prefix for every joint "
+            f"'{{{block}: <prefix>}}'"
+        )
     raw = frame[name]
     if pd.api.types.is_numeric_dtype(raw):
         values = raw.to_numpy(dtype=float)

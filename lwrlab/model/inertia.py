@@ -115,6 +115,38 @@ def is_physically_consistent(phi: np.ndarray, tol: float = 1e-12) -> bool:
     return min_pseudo_inertia_eigenvalue(phi) >= -tol * max(1.0, abs(float(phi[0])))
 
 
+RIGID_BODY_FLOOR = 1e-9
+"""Smallest eigenvalue :func:`nearest_rigid_body` leaves the pseudo-inertia, relative to its largest:
+strictly positive, so the body has a positive mass and an inertia about its centre of mass that is
+positive definite and meets the triangle inequalities strictly."""
+
+
+def nearest_rigid_body(phi: np.ndarray, relative_floor: float = RIGID_BODY_FLOOR) -> np.ndarray:
+    """The rigid body nearest ``phi``: its pseudo-inertia ``J`` with every eigenvalue raised to at least
+    ``relative_floor`` × the largest (the nearest such matrix in the Frobenius norm of ``J``, units
+    kg, kg·m, kg·m² as they come). ``phi`` itself where it already is one.
+
+    Examples
+    --------
+    >>> impossible = standard_parameters(2.0, np.zeros(3), np.diag([-0.03, -0.04, -0.007]))
+    >>> body = nearest_rigid_body(impossible)
+    >>> bool(is_physically_consistent(impossible)), bool(is_physically_consistent(body))
+    (False, True)
+    """
+    phi = np.asarray(phi, dtype=float)
+    values, vectors = np.linalg.eigh(pseudo_inertia(phi))
+    floor = relative_floor * max(float(values[-1]), 0.0)
+    if floor > 0 and values[0] >= floor:
+        return phi
+    if values[-1] <= 0:
+        raise ValueError(
+            "no rigid body is near these inertial parameters: their pseudo-inertia has no positive "
+            f"eigenvalue (mass {phi[0]:.3g} kg)"
+        )
+    clipped = (vectors * np.maximum(values, floor)) @ vectors.T
+    return from_pseudo_inertia(0.5 * (clipped + clipped.T))
+
+
 def random_consistent_parameters(
     rng: np.random.Generator, scale_m: float = 0.2, mass_kg: float = 2.0
 ) -> np.ndarray:

@@ -48,6 +48,10 @@ _SCHEMA_COLUMN = re.compile(r"^(t|(q|dq|tau|current)([1-9][0-9]*)?)$")
 """A name of the log schema (:mod:`lwrlab.io.logs`): what ``data.column_map`` maps from."""
 
 
+def _one_path(value: Any) -> bool:
+    return value is None or isinstance(value, str)
+
+
 def _number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -205,6 +209,12 @@ RULES: tuple[Rule, ...] = (
     positive("measurement.processing.rate_hz", nullable=True),
     one_of("measurement.processing.velocity", *VELOCITY_SOURCES),
     # plant=log
+    rule("data.path", _one_path, "one log (a path) or null; several logs go in data.paths=[a.csv, b.csv]"),
+    rule(
+        "data.validation_path",
+        _one_path,
+        "one log (a path) or null; several logs go in data.validation_paths=[a.csv, b.csv]",
+    ),
     fraction("data.validation_fraction"),
     one_of("data.time_unit", "s", "ms", "us", "ns"),
     one_of("data.position_unit", "rad", "deg"),
@@ -219,8 +229,8 @@ RULES: tuple[Rule, ...] = (
     rule(
         "data.column_map",
         lambda v: v is None or (isinstance(v, dict) and all(_SCHEMA_COLUMN.match(str(k)) for k in v)),
-        "null or a mapping whose keys are schema names: t, q, dq, tau, current (npz arrays) or "
-        "q1…qN, dq1…dqN, tau1…tauN, current1…currentN",
+        "null or a mapping whose keys are schema names: t, q1…qN, dq1…dqN, tau1…tauN, current1…currentN, "
+        "or a block q, dq, tau, current (an npz array, or the prefix of per-joint columns: {q: pos_})",
     ),
     # statistics
     integer_at_least("statistics.resamples", 0),

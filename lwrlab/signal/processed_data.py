@@ -271,7 +271,7 @@ class ProcessedData:
             "no filter"
             if self.cutoff_hz is None
             else f"low-pass {self.cutoff_hz:.3g} Hz (order {self.order}) on τ and W, "
-            f"{self.state_cutoff_hz:.3g} Hz on q"
+            f"q at {self.state_cutoff_hz:.3g} Hz for them"
         )
         return (
             f"{cutoff}; {len(self.index)} rows at {self.rate_hz:.4g} Hz "

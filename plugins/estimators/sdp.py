@@ -79,6 +79,7 @@ from lwrlab.identification.least_squares import (
     set_learned_attributes_from_statistics,
 )
 from lwrlab.identification.prior_weight import (
+    PRIOR_DOMINATED_SHARE,
     information_scale,
     posterior_covariance,
     prior_share,
@@ -435,7 +436,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         if self.weight == "auto":
             self.diagnostics_ |= {
                 "prior_weight": self.weight_,
-                "prior_dominated_parameters": float(np.sum(self.prior_share_ > 0.5)),
+                "prior_dominated_parameters": float(np.sum(self.prior_share_ > PRIOR_DOMINATED_SHARE)),
                 "cv_rel_error": float(np.sqrt(self.cv_scores_.min() / torque_squares)),
             }
         return self

@@ -33,6 +33,7 @@ import numpy as np
 from lwrlab.errors import ConfigError, MissingFileError
 from lwrlab.identification.rigid_bodies import are_rigid_bodies, nearest_rigid_bodies
 from lwrlab.io.artifacts import identified_model_path, load_identified_model
+from lwrlab.model.command_settings import with_command_settings
 from lwrlab.model.robot import RobotModel
 
 log = logging.getLogger(__name__)
@@ -101,6 +102,7 @@ def load_identified_robot(
     build_robot: RobotBuilder,
     locate_model: ModelLocator | None,
     rigid_bodies: bool,
+    settings: Mapping[str, Any] | None,
 ) -> RobotModel:
     """The robot identified by an earlier run.
 
@@ -122,6 +124,9 @@ def load_identified_robot(
     rigid_bodies : replace a standard set that is not rigid bodies by the nearest rigid bodies (what a
         simulated plant, MuJoCo and a prior need); False: keep the set as identified, for a task that
         only predicts its torques (a monitor, an MLflow Model), which the base parameters decide.
+    settings : robot settings given beside the model (``robot.flange_frame=tool0``; a task reading a
+        model whole hands in its command's), taken or refused by
+        :func:`lwrlab.model.command_settings.with_command_settings` (None: the model's own).
 
     Examples
     --------
@@ -133,6 +138,7 @@ def load_identified_robot(
     ...     build_robot=hydra.utils.instantiate,
     ...     locate_model=None,
     ...     rigid_bodies=True,
+    ...     settings=None,
     ... )  # doctest: +SKIP
     """
     path = _locate(str(source).strip(), tracking_uri, locate_model)
@@ -152,7 +158,7 @@ def load_identified_robot(
             f"({' or '.join(p + '*' for p in _ALLOWED_LAW_PREFIX)})"
         )
     defaults = _KEYS_ADDED_SINCE.get(target.rsplit(".", 1)[-1], {})
-    description = {**defaults, **robot_config}
+    description = with_command_settings({**defaults, **robot_config}, settings, path)
     if friction_terms is not None:  # added to the model's own: a model is never stripped of a term
         own = list(description.get("friction_terms") or [])
         description["friction_terms"] = own + [term for term in friction_terms if term not in own]

@@ -1,7 +1,8 @@
 """What ``task=excitation`` knows already: the logs (``task.known_logs``) and model (``task.known_model``).
 
 The logs are read by the configured ``plant=log`` reader (its ``data.*`` options: columns, units, drive
-gains, ROS 2 topic) and processed with ``measurement.processing``; the model is any setting that
+gains, ROS 2 topic; without ``plant=log``, which the known logs imply, its defaults) and processed with
+``measurement.processing``; the model is any setting that
 names one (a file, a run folder, ``runs:/<run id>/model``, ``models:/<name>@<alias>``), read by
 :func:`~lwrlab.tracking.models.identified_model.read_identified_model`, the reader every task uses.
 Both become a :class:`~lwrlab.excitation.known_information.KnownInformation` in the design robot's base
@@ -80,7 +81,8 @@ def known_information(
         if len(known.noise_density) != robot.n_joints:
             raise ConfigError(f"task.known_model={known_model}: its noise density is not one per joint")
     if known_logs:
-        measurements = read_logs(cfg, robot, [str(p) for p in known_logs], "known")
+        # the known logs imply reading logs: plant=log's reader, its defaults without plant=log
+        measurements = read_logs(cfg, robot, [str(p) for p in known_logs], "known", implied=True)
         from_logs = measurement_information(
             robot,
             base,

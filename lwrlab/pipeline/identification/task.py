@@ -165,7 +165,7 @@ def identify(
             drift.describe(),
             *([] if states is None else [states.describe()]),
             *coverage_checks(measured, predictions),
-            next_motion_note(robot, base, fitting.identified.base_std),
+            next_motion_note(robot, base, fitting.identified.base_std, share),
         ],
         motion=measured.motion,
         validation_motion=measured.validation_motion,

@@ -49,7 +49,7 @@ from lwrlab.monitoring.estimates import (
     truth_as_estimated,
 )
 from lwrlab.monitoring.scoring import detectable_contacts, rms_error, score_detections
-from lwrlab.pipeline.config_nodes import tracking_uri
+from lwrlab.pipeline.config_nodes import command_robot_settings, tracking_uri
 from lwrlab.pipeline.tools.log_rows import read_logs
 from lwrlab.plants.core import Measurement
 from lwrlab.tracking.models.identified_model import ReadModel, read_identified_model
@@ -371,7 +371,11 @@ def run_monitor(
     )
     if not paths:
         raise ConfigError("task=monitor needs the log(s) to monitor: plant=log 'data.paths=[log.csv, …]'")
-    read = read_identified_model(model, tracking_uri(cfg), "task.model") if model else None
+    read = (
+        read_identified_model(model, tracking_uri(cfg), "task.model", command_robot_settings(cfg))
+        if model
+        else None
+    )
     monitor_robot = monitoring_robot(cfg, read)
     frame = frame or default_frame(monitor_robot)
     mapping, load_columns = _contact_mapping(monitor_robot, frame, point)

@@ -34,12 +34,25 @@ import yaml
 
 from lwrlab.errors import ConfigError
 from lwrlab.identification.core import relative_std
+from lwrlab.identification.inertial_uncertainty import (
+    URDF_VALUE_NAMES,
+    URDF_VALUE_UNITS,
+    determination,
+    urdf_value_relative_std,
+    urdf_value_std,
+    urdf_values,
+)
 from lwrlab.identification.payload import PayloadEstimate
 from lwrlab.io.artifacts import MODEL_INPUT_EXAMPLE_FILE
 from lwrlab.io.payload_model import PAYLOAD_FILE, PAYLOAD_PARAMETERS_FILE, write_robot_description
 from lwrlab.io.urdf_export import inertial_element
-from lwrlab.model.inertia import LINK_PARAMETER_NAMES, is_physically_consistent, mass_com_inertia
-from lwrlab.pipeline.config_nodes import processing_settings, tracking_uri
+from lwrlab.model.inertia import (
+    LINK_PARAMETER_NAMES,
+    is_physically_consistent,
+    mass_com_inertia,
+    nearest_rigid_body,
+)
+from lwrlab.pipeline.config_nodes import command_robot_settings, processing_settings, tracking_uri
 from lwrlab.pipeline.identification.task import robot_description, saved_robot_description
 from lwrlab.pipeline.tools.bench import METHODS, ToolBench, ToolData, identify_tool, identify_tool_given_robot
 from lwrlab.pipeline.tools.library import load_library, load_tool
@@ -88,17 +101,69 @@ def _payload_method(method: str | None, default: str) -> str:
     return chosen
 
 
-def inertial_snippet(phi_flange: np.ndarray) -> str:
+PROJECTED = (
+    "the identified parameters are not a rigid body (with task.consistent=false); the URDF carries the "
+    "nearest rigid body (pseudo-inertia eigenvalues raised to a positive floor, lwrlab.model.inertia."
+    "nearest_rigid_body)"
+)
+"""What the summary and the URDF say when the URDF's body is the identified one projected."""
+
+
+def urdf_body(phi_flange: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The payload a URDF may carry, and whether it differs from ``phi_flange``: the identified
+    parameters, or the rigid body nearest them (:func:`~lwrlab.model.inertia.nearest_rigid_body`: a
+    positive mass, an inertia about the centre of mass positive definite with the triangle
+    inequalities). A consistent fit's solution on its bound is moved off it by the solver's accuracy
+    only, which is not called a projection.
+
+    Raises
+    ------
+    ConfigError
+        When the logs give no positive mass at all (no rigid body is near).
+    """
+    phi = np.asarray(phi_flange, dtype=float)
+    try:
+        body = nearest_rigid_body(phi)
+    except ValueError as error:
+        raise ConfigError(
+            f"task=payload: {error}; the loaded logs show no payload (task.loaded_paths: the logs with it?)"
+        ) from error
+    return body, not is_physically_consistent(phi, tol=1e-6)
+
+
+def inertial_snippet(phi_flange: np.ndarray, projected: bool = False) -> str:
     """A URDF ``<inertial>`` element of a payload (flange frame), for a link whose frame is the flange.
 
     Origin at the centre of mass, axes of the flange; inertia about the centre of mass (kg·m²).
+    ``phi_flange`` must be a rigid body (:func:`urdf_body`); ``projected``: it is the identified
+    parameters projected onto one, which a comment says.
     """
+    if not is_physically_consistent(phi_flange):
+        raise ValueError("a URDF <inertial> is written for a rigid body only (see urdf_body)")
     inertial = inertial_element(np.asarray(phi_flange, dtype=float))
     ET.indent(inertial)
     text = ET.tostring(inertial, encoding="unicode")
-    if not is_physically_consistent(phi_flange):
-        text = "<!-- not a physically consistent rigid body: identify with task.consistent=true -->\n" + text
+    if projected:
+        text = f"<!-- {PROJECTED} -->\n" + text
     return "<!-- payload in the flange frame (lwrlab task=payload) -->\n" + text + "\n"
+
+
+def _determined(phi: np.ndarray, covariance: np.ndarray) -> dict[str, dict[str, Any]]:
+    """Per value of the URDF's ``<inertial>``: the value, its σ and %σ from the fit's covariance, and
+    how well the logs determine it."""
+    values = urdf_values(phi)
+    std = urdf_value_std(phi, covariance)
+    relative = urdf_value_relative_std(values, std)
+    return {
+        name: {
+            "value": float(v),
+            "std": float(s),
+            "relative_std_pct": float(r),
+            "unit": unit,
+            "determined": determination(float(r)),
+        }
+        for name, unit, v, s, r in zip(URDF_VALUE_NAMES, URDF_VALUE_UNITS, values, std, relative, strict=True)
+    }
 
 
 def payload_document(
@@ -128,7 +193,9 @@ def payload_document(
         "relative_std_pct": {
             name: float(s) for name, s in zip(LINK_PARAMETER_NAMES, relative_std(phi, std), strict=True)
         },
-        "physically_consistent": bool(is_physically_consistent(phi)),
+        "physically_consistent": bool(is_physically_consistent(phi, tol=1e-6)),
+        # the URDF's values, how well the logs determine each (σ of the least-squares fit)
+        "determined_by_the_logs": _determined(phi, estimate.covariance_flange),
         "cond": float(estimate.cond),
     }
     if recognition is not None:
@@ -161,8 +228,8 @@ def payload_robot_description(cfg: Any, model: ReadModel | None = None) -> dict[
     one ``model`` (the unloaded robot's identified model) refined, else the job's robot's; an
     identified robot's is the description its model refined (:func:`saved_robot_description`: the
     kinematics are the same; the payload's columns do not read the identified inertias)."""
-    if model is not None:
-        return saved_robot_description(model.description)
+    if model is not None:  # with the settings the command gave it (a flange frame, …)
+        return saved_robot_description(model.description) | model.robot_settings
     return robot_description(cfg)
 
 
@@ -240,6 +307,23 @@ def format_payload(document: dict[str, Any], truth: Tool | None = None) -> str:
                 f"recognised: {r['tool']} ({r['kind']}, confidence {r['confidence']:.3f}, {nearness}, "
                 f"length {r['geometry']['length']} m, width {r['geometry']['width']} m)"
             )
+    determined = document.get("determined_by_the_logs")
+    if determined:
+        lines += [
+            "",
+            "How well the logs determine the URDF's values (σ of the least-squares fit, white residuals; "
+            "%σ of a coordinate relative to the largest, of an inertia to the largest moment):",
+            "",
+            "| value | estimate | std | %σ | determined |",
+            "|---|---|---|---|---|",
+            *(
+                f"| {name} ({d['unit']}) | {d['value']:.5g} | {d['std']:.3g} | {d['relative_std_pct']:.3g} | "
+                f"{d['determined']} |"
+                for name, d in determined.items()
+            ),
+        ]
+    if "urdf_projected" in document:
+        lines += ["", f"NOTE: {document['urdf_projected']}"]
     header = "| parameter | value | std | %σ |" + (" truth |" if truth is not None else "")
     lines += ["", header, "|---|---|---|---|" + ("---|" if truth is not None else "")]
     for i, name in enumerate(LINK_PARAMETER_NAMES):
@@ -259,7 +343,7 @@ def run_payload(
     unloaded_model: str | None = None,
     method: str | None = None,
     weighted: bool = True,
-    consistent: bool = False,
+    consistent: bool = True,
     library: Sequence[str] | None = None,
     truth: str | None = None,
 ) -> dict[str, float]:
@@ -274,7 +358,8 @@ def run_payload(
         looked up in the job's store) standing for the unloaded robot (payload-only method).
     method : ``joint`` (eq. (7)), ``payload_only``, or None (joint with unloaded logs, payload_only
         with a model).
-    weighted, consistent : Gautier's weighting per (motion, joint); the SDP with J(Φ_L) ⪰ 0.
+    weighted, consistent : Gautier's weighting per (motion, joint); the SDP with J(Φ_L) ⪰ 0 (a rigid
+        body; False: least squares alone, the URDF then carries the nearest rigid body, said so).
     library : the tools of the look-up (None: every tool of conf/tool/); the ``classifier`` config
         recognises the payload.
     truth : a library tool name known to be the payload (simulated logs): relative errors are added.
@@ -297,7 +382,9 @@ def run_payload(
     # before reading logs: fail fast. The model's robot is the one that carried the payload, with
     # the law, drive terms and drive train it was identified with, whatever this job's robot says.
     model = (
-        read_identified_model(unloaded_model, tracking_uri(cfg), "task.unloaded_model")
+        read_identified_model(
+            unloaded_model, tracking_uri(cfg), "task.unloaded_model", command_robot_settings(cfg)
+        )
         if unloaded_model and not unloaded_paths
         else None
     )
@@ -317,12 +404,15 @@ def run_payload(
         warnings.warn(recognition.describe(), UnknownToolWarning, stacklevel=1)
     true_tool = (tools[truth] if truth in tools.names else load_tool(truth)) if truth else None
 
+    body, projected = urdf_body(estimate.phi_flange)
     document = payload_document(estimate, recognition, robot.name)
+    if projected:
+        document["urdf_projected"] = PROJECTED
     if model is not None:
         document["unloaded_model"] = model.record()
     (output_dir / PAYLOAD_FILE).write_text(yaml.safe_dump(document, sort_keys=False, allow_unicode=True))
     write_payload_model_files(cfg, output_dir, document, loaded_logs, model)
-    snippet = inertial_snippet(estimate.phi_flange)
+    snippet = inertial_snippet(body, projected)
     (output_dir / "payload_inertial.urdf.xml").write_text(snippet)
     metrics = _payload_metrics(estimate, recognition, true_tool) | {"identification_s": seconds}
     text = format_payload(document, true_tool) + "\n\nURDF inertial (flange frame):\n\n" + snippet

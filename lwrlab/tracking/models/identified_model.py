@@ -20,7 +20,8 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -55,6 +56,9 @@ class ReadModel:
     friction law and drive terms all the model's own."""
     setting: str = "task.model"
     """The setting that named the model, for errors."""
+    robot_settings: dict[str, Any] = field(default_factory=dict)
+    """The robot settings the command gave beside the model, which its robot took (a flange frame, …;
+    :func:`lwrlab.model.command_settings.with_command_settings`)."""
 
     @property
     def base(self) -> BaseParameters:
@@ -108,10 +112,12 @@ class ReadModel:
         )
 
 
-def build_identified_robot(path: str | Path) -> RobotModel:
+def build_identified_robot(path: str | Path, robot_settings: Mapping[str, Any] | None = None) -> RobotModel:
     """The robot of a local ``identified_model.yaml``, built as ``robot=identified robot.source=<path>``
     builds it (the shipped option's own settings), its standard set kept as identified: a task that
-    reads a model predicts its torques, which the base parameters decide (nothing to solve)."""
+    reads a model predicts its torques, which the base parameters decide (nothing to solve).
+    ``robot_settings``: the command's robot settings, taken or refused by name
+    (:func:`lwrlab.model.command_settings.with_command_settings`)."""
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
@@ -122,12 +128,16 @@ def build_identified_robot(path: str | Path) -> RobotModel:
     node.source = str(path)
     node.rigid_bodies = False
     node.tracking_uri = None
+    node.settings = dict(robot_settings or {})
     robot: RobotModel = instantiate(node)
     return robot
 
 
 def read_identified_model(
-    source: str | Path | ResolvedModel, tracking_uri: str | None = None, setting: str = "task.model"
+    source: str | Path | ResolvedModel,
+    tracking_uri: str | None = None,
+    setting: str = "task.model",
+    robot_settings: Mapping[str, Any] | None = None,
 ) -> ReadModel:
     """The identified model ``source`` names, with the robot it describes rebuilt whole.
 
@@ -140,6 +150,11 @@ def read_identified_model(
         The store a URI is looked up in.
     setting
         The setting that gave ``source``, named by every error.
+    robot_settings
+        The robot settings the command gives beside the model
+        (:func:`lwrlab.pipeline.config_nodes.command_robot_settings`): a flange frame, limits,
+        collision checks are taken; a setting that would change what was identified (another URDF,
+        locked joints, …) must equal the model's, else the model is refused naming both.
 
     Raises
     ------
@@ -153,7 +168,7 @@ def read_identified_model(
     resolved = source if isinstance(source, ResolvedModel) else resolve_model(source, tracking_uri, setting)
     try:
         identified, description = load_identified_model(resolved.path)
-        robot = build_identified_robot(resolved.path)
+        robot = build_identified_robot(resolved.path, robot_settings)
     except ConfigError as error:
         if str(error).startswith(f"{setting}="):
             raise
@@ -163,7 +178,10 @@ def read_identified_model(
         if isinstance(cause, FileNotFoundError | ValueError | KeyError):
             raise ConfigError(f"{setting}={resolved.source}: {cause}") from error
         raise
-    return ReadModel(resolved, identified, dict(description), robot, setting)
+    from lwrlab.model.command_settings import COMMAND_SETTINGS
+
+    taken = {k: v for k, v in (robot_settings or {}).items() if k in COMMAND_SETTINGS}
+    return ReadModel(resolved, identified, dict(description), robot, setting, taken)
 
 
 __all__ = [
