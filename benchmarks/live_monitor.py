@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -88,7 +89,8 @@ def _pair(
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Run the robot and the monitor side by side; their metrics."""
     env = _environment(domain)
-    folder.mkdir(parents=True, exist_ok=True)
+    shutil.rmtree(folder, ignore_errors=True)  # a run's bag goes into a new folder
+    folder.mkdir(parents=True)
     robot_log, monitor_log = folder / "robot.log", folder / "monitor.log"
     robot_dir, monitor_dir = folder / "robot", folder / "monitor"
     monitor_cmd = [

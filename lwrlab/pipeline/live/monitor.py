@@ -119,6 +119,11 @@ def run_live_monitor(
     entered = time.monotonic()
     dds, joint_states, messages, monitor_loop, recorder, wire = _ros2()
     output_dir.mkdir(parents=True, exist_ok=True)
+    if record and (output_dir / "live_bag").exists():
+        raise ConfigError(
+            f"{output_dir / 'live_bag'} exists already: a live run records into a new folder; give "
+            "another hydra.run.dir (or task.record=false)"
+        )
     missing = [key for key in ("joint_states", *OUTPUTS) if not topics.get(key)]
     if missing:
         raise ConfigError(f"task.topics: give a topic for {missing}")
