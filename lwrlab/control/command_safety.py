@@ -81,7 +81,12 @@ class CommandLimiter:
         dt = self.period
         target = np.clip(q_desired, self.lower, self.upper)
         lag = self.target - self.q  # behind the previous request
-        catch_up = np.sign(lag) * np.minimum(np.abs(lag) / dt, np.sqrt(2.0 * self.acceleration * np.abs(lag)))
+        # the fastest catch-up that still stops at the request, braking a·dt per period:
+        # v·dt + (v − a·dt)·dt + … ≤ |lag| holds for v ≤ −a·dt + sqrt((a·dt)² + 2·a·|lag|)
+        # (a period's margin over the continuous sqrt(2·a·|lag|): no overshoot at the last step)
+        margin = self.acceleration * dt
+        braking = np.sqrt(margin**2 + 2.0 * self.acceleration * np.abs(lag)) - margin
+        catch_up = np.sign(lag) * np.minimum(np.abs(lag) / dt, braking)
         wanted = np.clip((target - self.target) / dt + catch_up, -self.speed, self.speed)
         self.target = target
         step = self.acceleration * dt
@@ -92,6 +97,14 @@ class CommandLimiter:
         self.velocity = (q - self.q) / dt
         self.q = q
         return q.copy()
+
+    def arrived(self, q: np.ndarray) -> bool:
+        """Whether the last command is at ``q`` (within :data:`CLAMP_TOLERANCE`) and at rest there."""
+        return (
+            self.q is not None
+            and float(np.max(np.abs(self.q - np.clip(q, self.lower, self.upper)))) <= CLAMP_TOLERANCE
+            and float(np.max(np.abs(self.velocity))) * self.period <= CLAMP_TOLERANCE
+        )
 
 
 class StateWatch:

@@ -206,14 +206,10 @@ class PaintingLoop:
                         reason.replace("retracted along the wall normal", "stopped on the way to the start")
                     )
                     return
-            if self.phase in (1, 3):
-                target = self._queue[self._index]
+            moving = self.phase in (1, 3)
+            if moving:  # the queue's motion, then its end until the limited commands arrive there
+                target = self._queue[min(self._index, self._queue.shape[0] - 1)]
                 self._index += 1
-                if self._index == self._queue.shape[0]:
-                    if self.phase == 1:
-                        self.phase, self._k = 2, 0
-                    else:
-                        self._stop(self.retract_reason or "retracted")
             try:
                 command = self.limiter(target)
             except ValueError as error:
@@ -221,6 +217,11 @@ class PaintingLoop:
                 return
             self.publish(command, state.wrench, stamp_ns)
             records.command[row] = command
+            if moving and self._index >= self._queue.shape[0] and self.limiter.arrived(target):
+                if self.phase == 1:
+                    self.phase, self._k = 2, 0
+                else:
+                    self._stop(self.retract_reason or "retracted")
 
     def prepare(self) -> None:
         """Plan the move from the robot's position (its last state) to the path's start and reset the
