@@ -26,6 +26,7 @@ arrays (no allocation grows on the sample path); the task scores them after the 
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -86,6 +87,8 @@ class Records:
     """Painting-path sample commanded (−1 outside the painting phase)."""
     latency_ns: np.ndarray
     """State received → command published (ns; 0 when nothing was commanded)."""
+    compute_ns: np.ndarray
+    """The loop's own time on the state (ns): estimate, law, guards, limits, publication."""
     n: int = 0
 
     @classmethod
@@ -100,6 +103,7 @@ class Records:
             nan((capacity, 3), np.nan),
             np.zeros(capacity, np.int8),
             np.full(capacity, -1, np.int64),
+            np.zeros(capacity, np.int64),
             np.zeros(capacity, np.int64),
         )
 
@@ -171,57 +175,62 @@ class PaintingLoop:
 
     def on_state(self, stamp_ns: int, q: np.ndarray, tau: np.ndarray, received_s: float) -> None:
         """One joint state (stamp ns, positions rad, link-side torques N·m, receipt time monotonic s)."""
+        entered = time.perf_counter_ns()
         with self._lock:
-            records, row = self.records, self.records.n
-            if row >= records.stamp_ns.size:
-                self._stop("the run outgrew its record (task.max_duration_s)")
+            self._on_state(stamp_ns, q, tau, received_s)
+            self.records.compute_ns[self.records.n - 1] = time.perf_counter_ns() - entered
+
+    def _on_state(self, stamp_ns: int, q: np.ndarray, tau: np.ndarray, received_s: float) -> None:
+        records, row = self.records, self.records.n
+        if row >= records.stamp_ns.size:
+            self._stop("the run outgrew its record (the planned motion and 30 s more)")
+            return
+        records.n = row + 1
+        records.stamp_ns[row], records.q[row], records.tau[row] = stamp_ns, q, tau
+        reason = self.watch.received(stamp_ns * 1e-9, received_s)
+        if reason is not None and self.phase != PHASES.index("stopped"):
+            self._stop(reason)
+        if row == 0:
+            self.estimator.reset(q)
+        state = self.estimator.update(q, tau)
+        records.wrench[row] = state.wrench
+        records.phase[row] = self.phase
+        if self.phase in (0, 4):  # nothing to command yet (see prepare), or no more
+            return
+        if self.phase == 2:
+            k = self._k
+            decision = self.controller.command(k, state, self._no_force)
+            target = decision.q_desired
+            records.commanded_position[row], records.path_index[row] = decision.commanded_position, k
+            self._k = k + 1
+            reason = self.guard.check(state.wrench, bool(self.painting[k]))
+            if reason is None and self._k == self.reference.shape[0]:
+                reason = "painted the whole path: retracted along the wall normal"
+            if reason is not None:
+                self._retract(reason)
+        if self.phase == 1:  # on the way: only the force limit (a collision) applies
+            reason = self.guard.check(state.wrench, False)
+            if reason is not None:
+                self._stop(
+                    reason.replace("retracted along the wall normal", "stopped on the way to the start")
+                )
                 return
-            records.n = row + 1
-            records.stamp_ns[row], records.q[row], records.tau[row] = stamp_ns, q, tau
-            reason = self.watch.received(stamp_ns * 1e-9, received_s)
-            if reason is not None and self.phase != PHASES.index("stopped"):
-                self._stop(reason)
-            if row == 0:
-                self.estimator.reset(q)
-            state = self.estimator.update(q, tau)
-            records.wrench[row] = state.wrench
-            records.phase[row] = self.phase
-            if self.phase in (0, 4):  # nothing to command yet (see prepare), or no more
-                return
-            if self.phase == 2:
-                k = self._k
-                decision = self.controller.command(k, state, self._no_force)
-                target = decision.q_desired
-                records.commanded_position[row], records.path_index[row] = decision.commanded_position, k
-                self._k = k + 1
-                reason = self.guard.check(state.wrench, bool(self.painting[k]))
-                if reason is None and self._k == self.reference.shape[0]:
-                    reason = "painted the whole path: retracted along the wall normal"
-                if reason is not None:
-                    self._retract(reason)
-            if self.phase == 1:  # on the way: only the force limit (a collision) applies
-                reason = self.guard.check(state.wrench, False)
-                if reason is not None:
-                    self._stop(
-                        reason.replace("retracted along the wall normal", "stopped on the way to the start")
-                    )
-                    return
-            moving = self.phase in (1, 3)
-            if moving:  # the queue's motion, then its end until the limited commands arrive there
-                target = self._queue[min(self._index, self._queue.shape[0] - 1)]
-                self._index += 1
-            try:
-                command = self.limiter(target)
-            except ValueError as error:
-                self._stop(f"{error}: stopped commanding")
-                return
-            self.publish(command, state.wrench, stamp_ns)
-            records.command[row] = command
-            if moving and self._index >= self._queue.shape[0] and self.limiter.arrived(target):
-                if self.phase == 1:
-                    self.phase, self._k = 2, 0
-                else:
-                    self._stop(self.retract_reason or "retracted")
+        moving = self.phase in (1, 3)
+        if moving:  # the queue's motion, then its end until the limited commands arrive there
+            target = self._queue[min(self._index, self._queue.shape[0] - 1)]
+            self._index += 1
+        try:
+            command = self.limiter(target)
+        except ValueError as error:
+            self._stop(f"{error}: stopped commanding")
+            return
+        self.publish(command, state.wrench, stamp_ns)
+        records.command[row] = command
+        if moving and self._index >= self._queue.shape[0] and self.limiter.arrived(target):
+            if self.phase == 1:
+                self.phase, self._k = 2, 0
+            else:
+                self._stop(self.retract_reason or "retracted")
 
     def prepare(self) -> None:
         """Plan the move from the robot's position (its last state) to the path's start and reset the

@@ -21,8 +21,10 @@ and outputs are recorded as a rosbag2 (MCAP) in ``live_bag/``.
 
 from __future__ import annotations
 
+import gc
 import json
 import logging
+import sys
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -38,6 +40,7 @@ from lwrlab.errors import ConfigError
 from lwrlab.kinematics.swivel_ik import SwivelIK
 from lwrlab.live.painting_loop import PHASES, PaintingLoop, Records, SafetySettings
 from lwrlab.model.payload import attach_payload
+from lwrlab.pipeline.live.monitor import SWITCH_INTERVAL_S
 from lwrlab.pipeline.live.stopping import StopConditions
 from lwrlab.pipeline.painting.runs import RollerPlan, reference_poses, score_run, tcp_transform
 from lwrlab.pipeline.painting.task import (
@@ -285,6 +288,12 @@ def run_live_painting(
     if truth_topic:
         node.subscribe(truth_topic, messages.WrenchStamped, on_truth, qos, decode=wire.decode_wrench_stamped)
     log.info("waiting for joint states on %s", topics["joint_states"])
+    # what planning built stays: frozen, the collector's full passes skip it (they took tens of ms on
+    # the sample path); the interpreter's lock changes threads every 0.2 ms, not every 5 ms
+    gc.collect()
+    gc.freeze()
+    switch_interval = sys.getswitchinterval()
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
     started = time.monotonic()
     diagnostics_period = 1.0 / diagnostics_hz
     next_diagnostics = started
@@ -315,6 +324,7 @@ def run_live_painting(
                 diagnostics_out(_diagnostic(messages, loop, "lwrlab: live painting"))
                 progress_out.raw(encode_progress.encode(np.array([loop.progress, float(loop._k)])))
             time.sleep(WATCH_PERIOD_S)
+    sys.setswitchinterval(switch_interval)
     final = _diagnostic(messages, loop, "lwrlab: live painting")
     diagnostics_out(final)
     if bag is not None:
@@ -338,6 +348,8 @@ def run_live_painting(
         "missed_periods": float(np.sum(np.maximum(np.round(gaps / period) - 1, 0))) if gaps.size else 0.0,
         "latency_median_ms": float(np.median(latency_ms)) if latency_ms.size else float("nan"),
         "latency_p99_ms": float(np.percentile(latency_ms, 99)) if latency_ms.size else float("nan"),
+        "compute_median_ms": float(1e-6 * np.median(records.compute_ns[: records.n])),
+        "compute_p99_ms": float(1e-6 * np.percentile(records.compute_ns[: records.n], 99)),
         "commands_clamped": float(loop.limiter.clamped),
         "path_progress": loop.progress,
         "stopped_on_fault": float(not reason.startswith(FAULT_FREE)),
