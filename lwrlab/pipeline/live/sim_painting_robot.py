@@ -14,6 +14,10 @@ forward position controller hands it to the hardware). Each period it publishes:
 - its truth: the force the roller exerts on the wall as its sensor measures it
   (``geometry_msgs/WrenchStamped``, the same stamp).
 
+With ``task.robot.lockstep_s`` it does not keep the wall clock's pace: each period waits for the
+command answering the last state (at most that long), as a simulator stepped in lockstep with its
+controller does; the controller then always sees one period of delay, whatever else the machine
+runs (the tests' mode: a shared machine holds a real-time loop up by tens of ms at times).
 Before the first command it stands at ``task.robot.start_pose`` (null: the middle of the joint
 ranges). ``task.robot.stalls`` withhold the joint states for a while (a fault drill: the driver's
 stream stalls while the arm keeps its command). It shares ``task=live_painting``'s settings (the
@@ -28,6 +32,7 @@ import gc
 import json
 import logging
 import sys
+import threading
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -58,6 +63,7 @@ class _LatestCommand:
         self.count = 0
         self.refused = 0
         self.first_s = float("nan")
+        self.arrived = threading.Condition()
 
     def __call__(self, values: np.ndarray) -> None:
         if values.shape != (self.n_joints,) or not np.all(np.isfinite(values)):
@@ -65,7 +71,14 @@ class _LatestCommand:
             return
         if self.count == 0:
             self.first_s = time.monotonic()
-        self.q, self.count = values, self.count + 1
+        with self.arrived:
+            self.q, self.count = values, self.count + 1
+            self.arrived.notify()
+
+    def wait_beyond(self, count: int, timeout_s: float) -> None:
+        """Wait until more than ``count`` commands came, or ``timeout_s``."""
+        with self.arrived:
+            self.arrived.wait_for(lambda: self.count > count, timeout_s)
 
 
 def _stalls(stalls: Sequence[Mapping[str, float]] | None) -> list[tuple[float, float]]:
@@ -96,8 +109,8 @@ def run_sim_painting_robot(
     **controller_settings: Any,
 ) -> dict[str, float]:
     """Task ``sim_painting_robot`` (see the module); ``robot``: start_pose, joint_gains, stalls,
-    duration_s, idle_stop_s. ``controller_settings``: ``task=live_painting``'s other settings, which
-    the robot does not read."""
+    lockstep_s, duration_s, idle_stop_s. ``controller_settings``: ``task=live_painting``'s other
+    settings, which the robot does not read."""
     from hydra.utils import instantiate
 
     try:
@@ -136,6 +149,7 @@ def run_sim_painting_robot(
     kp, kd = joint.kp, joint.kd
     sensors = plant.reset(q0, joint.gravity(q0))
     stalls = _stalls(robot.get("stalls"))
+    lockstep_s = robot.get("lockstep_s")
     names = list(nominal.joint_names)
 
     node = dds.Node(domain_id, localhost_only)
@@ -174,14 +188,17 @@ def run_sim_painting_robot(
         dq_command = zeros
         reason = None
         while reason is None:
-            due = clock + k * period_ns * 1e-9
-            delay = due - time.perf_counter()
-            if delay > SPIN_S:
-                time.sleep(delay - SPIN_S)
-            while time.perf_counter() < due:
-                pass
-            if time.perf_counter() - due > period_ns * 1e-9:
-                late += 1
+            if lockstep_s:  # the answer to the last state, or the timeout: then step
+                latest.wait_beyond(last_count, lockstep_s)
+            else:
+                due = clock + k * period_ns * 1e-9
+                delay = due - time.perf_counter()
+                if delay > SPIN_S:
+                    time.sleep(delay - SPIN_S)
+                while time.perf_counter() < due:
+                    pass
+                if time.perf_counter() - due > period_ns * 1e-9:
+                    late += 1
             if latest.count != last_count and latest.q is not None:
                 # the command's speed over the periods since the last one: a late command (the
                 # controller held up, then a burst) moves the reference by as much, not faster
