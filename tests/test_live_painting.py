@@ -323,6 +323,7 @@ def test_a_stalled_state_stream_stops_the_controller_with_its_reason(tmp_path: P
     )
     assert "joint states stalled" in reason and "(limit 30 ms)" in reason, reason
     assert live["stopped_on_fault"] == 1.0 and live["path_progress"] < 1.0
-    assert robot["samples_withheld"] > 0
+    assert robot["samples_withheld"] == 50  # 50 ms at 1 kHz
+    assert live["commands"] <= 1100  # stopped at the drill, 1 s after the first command (or before it)
     summary = (tmp_path / "controller" / "summary.md").read_text()
     assert "joint states stalled" in summary
