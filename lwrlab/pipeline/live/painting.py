@@ -322,7 +322,9 @@ def run_live_painting(
             if now >= next_diagnostics:
                 next_diagnostics = now + diagnostics_period
                 diagnostics_out(_diagnostic(messages, loop, "lwrlab: live painting"))
-                progress_out.raw(encode_progress.encode(np.array([loop.progress, float(loop._k)])))
+                progress_out.raw(
+                    encode_progress.encode(np.array([loop.progress, loop.progress * reference.shape[0]]))
+                )
             time.sleep(WATCH_PERIOD_S)
     sys.setswitchinterval(switch_interval)
     final = _diagnostic(messages, loop, "lwrlab: live painting")
