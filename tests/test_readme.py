@@ -54,6 +54,9 @@ ELSEWHERE = {
 }
 """Commands covered by another test or by CI, by a fragment they contain, with where."""
 
+SHELL_OPERATORS = {">", ">>", "<", "&", "|", ";", "&&", "||"}
+"""Where a command's own words end on the page's line."""
+
 COMMAND = re.compile(r"^(?:\w+=\S+\s+)*(?:\.venv/bin/)?(?:lwrlab|python|mlflow|make|createdb)\b")
 
 
@@ -101,6 +104,9 @@ def _words(command: str) -> list[str]:
     command = command.replace("$D", str(shared)).replace("$HOME", "/home/user").replace("~", "/home/user")
     command = re.sub(r"<(\w+)>", r"\1", command)  # outputs/runs/<date>/<time>/…: the reader's run
     words = shlex.split(command)
+    # what the shell does around the command (redirections, running it in the background) is not its
+    operators = [i for i, w in enumerate(words) if w in SHELL_OPERATORS or re.match(r"^\d?>", w)]
+    words = words[: operators[0]] if operators else words
     while words and re.match(r"^\w+=", words[0]):  # PYTHONPATH=… prefix
         words.pop(0)
     if words[:2] == ["make", "run"]:
