@@ -14,10 +14,11 @@ forward position controller hands it to the hardware). Each period it publishes:
 - its truth: the force the roller exerts on the wall as its sensor measures it
   (``geometry_msgs/WrenchStamped``, the same stamp).
 
-With ``task.robot.lockstep_s`` it does not keep the wall clock's pace: each period waits for the
-command answering the last state (at most that long), as a simulator stepped in lockstep with its
-controller does; the controller then always sees one period of delay, whatever else the machine
-runs (the tests' mode: a shared machine holds a real-time loop up by tens of ms at times).
+With ``task.robot.lockstep_s`` it does not keep the wall clock's pace once commanded: each period
+waits for the command answering the last state (at most that long), as a simulator stepped in
+lockstep with its controller does; the controller then always sees one period of delay, whatever
+else the machine runs (the tests' mode: a shared machine holds a real-time loop up by tens of ms
+at times).
 Before the first command it stands at ``task.robot.start_pose`` (null: the middle of the joint
 ranges). ``task.robot.stalls`` withhold the joint states for a while (a fault drill: the driver's
 stream stalls while the arm keeps its command). It shares ``task=live_painting``'s settings (the
@@ -188,7 +189,7 @@ def run_sim_painting_robot(
         dq_command = zeros
         reason = None
         while reason is None:
-            if lockstep_s:  # the answer to the last state, or the timeout: then step
+            if lockstep_s and latest.count:  # the answer to the last state, or the timeout: then step
                 latest.wait_beyond(last_count, lockstep_s)
             else:
                 due = clock + k * period_ns * 1e-9
