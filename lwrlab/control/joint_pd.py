@@ -32,9 +32,6 @@ class ControlSetup:
     """IK branch of the painting path."""
     period: float
     """Control period (s)."""
-    ik_chunk: int = 2048
-    """Most path samples solved per batched IK call (:class:`DisplacedPathIK`): long chunks cost least
-    in all, short ones bound the longest single period (a controller commanding a robot live)."""
 
     @cached_property
     def flange_in_tcp(self) -> np.ndarray:
@@ -48,9 +45,7 @@ class ControlSetup:
 
     def path_ik(self, reference: np.ndarray) -> DisplacedPathIK:
         """Joint positions along the tool poses ``reference`` (N, 4, 4) moved by an offset, per sample."""
-        return DisplacedPathIK(
-            self.ik, reference, self.tcp_in_flange, self.swivel, self.branch, chunk=self.ik_chunk
-        )
+        return DisplacedPathIK(self.ik, reference, self.tcp_in_flange, self.swivel, self.branch)
 
 
 class ControlOutput(NamedTuple):
