@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pushed_logs import SETTINGS
 
 from lwrlab.model.robot import RobotModel
 from lwrlab.monitoring.calibration import calibrate_state_thresholds
 from lwrlab.monitoring.estimates import (
-    MonitorSettings,
     calibrate,
     detect,
     estimate_external_torques,
@@ -35,18 +35,6 @@ from lwrlab.signal.filters import central_difference
 from lwrlab.trajectory.core import Trajectory
 
 REAL_LWR4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "kuka_lwr4_hw"
-SETTINGS = MonitorSettings(
-    observer_gain=100.0,
-    velocity_cutoff_hz=30.0,
-    coulomb_smoothing=0.01,
-    false_alarm_rate=1.0,
-    margin=1.3,
-    min_duration=0.003,
-    release=0.5,
-    residual_margin=1.5,
-    thresholds="state",
-    friction_drift=0.5,
-)
 CONSTANT = replace(SETTINGS, thresholds="constant")
 
 
