@@ -580,13 +580,14 @@ PIPELINE_PARTS: dict[str, SubPackage] = {
         ),
         SubPackage(
             "live",
-            (*_SHARED, "identification", "tools", "monitor"),
-            "the live tasks run the monitor beside a robot over ROS 2; no task reads them",
+            (*_SHARED, "identification", "tools", "monitor", "painting"),
+            "the live tasks run the monitor and the painting controller beside a robot over ROS 2; "
+            "no task reads them",
         ),
         SubPackage(
             "painting",
             (*_SHARED, "identification", "tools", "excitation"),
-            "the painting chain uses identification and tools; no task uses painting",
+            "the painting chain uses identification and tools; only the chain and its live form use it",
         ),
         SubPackage(
             "studies",

@@ -309,6 +309,61 @@ class SimRobotTask(Instantiable):
 
 
 @schema
+class LivePaintingSafety:
+    """The live painting's guards (:class:`lwrlab.live.painting_loop.SafetySettings`)."""
+
+    max_state_age_s: float
+    """s, the oldest the last joint state may be before commanding stops."""
+    force_limit_n: float
+    """N, pressing-force estimate beyond which the roller retracts."""
+    contact_n: float
+    """N, pressing force from which the roller counts as touching."""
+    contact_lost_s: float
+    """s below ``contact_n`` while painting (once touched) that count as a lost contact."""
+    speed_fraction: float
+    """Share of the description's joint speed limits a command may use."""
+    acceleration_fraction: float
+    """Share of the description's joint acceleration limits a command may use."""
+    retract_distance: float
+    """m along the wall normal a retraction moves."""
+    retract_speed: float
+    """m/s of the retraction and of the straight approach."""
+    clearance: float
+    """m off the wall where the move to the start ends."""
+    move_speed_fraction: float
+    """Share of the joint speed and acceleration limits of the move to the start."""
+
+
+@schema
+class LivePaintingTask(PaintingTask):
+    """``task=live_painting``: the painting controller as its own process, over ROS 2 (every
+    ``task=painting`` setting, the same plan)."""
+
+    rate_hz: float
+    """Hz of the joint states, one control period each."""
+    topics: dict[str, str | None]
+    """ROS 2 topic of each stream: ``joint_states`` (in), ``commands``, ``force_estimate``,
+    ``progress``, ``diagnostics`` (out), ``truth_force`` (in, the robot's force sensor; null: none)."""
+    qos: str
+    """QoS profile of every stream."""
+    domain_id: int | None
+    """ROS 2 domain; null: ``ROS_DOMAIN_ID``."""
+    localhost_only: bool | None
+    """Loopback only; null: as ROS 2's environment says."""
+    wait_s: float
+    """s to wait for the first joint state before failing."""
+    diagnostics_hz: float
+    """Hz of ``/diagnostics`` and of the progress."""
+    safety: LivePaintingSafety
+    """The guards."""
+    record: bool
+    """Record the inputs and outputs as a rosbag2 (MCAP) in the run folder (``live_bag``)."""
+    robot: dict[str, Any]
+    """The simulated robot's own settings (``task=sim_painting_robot``): ``start_pose``,
+    ``joint_gains``, ``stalls``, ``lockstep_s``, ``duration_s``, ``idle_stop_s``."""
+
+
+@schema
 class PaperChainTask(Instantiable):
     """``task=paper_chain``: the whole chain of the paper's Fig. 1."""
 
@@ -330,6 +385,8 @@ TASK_SCHEMAS: dict[str, type] = {
     "monitor": MonitorTask,
     "live_monitor": LiveMonitorTask,
     "sim_robot": SimRobotTask,
+    "live_painting": LivePaintingTask,
+    "sim_painting_robot": LivePaintingTask,
     "paper_chain": PaperChainTask,
     "painting": PaintingTask,
 }

@@ -32,6 +32,9 @@ class ControlSetup:
     """IK branch of the painting path."""
     period: float
     """Control period (s)."""
+    ik_chunk: int = 2048
+    """Most path samples solved per batched IK call (:class:`DisplacedPathIK`): long chunks cost least
+    in all, short ones bound the longest single period (a controller commanding a robot live)."""
 
     @cached_property
     def flange_in_tcp(self) -> np.ndarray:
@@ -45,7 +48,9 @@ class ControlSetup:
 
     def path_ik(self, reference: np.ndarray) -> DisplacedPathIK:
         """Joint positions along the tool poses ``reference`` (N, 4, 4) moved by an offset, per sample."""
-        return DisplacedPathIK(self.ik, reference, self.tcp_in_flange, self.swivel, self.branch)
+        return DisplacedPathIK(
+            self.ik, reference, self.tcp_in_flange, self.swivel, self.branch, chunk=self.ik_chunk
+        )
 
 
 class ControlOutput(NamedTuple):

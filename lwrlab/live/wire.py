@@ -9,7 +9,9 @@ messages on the sample path have a fixed shape, so:
 - :class:`StampedEncoder` writes a message whose only changing parts are its header stamp and its
   trailing float64 values (the external torques' JointState, a WrenchStamped): the bytes of a
   template message with those two parts replaced; :class:`JointStateEncoder` writes a robot's
-  joint states (fixed names; positions, velocities and efforts) the same way.
+  joint states (fixed names; positions, velocities and efforts) the same way;
+- :class:`Float64ArrayEncoder` and :func:`decode_float64_array` write and read the
+  ``std_msgs/Float64MultiArray`` joint commands a ``ros2_control`` forward controller takes.
 
 Both equal Cyclone's own serialiser and ``rosbags``' (tests hold them so); the bytes go to DDS
 and, unchanged, to the bag.
@@ -21,7 +23,7 @@ import struct
 
 import numpy as np
 
-from lwrlab.live.messages import Header, JointState, Time
+from lwrlab.live.messages import Float64MultiArray, Header, JointState, Time
 
 ENCAPSULATION = b"\x00\x01\x00\x00"
 """CDR, little endian (XCDR1), as ROS 2 writes every message."""
@@ -155,6 +157,52 @@ class JointStateEncoder:
         return bytes(data)
 
 
+class Float64ArrayEncoder:
+    """The CDR bytes of a ``std_msgs/Float64MultiArray`` of ``count`` values and an empty layout (what
+    a ``ros2_control`` forward controller's commands carry)."""
+
+    def __init__(self, count: int) -> None:
+        raw = Float64MultiArray(data=[0.0] * count).serialize()
+        self.count = count
+        self._prefix = raw[: len(raw) - 8 * count]
+
+    def encode(self, values: np.ndarray) -> bytes:
+        """The message's bytes with ``values`` (float64, ``count`` of them)."""
+        array = np.ascontiguousarray(values, dtype="<f8")
+        if array.size != self.count:
+            raise ValueError(f"expected {self.count} values, got {array.size}")
+        return self._prefix + array.tobytes()
+
+
+def decode_float64_array(raw: bytes) -> np.ndarray:
+    """The values of a ``std_msgs/Float64MultiArray``'s CDR bytes (any layout, which a forward
+    controller ignores as well); a :class:`WireError` for bytes that are not one."""
+    if raw[:2] != ENCAPSULATION[:2]:
+        raise WireError(f"not little-endian CDR (encapsulation {bytes(raw[:4]).hex()})")
+    data = memoryview(raw)[4:]
+    try:
+        (count,) = _UINT32.unpack_from(data, 0)
+        offset = 4
+        for _ in range(count):  # each dimension: label, size, stride
+            _, offset = _string(data, offset)
+            offset = ((offset + 3) & ~3) + 8
+        values, _ = _doubles(data, offset + 4)  # past data_offset
+    except struct.error as error:
+        raise WireError(f"a Float64MultiArray cut short: {error}") from error
+    return values
+
+
+def decode_wrench_stamped(raw: bytes) -> tuple[int, np.ndarray]:
+    """The stamp (ns) and the 6 values (force, torque) of a ``geometry_msgs/WrenchStamped``'s CDR bytes."""
+    if raw[:2] != ENCAPSULATION[:2] or len(raw) < 4 + 8 + 4 + 48:
+        raise WireError(f"not a little-endian WrenchStamped ({len(raw)} bytes)")
+    sec, nanosec = _STAMP.unpack_from(raw, 4)
+    # the wrench's 6 float64 values end the message (its frame id, a string, varies in length)
+    return sec * 1_000_000_000 + nanosec, np.frombuffer(
+        raw, dtype="<f8", count=6, offset=len(raw) - 48
+    ).copy()
+
+
 BOOL_BYTES = {False: ENCAPSULATION + b"\x00", True: ENCAPSULATION + b"\x01"}
 """A ``std_msgs/Bool``'s bytes."""
 
@@ -162,8 +210,11 @@ BOOL_BYTES = {False: ENCAPSULATION + b"\x00", True: ENCAPSULATION + b"\x01"}
 __all__ = [
     "BOOL_BYTES",
     "ENCAPSULATION",
+    "Float64ArrayEncoder",
     "JointStateEncoder",
     "StampedEncoder",
     "WireError",
+    "decode_float64_array",
     "decode_joint_state",
+    "decode_wrench_stamped",
 ]

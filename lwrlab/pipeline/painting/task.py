@@ -162,6 +162,40 @@ def plan_roller(
     return RollerPlan(tool, recognised, estimate_parameters, solution, time.perf_counter() - started)
 
 
+def plan_rollers(
+    settings: PaintingSettings,
+    *,
+    identification: IdentificationReport,
+    plant: ToolPlant,
+    library: ToolLibrary,
+    classifier: ToolClassifier,
+    bench: ToolBench,
+    loaded_motion: Trajectory | None,
+) -> dict[str, RollerPlan]:
+    """Identify and recognise each roller of ``settings.tools`` and optimise its painting path.
+
+    ``loaded_motion`` carries each roller for its identification (None: the identification's
+    exciting motion). The plans :func:`paint` paints and ``task=live_painting`` paints over ROS 2.
+    """
+    robot = identification.robot
+    identified_robot = robot.with_parameters(identification.identified.standard_values)
+    if identification.motion is None:
+        raise ConfigError("the painting stage needs a simulated plant (the identification played no motion)")
+    unloaded = bench.data(plant, identification.motion)
+    loaded = loaded_motion if loaded_motion is not None else identification.motion
+    plans: dict[str, RollerPlan] = {}
+    for name in settings.tools:
+        tool = library[name]
+        estimate = identify_tool(bench, unloaded, bench.data(plant.with_tool(tool), loaded))
+        recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
+        if not recognition.known:  # the path still needs a width: the nearest tool's, said aloud
+            warnings.warn(f"{name}: {recognition.describe()}; painting with its geometry", stacklevel=1)
+        recognised = library[recognition.nearest]
+        log.info("%s: recognised as %s (w_L = %.3f m)", name, recognition.tool, recognised.width)
+        plans[name] = plan_roller(tool, estimate.phi_flange, recognised, identified_robot, settings)
+    return plans
+
+
 def paint(
     settings: PaintingSettings,
     *,
@@ -184,28 +218,22 @@ def paint(
     model (feedback ``none``). ``comparison_controller`` (model ``position``, identified model) runs
     after them when given. ``timings`` are the caller's stage times (``identification_s``).
     """
+    plans = plan_rollers(
+        settings,
+        identification=identification,
+        plant=plant,
+        library=library,
+        classifier=classifier,
+        bench=bench,
+        loaded_motion=loaded_motion,
+    )
     robot = identification.robot
     identified_robot = robot.with_parameters(identification.identified.standard_values)
-    if identification.motion is None:
-        raise ConfigError("the painting stage needs a simulated plant (the identification played no motion)")
-    unloaded = bench.data(plant, identification.motion)
-    loaded = loaded_motion if loaded_motion is not None else identification.motion
     main = make_controller()
     force_feedback = bool(main.uses_force_feedback)
     desired = None if main.desired_force is None else float(main.desired_force[0])  # along the wall normal
     cases = [(m, f) for m in settings.models for f in (settings.feedbacks if force_feedback else ("none",))]
     cutoff = float(settings.estimator["wrench_cutoff_hz"])
-
-    plans: dict[str, RollerPlan] = {}
-    for name in settings.tools:
-        tool = library[name]
-        estimate = identify_tool(bench, unloaded, bench.data(plant.with_tool(tool), loaded))
-        recognition = classifier.predict(estimate.phi_flange, estimate.covariance_flange)
-        if not recognition.known:  # the path still needs a width: the nearest tool's, said aloud
-            warnings.warn(f"{name}: {recognition.describe()}; painting with its geometry", stacklevel=1)
-        recognised = library[recognition.nearest]
-        log.info("%s: recognised as %s (w_L = %.3f m)", name, recognition.tool, recognised.width)
-        plans[name] = plan_roller(tool, estimate.phi_flange, recognised, identified_robot, settings)
 
     runs: list[ScoredRun] = []
     for name, plan in plans.items():
@@ -240,6 +268,44 @@ def paint(
     return PaintingReport(plans, runs, settings.wall, desired, dict(timings), metrics)
 
 
+def configured_objects(
+    cfg: Any, identification: IdentificationReport, tool_motion: MotionSource | None
+) -> dict[str, Any]:
+    """The objects ``cfg`` configures for :func:`plan_rollers` (plant, library, classifier, bench and
+    the loaded motion), on ``identification``'s robot."""
+    from hydra.utils import instantiate
+
+    from lwrlab.pipeline.tools.library import load_library
+
+    robot = identification.robot
+    library = load_library(None)
+    return {
+        "identification": identification,
+        "plant": instantiate(cfg.plant, tool=None, show_progress=False)(robot=robot),
+        "library": library,
+        "classifier": instantiate(cfg.classifier).fit(library),
+        "bench": ToolBench.for_robot(robot, processing_settings(cfg)),
+        "loaded_motion": None
+        if tool_motion is None
+        else tool_motion.sample(robot, float(cfg.measurement.rate_hz)),
+    }
+
+
+def identify_for_painting(cfg: Any, timings: dict[str, float]) -> IdentificationReport:
+    """The robot identified on ``cfg``'s plant (its wall time in ``timings["identification_s"]``)."""
+    from lwrlab.pipeline.identification import identify_configured
+
+    started = time.perf_counter()
+    identification = identify_configured(cfg)
+    timings["identification_s"] = time.perf_counter() - started
+    log.info(
+        "identified %s: cross-validation mean RMS %.3f N·m",
+        identification.robot.name,
+        identification.metrics["rms_mean"],
+    )
+    return identification
+
+
 def paint_configured(
     cfg: Any,
     settings: PaintingSettings,
@@ -258,34 +324,40 @@ def paint_configured(
 
     from hydra.utils import instantiate
 
-    from lwrlab.pipeline.identification import identify_configured
-    from lwrlab.pipeline.tools.library import load_library
-
     timings: dict[str, float] = {}
     if identification is None:
-        started = time.perf_counter()
-        identification = identify_configured(cfg)
-        timings["identification_s"] = time.perf_counter() - started
-    robot = identification.robot
-    log.info(
-        "identified %s: cross-validation mean RMS %.3f N·m", robot.name, identification.metrics["rms_mean"]
-    )
-    library = load_library(None)
-    processing = processing_settings(cfg)
+        identification = identify_for_painting(cfg, timings)
     return paint(
         settings,
-        identification=identification,
-        plant=instantiate(cfg.plant, tool=None, show_progress=False)(robot=robot),
-        library=library,
-        classifier=instantiate(cfg.classifier).fit(library),
-        bench=ToolBench.for_robot(robot, processing),
-        loaded_motion=None
-        if tool_motion is None
-        else tool_motion.sample(robot, float(cfg.measurement.rate_hz)),
+        **configured_objects(cfg, identification, tool_motion),
         make_controller=partial(instantiate, cfg.controller),
         comparison_controller=comparison_controller,
         seed=int(cfg.seed),
         timings=timings,
+    )
+
+
+def painting_settings(
+    *,
+    tools: Sequence[str],
+    n_steps: Mapping[str, int],
+    models: Sequence[str],
+    feedbacks: Sequence[str],
+    wall: Mapping[str, float],
+    path: Mapping[str, Any],
+    contact: Mapping[str, Any],
+    estimator: Mapping[str, Any],
+) -> PaintingSettings:
+    """:class:`PaintingSettings` from the painting task's YAML values (conf/task/painting.yaml)."""
+    return PaintingSettings(
+        tools=tuple(tools),
+        n_steps=dict(n_steps),
+        models=tuple(models),
+        feedbacks=tuple(feedbacks),
+        wall=Wall(**{key: float(value) for key, value in wall.items()}),
+        path=dict(path),
+        contact=dict(contact),
+        estimator=dict(estimator),
     )
 
 
@@ -314,15 +386,15 @@ def run_painting(
     """
     from lwrlab.pipeline.painting.report import format_painting, write_painting
 
-    settings = PaintingSettings(
-        tools=tuple(tools),
-        n_steps=dict(n_steps),
-        models=tuple(models),
-        feedbacks=tuple(feedbacks),
-        wall=Wall(**{key: float(value) for key, value in wall.items()}),
-        path=dict(path),
-        contact=dict(contact),
-        estimator=dict(estimator),
+    settings = painting_settings(
+        tools=tools,
+        n_steps=n_steps,
+        models=models,
+        feedbacks=feedbacks,
+        wall=wall,
+        path=path,
+        contact=contact,
+        estimator=estimator,
     )
     report = paint_configured(cfg, settings, tool_motion, comparison_controller, identification)
     write_painting(report, output_dir)
@@ -334,8 +406,12 @@ __all__ = [
     "COMPARISONS",
     "PaintingReport",
     "PaintingSettings",
+    "configured_objects",
+    "identify_for_painting",
     "paint",
     "paint_configured",
+    "painting_settings",
     "path_problem",
+    "plan_rollers",
     "run_painting",
 ]
