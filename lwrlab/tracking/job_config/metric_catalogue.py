@@ -42,6 +42,8 @@ CHAIN = "paper_chain, painting, paper_table4_force"
 TOOLS = "payload, table3_tools, tool_recognition_benchmark"
 LIVE = "live_monitor"
 SIM_ROBOT = "sim_robot"
+LIVE_PAINTING = "live_painting"
+SIM_PAINTING = "sim_painting_robot"
 
 CATALOGUE: tuple[MetricFamily, ...] = (
     # identification: errors on the motions not fitted, then diagnostics
@@ -316,6 +318,31 @@ CATALOGUE: tuple[MetricFamily, ...] = (
     MetricFamily(
         "late_publications", "1", "samples the simulated robot published more than a period late", SIM_ROBOT
     ),
+    # painting through ROS 2 (live_painting, sim_painting_robot)
+    MetricFamily("states", "1", "joint states the live painting controller took", LIVE_PAINTING),
+    MetricFamily("commands", "1", "joint position commands it published", LIVE_PAINTING),
+    MetricFamily(
+        "commands_clamped", "1", "commands held to the joint, speed or acceleration limits", LIVE_PAINTING
+    ),
+    MetricFamily(
+        "missed_periods", "1", "control periods without a joint state (gaps in the stamps)", LIVE_PAINTING
+    ),
+    MetricFamily(
+        "compute_<statistic>_ms", "ms", "the controller's own time per state: median, p99", LIVE_PAINTING
+    ),
+    MetricFamily("path_progress", "1", "share of the painting path commanded", LIVE_PAINTING),
+    MetricFamily(
+        "stopped_on_fault", "1", "1 if a guard stopped the run (stale states, force, contact)", LIVE_PAINTING
+    ),
+    MetricFamily("planning_s", "s", "time to plan the painting path", LIVE_PAINTING),
+    MetricFamily("identification_s", "s", "time to identify the roller", LIVE_PAINTING),
+    MetricFamily("start_s", "s", "from the controller's start to its first command", LIVE_PAINTING),
+    MetricFamily(
+        "samples_withheld", "1", "joint states the simulated robot withheld (a drill)", SIM_PAINTING
+    ),
+    MetricFamily("late_periods", "1", "periods the simulated robot stepped late", SIM_PAINTING),
+    MetricFamily("commands_received", "1", "joint position commands the simulated robot took", SIM_PAINTING),
+    MetricFamily("commands_refused", "1", "commands it refused (length, non-finite)", SIM_PAINTING),
     # painting and force control
     MetricFamily("coverage_<roller>_<model>_<feedback>", "1", "share of the planned area painted", CHAIN),
     MetricFamily(
