@@ -6,6 +6,8 @@ follows ROS 2's conventions (topic names, domain, loopback switch, QoS profiles)
 from __future__ import annotations
 
 import dataclasses
+import os
+import time
 
 import numpy as np
 import pytest
@@ -167,3 +169,17 @@ def test_the_node_follows_ros2s_conventions() -> None:
     reliable = str(dds.qos_profile("default"))
     assert "Reliable" in reliable and "KeepLast(depth=10)" in reliable and "Volatile" in reliable
     assert "BestEffort" in str(dds.qos_profile("sensor_data"))
+
+
+def test_a_subscription_counts_the_writers_of_its_topic() -> None:
+    node = dds.Node(domain=200 + os.getpid() % 30, localhost=True)  # a domain of this test's own
+    try:
+        states = node.subscribe("/joint_states", JointState, lambda received: None, "default")
+        assert states.publishers == 0
+        robots = [node.publisher("/joint_states", JointState, "default") for _ in range(2)]  # two robots
+        deadline = time.monotonic() + 5.0
+        while states.publishers < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert states.publishers == len(robots)
+    finally:
+        node.close()

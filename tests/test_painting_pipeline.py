@@ -28,7 +28,6 @@ SHORT = [
     "trajectory=multisine",
     "trajectory.duration=4",
     "task.tool_motion.duration=4",
-    "measurement.processing.rate_hz=1000",
     "task.tools=[large_roller]",
     "task.path.starting_swivels=[-1.6]",
     "task.models=[identified]",

@@ -161,6 +161,11 @@ class Subscription:
             self.error = error
 
     @property
+    def publishers(self) -> int:
+        """Writers matched with this reader now: more than one robot may be publishing the topic."""
+        return len(self.reader.get_matched_publications())
+
+    @property
     def lost(self) -> int:
         """Samples DDS reports lost before they reached this reader (best effort)."""
         return int(self.reader.get_sample_lost_status().total_count)
