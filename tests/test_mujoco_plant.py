@@ -142,6 +142,42 @@ def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
     np.testing.assert_allclose(estimated, measured, atol=0.05 * abs(measured[0]))
 
 
+def test_a_moved_wall_is_where_the_contact_is(pressing_plant):
+    """The fault drill's wall move: pressed on, then moved 2 cm away, the roller loses the wall; moved
+    back, it presses again with about the force it had."""
+    from lwrlab.control.joint_pd import ControlSetup, JointPDGravity
+
+    _, loaded, tool = pressing_plant
+    noiseless = {**TASK["contact"], "torque_noise_std": 0.0, "encoder_noise_std": 0.0}
+    plant = contact_plant(pressing_plant[0].robot, tool, PAPER_WALL, noiseless, seed=0)
+    tcp = np.eye(4)
+    tcp[:3, 3] = tool.contact_point
+    pose = np.eye(4)
+    pose[:3, :3] = [[0, 0, -1], [0, 1, 0], [1, 0, 0]]
+    pose[:3, 3] = [-0.8 - 0.004, 0.3, 0.4]  # 4 mm into the wall
+    setup = ControlSetup(loaded, SwivelIK(loaded), tcp, -1.57, Branch(1, 1, 1), 1e-3)
+    q_ref = setup.joint_reference(pose)
+    away = pose.copy()
+    away[0, 3] += 0.01  # start 6 mm off the wall (the sensor is tared there)
+    q_start = setup.joint_reference(away)
+    pd = JointPDGravity(loaded, 2000.0, 60.0, 1e-3)
+    sensors = plant.reset(q_start, pd.gravity(q_start))
+    pd.reset(q_ref)
+
+    def settled_force() -> float:
+        nonlocal sensors
+        for _ in range(800):
+            sensors = plant.step(pd.torque(q_ref, sensors.q, sensors.dq_true))
+        return float(sensors.wall_force[0])
+
+    pressed = settled_force()
+    plant.move_wall(-0.02)
+    lost = settled_force()
+    plant.move_wall(0.02)
+    assert pressed < -5.0 and abs(lost) < 1e-6
+    assert settled_force() == pytest.approx(pressed, rel=0.1)  # the roller slid a little meanwhile
+
+
 def test_plant_step_equals_plain_mujoco_steps_and_per_sample_noise(pressing_plant):
     """The plant reuses the reading's position/velocity stages for its first substep and draws noise in
     blocks: the same states and sensor values as mj_step substeps with noise drawn a sample at a time."""

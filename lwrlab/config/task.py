@@ -360,7 +360,8 @@ class LivePaintingTask(PaintingTask):
     """Record the inputs and outputs as a rosbag2 (MCAP) in the run folder (``live_bag``)."""
     robot: dict[str, Any]
     """The simulated robot's own settings (``task=sim_painting_robot``): ``start_pose``,
-    ``joint_gains``, ``stalls``, ``lockstep_s``, ``duration_s``, ``idle_stop_s``."""
+    ``joint_gains``, ``stalls``, ``wall_moves``, ``torque_jumps``, ``lockstep_s``, ``duration_s``,
+    ``idle_stop_s``."""
 
 
 @schema

@@ -113,6 +113,8 @@ class Received:
     """When the writer wrote it (its clock, ns since the epoch)."""
     received_ns: int
     """When it was taken here (ns since the epoch)."""
+    newer: int = 0
+    """Samples of the topic taken with it that are newer (a reader that fell behind catches up)."""
 
 
 class Subscription:
@@ -152,10 +154,16 @@ class Subscription:
                     if not taken:
                         break
                     now = time.time_ns()
-                    for data, info in taken:
+                    for index, (data, info) in enumerate(taken):
                         if info.valid_data:
                             self._callback(
-                                Received(self._decode(data), data, int(info.source_timestamp), now)
+                                Received(
+                                    self._decode(data),
+                                    data,
+                                    int(info.source_timestamp),
+                                    now,
+                                    len(taken) - 1 - index,
+                                )
                             )
         except BaseException as error:  # handed to the owner, who stops on it
             self.error = error

@@ -170,17 +170,29 @@ class PaintingLoop:
         self._fk_data = estimator.model.createData()
         self._no_force = np.zeros(3)
         self._last_check_s = float("-inf")
+        self.superseded = 0
+        """States not answered by a command: a newer one had already come (see :meth:`on_state`)."""
 
     # the sample path ----------------------------------------------------------------------------
 
-    def on_state(self, stamp_ns: int, q: np.ndarray, tau: np.ndarray, received_s: float) -> None:
-        """One joint state (stamp ns, positions rad, link-side torques N·m, receipt time monotonic s)."""
+    def on_state(
+        self, stamp_ns: int, q: np.ndarray, tau: np.ndarray, received_s: float, newer: int = 0
+    ) -> None:
+        """One joint state (stamp ns, positions rad, link-side torques N·m, receipt time monotonic s).
+
+        ``newer``: states already received after this one. The loop steps on this one as on every
+        state (the estimate's filters and the force loop run at the states' rate) but commands only
+        the newest: a controller that fell behind answers where the robot is now, not with a burst
+        of stale commands (which a robot stepping on each command would keep behind for ever).
+        """
         entered = time.perf_counter_ns()
         with self._lock:
-            self._on_state(stamp_ns, q, tau, received_s)
+            self._on_state(stamp_ns, q, tau, received_s, newer == 0)
             self.records.compute_ns[self.records.n - 1] = time.perf_counter_ns() - entered
 
-    def _on_state(self, stamp_ns: int, q: np.ndarray, tau: np.ndarray, received_s: float) -> None:
+    def _on_state(
+        self, stamp_ns: int, q: np.ndarray, tau: np.ndarray, received_s: float, answer: bool
+    ) -> None:
         records, row = self.records, self.records.n
         if row >= records.stamp_ns.size:
             self._stop("the run outgrew its record (the planned motion and 30 s more)")
@@ -224,7 +236,10 @@ class PaintingLoop:
         except ValueError as error:
             self._stop(f"{error}: stopped commanding")
             return
-        self.publish(command, state.wrench, stamp_ns)
+        if answer:
+            self.publish(command, state.wrench, stamp_ns)
+        else:
+            self.superseded += 1
         records.command[row] = command
         if moving and self._index >= self._queue.shape[0] and self.limiter.arrived(target):
             if self.phase == 1:

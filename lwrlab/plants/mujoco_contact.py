@@ -330,6 +330,14 @@ class MujocoContactPlant:
         sensors = self._stepper.step(np.asarray(tau, dtype=float)[None])
         return ContactSensors(*(value[0] for value in sensors))
 
+    def move_wall(self, distance: float) -> None:
+        """Move the wall ``distance`` (m) along its normal (+x, towards the robot), from the next step on.
+
+        A fault drill: the wall is not where the path was planned (a static body, placed anew by
+        MuJoCo's kinematics at every step). Its force sensor keeps its tare.
+        """
+        self.model.body("wall").pos[0] += float(distance)
+
     @property
     def tcp_position(self) -> np.ndarray:
         """True position of the tool's contact point (m, base frame)."""

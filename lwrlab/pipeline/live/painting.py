@@ -274,7 +274,7 @@ def run_live_painting(
         if isinstance(sample, Refusal):
             refused.append(sample.reason)
             return
-        loop.on_state(stamp_ns, sample.q, sample.tau, time.monotonic())
+        loop.on_state(stamp_ns, sample.q, sample.tau, time.monotonic(), received.newer)
 
     def on_truth(received: Any) -> None:
         stamp_ns, values = received.message
@@ -358,6 +358,7 @@ def run_live_painting(
         "compute_median_ms": float(1e-6 * np.median(records.compute_ns[: records.n])),
         "compute_p99_ms": float(1e-6 * np.percentile(records.compute_ns[: records.n], 99)),
         "commands_clamped": float(loop.limiter.clamped),
+        "states_superseded": float(loop.superseded),
         "path_progress": loop.progress,
         "stopped_on_fault": float(not reason.startswith(FAULT_FREE)),
     }
@@ -382,7 +383,8 @@ def run_live_painting(
         lines.append("- the path's painting was not reached or no truth force came: nothing scored")
     lines += [
         f"- {records.n} joint states, {latency_ms.size} commands, {len(refused)} messages refused, "
-        f"{metrics['missed_periods']:.0f} missed periods, {loop.limiter.clamped} commands clamped",
+        f"{metrics['missed_periods']:.0f} missed periods, {loop.limiter.clamped} commands clamped, "
+        f"{loop.superseded} states answered by a newer one's command",
         f"- latency (state received to command published): median {metrics['latency_median_ms']:.3f} ms, "
         f"99th percentile {metrics['latency_p99_ms']:.3f} ms",
         f"- path progress {100 * loop.progress:.1f} %",

@@ -20,8 +20,11 @@ lockstep with its controller does; the controller then always sees one period of
 else the machine runs (the tests' mode: a shared machine holds a real-time loop up by tens of ms
 at times).
 Before the first command it stands at ``task.robot.start_pose`` (null: the middle of the joint
-ranges). ``task.robot.stalls`` withhold the joint states for a while (a fault drill: the driver's
-stream stalls while the arm keeps its command). It shares ``task=live_painting``'s settings (the
+ranges). Fault drills, each timed from the first command: ``task.robot.stalls`` withhold the joint
+states for a while (the driver's stream stalls while the arm keeps its command),
+``task.robot.wall_moves`` move the wall along its normal (it is not where the path was planned),
+``task.robot.torque_jumps`` offset the published joint torques for a while (a torque sensor's
+glitch: the force estimate jumps). It shares ``task=live_painting``'s settings (the
 same YAML), so that the two processes agree on the wall, the roller and the topics::
 
     lwrlab task=sim_painting_robot
@@ -82,16 +85,28 @@ class _LatestCommand:
             self.arrived.wait_for(lambda: self.count > count, timeout_s)
 
 
-def _stalls(stalls: Sequence[Mapping[str, float]] | None) -> list[tuple[float, float]]:
-    windows = []
-    for i, stall in enumerate(stalls or []):
+def _drills(name: str, drills: Sequence[Mapping[str, Any]] | None, keys: Sequence[str]) -> list[tuple]:
+    """``task.robot.<name>``: per drill, ``after_s`` and the values of ``keys`` (floats, or lists of them)."""
+    parsed = []
+    for i, drill in enumerate(drills or []):
         try:
-            windows.append((float(stall["after_s"]), float(stall["after_s"]) + float(stall["duration_s"])))
+            values = [drill[key] for key in ("after_s", *keys)]
+            parsed.append(
+                tuple(
+                    np.asarray(value, dtype=float) if isinstance(value, Sequence) else float(value)
+                    for value in values
+                )
+            )
         except (KeyError, TypeError, ValueError) as error:
             raise ConfigError(
-                f"task.robot.stalls[{i}]: give after_s (s after the first command) and duration_s: {error}"
+                f"task.robot.{name}[{i}]: give after_s (s after the first command) and "
+                f"{', '.join(keys)}: {error!r}"
             ) from error
-    return windows
+    return parsed
+
+
+def _stalls(stalls: Sequence[Mapping[str, float]] | None) -> list[tuple[float, float]]:
+    return [(after, after + duration) for after, duration in _drills("stalls", stalls, ["duration_s"])]
 
 
 def run_sim_painting_robot(
@@ -110,8 +125,8 @@ def run_sim_painting_robot(
     **controller_settings: Any,
 ) -> dict[str, float]:
     """Task ``sim_painting_robot`` (see the module); ``robot``: start_pose, joint_gains, stalls,
-    lockstep_s, duration_s, idle_stop_s. ``controller_settings``: ``task=live_painting``'s other
-    settings, which the robot does not read."""
+    wall_moves, torque_jumps, lockstep_s, duration_s, idle_stop_s. ``controller_settings``:
+    ``task=live_painting``'s other settings, which the robot does not read."""
     from hydra.utils import instantiate
 
     try:
@@ -150,6 +165,13 @@ def run_sim_painting_robot(
     kp, kd = joint.kp, joint.kd
     sensors = plant.reset(q0, joint.gravity(q0))
     stalls = _stalls(robot.get("stalls"))
+    wall_moves = sorted(_drills("wall_moves", robot.get("wall_moves"), ["distance"]))
+    torque_jumps = [
+        (after, after + duration, np.broadcast_to(offset, (n,)))
+        for after, duration, offset in _drills(
+            "torque_jumps", robot.get("torque_jumps"), ["duration_s", "offset"]
+        )
+    ]
     lockstep_s = robot.get("lockstep_s")
     names = list(nominal.joint_names)
 
@@ -213,10 +235,16 @@ def run_sim_painting_robot(
             sensors = plant.step(kp * (q_command - sensors.q) + kd * (dq_command - sensors.dq_true) + gravity)
             stamp_ns = start_ns + (k + 1) * period_ns
             since_first = time.monotonic() - latest.first_s
+            while wall_moves and since_first >= wall_moves[0][0]:
+                plant.move_wall(wall_moves.pop(0)[1])
             if any(begin <= since_first < end for begin, end in stalls):
                 withheld += 1
             else:
-                states.raw(encode_state.encode(stamp_ns, sensors.q, sensors.dq_true, sensors.tau))
+                tau = sensors.tau
+                for begin, end, offset in torque_jumps:
+                    if begin <= since_first < end:
+                        tau = tau + offset
+                states.raw(encode_state.encode(stamp_ns, sensors.q, sensors.dq_true, tau))
                 if truth_force is not None:
                     wrench[:3] = sensors.wall_force
                     truth_force.raw(encode_force.encode(stamp_ns, wrench))

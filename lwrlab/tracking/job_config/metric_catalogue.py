@@ -325,6 +325,12 @@ CATALOGUE: tuple[MetricFamily, ...] = (
         "commands_clamped", "1", "commands held to the joint, speed or acceleration limits", LIVE_PAINTING
     ),
     MetricFamily(
+        "states_superseded",
+        "1",
+        "joint states stepped on but not answered: a newer one had already come (the loop caught up)",
+        LIVE_PAINTING,
+    ),
+    MetricFamily(
         "missed_periods", "1", "control periods without a joint state (gaps in the stamps)", LIVE_PAINTING
     ),
     MetricFamily(
