@@ -337,16 +337,16 @@ def test_a_stalled_state_stream_stops_the_controller_with_its_reason(tmp_path: P
     assert "joint states stalled" in reason and "(limit 30 ms)" in reason, reason
     assert live["stopped_on_fault"] == 1.0 and live["path_progress"] < 1.0
     assert robot["samples_withheld"] == 50  # 50 ms at 1 kHz
-    # stopped at the drill, 1 s after the first command at 1 kHz (a busy machine bunches a few periods),
-    # not at the path's end 3.5 s on
-    assert live["commands"] <= 1300
+    # stopped at the drill, 1000 of the robot's periods after its first command (at most one command
+    # a state), not at the path's end 3.5 s on
+    assert live["commands"] <= 1000 + 5
     summary = (tmp_path / "controller" / "summary.md").read_text()
     assert "joint states stalled" in summary
 
 
 @pytest.mark.slow
 def test_a_second_robot_on_the_joint_states_topic_stops_the_controller(tmp_path: Path) -> None:
-    robot, live, reason = _pair(tmp_path, 1 + os.getpid() % 39, robots=2)
+    _, live, reason = _pair(tmp_path, 1 + os.getpid() % 39, robots=2)
     # whichever guard sees it first: the interleaved stamps going back, or the count of writers
     assert "two robots publish" in reason or "2 publishers of /joint_states" in reason, reason
     assert live["stopped_on_fault"] == 1.0 and live["path_progress"] < 0.1

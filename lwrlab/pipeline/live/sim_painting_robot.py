@@ -20,8 +20,9 @@ lockstep with its controller does; the controller then always sees one period of
 else the machine runs (the tests' mode: a shared machine holds a real-time loop up by tens of ms
 at times).
 Before the first command it stands at ``task.robot.start_pose`` (null: the middle of the joint
-ranges). Fault drills, each timed from the first command: ``task.robot.stalls`` withhold the joint
-states for a while (the driver's stream stalls while the arm keeps its command),
+ranges). Fault drills, each timed in the robot's own periods from the first command it took:
+``task.robot.stalls`` withhold the joint states for a while (the driver's stream stalls while the
+arm keeps its command),
 ``task.robot.wall_moves`` move the wall along its normal (it is not where the path was planned),
 ``task.robot.torque_jumps`` offset the published joint torques for a while (a torque sensor's
 glitch: the force estimate jumps). It shares ``task=live_painting``'s settings (the
@@ -66,15 +67,12 @@ class _LatestCommand:
         self.q: np.ndarray | None = None
         self.count = 0
         self.refused = 0
-        self.first_s = float("nan")
         self.arrived = threading.Condition()
 
     def __call__(self, values: np.ndarray) -> None:
         if values.shape != (self.n_joints,) or not np.all(np.isfinite(values)):
             self.refused += 1  # a forward controller refuses a command of the wrong size, too
             return
-        if self.count == 0:
-            self.first_s = time.monotonic()
         with self.arrived:
             self.q, self.count = values, self.count + 1
             self.arrived.notify()
@@ -207,6 +205,7 @@ def run_sim_painting_robot(
     with StopConditions(robot.get("duration_s"), robot.get("idle_stop_s")) as stop:
         start_ns, clock = time.time_ns(), time.perf_counter()
         k, last_count, last_command_s, last_command_k = 0, 0, float("nan"), 0
+        first_command_k: int | None = None
         q_command, zeros = q0, np.zeros(n)
         dq_command = zeros
         reason = None
@@ -228,15 +227,24 @@ def run_sim_painting_robot(
                 q_new, periods = latest.q, k - last_command_k
                 dq_command = (q_new - q_command) / (max(periods, 1) * plant.control_period)
                 q_command, last_command_k = q_new, k
+                first_command_k = k if first_command_k is None else first_command_k
                 last_count, last_command_s = latest.count, time.monotonic()
             elif k - last_command_k > 1:
                 dq_command = zeros  # held: a forward controller's reference stands still
             gravity = joint.gravity(sensors.q)
             sensors = plant.step(kp * (q_command - sensors.q) + kd * (dq_command - sensors.dq_true) + gravity)
             stamp_ns = start_ns + (k + 1) * period_ns
-            since_first = time.monotonic() - latest.first_s
+            # the drills' clock: the robot's own periods since it took the first command (in lockstep
+            # the wall clock runs at the pair's pace, not the robot's)
+            since_first = -np.inf if first_command_k is None else (k - first_command_k) / rate_hz
             while wall_moves and since_first >= wall_moves[0][0]:
-                plant.move_wall(wall_moves.pop(0)[1])
+                _, distance = wall_moves.pop(0)
+                plant.move_wall(distance)
+                log.info(
+                    "drill: the wall moved %+.1f mm along its normal, %.2f s after the first command",
+                    1e3 * distance,
+                    since_first,
+                )
             if any(begin <= since_first < end for begin, end in stalls):
                 withheld += 1
             else:
