@@ -203,6 +203,23 @@ SOURCES = {
         )
         for part, minutes in (("pushes", 2.0), ("endurance", 12.0), ("rates", 3.0))
     },
+    **{
+        f"live_painting_{part}": Source(
+            (
+                (
+                    "python",
+                    str(REPOSITORY / "benchmarks" / "live_painting.py"),
+                    "--only",
+                    part,
+                    "--nice",
+                    "-10",
+                ),
+            ),
+            _printed_table(f"## Live painting: {part}"),
+            minutes,
+        )
+        for part, minutes in (("path", 4.0), ("drills", 2.0))
+    },
     "zoo_members": Source(
         (("python", str(REPOSITORY / "benchmarks" / "zoo.py"), "--list"),), _printed_table("## members"), 0.1
     ),
