@@ -113,3 +113,40 @@ def test_logged_velocity_is_used_when_consistent_and_refused_when_delayed() -> N
     # Aligned by its delay, a lagging velocity matches the derivative of q away from the ends.
     interior = slice(100, -100)
     np.testing.assert_allclose(forced.dq[interior], consistent.dq[interior], atol=2e-3)
+
+
+def test_rows_denser_than_the_default_decimation_count_as_correlated() -> None:
+    """A least-squares fit on low-passed rows: the white-noise σ falls short of the spread over noise
+    draws by a factor that grows as √(rows' rate); ``correlated_rows`` is that growth over the default
+    decimation's (5 × the cut-off), which a fit at a denser rate scales its covariance by."""
+    from scipy.signal import butter, sosfiltfilt
+
+    from lwrlab.signal.processing import correlated_rows
+
+    rate, cutoff = 1000.0, 10.0
+    t = np.arange(0.0, 10.0, 1.0 / rate)
+    q = np.column_stack([0.5 * np.sin(2 * np.pi * 0.3 * t), 0.4 * np.cos(2 * np.pi * 0.7 * t)])
+    dense = process(t, q, np.zeros_like(q), cutoff_hz=cutoff, rate_hz=rate)
+    default = process(t, q, np.zeros_like(q), cutoff_hz=cutoff)
+    assert dense.rate_hz > default.rate_hz == pytest.approx(5 * cutoff)
+    assert correlated_rows(default) == 1.0
+    assert correlated_rows(dense) == pytest.approx(dense.rate_hz / (5 * cutoff))
+    assert correlated_rows(process(t, q, np.zeros_like(q), cutoff_hz=None)) == 1.0
+
+    W = np.column_stack([np.sin(2 * np.pi * 0.3 * t), np.cos(2 * np.pi * 0.7 * t + 0.4), np.ones_like(t)])
+    sos = butter(5, cutoff, fs=rate, output="sos")
+    filtered = sosfiltfilt(sos, W, axis=0)
+    rng = np.random.default_rng(0)
+    steps = {"dense": round(rate / dense.rate_hz), "default": round(rate / default.rate_hz)}
+    fits: dict[str, list[np.ndarray]] = {name: [] for name in steps}
+    stated: dict[str, list[np.ndarray]] = {name: [] for name in steps}
+    for _ in range(150):
+        y = sosfiltfilt(sos, W @ [1.0, -2.0, 0.5] + rng.normal(size=t.size))
+        for name, step in steps.items():
+            A, b = filtered[::step], y[::step]
+            x = np.linalg.lstsq(A, b, rcond=None)[0]
+            variance = np.sum((b - A @ x) ** 2) / (len(b) - 3)
+            fits[name].append(x)
+            stated[name].append(np.sqrt(np.diag(variance * np.linalg.inv(A.T @ A))))
+    short = {name: np.std(fits[name], axis=0) / np.mean(stated[name], axis=0) for name in steps}
+    np.testing.assert_allclose(short["dense"] / short["default"], np.sqrt(correlated_rows(dense)), rtol=0.2)

@@ -18,8 +18,10 @@ Table III. ``consistent=True`` solves the same problem as a semidefinite program
 pseudo-inertia ``J(Φ_L) ⪰ 0`` (a physically realisable body; :mod:`lwrlab.identification.consistency`).
 
 The covariance assumes white residuals. Low-pass filtered data are correlated over about
-``rate/(2·cutoff)`` samples, so the true spread is larger than %σ says (by about √50 ≈ 7 at
-1 kHz and 10 Hz); the relative ordering of parameters, which is what Table III reads, holds.
+``rate/(2·cutoff)`` samples, so the true spread is larger than %σ says (by about √2.5 at the
+default decimation, 5 × the cut-off); the relative ordering of parameters, which is what Table III
+reads, holds. Rows denser than the default are scaled back to it by the tool bench
+(:func:`lwrlab.signal.processing.correlated_rows`).
 """
 
 from __future__ import annotations

@@ -55,6 +55,23 @@ from lwrlab.signal.velocity import VelocityChoice, choose_velocity
 DECIMATED_RATE_PER_CUTOFF = 5.0
 """Default decimated rate = this × the cut-off: Nyquist at 2.5 × the cut-off, where a 5th-order
 Butterworth leaves 1e-4 of the signal."""
+
+
+def correlated_rows(processed: ProcessedData) -> float:
+    """Rows per independent row: the rows' rate over :data:`DECIMATED_RATE_PER_CUTOFF` × the cut-off, at
+    least 1.
+
+    Low-passed rows share the filter's memory, about ``rate/(2·cut-off)`` rows of it, yet a white-noise
+    covariance ``σ²(WᵀW)⁻¹`` counts each as new: its σ falls short by about √2.5 at the default decimation
+    (5 × the cut-off), which %σ and the thresholds set in σ (tool recognition's open set) are read and
+    chosen at, and by √(rate/(2·cut-off)) at a denser rate. Estimates on denser rows scale their
+    covariance by this ratio, so that a σ means the same whatever ``processing.rate_hz``.
+    """
+    if processed.cutoff_hz is None:
+        return 1.0
+    return max(1.0, processed.rate_hz / (DECIMATED_RATE_PER_CUTOFF * processed.cutoff_hz))
+
+
 WORKING_RATE_PER_CUTOFF = 50.0
 """Filtered signals are thinned to at least this × the cut-off before building the regressor."""
 STATE_FACTOR = 2.0
@@ -71,6 +88,7 @@ __all__ = [
     "ProcessedData",
     "auto_cutoff",
     "central_difference",
+    "correlated_rows",
     "lowpass",
     "motion_frequency",
     "noise_limited_cutoff",

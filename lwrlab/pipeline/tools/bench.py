@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -31,7 +31,7 @@ from lwrlab.identification.payload import (
 from lwrlab.model.payload import flange_placement, frame_change_matrix
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Plant, PlantTruth
-from lwrlab.signal.processing import process
+from lwrlab.signal.processing import correlated_rows, process
 from lwrlab.tools.excitation import select_tool_motion
 from lwrlab.tools.model import Tool
 from lwrlab.trajectory.core import Trajectory, check_limits
@@ -66,6 +66,9 @@ class ToolData:
     """(rows, 10) columns of the flange-carrying segment (its joint frame)."""
     tau: np.ndarray
     """(rows,) processed joint torques (N·m)."""
+    correlated_rows: float = 1.0
+    """Rows per independent row (:func:`lwrlab.signal.processing.correlated_rows`): rows denser than the
+    default decimation; the tool's covariance is scaled by it."""
 
 
 @dataclass(frozen=True)
@@ -101,7 +104,10 @@ class ToolBench:
         processed = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **self.processing)
         w, tau = processed.rows(LogRegressor.of(self.robot, processed.velocities, processed.working_rate_hz))
         return ToolData(
-            self.base.base_regressor(w), w[:, tool_columns(self.robot.n_links, self.tool_joint)], tau
+            self.base.base_regressor(w),
+            w[:, tool_columns(self.robot.n_links, self.tool_joint)],
+            tau,
+            correlated_rows(processed),
         )
 
     def truth_in_joint_frame(self, tool: Tool) -> np.ndarray:
@@ -120,7 +126,7 @@ def identify_tool(
     """The tool's parameters from an unloaded and a loaded measurement, by ``method`` (:data:`METHODS`)."""
     n = bench.robot.n_joints
     if method == "joint":
-        return identify_payload(
+        estimate = identify_payload(
             unloaded.w_base,
             unloaded.tau,
             loaded.w_base,
@@ -131,12 +137,25 @@ def identify_tool(
             weighted,
             consistent,
         )
+        return _decorrelated(estimate, max(unloaded.correlated_rows, loaded.correlated_rows))
     if method == "payload_only":
         robot_base = grouped_least_squares(
             unloaded.w_base, unloaded.tau, row_joints(unloaded.tau.size, n) if weighted else None
         ).phi
         return identify_tool_given_robot(bench, loaded, robot_base, weighted, consistent)
     raise ValueError(f"unknown tool identification method {method!r}; valid: {list(METHODS)}")
+
+
+def _decorrelated(estimate: PayloadEstimate, correlated: float) -> PayloadEstimate:
+    """``estimate`` with its covariance scaled by ``correlated`` rows per independent row."""
+    if correlated == 1.0:
+        return estimate
+    base_std = estimate.robot_base_std
+    return replace(
+        estimate,
+        covariance=correlated * estimate.covariance,
+        robot_base_std=None if base_std is None else np.sqrt(correlated) * base_std,
+    )
 
 
 def identify_tool_given_robot(
@@ -147,7 +166,7 @@ def identify_tool_given_robot(
     consistent: bool = False,
 ) -> PayloadEstimate:
     """The tool's parameters from a loaded measurement, the robot's base parameters ``robot_base`` known."""
-    return identify_payload_only(
+    estimate = identify_payload_only(
         loaded.w_base,
         robot_base,
         loaded.w_tool,
@@ -157,6 +176,7 @@ def identify_tool_given_robot(
         weighted,
         consistent,
     )
+    return _decorrelated(estimate, loaded.correlated_rows)
 
 
 def checked_motion(source: Any, robot: RobotModel, rate_hz: float, what: str) -> Trajectory:

@@ -19,7 +19,7 @@ from lwrlab.identification.payload import tool_columns
 from lwrlab.pipeline.config_nodes import log_reader, read_logs
 from lwrlab.pipeline.tools.bench import ToolBench, ToolData
 from lwrlab.plants.core import Measurement
-from lwrlab.signal.processing import process
+from lwrlab.signal.processing import correlated_rows, process
 
 
 def log_rows(bench: ToolBench, measurements: Sequence[Measurement]) -> ToolData:
@@ -37,13 +37,17 @@ def log_rows(bench: ToolBench, measurements: Sequence[Measurement]) -> ToolData:
         w, tau = processed.rows(LogRegressor.of(bench.robot, processed.velocities, processed.working_rate_hz))
         parts.append(
             ToolData(
-                bench.base.base_regressor(w), w[:, tool_columns(bench.robot.n_links, bench.tool_joint)], tau
+                bench.base.base_regressor(w),
+                w[:, tool_columns(bench.robot.n_links, bench.tool_joint)],
+                tau,
+                correlated_rows(processed),
             )
         )
     return ToolData(
         np.vstack([p.w_base for p in parts]),
         np.vstack([p.w_tool for p in parts]),
         np.concatenate([p.tau for p in parts]),
+        max(p.correlated_rows for p in parts),
     )
 
 
