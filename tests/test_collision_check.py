@@ -460,6 +460,37 @@ def test_sphere_and_hull_distances_are_lower_bounds_of_the_exact_distance(robot_
     assert any(scene.hull_pairs), "the scene measures some pairs between hulls"
 
 
+@pytest.mark.parametrize("robot_fixture", ["ur10", "panda"])
+def test_distances_past_a_horizon_are_the_full_ones_clipped_and_their_derivatives_zero(
+    robot_fixture, request
+) -> None:
+    """The optimiser's capped distances skip the sphere pairs of bodies whose bounding spheres are past
+    the horizon: the same values as every sphere pair, clipped (and the same derivatives within the
+    horizon, none past it); the exact check's loose ones are the full ones within it, lower bounds
+    past it."""
+    robot, _, scene, _ = request.getfixturevalue(robot_fixture)
+    q = random_configurations(robot, 150, seed=3)
+    poses = scene.poses(q)
+    spheres = SphereDistances(scene)
+    for family, pairs in (("self", scene.checked_self_pairs), ("world", scene.checked_world_pairs)):
+        full = spheres.pair_distances(family, pairs, poses)[0]
+        for horizon in (0.02, 0.1, 0.3):
+            near = full < horizon
+            assert near.any() and (~near).any(), "entries on both sides of the horizon"
+            capped = spheres.pair_distances(family, pairs, poses, horizon=horizon)[0]
+            np.testing.assert_allclose(capped, np.minimum(full, horizon), rtol=0, atol=1e-12)
+            loose = spheres.pair_distances(family, pairs, poses, horizon=horizon, loose=True)[0]
+            np.testing.assert_allclose(loose[near], full[near], rtol=0, atol=1e-12)
+            assert np.all(loose <= full + 1e-12) and np.all(loose[~near] >= horizon - 1e-12)
+        samples = np.repeat(np.arange(len(q)), len(pairs))
+        columns = np.tile(np.arange(len(pairs)), len(q))
+        within = full[samples, columns] < 0.1
+        every = spheres.derivatives(family, pairs, q, samples, columns)
+        capped_derivatives = spheres.derivatives(family, pairs, q, samples, columns, horizon=0.1)
+        np.testing.assert_allclose(capped_derivatives[within], every[within], rtol=0, atol=1e-12)
+        assert not capped_derivatives[~within].any()
+
+
 # --- derivatives ----------------------------------------------------------------------------------
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -466,3 +467,51 @@ def test_the_arm_of_a_bigger_robot_by_its_chain_or_its_planning_group() -> None:
         build("robot", "urdf", path=talos, collision_geometry=False, group="no_arm", srdf=srdf)
     with pytest.raises(ConfigError, match=r"give robot\.srdf too"):
         build("robot", "urdf", path=talos, collision_geometry=False, group="l_arm")
+
+
+def test_the_arm_of_a_bigger_robot_keeps_clear_of_the_floor_under_it_not_of_a_table_at_its_base() -> None:
+    """TALOS's base frame is its pelvis: a table there would cut through its legs and the arm's reach.
+    The arm by its chain stands, by default, on the floor under its feet; TIAGo Pro's base frame is on
+    the ground (its wheels touch the plane z = 0); an arm alone keeps the table at its base."""
+    example = pytest.importorskip("plugins.robots.example_robot")
+    from lwrlab.model.collision_geometry import load_robot_geometry
+
+    try:
+        talos_urdf = example.example_robot_file("talos_data/robots/talos_full_v2.urdf")
+        tiago_urdf = example.example_robot_file("tiago_pro_description/robots/tiago_pro.urdf")
+    except (FileNotFoundError, ImportError) as error:
+        pytest.skip(f"example-robot-data is not installed ({error})")
+    settings = build("trajectory", "optimal", from_file=None).constraints
+    assert settings.world["mounting_surface"] == "auto"
+    talos = build("robot", "urdf", path=talos_urdf, chain=["torso_2_link", "arm_left_7_link"])
+    assert talos.mounted_on == "torso_2_link"
+    floor = settings.mounting_surface(talos)
+    assert floor is not None and floor["normal"] == pytest.approx([0.0, 0.0, 1.0])
+    geometry = load_robot_geometry(talos.collision_source, talos.model)
+    rest = np.vstack([s.vertices_in_joint_frame() for s in geometry.shapes if s.joint == 0])
+    assert (rest[:, 2] < 0.0).any() and (rest[:, 2] > 0.0).any(), "a table at the pelvis cuts the robot"
+    assert floor["height"] == pytest.approx(rest[:, 2].min()) and floor["height"] < -0.9  # the soles
+    planes = [w for w in settings.world_objects(talos) if w.shape == "plane"]  # what the scene avoids
+    assert len(planes) == 1 and planes[0].pose[2, 3] == pytest.approx(floor["height"])
+    assert "floor under the robot" in settings.describe_world(talos)
+    tiago = build("robot", "urdf", path=tiago_urdf, chain=["torso_lift_link", "arm_left_7_link"])
+    assert abs(settings.mounting_surface(tiago)["height"]) < 0.01  # type: ignore[index]
+    # without geometry there is no floor to find: none, and the report says why
+    bare = build(
+        "robot", "urdf", path=talos_urdf, chain=["torso_2_link", "arm_left_7_link"], collision_geometry=False
+    )
+    assert settings.mounting_surface(bare) is None
+    assert "hangs from torso_2_link" in settings.describe_world(bare)
+    # the chain from the description's root moves the torso too: it stands on its base, as an arm alone
+    whole = build(
+        "robot", "urdf", path=talos_urdf, chain=["base_link", "arm_left_7_link"], collision_geometry=False
+    )
+    assert whole.mounted_on is None and settings.mounting_surface(whole) == {
+        "height": 0.0,
+        "normal": [0, 0, 1],
+    }
+    # what the command gives is kept
+    given = replace(settings, world={"mounting_surface": {"height": -0.5}})
+    assert given.mounting_surface(talos) == {"height": -0.5}
+    with pytest.raises(ConfigError, match=r"mounting_surface=none: give \{height"):
+        replace(settings, world={"mounting_surface": "none"}).mounting_surface(talos)

@@ -2,8 +2,9 @@
 
 For each checked pair (two bodies of the robot, or a body and a world object) the enclosing spheres
 give, vectorised over all samples, a lower bound of the true distance
-(:mod:`lwrlab.excitation.sphere_distances`). Only samples whose bound is within the clearance are
-queried with coal on the exact geometry (meshes and primitives, with the clearance as security
+(:mod:`lwrlab.excitation.sphere_distances`; where the two bodies' bounding spheres are more than a
+horizon apart, their gap is the bound, looser but as safe). Only samples whose bound is within the
+clearance are queried with coal on the exact geometry (meshes and primitives, with the clearance as security
 margin); against a plane the exact distance is the lowest vertex of the body's meshes (exact for
 meshes and boxes, the enclosing polyhedron for round primitives). The closest approach of every pair
 is the smallest exact distance over the samples where its bound is smallest (a dozen, spread in time).
@@ -24,7 +25,7 @@ import numpy as np
 from lwrlab.excitation.approaches import ClosestApproach
 from lwrlab.excitation.collision_scene import CollisionScene
 from lwrlab.excitation.exact_geometry import ExactGeometry
-from lwrlab.excitation.sphere_distances import SphereDistances
+from lwrlab.excitation.sphere_distances import OPTIMISER_HORIZON, SphereDistances
 
 APPROACH_CANDIDATES = 12
 """Exact distances computed per pair for its closest approach: at the samples of smallest bound, no two
@@ -78,6 +79,8 @@ def check_collisions(scene: CollisionScene, t: np.ndarray, q: np.ndarray, cleara
     """Check every sample of a motion (t (N,) s, q (N, N_J)) against the scene's exact geometry."""
     clock = time.perf_counter()
     distances = SphereDistances(scene)
+    # hand-written spheres are the collision model itself: their distances stay exact at any range
+    horizon = clearance + OPTIMISER_HORIZON if scene.geometry is not None else None
     poses = scene.poses(q)
     exact = ExactGeometry(scene) if scene.geometry is not None else None
     approaches, contacts, queries = [], [], 0
@@ -88,7 +91,8 @@ def check_collisions(scene: CollisionScene, t: np.ndarray, q: np.ndarray, cleara
             exact is not None and family == "world" and scene.world[p[1]].shape == "plane" for p in pairs
         ]
         others = tuple(p for p, plane in zip(pairs, planes, strict=True) if not plane)
-        other_bounds = distances.pair_distances(family, others, poses)[0]  # (N, C')
+        # beyond the horizon the bodies' bounding spheres bound them (looser, far cheaper)
+        other_bounds = distances.pair_distances(family, others, poses, horizon=horizon, loose=True)[0]
         for c, pair in enumerate(pairs):
             if planes[c] and exact is not None:
                 approach, contact = _plane_check(exact, scene, pair, poses, t, clearance)

@@ -87,19 +87,9 @@ class CollisionScene:
 
     def sphere_centres(self, poses: np.ndarray) -> np.ndarray:
         """(S, N, 3) sphere centres (m, base frame) from joint poses (N_J, N, 4, 4)."""
-        n = poses.shape[1]
-        out = np.empty((len(self.spheres), n, 3))
         links = np.array([s.link for s in self.spheres], dtype=int)
         centers = np.array([s.center for s in self.spheres]).reshape(-1, 3)
-        for link in np.unique(links):  # one product per joint for all its spheres
-            chosen = links == link
-            if link == 0:
-                out[chosen] = centers[chosen][:, None, :]
-            else:
-                pose = poses[link - 1]
-                rotated = np.matmul(pose[:, :3, :3], centers[chosen].T)  # (N, 3, s)
-                out[chosen] = rotated.transpose(2, 0, 1) + pose[:, :3, 3]
-        return out
+        return posed_points(centers, links, poses)
 
     def poses(self, q: np.ndarray) -> np.ndarray:
         """(N_J, N, 4, 4) joint poses at q (N, N_J)."""
@@ -108,6 +98,21 @@ class CollisionScene:
     def pair_label(self, family: str, pair: tuple[int, int]) -> str:
         a, b = pair
         return f"{self.bodies[a]}–{self.world[b].name if family == 'world' else self.bodies[b]}"
+
+
+def posed_points(points: np.ndarray, joints: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """(P, N, 3) points (P, 3), each given in the frame of its joint (P,) (0: the base), in the base
+    frame at joint poses (N_J, N, 4, 4)."""
+    out = np.empty((len(points), poses.shape[1], 3))
+    for joint in np.unique(joints):  # one product per joint for all its points
+        chosen = joints == joint
+        if joint == 0:
+            out[chosen] = points[chosen][:, None, :]
+        else:
+            pose = poses[joint - 1]
+            rotated = np.matmul(pose[:, :3, :3], points[chosen].T)  # (N, 3, p)
+            out[chosen] = rotated.transpose(2, 0, 1) + pose[:, :3, 3]
+    return out
 
 
 def _fitted_spheres(geometry: RobotGeometry, links: list[str]) -> list[CollisionSphere]:
@@ -180,19 +185,42 @@ def build_scene(
     world: tuple[WorldObject, ...],
     **settings: Any,
 ) -> CollisionScene:
-    """:func:`build_scene_uncached`, once per robot object and settings."""
-    key = (
-        id(robot),
-        repr(
-            (sorted(settings.items()), [(w.name, w.shape, w.pose.tobytes(), w.size.tobytes()) for w in world])
-        ),
-    )
-    scene = _CACHE.get(key)
-    if scene is None or scene.robot is not robot:
-        scene = build_scene_uncached(robot, world, **settings)
-        if len(_CACHE) >= 8:
-            _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = scene
+    """:func:`build_scene_uncached`, once per robot object and settings; the pairs sampled once for
+    every ``distance_margin`` (the optimiser's scene and the exact check's differ only by it)."""
+    scene = _cached(robot, world, settings)
+    if scene is None:
+        sampling = {k: v for k, v in settings.items() if k != "distance_margin"}
+        stage = {**sampling, "stage": "sampled"}  # a key of its own, whatever the settings
+        sampled = _cached(robot, world, stage)
+        if sampled is None:
+            sampled = _store(robot, world, stage, sampled_scene(robot, world, **sampling))
+        scene = _store(
+            robot,
+            world,
+            settings,
+            separable_scene(sampled, settings.get("distance_margin", 0.0), len(world), **sampling),
+        )
+    return scene
+
+
+def _key(robot: RobotModel, world: tuple[WorldObject, ...], settings: dict[str, Any]) -> tuple[int, str]:
+    described = [(w.name, w.shape, w.pose.tobytes(), w.size.tobytes()) for w in world]
+    return id(robot), repr((sorted(settings.items()), described))
+
+
+def _cached(
+    robot: RobotModel, world: tuple[WorldObject, ...], settings: dict[str, Any]
+) -> CollisionScene | None:
+    scene = _CACHE.get(_key(robot, world, settings))
+    return scene if scene is not None and scene.robot is robot else None
+
+
+def _store(
+    robot: RobotModel, world: tuple[WorldObject, ...], settings: dict[str, Any], scene: CollisionScene
+) -> CollisionScene:
+    if len(_CACHE) >= 8:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[_key(robot, world, settings)] = scene
     return scene
 
 
@@ -215,6 +243,41 @@ def build_scene_uncached(
     gap between spheres kept apart. ``distance_margin``: what the optimiser keeps free beyond the
     clearance (m).
     """
+    settings: dict[str, Any] = {
+        "ground_spheres": ground_spheres,
+        "min_link_gap": min_link_gap,
+        "clearance": clearance,
+        "self_collision": self_collision,
+        "n_samples": n_samples,
+        "seed": seed,
+    }
+    return separable_scene(sampled_scene(robot, world, **settings), distance_margin, len(world), **settings)
+
+
+def separable_scene(
+    sampled: CollisionScene, distance_margin: float, n_configured: int, *, clearance: float, **settings: Any
+) -> CollisionScene:
+    """:func:`sampled_scene`'s pairs less those the optimiser cannot keep ``clearance + distance_margin``
+    apart (:func:`_unseparable_left_to_the_check`); the first ``n_configured`` world objects are the
+    configuration's (kept)."""
+    if not sampled.spheres or (not sampled.checked_self_pairs and not sampled.checked_world_pairs):
+        return sampled
+    n_samples, seed = settings.get("n_samples", 500), settings.get("seed", 0)
+    return _unseparable_left_to_the_check(sampled, clearance + distance_margin, n_samples, seed, n_configured)
+
+
+def sampled_scene(
+    robot: RobotModel,
+    world: tuple[WorldObject, ...],
+    *,
+    ground_spheres: tuple[str, ...] | None,
+    min_link_gap: int,
+    clearance: float,
+    self_collision: bool,
+    n_samples: int = 500,
+    seed: int = 0,
+) -> CollisionScene:
+    """The scene's bodies, world and pairs, pruned by sampling (:func:`_prune_by_sampling`)."""
     geometry: RobotGeometry | None = None
     world_objects = list(world)
     notes: list[str] = []
@@ -295,8 +358,7 @@ def build_scene_uncached(
     )  # fmt: skip
     if not spheres or (not candidates_self and not candidates_world):
         return scene
-    pruned = _prune_by_sampling(scene, clearance, n_samples, seed, notes, set(range(len(world))))
-    return _unseparable_left_to_the_check(pruned, clearance + distance_margin, n_samples, seed, len(world))
+    return _prune_by_sampling(scene, clearance, n_samples, seed, notes, set(range(len(world))))
 
 
 def _prune_by_sampling(

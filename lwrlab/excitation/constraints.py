@@ -33,7 +33,8 @@ import numpy as np
 import pinocchio as pin
 
 from lwrlab.excitation.collision_scene import CollisionScene, build_scene
-from lwrlab.excitation.sphere_distances import SphereDistances
+from lwrlab.excitation.mounting import describe_surface, resolve_surface
+from lwrlab.excitation.sphere_distances import OPTIMISER_HORIZON, SphereDistances
 from lwrlab.model.position_ranges import range_center, range_span, unbounded
 from lwrlab.model.robot import RobotModel
 from lwrlab.model.world import WorldObject, build_world
@@ -55,8 +56,9 @@ class ConstraintSettings:
     limit_margin : fraction of every joint limit (position range, velocity, acceleration, torque)
         kept free: the optimisation samples at 100 Hz, the robot plays 1 kHz.
     torque : constrain the CAD model's joint torques (with friction) to the torque limits.
-    world : ``{mounting_surface: {height, normal} | null, obstacles: [...]}``
-        (:mod:`lwrlab.model.world`); the robot's bodies stay ``clearance`` away from them.
+    world : ``{mounting_surface: {height, normal} | null | auto, obstacles: [...]}``
+        (:mod:`lwrlab.model.world`; ``auto``: :mod:`lwrlab.excitation.mounting`); the robot's bodies
+        stay ``clearance`` away from them.
     ground_spheres : for a robot described by hand-written collision spheres only: the spheres kept
         off the world (null: all).
     self_collision : keep the robot's bodies apart.
@@ -96,7 +98,7 @@ class ConstraintSettings:
         """The collision scene of ``robot`` with these settings (built once per robot and settings)."""
         return build_scene(
             robot,
-            self.world_objects(),
+            self.world_objects(robot),
             ground_spheres=self.ground_spheres,
             min_link_gap=self.min_link_gap,
             clearance=self.clearance,
@@ -105,11 +107,24 @@ class ConstraintSettings:
             distance_margin=self.distance_margin,
         )
 
-    def world_objects(self) -> tuple[WorldObject, ...]:
-        """The mounting surface and obstacles of ``world``."""
+    def world_objects(self, robot: RobotModel | None = None) -> tuple[WorldObject, ...]:
+        """The mounting surface (:meth:`mounting_surface`) and obstacles of ``world``."""
         world = dict(self.world or {})
         obstacles: Sequence[Mapping[str, Any]] = world.get("obstacles") or ()
-        return build_world(world.get("mounting_surface"), obstacles)
+        return build_world(self.mounting_surface(robot), obstacles)
+
+    def mounting_surface(self, robot: RobotModel | None = None) -> dict[str, Any] | None:
+        """``{height, normal}`` of the surface ``robot`` stands on, or None
+        (:func:`~lwrlab.excitation.mounting.resolve_surface`)."""
+        return resolve_surface((self.world or {}).get("mounting_surface"), robot)
+
+    def describe_world(self, robot: RobotModel) -> str:
+        """One line for the run's log and report: the surface the motion keeps clear of, and how many
+        obstacles."""
+        mounting = (self.world or {}).get("mounting_surface")
+        line = describe_surface(mounting, self.mounting_surface(robot), robot.mounted_on)
+        obstacles = len((self.world or {}).get("obstacles") or ())
+        return line + (f"; {obstacles} obstacle(s)" if obstacles else "")
 
 
 class ConstraintSet:
@@ -153,6 +168,11 @@ class ConstraintSet:
             robot.friction.viscous if "viscous" in robot.friction_terms else np.zeros(robot.n_joints)
         )
         self._data = robot.model.createData()
+
+    @property
+    def distance_horizon(self) -> float:
+        """m: the distance past which the optimiser sees a pair as far (:meth:`slacks` ``capped``)."""
+        return self.settings.clearance + self.settings.distance_margin + OPTIMISER_HORIZON
 
     # --- layout ---------------------------------------------------------------------------------
 
@@ -211,10 +231,14 @@ class ConstraintSet:
         ddq: np.ndarray,
         torque: np.ndarray | None = None,
         collisions: bool = True,
+        capped: bool = False,
     ) -> dict[str, np.ndarray]:
         """Slack of every family at every sample, (N, columns) each, in physical units (≥ 0: satisfied).
 
         ``torque`` (N, N_J) may be passed when already known (e.g. ``W·φ``); otherwise it is computed.
+        ``capped``: the optimiser's view, distances measured by spheres capped at
+        :attr:`distance_horizon` (cheaper where bodies are far apart; the slack is then
+        :data:`~lwrlab.excitation.sphere_distances.OPTIMISER_HORIZON`, not the true one).
         """
         lim, keep = self.robot.limits, 1.0 - self.settings.limit_margin
         low, high = (bound[self.bounded_joints] for bound in self.position_bounds)
@@ -234,7 +258,8 @@ class ConstraintSet:
                 pairs = self._pairs(family)
                 if pairs:
                     kind = "world" if family == "world" else "self"
-                    out[family] = self.distances.pair_distances(kind, pairs, poses, q)[0] - offset
+                    horizon = self.distance_horizon if capped else None
+                    out[family] = self.distances.pair_distances(kind, pairs, poses, q, horizon)[0] - offset
         return out
 
     # --- derivatives ----------------------------------------------------------------------------
@@ -247,8 +272,10 @@ class ConstraintSet:
         ddq: np.ndarray,
         samples: np.ndarray,
         columns: np.ndarray,
+        capped: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """∂slack/∂(q, q̇, q̈) at (sample, column) pairs: three (m, N_J) arrays (per rad, rad/s, rad/s²)."""
+        """∂slack/∂(q, q̇, q̈) at (sample, column) pairs: three (m, N_J) arrays (per rad, rad/s, rad/s²);
+        ``capped`` as in :meth:`slacks`."""
         n = self.robot.n_joints
         m = len(samples)
         zeros = np.zeros((m, n))
@@ -267,7 +294,8 @@ class ConstraintSet:
         if family == "torque":
             return self._torque_derivatives(q, dq, ddq, samples, columns)
         kind = "world" if family == "world" else "self"
-        d_q = self.distances.derivatives(kind, self._pairs(family), q, samples, columns)
+        horizon = self.distance_horizon if capped else None
+        d_q = self.distances.derivatives(kind, self._pairs(family), q, samples, columns, horizon)
         return d_q, zeros, zeros
 
     def _torque_derivatives(

@@ -9,6 +9,14 @@ Since the spheres contain the bodies, these distances are lower bounds of the tr
 pairs of all columns are flattened into one array and reduced per column, and the samples processed in
 chunks, so memory stays bounded on a 1 kHz motion.
 
+Distances beyond a horizon (``horizon``: the optimiser's, :data:`OPTIMISER_HORIZON` beyond what it keeps
+free) may be asked capped: ``min(distance, horizon)``. Each body's spheres lie inside one bounding
+sphere, so where two bodies' bounding spheres are already ``horizon`` apart (an arm far from the
+torso, the legs, the other arm in most of its configurations) the pair is at the horizon without a
+sphere-by-sphere gap; the capped value is exactly the uncapped one clipped (tested), only cheaper.
+The exact check asks them ``loose`` instead: beyond the horizon, the bounding spheres' gap itself
+(still a lower bound of the true distance, only a looser one there).
+
 Spheres overshoot a link's surface by a centimetre or two: too much for links that are always close
 (a wrist next to the forearm, an upper arm next to the base), where the spheres would overlap in
 most configurations although the links rarely touch. With the robot's geometry at hand and
@@ -20,21 +28,47 @@ its hull's lowest vertex, for every sample at once.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
 
+from lwrlab.excitation.collision_scene import posed_points
 from lwrlab.excitation.exact_geometry import ExactGeometry
 from lwrlab.kinematics.tree import point_jacobians
+from lwrlab.model.enclosing_spheres import bounding_sphere
 
 if TYPE_CHECKING:
     from lwrlab.excitation.collision_scene import CollisionScene
 
 CHUNK = 2000
 """Samples per chunk."""
+OPTIMISER_HORIZON = 0.1
+"""m beyond the clearance and the optimiser's margin past which the optimiser sees a pair's distance as
+flat (capped, no gradient): twice the reach of the pairs it drops as never near
+(:data:`~lwrlab.excitation.collision_scene.NEVER_NEAR`); the exact check still checks every pair."""
 PLANE_POINTS = 256
 """Hull vertices kept per body for its height above a plane in the optimiser."""
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Every sphere pair of some columns (pairs of one family), flattened: column ``sphere_columns[i]``
+    is the run ``first, second [starts[i] : starts[i] + lengths[i]]`` of sphere indices, between the
+    bounding spheres ``groups[i]``; analytic world columns are (column, world object, spheres)."""
+
+    first: np.ndarray
+    second: np.ndarray
+    sphere_columns: np.ndarray
+    starts: np.ndarray
+    lengths: np.ndarray
+    groups: np.ndarray
+    analytic: list[tuple[int, int, np.ndarray]]
+
+    @property
+    def n_columns(self) -> int:
+        return len(self.sphere_columns) + len(self.analytic)
 
 
 class SphereDistances:
@@ -57,6 +91,21 @@ class SphereDistances:
         self.fixed_centres = np.vstack(fixed_centres) if fixed_centres else np.zeros((0, 3))
         self.all_radii = np.concatenate([self.radii, *fixed_radii])
         self._body_spheres = [np.flatnonzero(scene.sphere_bodies == b) for b in range(len(scene.bodies))]
+        # one bounding sphere per body (in its joint's frame), then per mesh world object (base frame)
+        groups = [*self._body_spheres, *self._world_spheres.values()]
+        self._world_groups = {w: len(self._body_spheres) + i for i, w in enumerate(self._world_spheres)}
+        frames = np.array([s.link for s in scene.spheres] + [0] * len(self.fixed_centres), dtype=int)
+        in_frame = np.vstack([np.reshape([s.center for s in scene.spheres], (-1, 3)), self.fixed_centres])
+        rigid = [len(g) > 0 and bool(np.all(frames[g] == frames[g[0]])) for g in groups]
+        bounds = [  # a group on several joints has no rigid bounding sphere: never pruned
+            bounding_sphere(in_frame[g], self.all_radii[g]) if ok else (np.zeros(3), np.inf)
+            for g, ok in zip(groups, rigid, strict=True)
+        ]
+        self._bound_centres = np.reshape([c for c, _ in bounds], (-1, 3))
+        self._bound_radii = np.array([r for _, r in bounds])
+        self._bound_joints = np.array(
+            [frames[g[0]] if ok else 0 for g, ok in zip(groups, rigid, strict=True)]
+        )
         self._exact: ExactGeometry | None = None
         self._plane_subsets: dict[int, tuple[np.ndarray, float]] = {}
         self._layouts: dict[tuple[str, tuple[tuple[int, int], ...]], Any] = {}
@@ -96,9 +145,13 @@ class SphereDistances:
         pairs: tuple[tuple[int, int], ...],
         poses: np.ndarray,
         q: np.ndarray | None = None,
+        horizon: float | None = None,
+        loose: bool = False,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Smallest distance (N, C) of each pair, and how it was measured (0: spheres, −1: convex hulls,
-        −2: a plane's height above the hull); ``q`` (N, N_J) is needed when ``use_hulls``."""
+        −2: a plane's height above the hull); ``q`` (N, N_J) is needed when ``use_hulls``. With a
+        ``horizon`` (m) the spheres' distances are capped there, or, ``loose``, replaced there by the
+        bodies' bounding spheres' gap (module docstring)."""
         n = poses.shape[1]
         values = np.empty((n, len(pairs)))
         where = np.zeros((n, len(pairs)), dtype=int)
@@ -119,57 +172,101 @@ class SphereDistances:
             for start in range(0, n, CHUNK):
                 chunk = slice(start, min(n, start + CHUNK))
                 values[chunk, by_spheres] = self._flat_distances(
-                    family, layout, self._centres(poses[:, chunk])
+                    family, layout, poses[:, chunk], horizon, loose
                 ).T
         if refined:
             self._refine(family, pairs, poses, values, where, q)
         return values, where
 
-    def _flat_layout(
-        self, family: str, pairs: tuple[tuple[int, int], ...]
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[int, int, np.ndarray]]]:
-        """Every sphere pair of the columns, flattened: first and second sphere (M,), the start of each
-        column's run (C,), and, for analytic world columns, (column, world object, spheres)."""
+    def _flat_layout(self, family: str, pairs: tuple[tuple[int, int], ...]) -> _Layout:
+        """Every sphere pair of the columns, flattened (:class:`_Layout`)."""
         key = (family, pairs)
         if key not in self._layouts:
-            firsts, seconds, starts, analytic = [], [], [], []
+            firsts, seconds, starts, lengths, groups, analytic = [], [], [], [], [], []
             count = 0
             for c, (a, b) in enumerate(pairs):
                 first = self._body_spheres[a]
                 if family == "world" and b not in self._world_spheres:
                     analytic.append((c, b, first))
-                    starts.append(count)  # an empty run, filled below
                     continue
                 second = self._body_spheres[b] if family == "self" else self._world_spheres[b]
                 ia, ib = np.meshgrid(first, second, indexing="ij")
                 firsts.append(ia.ravel())
                 seconds.append(ib.ravel())
                 starts.append(count)
+                lengths.append(ia.size)
+                groups.append((a, b if family == "self" else self._world_groups[b]))
                 count += ia.size
-            flat_first = np.concatenate(firsts) if firsts else np.zeros(0, dtype=int)
-            flat_second = np.concatenate(seconds) if seconds else np.zeros(0, dtype=int)
-            self._layouts[key] = (flat_first, flat_second, np.array(starts), analytic)
+            self._layouts[key] = _Layout(
+                np.concatenate(firsts) if firsts else np.zeros(0, dtype=int),
+                np.concatenate(seconds) if seconds else np.zeros(0, dtype=int),
+                np.array([c for c in range(len(pairs)) if c not in {a[0] for a in analytic}], dtype=int),
+                np.array(starts, dtype=int),
+                np.array(lengths, dtype=int),
+                np.reshape(groups, (-1, 2)).astype(int),
+                analytic,
+            )
         return self._layouts[key]
 
     def _flat_distances(
         self,
         family: str,
-        layout: tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[int, int, np.ndarray]]],
-        centres: np.ndarray,
+        layout: _Layout,
+        poses: np.ndarray,
+        horizon: float | None = None,
+        loose: bool = False,
     ) -> np.ndarray:
-        """(C, N) smallest gap per column from the flattened sphere pairs (and analytic objects)."""
-        first, second, starts, analytic = layout
-        n_columns = len(starts)
-        out = np.full((n_columns, centres.shape[1]), np.inf)
-        if len(first):
-            gaps = self._sphere_gaps(first, second, centres)
-            sphere_columns = np.array(
-                [c for c in range(n_columns) if c not in {a[0] for a in analytic}], dtype=int
-            )
-            out[sphere_columns] = np.minimum.reduceat(gaps, starts[sphere_columns], axis=0)
-        for c, w, spheres in analytic:
+        """(C, N) smallest gap per column from the flattened sphere pairs (and analytic objects), at
+        joint poses (N_J, N, 4, 4); capped at ``horizon`` (m) when given (``loose``: see
+        :meth:`pair_distances`)."""
+        centres = self._centres(poses)
+        out = np.full((layout.n_columns, centres.shape[1]), np.inf if horizon is None else horizon)
+        if len(layout.first) and horizon is not None:
+            self._capped_sphere_distances(layout, poses, centres, horizon, out, loose)
+        elif len(layout.first):
+            gaps = self._sphere_gaps(layout.first, layout.second, centres)
+            out[layout.sphere_columns] = np.minimum.reduceat(gaps, layout.starts, axis=0)
+        for c, w, spheres in layout.analytic:
             out[c] = np.min(self._object_gaps(w, spheres, centres), axis=0)
+            if horizon is not None and not loose:
+                out[c] = np.minimum(out[c], horizon)
         return out
+
+    def _capped_sphere_distances(
+        self,
+        layout: _Layout,
+        poses: np.ndarray,
+        centres: np.ndarray,
+        horizon: float,
+        out: np.ndarray,
+        loose: bool,
+    ) -> None:
+        """Fill ``out`` (C, N) with ``min(smallest sphere gap, horizon)`` for the sphere columns, the
+        gaps computed only where the two bodies' bounding spheres are within the horizon (a lower
+        bound: beyond it, every sphere pair of the column is beyond it too); ``loose``: the smallest
+        sphere gap within the horizon, the bounding spheres' gap beyond."""
+        bound_centres = posed_points(self._bound_centres, self._bound_joints, poses)  # (G, N, 3)
+        a, b = layout.groups[:, 0], layout.groups[:, 1]
+        apart = bound_centres[a] - bound_centres[b]
+        bound = (
+            np.sqrt(np.einsum("cnk,cnk->cn", apart, apart))
+            - (self._bound_radii[a] + self._bound_radii[b])[:, None]
+        )
+        if loose:
+            out[layout.sphere_columns] = bound
+        run, sample = np.nonzero(bound < horizon)  # (run of the layout, sample) entries to compute
+        if not run.size:
+            return
+        counts = layout.lengths[run]
+        offsets = np.cumsum(counts) - counts
+        within = np.arange(int(counts.sum())) - np.repeat(offsets, counts)
+        flat = np.repeat(layout.starts[run], counts) + within
+        first, second = layout.first[flat], layout.second[flat]
+        samples = np.repeat(sample, counts)
+        gap = centres[first, samples] - centres[second, samples]
+        gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - self.all_radii[first] - self.all_radii[second]
+        smallest = np.minimum.reduceat(gaps, offsets)
+        out[layout.sphere_columns[run], sample] = smallest if loose else np.minimum(smallest, horizon)
 
     def _sphere_gaps(self, first: np.ndarray, second: np.ndarray, centres: np.ndarray) -> np.ndarray:
         """(M, N) gaps ``‖c_a − c_b‖ − r_a − r_b`` of the sphere pairs (first, second)."""
@@ -309,10 +406,13 @@ class SphereDistances:
         q: np.ndarray,
         samples: np.ndarray,
         columns: np.ndarray,
+        horizon: float | None = None,
     ) -> np.ndarray:
         """∂distance/∂q (m, N_J) of the (sample, column) entries, at what reaches the smallest distance
         (a sphere pair, the hulls' nearest points, the lowest hull vertex): the gradient of the minimum
-        where it is unique. Entries are grouped by column, each column evaluated at its samples only."""
+        where it is unique. Entries are grouped by column, each column evaluated at its samples only.
+        With a ``horizon`` (m), entries whose spheres are that far apart have the capped distance's
+        derivative: zero."""
         scene, model = self.scene, self.scene.robot.model
         out = np.zeros((len(samples), scene.robot.n_joints))
         sphere_joints = np.array([s.link for s in scene.spheres] + [0] * len(self.fixed_centres), dtype=int)
@@ -354,19 +454,26 @@ class SphereDistances:
                 continue
             if all_centres is None:
                 all_centres = self._centres(all_poses)  # (S_all, U, 3)
-            first, second, _, analytic = self._flat_layout(family, (pair,))
+            layout = self._flat_layout(family, (pair,))
             centres = all_centres[:, inverse[rows]]
-            m = np.arange(len(rows))
-            if analytic:  # an analytic world object: the sphere nearest it
-                spheres = analytic[0][2]
-                a = spheres[np.argmin(self._object_gaps(pair[1], spheres, centres), axis=0)]
-                point_a = centres[a, m]
+            if layout.analytic:  # an analytic world object: the sphere nearest it
+                spheres = layout.analytic[0][2]
+                gaps = self._object_gaps(pair[1], spheres, centres)
+                chosen = np.argmin(gaps, axis=0)
+                near = self._within(gaps[chosen, np.arange(len(rows))], horizon)
+                rows, poses, chosen, centres = rows[near], poses[:, near], chosen[near], centres[:, near]
+                a = spheres[chosen]
+                point_a = centres[a, np.arange(len(rows))]
                 jac_a = point_jacobians(model, poses, sphere_joints[a], point_a, scene.axes)
                 gradient = scene.world[pair[1]].signed_distance(point_a)[1]
                 out[rows] = np.einsum("mi,mij->mj", gradient, jac_a)
                 continue
-            chosen = np.argmin(self._sphere_gaps(first, second, centres), axis=0)  # a body's or a mesh's
-            a, b = first[chosen], second[chosen]
+            gaps = self._sphere_gaps(layout.first, layout.second, centres)  # a body's or a mesh's
+            chosen = np.argmin(gaps, axis=0)
+            near = self._within(gaps[chosen, np.arange(len(rows))], horizon)
+            rows, poses, chosen, centres = rows[near], poses[:, near], chosen[near], centres[:, near]
+            m = np.arange(len(rows))
+            a, b = layout.first[chosen], layout.second[chosen]
             point_a, point_b = centres[a, m], centres[b, m]
             jac = point_jacobians(model, poses, sphere_joints[a], point_a, scene.axes)
             jac = jac - point_jacobians(model, poses, sphere_joints[b], point_b, scene.axes)
@@ -374,6 +481,11 @@ class SphereDistances:
             normal = gap / np.maximum(np.sqrt(np.sum(gap * gap, axis=1))[:, None], 1e-12)
             out[rows] = np.einsum("mi,mij->mj", normal, jac)
         return out
+
+    @staticmethod
+    def _within(distance: np.ndarray, horizon: float | None) -> np.ndarray:
+        """Which of the distances (m,) are below the horizon (all of them without one)."""
+        return np.ones(len(distance), dtype=bool) if horizon is None else distance < horizon
 
     # --- exact contacts, for choosing pairs -----------------------------------------------------
 

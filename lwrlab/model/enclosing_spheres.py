@@ -46,6 +46,19 @@ def smallest_ball(points: np.ndarray, iterations: int = 200) -> tuple[np.ndarray
     return centre, float(np.sqrt(np.max(np.sum((points - centre) ** 2, axis=1))))
 
 
+def bounding_sphere(centres: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre and radius of a ball containing the balls (``centres`` (M, 3), ``radii`` (M,)): centred
+    amid the centres' box, its radius the largest reach ``‖c_i − c‖ + r_i`` (so it contains each ball
+    exactly, whatever the centre). A lower bound of the distance between two groups of balls is then
+    the gap between their bounding balls.
+
+    >>> bounding_sphere(np.array([[0.0, 0, 0], [2, 0, 0]]), np.array([1.0, 0.5]))
+    (array([1., 0., 0.]), 2.0)
+    """
+    centre = 0.5 * (centres.min(axis=0) + centres.max(axis=0))
+    return centre, float(np.max(np.linalg.norm(centres - centre, axis=1) + radii))
+
+
 def hull_vertices(points: np.ndarray) -> np.ndarray:
     """The vertices of the convex hull of ``points`` (M, 3); all of them when they are flat or few."""
     from scipy.spatial import ConvexHull, QhullError

@@ -123,6 +123,60 @@ def arm_joints(
     return group_joints(urdf, srdf, group)
 
 
+def _parents(urdf: ElementTree.Element) -> dict[str, tuple[str, str | None]]:
+    """Each child link's parent link and the type of the joint between them."""
+    out = {}
+    for joint in urdf.findall("joint"):
+        child, parent = joint.find("child"), joint.find("parent")
+        if child is not None and parent is not None:
+            out[child.get("link", "")] = (parent.get("link", ""), joint.get("type"))
+    return out
+
+
+def mounted_on(urdf: ElementTree.Element, arm: Sequence[str]) -> str | None:
+    """The link the arm (its moving joints) hangs from, when a moving joint of the description (locked
+    for the arm) lies between it and the description's root link; None when only fixed joints do (the
+    arm stands on the description's base).
+
+    >>> urdf = ElementTree.fromstring(
+    ...     '<robot name="r"><link name="base"/><link name="torso"/><link name="arm"/>'
+    ...     '<joint name="lift" type="prismatic"><parent link="base"/><child link="torso"/></joint>'
+    ...     '<joint name="shoulder" type="revolute"><parent link="torso"/><child link="arm"/></joint></robot>'
+    ... )
+    >>> mounted_on(urdf, ["shoulder"]), mounted_on(urdf, ["lift", "shoulder"])
+    ('torso', None)
+    """
+    joints = {j.get("name", ""): j for j in urdf.findall("joint")}
+    parents = _parents(urdf)
+    roots = []
+    for name in arm:
+        parent = joints[name].find("parent") if name in joints else None
+        if parent is not None:
+            roots.append(parent.get("link", ""))
+    arm_children = {
+        c.get("link", "") for name in arm if name in joints for c in joints[name].findall("child")
+    }
+    above = [link for link in roots if not _below(link, arm_children, parents)]
+    if not above:
+        return None
+    root, link = above[0], above[0]
+    while link in parents:  # up to the description's root: any moving joint on the way?
+        link, kind = parents[link]
+        if kind != FIXED:
+            return root
+    return None
+
+
+def _below(link: str, children: set[str], parents: Mapping[str, tuple[str, str | None]]) -> bool:
+    """Whether ``link`` is one of ``children`` or hangs from one of them."""
+    while True:
+        if link in children:
+            return True
+        if link not in parents:
+            return False
+        link = parents[link][0]
+
+
 def locked_outside(
     urdf: ElementTree.Element, arm: Sequence[str], positions: Mapping[str, float]
 ) -> dict[str, float]:

@@ -139,6 +139,10 @@ class RobotModel:
     friction_law: FrictionLaw = field(default_factory=SignCoulomb)
     """How the drives' friction depends on their speed (:mod:`lwrlab.model.friction_laws`): the
     paper's sign Coulomb by default."""
+    mounted_on: str | None = None
+    """The link of a bigger description the arm hangs from (``robot.chain``'s root, ``robot.group``'s),
+    when joints (locked) lie between it and the description's root: the base frame is then not where
+    the arm stands (a humanoid's pelvis, a mobile base). None: the arm stands on its base."""
 
     def __post_init__(self) -> None:
         valid = term_definitions(self.friction_law)

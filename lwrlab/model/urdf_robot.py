@@ -47,7 +47,7 @@ from lwrlab.model.collision_geometry import CollisionSource, package_search_path
 from lwrlab.model.description import build_friction, friction_law_of, gravity_vector
 from lwrlab.model.drive_train import DriveTrain, build_drive_train
 from lwrlab.model.friction_laws import FrictionLaw
-from lwrlab.model.kinematic_chain import arm_joints, locked_outside
+from lwrlab.model.kinematic_chain import arm_joints, locked_outside, mounted_on
 from lwrlab.model.robot import JointLimits, RobotModel
 from lwrlab.model.urdf_description import (
     check_joint_limit_names,
@@ -280,6 +280,7 @@ def load_urdf_robot(
     document = read_urdf_document(path)
     continuous = revolute_for_continuous(document)
     urdf_links, urdf_joints = description_names(document)
+    hangs_from = None
     if chain is not None or group is not None:  # the arm of a bigger robot: every other joint locked
         found = (
             None if srdf is None else resolve_mesh(str(srdf), Path.cwd(), package_search_path(package_dirs))
@@ -293,6 +294,7 @@ def load_urdf_robot(
             else dict.fromkeys(locked_joints or (), 0.0)
         )
         locked_joints = locked_outside(document, arm, given)
+        hangs_from = mounted_on(document, arm)
     try:  # fixed base: no root joint
         model = pin.buildModelFromXML(ElementTree.tostring(document, encoding="unicode"))
     except (ValueError, RuntimeError) as error:
@@ -369,6 +371,7 @@ def load_urdf_robot(
         collision_source=source,
         drive=drive_train,
         friction_law=friction_law_of(friction_law),
+        mounted_on=hangs_from,
     )
 
 

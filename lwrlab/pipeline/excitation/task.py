@@ -125,7 +125,7 @@ def _motion_figures(
         k = int(np.argmin(np.abs(trajectory.t - t)))
         meshes = tuple(BodyMesh(n, v, f, w) for n, v, f, w in posed_meshes(scene, trajectory.q[k]))
         snapshots.append(Snapshot(float(trajectory.t[k]), meshes, label))
-    mounting = (settings.world or {}).get("mounting_surface")
+    mounting = settings.mounting_surface(scene.robot)
     height = None if mounting is None else float(mounting.get("height", 0.0))
     return motion_preview_figure(snapshots, approaches, output_dir / f"{prefix}_preview.png", title, height)
 
@@ -201,6 +201,8 @@ def run_excitation(
     base = compute_base_parameters(robot)
     known = known_information(cfg, robot, base, known_logs, known_model)
     target_motions = read_target_motions(list(targets or []), robot.n_joints, robot.joint_names, robot.drive)
+    world = source.constraints.describe_world(robot)
+    log.info("%s keeps clear of %s", robot.name, world)
     motion, result, problem = source.optimise(robot, base, known)
     q, dq, ddq = (b @ result.coefficients for b in problem.bases)
     check = check_motion_at(robot, motion, source.constraints, verify_rate_hz)
@@ -248,6 +250,8 @@ def run_excitation(
         f"{motion.duration:g} s {motion.kind}",
         "",
         verdict,
+        "",
+        f"World: {world}.",
         "",
         "## Optimisation (constraints on the optimisation grid, with the limit margin)",
         "",
