@@ -461,13 +461,12 @@ def test_sphere_and_hull_distances_are_lower_bounds_of_the_exact_distance(robot_
 
 
 @pytest.mark.parametrize("robot_fixture", ["ur10", "panda"])
-def test_distances_past_a_horizon_are_the_full_ones_clipped_and_their_derivatives_zero(
+def test_distances_past_a_horizon_are_the_full_ones_within_it_lower_bounds_past_it(
     robot_fixture, request
 ) -> None:
-    """The optimiser's capped distances skip the sphere pairs of bodies whose bounding spheres are past
-    the horizon: the same values as every sphere pair, clipped (and the same derivatives within the
-    horizon, none past it); the exact check's loose ones are the full ones within it, lower bounds
-    past it."""
+    """Past a horizon, a pair is measured by its bodies' bounding spheres, no sphere pair computed: the
+    same values as every sphere pair within the horizon, lower bounds past it (and past it only);
+    the derivatives the full ones within it, the bounding gap's (central differences) past it."""
     robot, _, scene, _ = request.getfixturevalue(robot_fixture)
     q = random_configurations(robot, 150, seed=3)
     poses = scene.poses(q)
@@ -477,18 +476,28 @@ def test_distances_past_a_horizon_are_the_full_ones_clipped_and_their_derivative
         for horizon in (0.02, 0.1, 0.3):
             near = full < horizon
             assert near.any() and (~near).any(), "entries on both sides of the horizon"
-            capped = spheres.pair_distances(family, pairs, poses, horizon=horizon)[0]
-            np.testing.assert_allclose(capped, np.minimum(full, horizon), rtol=0, atol=1e-12)
-            loose = spheres.pair_distances(family, pairs, poses, horizon=horizon, loose=True)[0]
-            np.testing.assert_allclose(loose[near], full[near], rtol=0, atol=1e-12)
-            assert np.all(loose <= full + 1e-12) and np.all(loose[~near] >= horizon - 1e-12)
+            bounded = spheres.pair_distances(family, pairs, poses, horizon=horizon)[0]
+            np.testing.assert_allclose(bounded[near], full[near], rtol=0, atol=1e-12)
+            assert np.all(bounded <= full + 1e-12) and np.all(bounded[~near] >= horizon - 1e-12)
         samples = np.repeat(np.arange(len(q)), len(pairs))
         columns = np.tile(np.arange(len(pairs)), len(q))
-        within = full[samples, columns] < 0.1
         every = spheres.derivatives(family, pairs, q, samples, columns)
-        capped_derivatives = spheres.derivatives(family, pairs, q, samples, columns, horizon=0.1)
-        np.testing.assert_allclose(capped_derivatives[within], every[within], rtol=0, atol=1e-12)
-        assert not capped_derivatives[~within].any()
+        derivatives = spheres.derivatives(family, pairs, q, samples, columns, horizon=0.1)
+        bounded = spheres.pair_distances(family, pairs, poses, horizon=0.1)[0][samples, columns]
+        same = bounded == full[samples, columns]
+        np.testing.assert_allclose(derivatives[same], every[same], rtol=0, atol=1e-12)
+        step, far = 1e-6, np.flatnonzero(~same)[:40]
+        assert far.size
+        at, picked = q[samples[far]], (np.arange(far.size), columns[far])
+        for j in range(robot.n_joints):
+            up, down = at.copy(), at.copy()
+            up[:, j] += step
+            down[:, j] -= step
+            up_d, down_d = (
+                spheres.pair_distances(family, pairs, scene.poses(x), horizon=0.1)[0][picked]
+                for x in (up, down)
+            )
+            np.testing.assert_allclose(derivatives[far, j], (up_d - down_d) / (2 * step), rtol=0, atol=1e-6)
 
 
 # --- derivatives ----------------------------------------------------------------------------------

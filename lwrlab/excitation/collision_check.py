@@ -92,7 +92,7 @@ def check_collisions(scene: CollisionScene, t: np.ndarray, q: np.ndarray, cleara
         ]
         others = tuple(p for p, plane in zip(pairs, planes, strict=True) if not plane)
         # beyond the horizon the bodies' bounding spheres bound them (looser, far cheaper)
-        other_bounds = distances.pair_distances(family, others, poses, horizon=horizon, loose=True)[0]
+        other_bounds = distances.pair_distances(family, others, poses, horizon=horizon)[0]
         for c, pair in enumerate(pairs):
             if planes[c] and exact is not None:
                 approach, contact = _plane_check(exact, scene, pair, poses, t, clearance)

@@ -171,7 +171,8 @@ class ConstraintSet:
 
     @property
     def distance_horizon(self) -> float:
-        """m: the distance past which the optimiser sees a pair as far (:meth:`slacks` ``capped``)."""
+        """m: the distance past which the optimiser measures a pair by its bodies' bounding spheres
+        (:meth:`slacks` ``far_bounded``)."""
         return self.settings.clearance + self.settings.distance_margin + OPTIMISER_HORIZON
 
     # --- layout ---------------------------------------------------------------------------------
@@ -231,14 +232,14 @@ class ConstraintSet:
         ddq: np.ndarray,
         torque: np.ndarray | None = None,
         collisions: bool = True,
-        capped: bool = False,
+        far_bounded: bool = False,
     ) -> dict[str, np.ndarray]:
         """Slack of every family at every sample, (N, columns) each, in physical units (≥ 0: satisfied).
 
         ``torque`` (N, N_J) may be passed when already known (e.g. ``W·φ``); otherwise it is computed.
-        ``capped``: the optimiser's view, distances measured by spheres capped at
-        :attr:`distance_horizon` (cheaper where bodies are far apart; the slack is then
-        :data:`~lwrlab.excitation.sphere_distances.OPTIMISER_HORIZON`, not the true one).
+        ``far_bounded``: the optimiser's view, past :attr:`distance_horizon` the gap between the bodies'
+        bounding spheres (a looser lower bound, far cheaper where bodies are far apart:
+        :mod:`lwrlab.excitation.sphere_distances`).
         """
         lim, keep = self.robot.limits, 1.0 - self.settings.limit_margin
         low, high = (bound[self.bounded_joints] for bound in self.position_bounds)
@@ -258,7 +259,7 @@ class ConstraintSet:
                 pairs = self._pairs(family)
                 if pairs:
                     kind = "world" if family == "world" else "self"
-                    horizon = self.distance_horizon if capped else None
+                    horizon = self.distance_horizon if far_bounded else None
                     out[family] = self.distances.pair_distances(kind, pairs, poses, q, horizon)[0] - offset
         return out
 
@@ -272,10 +273,10 @@ class ConstraintSet:
         ddq: np.ndarray,
         samples: np.ndarray,
         columns: np.ndarray,
-        capped: bool = False,
+        far_bounded: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """∂slack/∂(q, q̇, q̈) at (sample, column) pairs: three (m, N_J) arrays (per rad, rad/s, rad/s²);
-        ``capped`` as in :meth:`slacks`."""
+        ``far_bounded`` as in :meth:`slacks`."""
         n = self.robot.n_joints
         m = len(samples)
         zeros = np.zeros((m, n))
@@ -294,7 +295,7 @@ class ConstraintSet:
         if family == "torque":
             return self._torque_derivatives(q, dq, ddq, samples, columns)
         kind = "world" if family == "world" else "self"
-        horizon = self.distance_horizon if capped else None
+        horizon = self.distance_horizon if far_bounded else None
         d_q = self.distances.derivatives(kind, self._pairs(family), q, samples, columns, horizon)
         return d_q, zeros, zeros
 

@@ -9,13 +9,12 @@ Since the spheres contain the bodies, these distances are lower bounds of the tr
 pairs of all columns are flattened into one array and reduced per column, and the samples processed in
 chunks, so memory stays bounded on a 1 kHz motion.
 
-Distances beyond a horizon (``horizon``: the optimiser's, :data:`OPTIMISER_HORIZON` beyond what it keeps
-free) may be asked capped: ``min(distance, horizon)``. Each body's spheres lie inside one bounding
-sphere, so where two bodies' bounding spheres are already ``horizon`` apart (an arm far from the
-torso, the legs, the other arm in most of its configurations) the pair is at the horizon without a
-sphere-by-sphere gap; the capped value is exactly the uncapped one clipped (tested), only cheaper.
-The exact check asks them ``loose`` instead: beyond the horizon, the bounding spheres' gap itself
-(still a lower bound of the true distance, only a looser one there).
+Far pairs cost as much as near ones, and matter less: an arm on a humanoid has a hundred pairs with
+its torso, legs and other arm, most of them far apart in most configurations. Each body's spheres lie
+inside one bounding sphere; given a ``horizon`` (m; :data:`OPTIMISER_HORIZON` beyond what the
+optimiser keeps free), where two bodies' bounding spheres are further apart than it, the pair's
+distance is the gap between the bounding spheres (a lower bound too, looser, with its gradient), and
+no sphere pair is measured; within it, the spheres' distance as without a horizon (tested equal).
 
 Spheres overshoot a link's surface by a centimetre or two: too much for links that are always close
 (a wrist next to the forearm, an upper arm next to the base), where the spheres would overlap in
@@ -45,9 +44,9 @@ if TYPE_CHECKING:
 CHUNK = 2000
 """Samples per chunk."""
 OPTIMISER_HORIZON = 0.1
-"""m beyond the clearance and the optimiser's margin past which the optimiser sees a pair's distance as
-flat (capped, no gradient): twice the reach of the pairs it drops as never near
-(:data:`~lwrlab.excitation.collision_scene.NEVER_NEAR`); the exact check still checks every pair."""
+"""m beyond the clearance and the optimiser's margin past which a pair is measured by its bodies'
+bounding spheres (module docstring): twice the reach of the pairs the optimiser drops as never near
+(:data:`~lwrlab.excitation.collision_scene.NEVER_NEAR`)."""
 PLANE_POINTS = 256
 """Hull vertices kept per body for its height above a plane in the optimiser."""
 
@@ -146,12 +145,10 @@ class SphereDistances:
         poses: np.ndarray,
         q: np.ndarray | None = None,
         horizon: float | None = None,
-        loose: bool = False,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Smallest distance (N, C) of each pair, and how it was measured (0: spheres, −1: convex hulls,
         −2: a plane's height above the hull); ``q`` (N, N_J) is needed when ``use_hulls``. With a
-        ``horizon`` (m) the spheres' distances are capped there, or, ``loose``, replaced there by the
-        bodies' bounding spheres' gap (module docstring)."""
+        ``horizon`` (m), the bodies' bounding spheres' gap past it (module docstring)."""
         n = poses.shape[1]
         values = np.empty((n, len(pairs)))
         where = np.zeros((n, len(pairs)), dtype=int)
@@ -171,9 +168,7 @@ class SphereDistances:
             layout = self._flat_layout(family, tuple(pairs[c] for c in by_spheres))
             for start in range(0, n, CHUNK):
                 chunk = slice(start, min(n, start + CHUNK))
-                values[chunk, by_spheres] = self._flat_distances(
-                    family, layout, poses[:, chunk], horizon, loose
-                ).T
+                values[chunk, by_spheres] = self._flat_distances(family, layout, poses[:, chunk], horizon).T
         if refined:
             self._refine(family, pairs, poses, values, where, q)
         return values, where
@@ -214,46 +209,36 @@ class SphereDistances:
         layout: _Layout,
         poses: np.ndarray,
         horizon: float | None = None,
-        loose: bool = False,
     ) -> np.ndarray:
         """(C, N) smallest gap per column from the flattened sphere pairs (and analytic objects), at
-        joint poses (N_J, N, 4, 4); capped at ``horizon`` (m) when given (``loose``: see
-        :meth:`pair_distances`)."""
+        joint poses (N_J, N, 4, 4); past a ``horizon`` (m), the bounding spheres' gap."""
         centres = self._centres(poses)
-        out = np.full((layout.n_columns, centres.shape[1]), np.inf if horizon is None else horizon)
+        out = np.full((layout.n_columns, centres.shape[1]), np.inf)
         if len(layout.first) and horizon is not None:
-            self._capped_sphere_distances(layout, poses, centres, horizon, out, loose)
+            self._sphere_distances_within(layout, poses, centres, horizon, out)
         elif len(layout.first):
             gaps = self._sphere_gaps(layout.first, layout.second, centres)
             out[layout.sphere_columns] = np.minimum.reduceat(gaps, layout.starts, axis=0)
         for c, w, spheres in layout.analytic:
             out[c] = np.min(self._object_gaps(w, spheres, centres), axis=0)
-            if horizon is not None and not loose:
-                out[c] = np.minimum(out[c], horizon)
         return out
 
-    def _capped_sphere_distances(
-        self,
-        layout: _Layout,
-        poses: np.ndarray,
-        centres: np.ndarray,
-        horizon: float,
-        out: np.ndarray,
-        loose: bool,
-    ) -> None:
-        """Fill ``out`` (C, N) with ``min(smallest sphere gap, horizon)`` for the sphere columns, the
-        gaps computed only where the two bodies' bounding spheres are within the horizon (a lower
-        bound: beyond it, every sphere pair of the column is beyond it too); ``loose``: the smallest
-        sphere gap within the horizon, the bounding spheres' gap beyond."""
+    def _bounding_gaps(self, groups: np.ndarray, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Gaps (R, N) between the bounding spheres of the (R, 2) ``groups`` at joint poses
+        (N_J, N, 4, 4), and the vectors (R, N, 3) from the second's centre to the first's."""
         bound_centres = posed_points(self._bound_centres, self._bound_joints, poses)  # (G, N, 3)
-        a, b = layout.groups[:, 0], layout.groups[:, 1]
+        a, b = groups[:, 0], groups[:, 1]
         apart = bound_centres[a] - bound_centres[b]
-        bound = (
-            np.sqrt(np.einsum("cnk,cnk->cn", apart, apart))
-            - (self._bound_radii[a] + self._bound_radii[b])[:, None]
-        )
-        if loose:
-            out[layout.sphere_columns] = bound
+        radii = self._bound_radii[a] + self._bound_radii[b]
+        return np.sqrt(np.einsum("cnk,cnk->cn", apart, apart)) - radii[:, None], apart
+
+    def _sphere_distances_within(
+        self, layout: _Layout, poses: np.ndarray, centres: np.ndarray, horizon: float, out: np.ndarray
+    ) -> None:
+        """Fill ``out`` (C, N) for the sphere columns: the smallest sphere gap where the two bodies'
+        bounding spheres are within the ``horizon``, their gap past it (module docstring)."""
+        bound = self._bounding_gaps(layout.groups, poses)[0]
+        out[layout.sphere_columns] = bound
         run, sample = np.nonzero(bound < horizon)  # (run of the layout, sample) entries to compute
         if not run.size:
             return
@@ -265,8 +250,7 @@ class SphereDistances:
         samples = np.repeat(sample, counts)
         gap = centres[first, samples] - centres[second, samples]
         gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - self.all_radii[first] - self.all_radii[second]
-        smallest = np.minimum.reduceat(gaps, offsets)
-        out[layout.sphere_columns[run], sample] = smallest if loose else np.minimum(smallest, horizon)
+        out[layout.sphere_columns[run], sample] = np.minimum.reduceat(gaps, offsets)
 
     def _sphere_gaps(self, first: np.ndarray, second: np.ndarray, centres: np.ndarray) -> np.ndarray:
         """(M, N) gaps ``‖c_a − c_b‖ − r_a − r_b`` of the sphere pairs (first, second)."""
@@ -411,8 +395,8 @@ class SphereDistances:
         """∂distance/∂q (m, N_J) of the (sample, column) entries, at what reaches the smallest distance
         (a sphere pair, the hulls' nearest points, the lowest hull vertex): the gradient of the minimum
         where it is unique. Entries are grouped by column, each column evaluated at its samples only.
-        With a ``horizon`` (m), entries whose spheres are that far apart have the capped distance's
-        derivative: zero."""
+        With a ``horizon`` (m), entries whose bodies' bounding spheres are further apart have their gap's
+        derivative (as :meth:`pair_distances` measures them)."""
         scene, model = self.scene, self.scene.robot.model
         out = np.zeros((len(samples), scene.robot.n_joints))
         sphere_joints = np.array([s.link for s in scene.spheres] + [0] * len(self.fixed_centres), dtype=int)
@@ -458,20 +442,16 @@ class SphereDistances:
             centres = all_centres[:, inverse[rows]]
             if layout.analytic:  # an analytic world object: the sphere nearest it
                 spheres = layout.analytic[0][2]
-                gaps = self._object_gaps(pair[1], spheres, centres)
-                chosen = np.argmin(gaps, axis=0)
-                near = self._within(gaps[chosen, np.arange(len(rows))], horizon)
-                rows, poses, chosen, centres = rows[near], poses[:, near], chosen[near], centres[:, near]
-                a = spheres[chosen]
+                a = spheres[np.argmin(self._object_gaps(pair[1], spheres, centres), axis=0)]
                 point_a = centres[a, np.arange(len(rows))]
                 jac_a = point_jacobians(model, poses, sphere_joints[a], point_a, scene.axes)
                 gradient = scene.world[pair[1]].signed_distance(point_a)[1]
                 out[rows] = np.einsum("mi,mij->mj", gradient, jac_a)
                 continue
-            gaps = self._sphere_gaps(layout.first, layout.second, centres)  # a body's or a mesh's
-            chosen = np.argmin(gaps, axis=0)
-            near = self._within(gaps[chosen, np.arange(len(rows))], horizon)
-            rows, poses, chosen, centres = rows[near], poses[:, near], chosen[near], centres[:, near]
+            if horizon is not None:  # past it, the bounding spheres' gap
+                far = self._bounding_derivatives(layout.groups, poses, horizon, out, rows)
+                rows, poses, centres = rows[~far], poses[:, ~far], centres[:, ~far]
+            chosen = np.argmin(self._sphere_gaps(layout.first, layout.second, centres), axis=0)
             m = np.arange(len(rows))
             a, b = layout.first[chosen], layout.second[chosen]
             point_a, point_b = centres[a, m], centres[b, m]
@@ -482,10 +462,24 @@ class SphereDistances:
             out[rows] = np.einsum("mi,mij->mj", normal, jac)
         return out
 
-    @staticmethod
-    def _within(distance: np.ndarray, horizon: float | None) -> np.ndarray:
-        """Which of the distances (m,) are below the horizon (all of them without one)."""
-        return np.ones(len(distance), dtype=bool) if horizon is None else distance < horizon
+    def _bounding_derivatives(
+        self, groups: np.ndarray, poses: np.ndarray, horizon: float, out: np.ndarray, rows: np.ndarray
+    ) -> np.ndarray:
+        """Where the bounding spheres of one column's ``groups`` (1, 2) are past the ``horizon`` at the
+        poses (N_J, m, 4, 4), the derivative of their gap into ``out[rows]``; which entries (m,) those
+        are."""
+        gaps, apart = self._bounding_gaps(groups, poses)
+        far = gaps[0] >= horizon
+        if far.any():
+            model, axes, count = self.scene.robot.model, self.scene.axes, int(far.sum())
+            joints = self._bound_joints[groups[0]]
+            posed = posed_points(self._bound_centres[groups[0]], joints, poses[:, far])
+            jac = point_jacobians(model, poses[:, far], np.full(count, joints[0]), posed[0], axes)
+            jac = jac - point_jacobians(model, poses[:, far], np.full(count, joints[1]), posed[1], axes)
+            gap = apart[0, far]
+            normal = gap / np.maximum(np.sqrt(np.sum(gap * gap, axis=1))[:, None], 1e-12)
+            out[rows[far]] = np.einsum("mi,mij->mj", normal, jac)
+        return far
 
     # --- exact contacts, for choosing pairs -----------------------------------------------------
 
