@@ -7,7 +7,8 @@ horizon apart, their gap is the bound, looser but as safe). Only samples whose b
 clearance are queried with coal on the exact geometry (meshes and primitives, with the clearance as security
 margin); against a plane the exact distance is the lowest vertex of the body's meshes (exact for
 meshes and boxes, the enclosing polyhedron for round primitives). The closest approach of every pair
-is the smallest exact distance over the samples where its bound is smallest (a dozen, spread in time).
+is the smallest exact distance over the samples where its bound is smallest (a dozen, spread in time;
+one for a pair whose bound never comes within 10 cm of the clearance).
 
 The bound is the larger of the spheres' and the convex hulls' distances (both contain the bodies; the
 hulls' by coal's GJK, computed only near contact and near each pair's closest approach). A robot described by
@@ -25,11 +26,12 @@ import numpy as np
 from lwrlab.excitation.approaches import ClosestApproach
 from lwrlab.excitation.collision_scene import CollisionScene
 from lwrlab.excitation.exact_geometry import ExactGeometry
-from lwrlab.excitation.sphere_distances import OPTIMISER_HORIZON, SphereDistances
+from lwrlab.excitation.sphere_distances import CHECK_HORIZON, SphereDistances
 
 APPROACH_CANDIDATES = 12
 """Exact distances computed per pair for its closest approach: at the samples of smallest bound, no two
-closer than 0.5 % of the motion (the contacts themselves are checked at every sample)."""
+closer than 0.5 % of the motion (the contacts themselves are checked at every sample); one for a pair
+whose bound never comes within the horizon (10 cm past the clearance)."""
 
 
 @dataclass(frozen=True)
@@ -80,7 +82,7 @@ def check_collisions(scene: CollisionScene, t: np.ndarray, q: np.ndarray, cleara
     clock = time.perf_counter()
     distances = SphereDistances(scene)
     # hand-written spheres are the collision model itself: their distances stay exact at any range
-    horizon = clearance + OPTIMISER_HORIZON if scene.geometry is not None else None
+    horizon = clearance + CHECK_HORIZON if scene.geometry is not None else None
     poses = scene.poses(q)
     exact = ExactGeometry(scene) if scene.geometry is not None else None
     approaches, contacts, queries = [], [], 0
@@ -125,7 +127,9 @@ def check_collisions(scene: CollisionScene, t: np.ndarray, q: np.ndarray, cleara
                     )
                 continue
             best: tuple[float, np.ndarray, np.ndarray, int] = (np.inf, np.zeros(3), np.zeros(3), 0)
-            for k in _lowest_apart(bound, APPROACH_CANDIDATES, len(t) // 200 + 1):
+            # a pair never within the horizon: one exact distance, where its bound is least
+            candidates = APPROACH_CANDIDATES if horizon is None or bound.min() < horizon else 1
+            for k in _lowest_apart(bound, candidates, len(t) // 200 + 1):
                 d, pa, pb = exact.distance(family, pair, poses[:, k])
                 queries += 1
                 if d < best[0]:

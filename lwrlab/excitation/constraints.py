@@ -34,7 +34,7 @@ import pinocchio as pin
 
 from lwrlab.excitation.collision_scene import CollisionScene, build_scene
 from lwrlab.excitation.mounting import describe_surface, resolve_surface
-from lwrlab.excitation.sphere_distances import OPTIMISER_HORIZON, SphereDistances
+from lwrlab.excitation.sphere_distances import SphereDistances
 from lwrlab.model.position_ranges import range_center, range_span, unbounded
 from lwrlab.model.robot import RobotModel
 from lwrlab.model.world import WorldObject, build_world
@@ -169,12 +169,6 @@ class ConstraintSet:
         )
         self._data = robot.model.createData()
 
-    @property
-    def distance_horizon(self) -> float:
-        """m: the distance past which the optimiser measures a pair by its bodies' bounding spheres
-        (:meth:`slacks` ``far_bounded``)."""
-        return self.settings.clearance + self.settings.distance_margin + OPTIMISER_HORIZON
-
     # --- layout ---------------------------------------------------------------------------------
 
     def families(self) -> list[str]:
@@ -232,14 +226,10 @@ class ConstraintSet:
         ddq: np.ndarray,
         torque: np.ndarray | None = None,
         collisions: bool = True,
-        far_bounded: bool = False,
     ) -> dict[str, np.ndarray]:
         """Slack of every family at every sample, (N, columns) each, in physical units (≥ 0: satisfied).
 
         ``torque`` (N, N_J) may be passed when already known (e.g. ``W·φ``); otherwise it is computed.
-        ``far_bounded``: the optimiser's view, past :attr:`distance_horizon` the gap between the bodies'
-        bounding spheres (a looser lower bound, far cheaper where bodies are far apart:
-        :mod:`lwrlab.excitation.sphere_distances`).
         """
         lim, keep = self.robot.limits, 1.0 - self.settings.limit_margin
         low, high = (bound[self.bounded_joints] for bound in self.position_bounds)
@@ -259,8 +249,7 @@ class ConstraintSet:
                 pairs = self._pairs(family)
                 if pairs:
                     kind = "world" if family == "world" else "self"
-                    horizon = self.distance_horizon if far_bounded else None
-                    out[family] = self.distances.pair_distances(kind, pairs, poses, q, horizon)[0] - offset
+                    out[family] = self.distances.pair_distances(kind, pairs, poses, q)[0] - offset
         return out
 
     # --- derivatives ----------------------------------------------------------------------------
@@ -273,10 +262,8 @@ class ConstraintSet:
         ddq: np.ndarray,
         samples: np.ndarray,
         columns: np.ndarray,
-        far_bounded: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """∂slack/∂(q, q̇, q̈) at (sample, column) pairs: three (m, N_J) arrays (per rad, rad/s, rad/s²);
-        ``far_bounded`` as in :meth:`slacks`."""
+        """∂slack/∂(q, q̇, q̈) at (sample, column) pairs: three (m, N_J) arrays (per rad, rad/s, rad/s²)."""
         n = self.robot.n_joints
         m = len(samples)
         zeros = np.zeros((m, n))
@@ -295,8 +282,7 @@ class ConstraintSet:
         if family == "torque":
             return self._torque_derivatives(q, dq, ddq, samples, columns)
         kind = "world" if family == "world" else "self"
-        horizon = self.distance_horizon if far_bounded else None
-        d_q = self.distances.derivatives(kind, self._pairs(family), q, samples, columns, horizon)
+        d_q = self.distances.derivatives(kind, self._pairs(family), q, samples, columns)
         return d_q, zeros, zeros
 
     def _torque_derivatives(

@@ -13,8 +13,8 @@ Examples
 --------
 >>> describe_surface(AUTO, None, "torso_2_link")
 'no mounting surface (the arm hangs from torso_2_link; no collision geometry to find the floor)'
->>> describe_surface(AUTO, {"height": -1.08, "normal": [0.0, 0.0, 1.0]}, "torso_2_link")[:55]
-'the floor under the robot: the plane 1·z = -1.08 m of t'
+>>> describe_surface(AUTO, {"height": -1.08, "normal": [0.0, 0.0, 1.0]}, "torso_2_link")[:48]
+'the floor under the robot: the plane z = -1.08 m'
 """
 
 from __future__ import annotations
@@ -81,8 +81,11 @@ def describe_surface(mounting: Any, surface: dict[str, Any] | None, mounted_on: 
             return f"no mounting surface (the arm hangs from {mounted_on}; {missing})"
         return "no mounting surface"
     normal = np.asarray(surface.get("normal", (0.0, 0.0, 1.0)), dtype=float)
-    axes = " + ".join(f"{v:g}·{a}" for v, a in zip(normal, "xyz", strict=True) if v != 0.0)
-    plane = f"the plane {axes} = {float(surface.get('height', 0.0)):.3g} m of the base frame"
+    normal = normal / np.linalg.norm(normal)
+    height = float(surface.get("height", 0.0))
+    upward = np.allclose(normal, (0.0, 0.0, 1.0))
+    side = "z" if upward else f"n·x (n = [{', '.join(f'{v:.3g}' for v in normal)}])"
+    plane = f"the plane {side} = {height:.3g} m of the base frame"
     if mounting != AUTO:
         return f"the configured mounting surface: {plane}"
     if mounted_on is None:

@@ -288,7 +288,7 @@ class ExcitationProblem:
     def _slacks(self, ev: _Evaluation) -> dict[str, np.ndarray]:
         if ev.slacks is None:
             torque = ev.full_regressor @ self.parameters
-            ev.slacks = self.constraint_set.slacks(ev.q, ev.dq, ev.ddq, torque, far_bounded=True)
+            ev.slacks = self.constraint_set.slacks(ev.q, ev.dq, ev.ddq, torque)
         return ev.slacks
 
     def windowed_slacks(self, x: np.ndarray) -> list[WindowedSlack]:
@@ -328,7 +328,7 @@ class ExcitationProblem:
             samples = windowed.samples.ravel()
             columns = np.tile(np.arange(windowed.samples.shape[1]), windowed.samples.shape[0])
             d_q, d_dq, d_ddq = self.constraint_set.slack_derivatives(
-                windowed.family, ev.q, ev.dq, ev.ddq, samples, columns, far_bounded=True
+                windowed.family, ev.q, ev.dq, ev.ddq, samples, columns
             )
             scale = self.constraint_set.scales(windowed.family)[columns][:, None, None]
             # ∂g/∂C[i, l] = B[k, i]·∂g/∂q_l + Ḃ[k, i]·∂g/∂q̇_l + B̈[k, i]·∂g/∂q̈_l at the minimising sample k

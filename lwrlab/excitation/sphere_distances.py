@@ -9,12 +9,13 @@ Since the spheres contain the bodies, these distances are lower bounds of the tr
 pairs of all columns are flattened into one array and reduced per column, and the samples processed in
 chunks, so memory stays bounded on a 1 kHz motion.
 
-Far pairs cost as much as near ones, and matter less: an arm on a humanoid has a hundred pairs with
-its torso, legs and other arm, most of them far apart in most configurations. Each body's spheres lie
-inside one bounding sphere; given a ``horizon`` (m; :data:`OPTIMISER_HORIZON` beyond what the
-optimiser keeps free), where two bodies' bounding spheres are further apart than it, the pair's
-distance is the gap between the bounding spheres (a lower bound too, looser, with its gradient), and
-no sphere pair is measured; within it, the spheres' distance as without a horizon (tested equal).
+Far pairs cost as much as near ones, and matter less to the exact check, which needs the bound only
+to find the samples near contact: an arm on a humanoid has five hundred pairs with its torso, legs and
+other arm, most of them far apart at most samples. Each body's spheres lie inside one bounding
+sphere; given a ``horizon`` (m; :data:`CHECK_HORIZON` past the clearance), where two bodies' bounding
+spheres are further apart than it, the pair's bound is the gap between the bounding spheres (a lower
+bound too, looser) and no sphere pair is measured; within it, the spheres' distance as without a
+horizon (tested equal).
 
 Spheres overshoot a link's surface by a centimetre or two: too much for links that are always close
 (a wrist next to the forearm, an upper arm next to the base), where the spheres would overlap in
@@ -43,10 +44,9 @@ if TYPE_CHECKING:
 
 CHUNK = 2000
 """Samples per chunk."""
-OPTIMISER_HORIZON = 0.1
-"""m beyond the clearance and the optimiser's margin past which a pair is measured by its bodies'
-bounding spheres (module docstring): twice the reach of the pairs the optimiser drops as never near
-(:data:`~lwrlab.excitation.collision_scene.NEVER_NEAR`)."""
+CHECK_HORIZON = 0.1
+"""m past the clearance beyond which the exact check bounds a pair by its bodies' bounding spheres
+(module docstring)."""
 PLANE_POINTS = 256
 """Hull vertices kept per body for its height above a plane in the optimiser."""
 
@@ -223,21 +223,21 @@ class SphereDistances:
             out[c] = np.min(self._object_gaps(w, spheres, centres), axis=0)
         return out
 
-    def _bounding_gaps(self, groups: np.ndarray, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _bounding_gaps(self, groups: np.ndarray, poses: np.ndarray) -> np.ndarray:
         """Gaps (R, N) between the bounding spheres of the (R, 2) ``groups`` at joint poses
-        (N_J, N, 4, 4), and the vectors (R, N, 3) from the second's centre to the first's."""
+        (N_J, N, 4, 4)."""
         bound_centres = posed_points(self._bound_centres, self._bound_joints, poses)  # (G, N, 3)
         a, b = groups[:, 0], groups[:, 1]
         apart = bound_centres[a] - bound_centres[b]
         radii = self._bound_radii[a] + self._bound_radii[b]
-        return np.sqrt(np.einsum("cnk,cnk->cn", apart, apart)) - radii[:, None], apart
+        return np.sqrt(np.einsum("cnk,cnk->cn", apart, apart)) - radii[:, None]
 
     def _sphere_distances_within(
         self, layout: _Layout, poses: np.ndarray, centres: np.ndarray, horizon: float, out: np.ndarray
     ) -> None:
         """Fill ``out`` (C, N) for the sphere columns: the smallest sphere gap where the two bodies'
         bounding spheres are within the ``horizon``, their gap past it (module docstring)."""
-        bound = self._bounding_gaps(layout.groups, poses)[0]
+        bound = self._bounding_gaps(layout.groups, poses)
         out[layout.sphere_columns] = bound
         run, sample = np.nonzero(bound < horizon)  # (run of the layout, sample) entries to compute
         if not run.size:
@@ -390,13 +390,10 @@ class SphereDistances:
         q: np.ndarray,
         samples: np.ndarray,
         columns: np.ndarray,
-        horizon: float | None = None,
     ) -> np.ndarray:
         """∂distance/∂q (m, N_J) of the (sample, column) entries, at what reaches the smallest distance
         (a sphere pair, the hulls' nearest points, the lowest hull vertex): the gradient of the minimum
-        where it is unique. Entries are grouped by column, each column evaluated at its samples only.
-        With a ``horizon`` (m), entries whose bodies' bounding spheres are further apart have their gap's
-        derivative (as :meth:`pair_distances` measures them)."""
+        where it is unique. Entries are grouped by column, each column evaluated at its samples only."""
         scene, model = self.scene, self.scene.robot.model
         out = np.zeros((len(samples), scene.robot.n_joints))
         sphere_joints = np.array([s.link for s in scene.spheres] + [0] * len(self.fixed_centres), dtype=int)
@@ -448,9 +445,6 @@ class SphereDistances:
                 gradient = scene.world[pair[1]].signed_distance(point_a)[1]
                 out[rows] = np.einsum("mi,mij->mj", gradient, jac_a)
                 continue
-            if horizon is not None:  # past it, the bounding spheres' gap
-                far = self._bounding_derivatives(layout.groups, poses, horizon, out, rows)
-                rows, poses, centres = rows[~far], poses[:, ~far], centres[:, ~far]
             chosen = np.argmin(self._sphere_gaps(layout.first, layout.second, centres), axis=0)
             m = np.arange(len(rows))
             a, b = layout.first[chosen], layout.second[chosen]
@@ -461,25 +455,6 @@ class SphereDistances:
             normal = gap / np.maximum(np.sqrt(np.sum(gap * gap, axis=1))[:, None], 1e-12)
             out[rows] = np.einsum("mi,mij->mj", normal, jac)
         return out
-
-    def _bounding_derivatives(
-        self, groups: np.ndarray, poses: np.ndarray, horizon: float, out: np.ndarray, rows: np.ndarray
-    ) -> np.ndarray:
-        """Where the bounding spheres of one column's ``groups`` (1, 2) are past the ``horizon`` at the
-        poses (N_J, m, 4, 4), the derivative of their gap into ``out[rows]``; which entries (m,) those
-        are."""
-        gaps, apart = self._bounding_gaps(groups, poses)
-        far = gaps[0] >= horizon
-        if far.any():
-            model, axes, count = self.scene.robot.model, self.scene.axes, int(far.sum())
-            joints = self._bound_joints[groups[0]]
-            posed = posed_points(self._bound_centres[groups[0]], joints, poses[:, far])
-            jac = point_jacobians(model, poses[:, far], np.full(count, joints[0]), posed[0], axes)
-            jac = jac - point_jacobians(model, poses[:, far], np.full(count, joints[1]), posed[1], axes)
-            gap = apart[0, far]
-            normal = gap / np.maximum(np.sqrt(np.sum(gap * gap, axis=1))[:, None], 1e-12)
-            out[rows[far]] = np.einsum("mi,mij->mj", normal, jac)
-        return far
 
     # --- exact contacts, for choosing pairs -----------------------------------------------------
 
