@@ -51,6 +51,8 @@ def resolve_surface(mounting: Any, robot: RobotModel | None) -> dict[str, Any] |
     cached = _FLOORS.get(id(robot))
     if cached is None or cached[0] is not robot:
         cached = (robot, _floor_under(robot))
+        if len(_FLOORS) >= 8:
+            _FLOORS.pop(next(iter(_FLOORS)))
         _FLOORS[id(robot)] = cached
     return None if cached[1] is None else dict(cached[1])
 
