@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import random_states
-from lwrlab.kinematics.tree import JointAxis, joint_axes, joint_poses
+from lwrlab.kinematics.tree import JointAxis, joint_axes, joint_poses, posed_points
 from lwrlab.model.collision import CollisionSphere
 from lwrlab.model.collision_geometry import (
     CollisionGeometryError,
@@ -98,21 +98,6 @@ class CollisionScene:
     def pair_label(self, family: str, pair: tuple[int, int]) -> str:
         a, b = pair
         return f"{self.bodies[a]}–{self.world[b].name if family == 'world' else self.bodies[b]}"
-
-
-def posed_points(points: np.ndarray, joints: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    """(P, N, 3) points (P, 3), each given in the frame of its joint (P,) (0: the base), in the base
-    frame at joint poses (N_J, N, 4, 4)."""
-    out = np.empty((len(points), poses.shape[1], 3))
-    for joint in np.unique(joints):  # one product per joint for all its points
-        chosen = joints == joint
-        if joint == 0:
-            out[chosen] = points[chosen][:, None, :]
-        else:
-            pose = poses[joint - 1]
-            rotated = np.matmul(pose[:, :3, :3], points[chosen].T)  # (N, 3, p)
-            out[chosen] = rotated.transpose(2, 0, 1) + pose[:, :3, 3]
-    return out
 
 
 def _fitted_spheres(geometry: RobotGeometry, links: list[str]) -> list[CollisionSphere]:

@@ -34,9 +34,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from lwrlab.excitation.collision_scene import posed_points
 from lwrlab.excitation.exact_geometry import ExactGeometry
-from lwrlab.kinematics.tree import point_jacobians
+from lwrlab.kinematics.tree import point_jacobians, posed_points
 from lwrlab.model.enclosing_spheres import bounding_sphere
 
 if TYPE_CHECKING:

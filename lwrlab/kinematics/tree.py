@@ -178,3 +178,18 @@ def _support_matrix(model: pin.Model) -> np.ndarray:
         cached = (model, support_matrix(model))
         _SUPPORTS[id(model)] = cached
     return cached[1]
+
+
+def posed_points(points: np.ndarray, joints: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """(P, N, 3) points (P, 3), each given in the frame of its joint (P,) (0: the base), in the base
+    frame at joint poses (N_J, N, 4, 4)."""
+    out = np.empty((len(points), poses.shape[1], 3))
+    for joint in np.unique(joints):  # one product per joint for all its points
+        chosen = joints == joint
+        if joint == 0:
+            out[chosen] = points[chosen][:, None, :]
+        else:
+            pose = poses[joint - 1]
+            rotated = np.matmul(pose[:, :3, :3], points[chosen].T)  # (N, 3, p)
+            out[chosen] = rotated.transpose(2, 0, 1) + pose[:, :3, 3]
+    return out
