@@ -28,15 +28,14 @@ from typing import Any
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import random_states
+from lwrlab.excitation.scene_bodies import fitted_spheres, world_from_shapes
 from lwrlab.kinematics.tree import JointAxis, joint_axes, joint_poses, posed_points
 from lwrlab.model.collision import CollisionSphere
 from lwrlab.model.collision_geometry import (
     CollisionGeometryError,
-    CollisionShape,
     RobotGeometry,
     load_robot_geometry,
 )
-from lwrlab.model.enclosing_spheres import enclosing_spheres
 from lwrlab.model.robot import RobotModel
 from lwrlab.model.world import WorldObject
 
@@ -98,60 +97,6 @@ class CollisionScene:
     def pair_label(self, family: str, pair: tuple[int, int]) -> str:
         a, b = pair
         return f"{self.bodies[a]}–{self.world[b].name if family == 'world' else self.bodies[b]}"
-
-
-def _fitted_spheres(geometry: RobotGeometry, links: list[str]) -> list[CollisionSphere]:
-    spheres = []
-    for link in links:
-        shapes = geometry.shapes_of(link)
-        round_shapes = [s for s in shapes if s.sphere_radius is not None]
-        spheres += [
-            CollisionSphere(
-                f"{link}#{s.name}", s.joint, s.placement[:3, 3].copy(), float(s.sphere_radius), link
-            )
-            for s in round_shapes
-            if s.sphere_radius is not None
-        ]
-        others = [s for s in shapes if s.sphere_radius is None]
-        if not others:
-            continue
-        vertices = np.vstack([s.vertices_in_joint_frame() for s in others])
-        offsets = np.cumsum([0] + [len(s.vertices) for s in others[:-1]])
-        faces = np.vstack([s.faces + o for s, o in zip(others, offsets, strict=True)])
-        centres, radii = enclosing_spheres(vertices, faces)
-        spheres += [
-            CollisionSphere(f"{link}#{i}", others[0].joint, c, float(r), link)
-            for i, (c, r) in enumerate(zip(centres, radii, strict=True))
-        ]
-    return spheres
-
-
-def _world_from_shapes(shapes: tuple[CollisionShape, ...]) -> list[WorldObject]:
-    """Primitive shapes fixed to the base (a table, a stand) as world objects."""
-    objects = []
-    for shape in shapes:
-        kind = type(shape.geometry).__name__
-        vertices = shape.vertices_in_joint_frame()
-        common = {
-            "pose": shape.placement,
-            "geometry": shape.geometry,
-            "vertices": vertices,
-            "faces": shape.faces,
-        }
-        if kind == "Box":
-            objects.append(WorldObject(shape.link, "box", size=np.asarray(shape.geometry.halfSide), **common))
-        elif kind == "Sphere":
-            objects.append(
-                WorldObject(shape.link, "sphere", size=np.array([shape.geometry.radius]), **common)
-            )
-        elif kind == "Cylinder":
-            size = np.array([shape.geometry.radius, shape.geometry.halfLength])
-            objects.append(WorldObject(shape.link, "cylinder", size=size, **common))
-    names = [o.name for o in objects]
-    return [
-        WorldObject(**{**o.__dict__, "name": f"{o.name} ({i})" if names.count(o.name) > 1 else o.name})
-        for i, o in enumerate(objects)
-    ]
 
 
 def _adjacent(robot: RobotModel, a: int, b: int) -> bool:
@@ -283,14 +228,14 @@ def sampled_scene(
         taken = {w.name for w in world}
         world_objects += [  # a configured obstacle may share a URDF link's name: keep the names apart
             replace(o, name=f"{o.name} (URDF)") if o.name in taken else o
-            for o in _world_from_shapes(fixed_primitives)
+            for o in world_from_shapes(fixed_primitives)
         ]
         links = [
             link
             for link in geometry.links
             if any(s not in fixed_primitives for s in geometry.shapes_of(link))
         ]
-        spheres = _fitted_spheres(geometry, links)
+        spheres = fitted_spheres(geometry, links)
         bodies = tuple(dict.fromkeys(s.body for s in spheres))
         body_joints = np.array([geometry.link_joint(b) for b in bodies])
     else:

@@ -28,13 +28,13 @@ its hull's lowest vertex, for every sample at once.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
 
 from lwrlab.excitation.exact_geometry import ExactGeometry
+from lwrlab.excitation.sphere_layout import SphereLayout, gaps_within, sphere_layout
 from lwrlab.kinematics.tree import point_jacobians, posed_points
 from lwrlab.model.enclosing_spheres import bounding_sphere
 
@@ -48,25 +48,6 @@ CHECK_HORIZON = 0.1
 (module docstring)."""
 PLANE_POINTS = 256
 """Hull vertices kept per body for its height above a plane in the optimiser."""
-
-
-@dataclass(frozen=True)
-class _Layout:
-    """Every sphere pair of some columns (pairs of one family), flattened: column ``sphere_columns[i]``
-    is the run ``first, second [starts[i] : starts[i] + lengths[i]]`` of sphere indices, between the
-    bounding spheres ``groups[i]``; analytic world columns are (column, world object, spheres)."""
-
-    first: np.ndarray
-    second: np.ndarray
-    sphere_columns: np.ndarray
-    starts: np.ndarray
-    lengths: np.ndarray
-    groups: np.ndarray
-    analytic: list[tuple[int, int, np.ndarray]]
-
-    @property
-    def n_columns(self) -> int:
-        return len(self.sphere_columns) + len(self.analytic)
 
 
 class SphereDistances:
@@ -172,40 +153,19 @@ class SphereDistances:
             self._refine(family, pairs, poses, values, where, q)
         return values, where
 
-    def _flat_layout(self, family: str, pairs: tuple[tuple[int, int], ...]) -> _Layout:
-        """Every sphere pair of the columns, flattened (:class:`_Layout`)."""
+    def _flat_layout(self, family: str, pairs: tuple[tuple[int, int], ...]) -> SphereLayout:
+        """Every sphere pair of the columns, flattened (:mod:`lwrlab.excitation.sphere_layout`)."""
         key = (family, pairs)
         if key not in self._layouts:
-            firsts, seconds, starts, lengths, groups, analytic = [], [], [], [], [], []
-            count = 0
-            for c, (a, b) in enumerate(pairs):
-                first = self._body_spheres[a]
-                if family == "world" and b not in self._world_spheres:
-                    analytic.append((c, b, first))
-                    continue
-                second = self._body_spheres[b] if family == "self" else self._world_spheres[b]
-                ia, ib = np.meshgrid(first, second, indexing="ij")
-                firsts.append(ia.ravel())
-                seconds.append(ib.ravel())
-                starts.append(count)
-                lengths.append(ia.size)
-                groups.append((a, b if family == "self" else self._world_groups[b]))
-                count += ia.size
-            self._layouts[key] = _Layout(
-                np.concatenate(firsts) if firsts else np.zeros(0, dtype=int),
-                np.concatenate(seconds) if seconds else np.zeros(0, dtype=int),
-                np.array([c for c in range(len(pairs)) if c not in {a[0] for a in analytic}], dtype=int),
-                np.array(starts, dtype=int),
-                np.array(lengths, dtype=int),
-                np.reshape(groups, (-1, 2)).astype(int),
-                analytic,
+            self._layouts[key] = sphere_layout(
+                family, pairs, self._body_spheres, self._world_spheres, self._world_groups
             )
         return self._layouts[key]
 
     def _flat_distances(
         self,
         family: str,
-        layout: _Layout,
+        layout: SphereLayout,
         poses: np.ndarray,
         horizon: float | None = None,
     ) -> np.ndarray:
@@ -232,24 +192,13 @@ class SphereDistances:
         return np.sqrt(np.einsum("cnk,cnk->cn", apart, apart)) - radii[:, None]
 
     def _sphere_distances_within(
-        self, layout: _Layout, poses: np.ndarray, centres: np.ndarray, horizon: float, out: np.ndarray
+        self, layout: SphereLayout, poses: np.ndarray, centres: np.ndarray, horizon: float, out: np.ndarray
     ) -> None:
         """Fill ``out`` (C, N) for the sphere columns: the smallest sphere gap where the two bodies'
         bounding spheres are within the ``horizon``, their gap past it (module docstring)."""
         bound = self._bounding_gaps(layout.groups, poses)
         out[layout.sphere_columns] = bound
-        run, sample = np.nonzero(bound < horizon)  # (run of the layout, sample) entries to compute
-        if not run.size:
-            return
-        counts = layout.lengths[run]
-        offsets = np.cumsum(counts) - counts
-        within = np.arange(int(counts.sum())) - np.repeat(offsets, counts)
-        flat = np.repeat(layout.starts[run], counts) + within
-        first, second = layout.first[flat], layout.second[flat]
-        samples = np.repeat(sample, counts)
-        gap = centres[first, samples] - centres[second, samples]
-        gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - self.all_radii[first] - self.all_radii[second]
-        out[layout.sphere_columns[run], sample] = np.minimum.reduceat(gaps, offsets)
+        gaps_within(layout, centres, self.all_radii, bound < horizon, out)
 
     def _sphere_gaps(self, first: np.ndarray, second: np.ndarray, centres: np.ndarray) -> np.ndarray:
         """(M, N) gaps ``‖c_a − c_b‖ − r_a − r_b`` of the sphere pairs (first, second)."""

@@ -1,0 +1,86 @@
+"""The sphere pairs of a set of distance columns, flattened into one array for
+:class:`~lwrlab.excitation.sphere_distances.SphereDistances`, and their smallest gaps at chosen
+(column, sample) entries only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SphereLayout:
+    """Every sphere pair of some columns (pairs of one family), flattened: column ``sphere_columns[i]``
+    is the run ``first, second [starts[i] : starts[i] + lengths[i]]`` of sphere indices, between the
+    bounding spheres ``groups[i]``; analytic world columns are (column, world object, spheres)."""
+
+    first: np.ndarray
+    second: np.ndarray
+    sphere_columns: np.ndarray
+    starts: np.ndarray
+    lengths: np.ndarray
+    groups: np.ndarray
+    analytic: list[tuple[int, int, np.ndarray]]
+
+    @property
+    def n_columns(self) -> int:
+        return len(self.sphere_columns) + len(self.analytic)
+
+
+def sphere_layout(
+    family: str,
+    pairs: tuple[tuple[int, int], ...],
+    body_spheres: Sequence[np.ndarray],
+    world_spheres: Mapping[int, np.ndarray],
+    world_groups: Mapping[int, int],
+) -> SphereLayout:
+    """The layout of ``pairs`` (body pairs, or (body, world object) pairs for ``family`` "world"):
+    ``body_spheres`` the sphere indices of each body, ``world_spheres`` those of each mesh world
+    object (the others are analytic), ``world_groups`` each mesh world object's bounding sphere."""
+    firsts, seconds, starts, lengths, groups, analytic = [], [], [], [], [], []
+    count = 0
+    for c, (a, b) in enumerate(pairs):
+        first = body_spheres[a]
+        if family == "world" and b not in world_spheres:
+            analytic.append((c, b, first))
+            continue
+        second = body_spheres[b] if family == "self" else world_spheres[b]
+        ia, ib = np.meshgrid(first, second, indexing="ij")
+        firsts.append(ia.ravel())
+        seconds.append(ib.ravel())
+        starts.append(count)
+        lengths.append(ia.size)
+        groups.append((a, b if family == "self" else world_groups[b]))
+        count += ia.size
+    return SphereLayout(
+        np.concatenate(firsts) if firsts else np.zeros(0, dtype=int),
+        np.concatenate(seconds) if seconds else np.zeros(0, dtype=int),
+        np.array([c for c in range(len(pairs)) if c not in {a[0] for a in analytic}], dtype=int),
+        np.array(starts, dtype=int),
+        np.array(lengths, dtype=int),
+        np.reshape(groups, (-1, 2)).astype(int),
+        analytic,
+    )
+
+
+def gaps_within(
+    layout: SphereLayout, centres: np.ndarray, radii: np.ndarray, chosen: np.ndarray, out: np.ndarray
+) -> None:
+    """Write into ``out`` (C, N) the smallest gap ``‖c_a − c_b‖ − r_a − r_b`` over each sphere
+    column's sphere pairs, at the (run, sample) entries ``chosen`` (R, N) only (``centres``
+    (S, N, 3), ``radii`` (S,))."""
+    run, sample = np.nonzero(chosen)
+    if not run.size:
+        return
+    counts = layout.lengths[run]
+    offsets = np.cumsum(counts) - counts
+    within = np.arange(int(counts.sum())) - np.repeat(offsets, counts)
+    flat = np.repeat(layout.starts[run], counts) + within
+    first, second = layout.first[flat], layout.second[flat]
+    samples = np.repeat(sample, counts)
+    gap = centres[first, samples] - centres[second, samples]
+    gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - radii[first] - radii[second]
+    out[layout.sphere_columns[run], sample] = np.minimum.reduceat(gaps, offsets)
