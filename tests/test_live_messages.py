@@ -183,3 +183,43 @@ def test_a_subscription_counts_the_writers_of_its_topic() -> None:
         assert states.publishers == len(robots)
     finally:
         node.close()
+
+
+def test_the_bag_holds_every_message_recorded_in_order(tmp_path) -> None:
+    """The recorder's writer process: every message's bytes and time back from the bag (``rosbags``'
+    reader), messages given as objects serialised, and an existing folder or a failing writer said."""
+    from rosbags.rosbag2 import Reader
+
+    from lwrlab.live.recorder import BagRecorder
+
+    rng = np.random.default_rng(5)
+    topics = {"/joint_states": JointState, "/lwrlab/force": WrenchStamped}
+    bag = BagRecorder(tmp_path / "bag", topics)
+    sent = []
+    for k in range(2000):
+        message = JointState(
+            Header(Time.of(k * 1e-3), ""), ["a", "b"], list(rng.normal(size=2)), [], list(rng.normal(size=2))
+        )
+        topic, data = ("/joint_states", message.serialize()) if k % 3 else ("/lwrlab/force", None)
+        if data is None:
+            wrench = WrenchStamped(
+                Header(Time.of(k * 1e-3), "tool"), Wrench(Vector3(k, 0, 0), Vector3(0, 0, 1))
+            )
+            bag.record(topic, 1_000_000 * k, wrench)  # an object: serialised on the way
+            data = wrench.serialize()
+        else:
+            bag.record(topic, 1_000_000 * k, data)
+        sent.append((topic, 1_000_000 * k, data))
+        if k == 1000:
+            time.sleep(0.05)  # two batches at least
+    assert bag.close() == tmp_path / "bag" and bag.written == len(sent)
+    with Reader(tmp_path / "bag") as reader:
+        read = [(c.topic, t, bytes(raw)) for c, t, raw in reader.messages()]
+    assert read == sent
+    with pytest.raises(FileExistsError, match="exists already"):
+        BagRecorder(tmp_path / "bag", topics)
+    (tmp_path / "file").write_text("")
+    broken = BagRecorder(tmp_path / "file" / "bag", topics)  # no folder can be made there
+    broken.record("/joint_states", 0, sent[1][2])
+    with pytest.raises(RuntimeError, match="the bag could not be written"):
+        broken.close()

@@ -234,6 +234,33 @@ def test_loop_retracts_along_the_normal_on_a_force_beyond_its_limit(lwr4: RobotM
     assert moved[0] == pytest.approx(0.01, abs=1e-4) and np.linalg.norm(moved[1:]) < 1e-4  # 1 cm along +x
 
 
+def test_a_loop_behind_answers_the_newest_state_and_its_motion_resumes_where_it_was(lwr4: RobotModel) -> None:
+    """States that a newer one already follows (a backlog) are estimated and guarded, not answered: the
+    path advances one sample per command, so a robot stepping on each command follows the path as
+    planned; a force beyond the limit on such a state still retracts."""
+    sent: list[np.ndarray] = []
+    loop, q = _loop(lwr4, sent)
+    tau = _gravity_torque(lwr4, q)
+    loop.on_state(1_000_000, q, tau, 0.0)
+    loop.prepare()
+    k = 2
+    while PHASES[loop.phase] != "painting" and k < 500:
+        loop.on_state(k * 1_000_000, q, tau, k * PERIOD)
+        k += 1
+    answered, path_before = len(sent), loop.progress
+    for newer in (9, 8, 7, 6, 5, 4, 3, 2, 1, 0):  # a batch of ten states taken at once
+        loop.on_state(k * 1_000_000, q, tau, k * PERIOD, newer)
+        k += 1
+    assert len(sent) == answered + 1 and loop.superseded == 9
+    assert loop.progress == pytest.approx(path_before + 1 / loop.reference.shape[0])
+    push = loop.estimator.jacobian(q).T @ np.array([-200.0, 0, 0, 0, 0, 0])
+    while PHASES[loop.phase] == "painting" and k < 800:
+        loop.on_state(k * 1_000_000, q, tau + push, k * PERIOD, 1)  # always a newer one: none answered
+        k += 1
+    assert PHASES[loop.phase] == "retracting" and "beyond the 60 N limit" in str(loop.retract_reason)
+    assert len(sent) == answered + 1  # the retraction's commands go out with the next state answered
+
+
 # --- two processes over DDS on loopback ------------------------------------------------------------
 
 SHORT = [

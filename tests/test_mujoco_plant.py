@@ -109,13 +109,11 @@ def pressing_plant(lwr4):
     return plant, attach_payload(lwr4, tool.parameters), tool
 
 
-def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
-    """Press the roller on the wall by position control; the wall sensor's force mapped by Jᵀ equals the
-    external joint torques (link-side torque minus model torques) at rest."""
-    from lwrlab.control.force_estimation import ExternalForceEstimator
+def _press(plant, loaded, tool):
+    """The roller 6 mm off the wall (the sensor tared there), a joint PD aiming 4 mm into it: the tool
+    centre point, the aim (rad), the PD, the first reading."""
     from lwrlab.control.joint_pd import ControlSetup, JointPDGravity
 
-    plant, loaded, tool = pressing_plant
     tcp = np.eye(4)
     tcp[:3, 3] = tool.contact_point
     pose = np.eye(4)
@@ -124,11 +122,21 @@ def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
     setup = ControlSetup(loaded, SwivelIK(loaded), tcp, -1.57, Branch(1, 1, 1), 1e-3)
     q_ref = setup.joint_reference(pose)
     away = pose.copy()
-    away[0, 3] += 0.01  # start 6 mm off the wall (the sensor is tared there)
+    away[0, 3] += 0.01
     q_start = setup.joint_reference(away)
     pd = JointPDGravity(loaded, 2000.0, 60.0, 1e-3)
     sensors = plant.reset(q_start, pd.gravity(q_start))
     pd.reset(q_ref)
+    return tcp, q_ref, pd, sensors
+
+
+def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
+    """Press the roller on the wall by position control; the wall sensor's force mapped by Jᵀ equals the
+    external joint torques (link-side torque minus model torques) at rest."""
+    from lwrlab.control.force_estimation import ExternalForceEstimator
+
+    plant, loaded, tool = pressing_plant
+    tcp, q_ref, pd, sensors = _press(plant, loaded, tool)
     estimator = ExternalForceEstimator(loaded, tcp, 1e-3, **TASK["estimator"])
     estimator.reset(sensors.q)
     forces, estimates = [], []
@@ -145,24 +153,11 @@ def test_wall_sensor_reads_what_the_joint_torques_say(pressing_plant):
 def test_a_moved_wall_is_where_the_contact_is(pressing_plant):
     """The fault drill's wall move: pressed on, then moved 2 cm away, the roller loses the wall; moved
     back, it presses again with about the force it had."""
-    from lwrlab.control.joint_pd import ControlSetup, JointPDGravity
 
     _, loaded, tool = pressing_plant
     noiseless = {**TASK["contact"], "torque_noise_std": 0.0, "encoder_noise_std": 0.0}
     plant = contact_plant(pressing_plant[0].robot, tool, PAPER_WALL, noiseless, seed=0)
-    tcp = np.eye(4)
-    tcp[:3, 3] = tool.contact_point
-    pose = np.eye(4)
-    pose[:3, :3] = [[0, 0, -1], [0, 1, 0], [1, 0, 0]]
-    pose[:3, 3] = [-0.8 - 0.004, 0.3, 0.4]  # 4 mm into the wall
-    setup = ControlSetup(loaded, SwivelIK(loaded), tcp, -1.57, Branch(1, 1, 1), 1e-3)
-    q_ref = setup.joint_reference(pose)
-    away = pose.copy()
-    away[0, 3] += 0.01  # start 6 mm off the wall (the sensor is tared there)
-    q_start = setup.joint_reference(away)
-    pd = JointPDGravity(loaded, 2000.0, 60.0, 1e-3)
-    sensors = plant.reset(q_start, pd.gravity(q_start))
-    pd.reset(q_ref)
+    _, q_ref, pd, sensors = _press(plant, loaded, tool)
 
     def settled_force() -> float:
         nonlocal sensors

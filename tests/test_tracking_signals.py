@@ -213,6 +213,7 @@ def test_a_resumed_sweep_finalises_runs_whose_processes_were_killed_outright(tmp
         env={"TOY_SLEEP_S": "60"},
     )
     wait_for_runs(tmp_path / "a", 2, process)
+    wait_for_files(tmp_path / "a", "table.csv", 2, process, 120)  # what the killed jobs wrote, kept
     workers = descendant_pids(process.pid)
     os.killpg(process.pid, signal.SIGKILL)  # nothing in these processes can run
     process.communicate(timeout=30)

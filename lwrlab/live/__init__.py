@@ -9,7 +9,8 @@ bottom up:
   its publishers and subscriptions with ROS 2's QoS profiles;
 - :mod:`~lwrlab.live.joint_states`: a ``sensor_msgs/JointState`` read into the robot's joint order,
   checked (the samples a monitor must refuse, each with its reason);
-- :mod:`~lwrlab.live.recorder`: a rosbag2 (MCAP) written behind the loop, from a queue;
+- :mod:`~lwrlab.live.recorder`: a rosbag2 (MCAP) written behind the loop, from a queue, by
+  :mod:`~lwrlab.live.bag_writer`, a process of its own;
 - :mod:`~lwrlab.live.monitor_loop` and :mod:`~lwrlab.live.painting_loop`: the sample paths of the
   live monitor and of the live painting controller.
 

@@ -247,9 +247,18 @@ class LiveMonitorLoop:
         self._pending.append((sample, received))
         if len(self._pending) < RATE_SAMPLES:
             return
-        self.period = float(np.median(np.diff([s.t for s, _ in self._pending])))
-        self._say(f"joint states at {1.0 / self.period:.4g} Hz (median of the first {RATE_SAMPLES} periods)")
-        self.stream = self._stream_of(self.period)
+        period = self._pending_period()
+        self._say(f"joint states at {1.0 / period:.4g} Hz (median of the first {RATE_SAMPLES} periods)")
+        self._start_on_pending(period)
+
+    def _pending_period(self) -> float:
+        """The median period of the samples held back (s)."""
+        return float(np.median(np.diff([s.t for s, _ in self._pending])))
+
+    def _start_on_pending(self, period: float) -> None:
+        """The stream at ``period`` (s), then the samples held back."""
+        self.period = period
+        self.stream = self._stream_of(period)
         pending, self._pending = self._pending, []
         for queued, arrival in pending:
             self._take(queued, arrival)
@@ -406,14 +415,10 @@ class LiveMonitorLoop:
     def finish(self) -> None:
         """The stream ends: a contact still raised ends at its last sample."""
         with self.lock:
-            if self.stream is None and self._pending:  # fewer samples than the rate needs
-                stamps = [s.t for s, _ in self._pending]
-                self.period = float(np.median(np.diff(stamps))) if len(stamps) > 1 else None
-                if self.period:
-                    self.stream = self._stream_of(self.period)
-                    pending, self._pending = self._pending, []
-                    for queued, arrival in pending:
-                        self._take(queued, arrival)
+            if self.stream is None and len(self._pending) > 1:  # fewer samples than the rate needs
+                period = self._pending_period()
+                if period:
+                    self._start_on_pending(period)
             if self.stream is not None:
                 self.stream.finish()
 

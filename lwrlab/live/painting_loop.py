@@ -180,10 +180,12 @@ class PaintingLoop:
     ) -> None:
         """One joint state (stamp ns, positions rad, link-side torques N·m, receipt time monotonic s).
 
-        ``newer``: states already received after this one. The loop steps on this one as on every
-        state (the estimate's filters and the force loop run at the states' rate) but commands only
-        the newest: a controller that fell behind answers where the robot is now, not with a burst
-        of stale commands (which a robot stepping on each command would keep behind for ever).
+        ``newer``: states already received after this one. The estimate and the guards see every
+        state (the estimate's filters run at the states' rate); the motion (the move, the path, the
+        force loop) steps, and a command goes out, on the newest only: a controller that fell behind
+        answers where the robot is now instead of with a burst of stale commands (which a robot
+        stepping on each command would keep behind for ever), and resumes its motion where its last
+        command left it, within its limits, instead of jumping ahead.
         """
         entered = time.perf_counter_ns()
         with self._lock:
@@ -209,6 +211,10 @@ class PaintingLoop:
         records.phase[row] = self.phase
         if self.phase in (0, 4):  # nothing to command yet (see prepare), or no more
             return
+        if not answer:  # a newer state waits: the guards see this one, the motion steps on the newest
+            self.superseded += 1
+            self._guard_only(state.wrench)
+            return
         if self.phase == 2:
             k = self._k
             decision = self.controller.command(k, state, self._no_force)
@@ -220,13 +226,8 @@ class PaintingLoop:
                 reason = "painted the whole path: retracted along the wall normal"
             if reason is not None:
                 self._retract(reason)
-        if self.phase == 1:  # on the way: only the force limit (a collision) applies
-            reason = self.guard.check(state.wrench, False)
-            if reason is not None:
-                self._stop(
-                    reason.replace("retracted along the wall normal", "stopped on the way to the start")
-                )
-                return
+        if self.phase == 1 and self._stopped_on_the_way(state.wrench):
+            return
         moving = self.phase in (1, 3)
         if moving:  # the queue's motion, then its end until the limited commands arrive there
             target = self._queue[min(self._index, self._queue.shape[0] - 1)]
@@ -236,16 +237,30 @@ class PaintingLoop:
         except ValueError as error:
             self._stop(f"{error}: stopped commanding")
             return
-        if answer:
-            self.publish(command, state.wrench, stamp_ns)
-        else:
-            self.superseded += 1
+        self.publish(command, state.wrench, stamp_ns)
         records.command[row] = command
         if moving and self._index >= self._queue.shape[0] and self.limiter.arrived(target):
             if self.phase == 1:
                 self.phase, self._k = 2, 0
             else:
                 self._stop(self.retract_reason or "retracted")
+
+    def _guard_only(self, wrench: np.ndarray) -> None:
+        """The force guards on a state nothing is commanded for: a retraction or a stop starts with
+        the next state answered."""
+        if self.phase == 2:
+            reason = self.guard.check(wrench, bool(self.painting[min(self._k, self.painting.size - 1)]))
+            if reason is not None:
+                self._retract(reason)
+        elif self.phase == 1:
+            self._stopped_on_the_way(wrench)
+
+    def _stopped_on_the_way(self, wrench: np.ndarray) -> bool:
+        """On the way to the start only the force limit (a collision) applies: whether it stopped."""
+        reason = self.guard.check(wrench, False)
+        if reason is not None:
+            self._stop(reason.replace("retracted along the wall normal", "stopped on the way to the start"))
+        return reason is not None
 
     def prepare(self) -> None:
         """Plan the move from the robot's position (its last state) to the path's start and reset the

@@ -327,7 +327,7 @@ CATALOGUE: tuple[MetricFamily, ...] = (
     MetricFamily(
         "states_superseded",
         "1",
-        "joint states stepped on but not answered: a newer one had already come (the loop caught up)",
+        "joint states estimated and guarded but not answered: a newer one had come (the loop caught up)",
         LIVE_PAINTING,
     ),
     MetricFamily(
