@@ -115,8 +115,10 @@ def build_scene(
     world: tuple[WorldObject, ...],
     **settings: Any,
 ) -> CollisionScene:
-    """:func:`build_scene_uncached`, once per robot object and settings; the pairs sampled once for
-    every ``distance_margin`` (the optimiser's scene and the exact check's differ only by it)."""
+    """The collision scene of ``robot`` in ``world`` (module docstring), once per robot object and
+    settings: :func:`sampled_scene`'s settings, and ``distance_margin`` (m), what the optimiser keeps
+    free beyond the clearance (:func:`separable_scene`). The pairs are sampled once for every
+    ``distance_margin`` (the optimiser's scene and the exact check's differ only by it)."""
     scene = _cached(robot, world, settings)
     if scene is None:
         sampling = {k: v for k, v in settings.items() if k != "distance_margin"}
@@ -154,45 +156,21 @@ def _store(
     return scene
 
 
-def build_scene_uncached(
-    robot: RobotModel,
-    world: tuple[WorldObject, ...],
+def separable_scene(
+    sampled: CollisionScene,
+    distance_margin: float,
+    n_configured: int,
     *,
-    ground_spheres: tuple[str, ...] | None,
-    min_link_gap: int,
     clearance: float,
-    self_collision: bool,
     n_samples: int = 500,
     seed: int = 0,
-    distance_margin: float = 0.0,
-) -> CollisionScene:
-    """The collision scene of ``robot`` in ``world`` (module docstring).
-
-    ``ground_spheres`` and ``min_link_gap`` serve robots described by hand-written spheres only:
-    the spheres kept off the world (None: all but those on the base and joint 1) and the least joint
-    gap between spheres kept apart. ``distance_margin``: what the optimiser keeps free beyond the
-    clearance (m).
-    """
-    settings: dict[str, Any] = {
-        "ground_spheres": ground_spheres,
-        "min_link_gap": min_link_gap,
-        "clearance": clearance,
-        "self_collision": self_collision,
-        "n_samples": n_samples,
-        "seed": seed,
-    }
-    return separable_scene(sampled_scene(robot, world, **settings), distance_margin, len(world), **settings)
-
-
-def separable_scene(
-    sampled: CollisionScene, distance_margin: float, n_configured: int, *, clearance: float, **settings: Any
+    **_sampling: Any,
 ) -> CollisionScene:
     """:func:`sampled_scene`'s pairs less those the optimiser cannot keep ``clearance + distance_margin``
     apart (:func:`_unseparable_left_to_the_check`); the first ``n_configured`` world objects are the
-    configuration's (kept)."""
+    configuration's (kept). Takes :func:`sampled_scene`'s settings (those it does not read ignored)."""
     if not sampled.spheres or (not sampled.checked_self_pairs and not sampled.checked_world_pairs):
         return sampled
-    n_samples, seed = settings.get("n_samples", 500), settings.get("seed", 0)
     return _unseparable_left_to_the_check(sampled, clearance + distance_margin, n_samples, seed, n_configured)
 
 
@@ -207,7 +185,12 @@ def sampled_scene(
     n_samples: int = 500,
     seed: int = 0,
 ) -> CollisionScene:
-    """The scene's bodies, world and pairs, pruned by sampling (:func:`_prune_by_sampling`)."""
+    """The scene's bodies, world and pairs, pruned by sampling (:func:`_prune_by_sampling`).
+
+    ``ground_spheres`` and ``min_link_gap`` serve robots described by hand-written spheres only:
+    the spheres kept off the world (None: all but those on the base and joint 1) and the least joint
+    gap between spheres kept apart.
+    """
     geometry: RobotGeometry | None = None
     world_objects = list(world)
     notes: list[str] = []
