@@ -205,16 +205,24 @@ def test_loop_stops_commanding_when_the_states_stall(lwr4: RobotModel) -> None:
     np.testing.assert_allclose(sent[-1], q, atol=1e-6)  # held where it stood
 
 
-def test_loop_retracts_along_the_normal_on_a_force_beyond_its_limit(lwr4: RobotModel) -> None:
-    sent: list[np.ndarray] = []
+def _painting(lwr4: RobotModel, sent: list[np.ndarray]) -> tuple[PaintingLoop, np.ndarray, np.ndarray, int]:
+    """The loop of :func:`_loop` fed standing states until it paints: the loop, the pose, its gravity
+    torque and the last state's index (stamps ``k`` ms)."""
     loop, q = _loop(lwr4, sent)
     tau = _gravity_torque(lwr4, q)
     loop.on_state(1_000_000, q, tau, 0.0)
     loop.prepare()
-    k = 2
-    for k in range(2, 30):
+    k = 1
+    while PHASES[loop.phase] != "painting" and k < 500:
+        k += 1
         loop.on_state(k * 1_000_000, q, tau, k * PERIOD)
     assert PHASES[loop.phase] == "painting"
+    return loop, q, tau, k
+
+
+def test_loop_retracts_along_the_normal_on_a_force_beyond_its_limit(lwr4: RobotModel) -> None:
+    sent: list[np.ndarray] = []
+    loop, q, tau, k = _painting(lwr4, sent)
     jacobian = loop.estimator.jacobian(q)
     push = jacobian.T @ np.array([-200.0, 0, 0, 0, 0, 0])  # 200 N pressing on the wall
     while PHASES[loop.phase] == "painting" and k < 500:
@@ -239,14 +247,8 @@ def test_a_loop_behind_answers_the_newest_state_and_its_motion_resumes_where_it_
     path advances one sample per command, so a robot stepping on each command follows the path as
     planned; a force beyond the limit on such a state still retracts."""
     sent: list[np.ndarray] = []
-    loop, q = _loop(lwr4, sent)
-    tau = _gravity_torque(lwr4, q)
-    loop.on_state(1_000_000, q, tau, 0.0)
-    loop.prepare()
-    k = 2
-    while PHASES[loop.phase] != "painting" and k < 500:
-        loop.on_state(k * 1_000_000, q, tau, k * PERIOD)
-        k += 1
+    loop, q, tau, k = _painting(lwr4, sent)
+    k += 1
     answered, path_before = len(sent), loop.progress
     for newer in (9, 8, 7, 6, 5, 4, 3, 2, 1, 0):  # a batch of ten states taken at once
         loop.on_state(k * 1_000_000, q, tau, k * PERIOD, newer)
