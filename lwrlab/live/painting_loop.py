@@ -249,7 +249,7 @@ class PaintingLoop:
         """The force guards on a state nothing is commanded for: a retraction or a stop starts with
         the next state answered."""
         if self.phase == 2:
-            reason = self.guard.check(wrench, bool(self.painting[min(self._k, self.painting.size - 1)]))
+            reason = self.guard.check(wrench, bool(self.painting[self._k]))  # painting: k < the path's end
             if reason is not None:
                 self._retract(reason)
         elif self.phase == 1:

@@ -321,9 +321,10 @@ def run_live_painting(
                 loop.stop(f"the joint-state subscription failed: {subscription.error}")
             if now >= next_diagnostics:
                 next_diagnostics = now + diagnostics_period
-                if subscription.publishers > 1:  # another robot's states interleave with this one's
+                publishers = subscription.publishers  # asks DDS: once a diagnostics period
+                if publishers > 1:  # another robot's states interleave with this one's
                     loop.stop(
-                        f"{subscription.publishers} publishers of {topics['joint_states']} on ROS domain "
+                        f"{publishers} publishers of {topics['joint_states']} on ROS domain "
                         f"{node.domain_id}: the controller commands one robot"
                     )
                 diagnostics_out(_diagnostic(messages, loop, "lwrlab: live painting"))
