@@ -178,8 +178,10 @@ def _played_member(
     """The plans played exactly by the true arm (RNEA + ``FC·sign(q̇) + FV·q̇`` + offsets: the model
     class), read by the member's sensors at 1 kHz (``realisation``: which draw of their noise)."""
     sensors = arm.sensors
-    rng = np.random.default_rng([seed, 7] if not realisation else [seed, 7, realisation])
+    rng = np.random.default_rng([seed, 7])  # the torque sensors' offsets: one calibration, every log
     offset = sensors.offset_share * scale * rng.choice([-1.0, 1.0], size=scale.size)
+    if realisation:  # another draw of the noise
+        rng = np.random.default_rng([seed, 7, realisation])
     spec = arm.truth
     friction = replace(
         truth.friction,
