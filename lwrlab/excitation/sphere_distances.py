@@ -41,8 +41,8 @@ from lwrlab.model.enclosing_spheres import bounding_sphere
 if TYPE_CHECKING:
     from lwrlab.excitation.collision_scene import CollisionScene
 
-CHUNK = 2000
-"""Samples per chunk."""
+CHUNK = 128
+"""Samples per chunk: the gathered sphere pairs of a humanoid's arm stay in cache (twice as fast as 2000)."""
 CHECK_HORIZON = 0.1
 """m past the clearance beyond which the exact check bounds a pair by its bodies' bounding spheres
 (module docstring)."""

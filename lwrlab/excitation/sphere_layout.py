@@ -82,5 +82,6 @@ def gaps_within(
     first, second = layout.first[flat], layout.second[flat]
     samples = np.repeat(sample, counts)
     gap = centres[first, samples] - centres[second, samples]
-    gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - radii[first] - radii[second]
+    # the radii summed first, as SphereDistances._sphere_gaps: the same gaps to the last bit
+    gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - (radii[first] + radii[second])
     out[layout.sphere_columns[run], sample] = np.minimum.reduceat(gaps, offsets)
