@@ -17,6 +17,7 @@ from lwrlab.excitation.collision_check import check_collisions
 from lwrlab.excitation.collision_scene import posed_meshes
 from lwrlab.excitation.constraints import ConstraintSet
 from lwrlab.excitation.sphere_distances import SphereDistances
+from lwrlab.excitation.sphere_layout import nearest_pairs
 from lwrlab.model.collision_geometry import package_search_path
 from lwrlab.pipeline.build import build
 
@@ -516,6 +517,23 @@ def test_a_body_s_fixed_objects_are_one_column_whose_window_minima_are_exact(ur1
     bare = replace(settings, world={"mounting_surface": {"height": 0.0}})
     alone = ConstraintSet(robot, bare)
     assert all(len(m) == 1 for m in alone.distance_columns["world"].columns)
+
+
+def test_the_nearest_sphere_pairs_of_many_columns_at_once_are_each_column_s_argmin(ur10) -> None:
+    """The derivatives take every sphere column's nearest sphere pair in one batch: the same pair,
+    the first of equals, as the argmin over that column's pairs alone."""
+    robot, _, scene, _ = ur10
+    spheres = SphereDistances(scene)
+    centres = spheres._centres(scene.poses(random_configurations(robot, 40, seed=7)))
+    pairs = scene.checked_self_pairs
+    layout = spheres._flat_layout("self", pairs)
+    rng = np.random.default_rng(0)
+    run, sample = rng.integers(0, len(pairs), 200), rng.integers(0, 40, 200)
+    first, second = nearest_pairs(layout, centres, spheres.all_radii, run, sample)
+    for r, k, a, b in zip(run, sample, first, second, strict=True):
+        own = spheres._flat_layout("self", (pairs[r],))
+        at = np.argmin(spheres._sphere_gaps(own.first, own.second, centres[:, [k]])[:, 0])
+        assert (a, b) == (own.first[at], own.second[at])
 
 
 # --- derivatives ----------------------------------------------------------------------------------
