@@ -57,7 +57,7 @@ def identify(robot: Any, base: Any, measurement: Any, settings: dict[str, Any]) 
     cut-offs the processing chose."""
     data = process(measurement.t, measurement.q, measurement.tau, measurement.dq, **settings)
     estimator = build("estimator", "wls", n_joints=robot.n_joints)
-    rows = identification_rows(robot, base, [data], estimator)
+    rows = identification_rows(robot, base, [data], estimator).weighted_near_rest()
     rows.fit(estimator, IdentificationContext.from_robot(robot, base, None))
     return np.asarray(estimator.phi_), f"{data.cutoff_hz:.3g} / {data.state_cutoff_hz:.3g}"
 

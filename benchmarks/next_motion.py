@@ -301,7 +301,7 @@ def identify(robot: RobotModel, base: BaseParameters, measurements: Sequence[Mea
     settings = processing()
     processed = [process(m.t, m.q, m.tau, m.dq, **settings) for m in measurements]
     estimator = build("estimator", "wls", n_joints=robot.n_joints)
-    rows = identification_rows(robot, base, processed, estimator)
+    rows = identification_rows(robot, base, processed, estimator).weighted_near_rest()
     rows.fit(estimator, IdentificationContext.from_robot(robot, base, None))
     return np.asarray(estimator.phi_)
 

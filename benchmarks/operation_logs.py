@@ -18,6 +18,7 @@ beside them, against its measured torques.
     nice -n 10 .venv/bin/python benchmarks/operation_logs.py                # every case (a few minutes)
     nice -n 10 .venv/bin/python benchmarks/operation_logs.py --cases noisy --fits exciting "exciting + cycle"
     nice -n 10 .venv/bin/python benchmarks/operation_logs.py --overrides friction=sign
+    nice -n 10 .venv/bin/python benchmarks/operation_logs.py --cases noisy --realisations 5  # noise draws
 
 The logs are built once into ``outputs/operation_logs/`` (seeded) and read back afterwards.
 """
@@ -46,15 +47,22 @@ from benchmarks.zoo_members import (  # noqa: E402
     MEMBERS,
     Member,
     MemberLogs,
+    RepeatedMotion,
     _joint_side_member,
     _point_to_point,
     _write,
     _write_truth,
+    exciting_motion,
     member_motions,
     nominal_robot,
     torque_scale,
     true_robot,
 )
+from lwrlab.dynamics.base_parameters import compute_base_parameters  # noqa: E402
+from lwrlab.excitation.known_data import measurement_information  # noqa: E402
+from lwrlab.pipeline.build import build as build_plugin  # noqa: E402
+from lwrlab.pipeline.build import shipped_config  # noqa: E402
+from lwrlab.plants.core import Measurement  # noqa: E402
 from lwrlab.plants.planned_motions import MultisinePath, RestSchedule, WarpedMotion  # noqa: E402
 
 FOLDER = REPOSITORY / "outputs" / "operation_logs"
@@ -87,7 +95,14 @@ FITS = {
     "exciting": ("exciting",),
     "exciting + cycle": ("exciting", "cycle"),
     "cycle": ("cycle",),
+    "fresh 10 s": ("fresh",),
+    "cycle + fresh 5 s": ("cycle", "fresh5"),
+    "cycle + designed 5 s": ("cycle", "designed"),
 }
+DESIGNED = ("fresh", "fresh5", "designed")
+"""Optimal motions, played only where a fit asks for them: the product's 10 s exciting motion
+designed alone (``fresh``), a 5 s one designed alone (``fresh5``) and a 5 s one designed for the
+cycle (``task.known_logs``: ``designed``)."""
 VALIDATION = ("faster", "slower", "p2p")
 
 
@@ -114,12 +129,17 @@ def member(case: str, seed: int) -> Member:
     return replace(base, name=f"panda_sign {case} {seed}", sensors=replace(base.sensors, **CASES[case]))
 
 
-def build(case: str, seed: int, engine: str = "played") -> MemberLogs:
+def build(case: str, seed: int, engine: str = "played", realisation: int = 0) -> MemberLogs:
     """The logs of ``case`` (built once into :data:`FOLDER`): the same motions and truth for every case;
     ``engine``: ``played`` (the plans played exactly, the model class) or ``mujoco`` (the zoo member's
-    MuJoCo arm under PD control)."""
+    MuJoCo arm under PD control); ``realisation`` > 0 (played only): the same motions and truth read
+    through another draw of the sensors' noise."""
     arm = member(case, seed)
     folder = FOLDER / engine / f"seed{seed}" / case.replace(" ", "_").replace("τ", "tau")
+    if realisation:
+        if engine != "played":
+            raise ValueError("noise realisations are drawn for the played engine only")
+        folder = folder / f"noise{realisation}"
     nominal = nominal_robot(arm)
     scale = torque_scale(nominal, np.random.default_rng([seed, 3]))
     logs = MemberLogs(arm, seed, folder, scale)
@@ -142,17 +162,23 @@ def build(case: str, seed: int, engine: str = "played") -> MemberLogs:
     if engine == "mujoco":
         logs.paths = _joint_side_member(arm, nominal, truth, scale, motions, [], folder, seed)
     else:
-        logs.paths = _played_member(arm, truth, scale, motions, folder, seed)
+        logs.paths = _played_member(arm, truth, scale, motions, folder, seed, realisation)
     return logs
 
 
 def _played_member(
-    arm: Member, truth: Any, scale: np.ndarray, motions: dict[str, Any], folder: Path, seed: int
+    arm: Member,
+    truth: Any,
+    scale: np.ndarray,
+    motions: dict[str, Any],
+    folder: Path,
+    seed: int,
+    realisation: int = 0,
 ) -> dict[str, Path]:
     """The plans played exactly by the true arm (RNEA + ``FC·sign(q̇) + FV·q̇`` + offsets: the model
-    class), read by the member's sensors at 1 kHz."""
+    class), read by the member's sensors at 1 kHz (``realisation``: which draw of their noise)."""
     sensors = arm.sensors
-    rng = np.random.default_rng([seed, 7])
+    rng = np.random.default_rng([seed, 7] if not realisation else [seed, 7, realisation])
     offset = sensors.offset_share * scale * rng.choice([-1.0, 1.0], size=scale.size)
     spec = arm.truth
     friction = replace(
@@ -205,6 +231,48 @@ def moving_scores(logs: MemberLogs, report: Any) -> dict[str, float]:
     }
 
 
+def designed_logs(logs: MemberLogs, case: str, seed: int, realisation: int = 0) -> MemberLogs:
+    """``logs`` with the optimal motions of :data:`DESIGNED` played and read as the others (built once):
+    the member's 10 s motion and a 5 s one designed alone, and a 5 s one designed for the cycle's log
+    as read by the sensors (its information, its noise from the log's residual), as ``task=excitation
+    task.known_logs=[cycle]`` designs it."""
+    names = [n for n in DESIGNED if not (logs.folder / f"{n}.parquet").is_file()]
+    if names:
+        arm = member(case, seed)
+        nominal = nominal_robot(arm)
+        truth = true_robot(arm, nominal, np.random.default_rng(seed))
+        motions: dict[str, Any] = {}
+        if "fresh" in names:
+            motions["fresh"] = RepeatedMotion(exciting_motion(arm, nominal, FOLDER), 1.0, 1.5, 1, 1.5)
+        base = compute_base_parameters(nominal)
+        source = build_plugin(
+            "trajectory",
+            "optimal",
+            from_file=None,
+            duration=5.0,
+            optimizer=build_plugin("optimizer", "slsqp", show_progress=False, seed=0),
+            **({"constraints": dict(arm.motion_constraints)} if arm.motion_constraints else {}),
+        )
+        if "fresh5" in names:
+            motions["fresh5"] = RepeatedMotion(source.optimise(nominal, base)[0], 1.0, 1.5, 1, 1.5)
+        if "designed" in names:
+            cycle = pd.read_parquet(logs.paths["cycle"])
+            n = nominal.n_joints
+            measurement = Measurement(
+                t=cycle["t"].to_numpy(),
+                q=cycle[[f"q{j + 1}" for j in range(n)]].to_numpy(),
+                tau=cycle[[f"tau{j + 1}" for j in range(n)]].to_numpy(),
+            )
+            processing = dict(shipped_config("measurement", "default").processing)
+            known = measurement_information(nominal, base, [measurement], processing)
+            motion, _, _ = source.optimise(nominal, base, known)
+            motions["designed"] = RepeatedMotion(motion, 1.0, 1.5, 1, 1.5)
+        scale = torque_scale(nominal, np.random.default_rng([seed, 3]))
+        _played_member(arm, truth, scale, motions, logs.folder, seed, 100 + realisation)  # noise of their own
+    logs.paths |= {n: logs.folder / f"{n}.parquet" for n in DESIGNED}
+    return logs
+
+
 def score(logs: MemberLogs, fit: tuple[str, ...], extra: list[str]) -> dict[str, Any]:
     """Identify from ``fit`` logs; the error on the new motions against the true torque."""
     subject = Subject(logs.member.name, logs.overrides(fit=fit, validation=VALIDATION) + extra, logs)
@@ -215,22 +283,32 @@ def score(logs: MemberLogs, fit: tuple[str, ...], extra: list[str]) -> dict[str,
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
-    parser.add_argument("--fits", nargs="*", default=list(FITS), choices=list(FITS))
+    parser.add_argument(
+        "--fits", nargs="*", default=["exciting", "exciting + cycle", "cycle"], choices=list(FITS)
+    )
     parser.add_argument("--engine", default="played", choices=("played", "mujoco"))
     parser.add_argument("--seeds", nargs="*", type=int, default=[0])
+    parser.add_argument(
+        "--realisations",
+        type=int,
+        default=1,
+        help="draws of the sensors' noise on the same motions and truth (played engine)",
+    )
     parser.add_argument("--overrides", nargs="*", default=[], help="more command-line overrides")
     parser.add_argument("--real", action="store_true", help="the real LWR4+ split 2→3 too")
     args = parser.parse_args()
     rows = []
     for seed in args.seeds:
-        for case in args.cases:
+        for case, realisation in ((c, r) for c in args.cases for r in range(args.realisations)):
             started = time.perf_counter()
-            logs = build(case, seed, args.engine)
+            logs = build(case, seed, args.engine, realisation)
             print(f"{case} seed {seed}: logs in {time.perf_counter() - started:.1f} s", flush=True)
+            if any(name in DESIGNED for fit in args.fits for name in FITS[fit]):
+                logs = designed_logs(logs, case, seed, realisation)
             for fit in args.fits:
                 started = time.perf_counter()
                 row = score(logs, FITS[fit], args.overrides)
-                row = {"seed": seed, "positions": case, "fit": fit} | row
+                row = {"seed": seed, "noise": realisation, "positions": case, "fit": fit} | row
                 row["s"] = round(time.perf_counter() - started, 1)
                 print(
                     "  ",
@@ -244,9 +322,24 @@ def main() -> None:
             row = {"positions": "real", "fit": subject.name} | prediction_scores(subject, report)
             print("  ", row, flush=True)
             rows.append(row)
-    columns = ["seed", "positions", "fit", "error %", "moving %", "standing %", "noise floor %", "law"]
+    columns = [
+        "seed",
+        "noise",
+        "positions",
+        "fit",
+        "error %",
+        "moving %",
+        "standing %",
+        "noise floor %",
+        "law",
+    ]
     table = pd.DataFrame(rows)
     print(table[[c for c in columns if c in table]].to_markdown(index=False, floatfmt=".4g"))
+    if args.realisations > 1:  # the spread over the noise: the worst draw against the median
+        spread = table.groupby(["seed", "positions", "fit"])["moving %"].agg(["median", "max"])
+        spread["worst / median"] = spread["max"] / spread["median"]
+        print("\n## Over the noise's draws (moving %)\n")
+        print(spread.reset_index().to_markdown(index=False, floatfmt=".4g"))
 
 
 if __name__ == "__main__":

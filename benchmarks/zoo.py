@@ -17,6 +17,8 @@ subject, with the ratios the defaults are held to (default ≤ 1.05 × simplest,
 - ``intervals``: the 95 % prediction intervals' coverage on new motions (``statistics.friction_drift``);
 - ``thresholds``: collision thresholds (``task.thresholds``): pushes at rest detected, false alarms;
 - ``prior``: the SDP's weight toward the description's inertials (``estimator.weight: auto``);
+- ``near_rest``: the rows near rest weighted by their residual (``estimator.near_rest: weighted``)
+  against every row alike (``equal``);
 - ``cutoff``: the processing's low-pass cut-offs (``measurement.processing.cutoff_hz`` and
   ``state_cutoff_hz``, both ``auto``) against one fixed filter on q, τ and W, and against the rows'
   automatic cut-off used on the states too (``auto, one filter``).
@@ -65,7 +67,7 @@ from benchmarks.zoo_members import (  # noqa: E402
 REAL_LWR4 = REPOSITORY.parent / "shared" / "data" / "kuka_lwr4_hw"
 REAL_SPLITS = {"2→3": (2, 3), "3→1": (3, 1), "3→2": (3, 2)}
 """The real LWR4+'s new-motion splits: fit run → validation run (run 3 is another, faster motion)."""
-CHOICES = ("friction", "intervals", "thresholds", "prior", "cutoff")
+CHOICES = ("friction", "intervals", "thresholds", "prior", "cutoff", "near_rest")
 PUSH_NOISE_FACTOR = 3.0
 """Pushes counted as detectable: a true external torque of at least this many times the observer's
 RMS at rest without contact, on some joint."""
@@ -119,6 +121,7 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
         ),
         Option("auto, one filter", ("measurement.processing.state_cutoff_hz=null",)),
     ),
+    "near_rest": (Option("equal", ("estimator.near_rest=equal",)),),
 }
 """Each choice's options besides the default; the first is the simplest."""
 DEFAULT = Option("default")

@@ -229,7 +229,7 @@ SOURCES = {
             _printed_table(f"## {choice}"),
             15.0,
         )
-        for choice in ("friction", "intervals", "thresholds", "prior", "cutoff")
+        for choice in ("friction", "intervals", "thresholds", "prior", "cutoff", "near_rest")
     },
     "cutoff_cycles": Source(
         (("python", str(REPOSITORY / "benchmarks" / "cutoff_cycles.py")),),

@@ -45,7 +45,7 @@ def test_repr_names_every_setting_but_unchanged_constants() -> None:
     constant of a method, left as it is, is omitted."""
     assert (
         repr(build("estimator", "wls", n_joints=7, min_relative_std=1e-3))
-        == "WeightedLeastSquares(min_relative_std=0.001, n_joints=7, reweight_steps=2)"
+        == "WeightedLeastSquares(min_relative_std=0.001, n_joints=7, near_rest='weighted', reweight_steps=2)"
     )
 
     class Hull(HyperParameters):

@@ -171,6 +171,12 @@ def test_several_logs_each_scored_with_what_a_user_takes_away(
     summary = (run / "summary.md").read_text()
     assert "check_a, check_b: validation logs, not used for identification" in summary
     assert not (run / "exciting_motion.csv").exists() and (run / "residuals_per_log.png").is_file()
+    # the rows near rest, told apart and weighted by default: counted, and said per log
+    share, weight = metrics["rows_near_rest_share"], metrics["rows_near_rest_weight"]
+    assert 0.0 <= share < 1.0 and 0.0 < weight <= 1.0
+    assert any(n.startswith("rows near rest") for n in report.notes)
+    per_log_lines = [n for n in report.notes if n.strip().startswith(("fit_a:", "fit_b:"))]
+    assert len(per_log_lines) == (2 if share > 0 else 0)
 
 
 def test_irregular_log_is_scored_at_its_logged_samples(

@@ -28,6 +28,7 @@ from lwrlab.excitation.known_information import (
     statistics_noise_density,
 )
 from lwrlab.identification.identified import IdentifiedModel
+from lwrlab.identification.rest_weights import CLASSES, reach_rows, rest_weights, speed_classes, speed_scale
 from lwrlab.identification.row_statistics import RowAccumulator
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement
@@ -41,6 +42,7 @@ def measurement_information(
     processing: Mapping[str, Any],
     noise_density: np.ndarray | None = None,
     noise_source: str | None = None,
+    near_rest: bool = True,
 ) -> KnownInformation:
     """The information recorded measurements (logs) give the base parameters ``base`` of ``robot``.
 
@@ -51,6 +53,8 @@ def measurement_information(
     processing : keyword arguments of :func:`lwrlab.signal.processing.process` (``measurement.processing``).
     noise_density : (N_J,) N²·m²·s per joint; None: from the residual of a least-squares fit of the logs.
     noise_source : what ``noise_density`` came from, for reports.
+    near_rest : the rows near rest weighted by their residual, as an estimator with
+        ``near_rest: weighted`` (the default) identifies the logs (:mod:`lwrlab.identification.rest_weights`).
     """
     if not measurements:
         raise ConfigError("no log to take known information from")
@@ -61,13 +65,16 @@ def measurement_information(
             f"the known logs give {samples} samples after processing: fewer rows than the {base.count} "
             "base parameters"
         )
-    accumulator = RowAccumulator(samples, robot.n_joints, base.count)
+    accumulator = RowAccumulator(samples, robot.n_joints, base.count, classes=CLASSES if near_rest else 1)
+    scale = speed_scale(processed)
     for data in processed:
         rows = LogRegressor.of(robot, data.velocities, data.working_rate_hz, base.columns)
         for block in data.row_blocks(rows):
-            accumulator.add(block.w, block.tau)
+            classes = speed_classes(block.dq, scale, reach_rows(data)) if near_rest else None
+            accumulator.add(block.w, block.tau, classes)
             del block  # freed before the next block is built
-    statistics = accumulator.result()
+    classed = accumulator.by_class()
+    statistics = classed.combined(rest_weights(classed).weights if near_rest else None)
     seconds = sum(len(data.index) / data.rate_hz for data in processed)
     rows_rate = samples / seconds
     if noise_density is None:

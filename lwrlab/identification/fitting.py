@@ -76,9 +76,14 @@ def accumulate_rows(
     fitted: np.ndarray | None,
     keep_rows: bool,
 ) -> IdentificationRows:
-    """The identification rows of every log (stacked too when ``keep_rows``), of the fitted joints."""
+    """The identification rows of every log (stacked too when ``keep_rows``), of the fitted joints,
+    those near rest weighted by their residual when the estimator asks
+    (:mod:`lwrlab.identification.rest_weights`)."""
     rows = identification_rows(robot, base, processed, estimator, keep_rows=keep_rows)
-    return rows if fitted is None else rows.only_joints(fitted)
+    rows = (rows if fitted is None else rows.only_joints(fitted)).weighted_near_rest()
+    if rows.rest is not None:
+        log.info("%s", rows.rest.describe())
+    return rows
 
 
 def assess(

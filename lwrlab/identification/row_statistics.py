@@ -11,7 +11,7 @@ in blocks (a TSQR: every block's rows are factored with the factor so far).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -134,17 +134,24 @@ class RowAccumulator:
     n_joints : rows per sample N_J.
     n_columns : columns P of W.
     folds : contiguous folds (1: none).
+    classes : row classes of each joint kept apart (1: none), given with every block to :meth:`add`
+        (:mod:`lwrlab.identification.rest_weights`: how near rest a joint's row is); :meth:`result`
+        sums them, :meth:`by_class` keeps them.
     """
 
-    def __init__(self, n_samples: int, n_joints: int, n_columns: int, folds: int = 1) -> None:
+    def __init__(
+        self, n_samples: int, n_joints: int, n_columns: int, folds: int = 1, classes: int = 1
+    ) -> None:
         self.n_samples = int(n_samples)
         self.n_joints = int(n_joints)
         self.fold_of_sample = contiguous_folds(self.n_samples, 1, int(folds))
-        self.factors = np.zeros((int(folds), n_joints, n_columns + 1, n_columns + 1))
+        self.factors = np.zeros((int(folds), n_joints, int(classes), n_columns + 1, n_columns + 1))
+        self.class_rows = np.zeros((n_joints, int(classes)), dtype=int)
         self.added = 0
 
-    def add(self, W: np.ndarray, tau: np.ndarray) -> None:
-        """The next rows ``W`` (rows, P) and torques ``tau`` (rows,), sample-major."""
+    def add(self, W: np.ndarray, tau: np.ndarray, classes: np.ndarray | None = None) -> None:
+        """The next rows ``W`` (rows, P) and torques ``tau`` (rows,), sample-major; ``classes``
+        (rows / N_J, N_J) the class of each joint's row (None: all class 0)."""
         tau = np.asarray(tau, dtype=float).ravel()
         samples = W.shape[0] // self.n_joints
         if samples * self.n_joints != W.shape[0] or tau.shape[0] != W.shape[0]:
@@ -153,22 +160,73 @@ class RowAccumulator:
             )
         if self.added + samples > self.n_samples:
             raise ValueError(f"more than the {self.n_samples} samples announced")
+        if classes is None:
+            classes = np.zeros((samples, self.n_joints), dtype=int)
         rows = np.column_stack([W, tau]).reshape(samples, self.n_joints, -1)
         folds = self.fold_of_sample[self.added : self.added + samples]
         for fold in np.unique(folds):
-            in_fold = rows[folds == fold]
+            in_fold = folds == fold
             for joint in range(self.n_joints):
-                if not self.factors[fold, joint].any():  # the first rows of this fold and joint
-                    self.factors[fold, joint] = _square_factor(in_fold[:, joint])
-                else:
-                    self.factors[fold, joint] = _square_factor(
-                        np.vstack([self.factors[fold, joint], in_fold[:, joint]])
-                    )
+                labels = classes[in_fold, joint]
+                for label in np.unique(labels):
+                    self._factor_in(fold, joint, int(label), rows[in_fold, joint][labels == label])
+        for joint in range(self.n_joints):
+            self.class_rows[joint] += np.bincount(classes[:, joint], minlength=self.class_rows.shape[1])
         self.added += samples
 
-    def result(self) -> RowStatistics:
-        """The statistics of every row added (all announced samples must have come)."""
+    def _factor_in(self, fold: int, joint: int, label: int, rows: np.ndarray) -> None:
+        """Fold ``rows`` of ``joint`` in class ``label`` into its factor."""
+        factor = self.factors[fold, joint, label]
+        self.factors[fold, joint, label] = _square_factor(
+            rows if not factor.any() else np.vstack([factor, rows])
+        )
+
+    def _check_complete(self) -> np.ndarray:
         if self.added != self.n_samples:
             raise ValueError(f"{self.added} of the {self.n_samples} announced samples were added")
-        samples = np.bincount(self.fold_of_sample, minlength=self.factors.shape[0])
-        return RowStatistics(self.factors.copy(), samples)
+        return np.bincount(self.fold_of_sample, minlength=self.factors.shape[0])
+
+    def result(self) -> RowStatistics:
+        """The statistics of every row added (all announced samples must have come), classes summed."""
+        return self.by_class().combined()
+
+    def by_class(self) -> ClassedRowStatistics:
+        """The statistics of every row added, each joint's classes apart."""
+        return ClassedRowStatistics(self.factors.copy(), self._check_complete(), self.class_rows.copy())
+
+
+@dataclass(frozen=True)
+class ClassedRowStatistics:
+    """R factors of ``[W τ]`` per fold, joint and row class: what weights per class are chosen from."""
+
+    factors: np.ndarray
+    """(folds, N_J, C, P+1, P+1) R factors."""
+    samples: np.ndarray
+    """(folds,) samples (rows per joint) in each fold."""
+    class_rows: np.ndarray
+    """(N_J, C) rows of each joint in each class, over every fold."""
+
+    def combined(self, weights: np.ndarray | None = None) -> RowStatistics:
+        """The statistics of every row, the rows of joint ``j`` in class ``c`` scaled by
+        ``√weights[j, c]`` (None: unit weights)."""
+        folds, n_joints, classes, size, _ = self.factors.shape
+        root = np.ones((n_joints, classes)) if weights is None else np.sqrt(np.asarray(weights, dtype=float))
+        scaled = self.factors * root[None, :, :, None, None]
+        if classes == 1:
+            return RowStatistics(scaled[:, :, 0], self.samples)
+        combined = np.stack(
+            [
+                np.stack([_square_factor(scaled[f, j].reshape(-1, size)) for j in range(n_joints)])
+                for f in range(folds)
+            ]
+        )
+        return RowStatistics(combined, self.samples)
+
+    def residual_squares(self, beta: np.ndarray) -> np.ndarray:
+        """(N_J, C) ``‖τ − W·β‖²`` of each joint's rows in each class, over every fold (N·m)²."""
+        extended = np.append(np.asarray(beta, dtype=float), -1.0)
+        return np.sum((self.factors @ extended) ** 2, axis=(0, -1))
+
+    def only_joints(self, joints: np.ndarray) -> ClassedRowStatistics:
+        """These statistics with the rows of the joints outside ``joints`` (N_J,) bool set to zero."""
+        return replace(self, factors=self.factors * joints[None, :, None, None, None])

@@ -19,7 +19,15 @@ from lwrlab.dynamics.regressor import LogRegressor
 from lwrlab.errors import ConfigError
 from lwrlab.identification.context import IdentificationContext, row_joints
 from lwrlab.identification.core import Estimator
-from lwrlab.identification.row_statistics import RowAccumulator, RowStatistics
+from lwrlab.identification.rest_weights import (
+    CLASSES,
+    RestWeights,
+    reach_rows,
+    rest_weights,
+    speed_classes,
+    speed_scale,
+)
+from lwrlab.identification.row_statistics import ClassedRowStatistics, RowAccumulator, RowStatistics
 from lwrlab.model.robot import RobotModel
 from lwrlab.signal.processing import ProcessedData
 
@@ -49,22 +57,53 @@ class IdentificationRows:
     None (one log): what the friction drift between logs is measured from."""
     log_samples: np.ndarray | None = None
     """(logs,) samples (rows per joint) of each log."""
+    classed: ClassedRowStatistics | None = None
+    """The statistics with each joint's rows apart by how near rest they are (None: not kept apart),
+    what :meth:`weighted_near_rest` weights."""
+    classes: np.ndarray | None = None
+    """(samples, N_J) the class of each joint's row
+    (:func:`~lwrlab.identification.rest_weights.speed_classes`)."""
+    log_class_rows: np.ndarray | None = None
+    """(logs, N_J, C) rows of each log in each joint's classes."""
+    log_class_grams: np.ndarray | None = None
+    """(logs, N_J, C, N_B+1, N_B+1) :attr:`log_grams` per class (several logs with classes)."""
+    rest: RestWeights | None = None
+    """The weights the rows near rest were given (None: unweighted)."""
 
     def only_joints(self, joints: np.ndarray) -> IdentificationRows:
         """The rows with those of the joints outside ``joints`` (N_J,) bool set to zero: left out of
         the fit (their torque is no torque, or not wanted), the sample-major layout kept."""
         statistics = replace(self.statistics, factors=self.statistics.factors * joints[None, :, None, None])
         grams = None if self.log_grams is None else self.log_grams * joints[None, :, None, None]
-        if self.w_base is None or self.tau is None:
-            return replace(self, statistics=statistics, log_grams=grams)
-        kept = joints[row_joints(len(self.tau), len(joints))]
-        return replace(
+        class_grams = (
+            None if self.log_class_grams is None else self.log_class_grams * joints[None, :, None, None, None]
+        )
+        chosen = replace(
             self,
             statistics=statistics,
-            w_base=self.w_base * kept[:, None],
-            tau=self.tau * kept,
             log_grams=grams,
+            classed=None if self.classed is None else self.classed.only_joints(joints),
+            log_class_grams=class_grams,
         )
+        if self.w_base is None or self.tau is None:
+            return chosen
+        kept = joints[row_joints(len(self.tau), len(joints))]
+        return replace(chosen, w_base=self.w_base * kept[:, None], tau=self.tau * kept)
+
+    def weighted_near_rest(self) -> IdentificationRows:
+        """The rows with each joint's classes weighted by their residual
+        (:func:`~lwrlab.identification.rest_weights.rest_weights`); unchanged without classes."""
+        if self.classed is None or self.classes is None:
+            return self
+        rest = rest_weights(self.classed)
+        grams = self.log_grams
+        if self.log_class_grams is not None:
+            grams = np.einsum("jc,ljcab->ljab", rest.weights, self.log_class_grams)
+        weighted = replace(self, statistics=self.classed.combined(rest.weights), log_grams=grams, rest=rest)
+        if self.w_base is None or self.tau is None:
+            return weighted
+        root = np.sqrt(rest.row_weights(self.classes)).ravel()
+        return replace(weighted, w_base=self.w_base * root[:, None], tau=self.tau * root)
 
     def fit(self, estimator: Estimator, context: IdentificationContext) -> None:
         """Fit ``estimator`` from the statistics when it can, else from the stacked rows."""
@@ -92,8 +131,10 @@ def identification_rows(
     """The base regressor rows of every processed log, accumulated block by block in log order.
 
     ``keep_rows``: keep the stacked rows as well (block bootstrap); they are kept anyway for an
-    estimator without ``fit_statistics``. Raises :class:`ConfigError` when the rows to keep would
-    exceed :data:`MAX_STACKED_VALUES`.
+    estimator without ``fit_statistics``. An estimator whose ``near_rest`` is ``weighted`` gets each
+    joint's rows kept apart by how near rest they are (:mod:`lwrlab.identification.rest_weights`),
+    for :meth:`IdentificationRows.weighted_near_rest`. Raises :class:`ConfigError` when the rows to keep
+    would exceed :data:`MAX_STACKED_VALUES`.
     """
     name = type(estimator).__name__
     keep = keep_rows or needs_rows(estimator)
@@ -106,33 +147,53 @@ def identification_rows(
             f"exceed {MAX_STACKED_VALUES:.3g} values; use estimator=ols|wls|sdp (fitted from QR factors) "
             "without the bootstrap, or shorter logs"
         )
+    near_rest = getattr(estimator, "near_rest", "equal") == "weighted"
+    classes = CLASSES if near_rest else 1
     accumulator = RowAccumulator(
-        samples, n_joints, base.count, int(getattr(estimator, "statistics_folds", 1))
+        samples, n_joints, base.count, int(getattr(estimator, "statistics_folds", 1)), classes
     )
     kept: list[tuple[np.ndarray, np.ndarray]] = []
-    states: list[list[np.ndarray]] = [[], [], []]
+    states: list[list[np.ndarray]] = [[], [], [], []]
     width = base.count + 1
-    grams = np.zeros((len(processed), n_joints, width, width)) if len(processed) > 1 else None
+    several = len(processed) > 1
+    grams = np.zeros((len(processed), n_joints, classes, width, width)) if several else None
+    log_class_rows = np.zeros((len(processed), n_joints, classes), dtype=int)
+    scale = speed_scale(processed) if near_rest else None
 
     for k, data in enumerate(processed):
         base_regressor = LogRegressor.of(robot, data.velocities, data.working_rate_hz, base.columns)
         for block in data.row_blocks(base_regressor):
-            accumulator.add(block.w, block.tau)
-            if grams is not None:  # per log and joint: the friction drift between logs
-                rows = np.column_stack([block.w, block.tau]).reshape(-1, n_joints, width).transpose(1, 0, 2)
-                grams[k] += rows.transpose(0, 2, 1) @ rows
+            labels = (
+                np.zeros(block.dq.shape, dtype=np.int8)
+                if scale is None
+                else speed_classes(block.dq, scale, reach_rows(data))
+            )
+            accumulator.add(block.w, block.tau, labels)
+            for joint in range(n_joints):
+                log_class_rows[k, joint] += np.bincount(labels[:, joint], minlength=classes)
+            if grams is not None:  # per log, joint and class: the friction drift between logs
+                rows = np.column_stack([block.w, block.tau]).reshape(-1, n_joints, width)
+                for joint in range(n_joints):
+                    for label in np.unique(labels[:, joint]):
+                        chosen = rows[labels[:, joint] == label, joint]
+                        grams[k, joint, label] += chosen.T @ chosen
             if keep:
                 kept.append((block.w, block.tau))
-            for values, part in zip(states, (block.q, block.dq, block.ddq), strict=True):
+            for values, part in zip(states, (block.q, block.dq, block.ddq, labels), strict=True):
                 values.append(part)
             del block  # freed before the next block is built, not after: one block's rows at a time
+    classed = accumulator.by_class()
     return IdentificationRows(
-        statistics=accumulator.result(),
+        statistics=classed.combined(),
         w_base=np.vstack([w for w, _ in kept]) if keep else None,
         tau=np.concatenate([t for _, t in kept]) if keep else None,
         q=np.vstack(states[0]),
         dq=np.vstack(states[1]),
         ddq=np.vstack(states[2]),
-        log_grams=grams,
+        log_grams=None if grams is None else grams.sum(axis=2),
         log_samples=np.array([len(data.index) for data in processed]),
+        classed=classed if near_rest else None,
+        classes=np.vstack(states[3]) if near_rest else None,
+        log_class_rows=log_class_rows if near_rest else None,
+        log_class_grams=grams if near_rest else None,
     )

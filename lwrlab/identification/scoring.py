@@ -35,6 +35,7 @@ from lwrlab.identification.log_predictions import (
 )
 from lwrlab.identification.measuring import Measured
 from lwrlab.identification.prediction_error import conformal_scale, drift_parameters, held_out_log_error
+from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.identification.rows import IdentificationRows
 from lwrlab.model.friction_laws import drifting_terms
 from lwrlab.model.position_ranges import finite_range, range_span
@@ -49,6 +50,7 @@ def prediction_interval(
     in_sample: np.ndarray,
     level: float = 0.95,
     held_out_logs: np.ndarray | None = None,
+    gap_scale: np.ndarray | None = None,
 ) -> PredictionInterval:
     """The interval of the model's predictions on a new motion, from its fit.
 
@@ -63,6 +65,10 @@ def prediction_interval(
     predicted with their variance) fall inside at ``level``. Measured on motions unlike the fit's
     (``benchmarks/zoo.py --choice intervals``): the held-out blocks alone cover a new motion's torques
     on the real LWR4+ 43–60 % of the time on its worst joint, with the drift of one log 89–97 %.
+    ``gap_scale`` (N_J,): the cross-validation's excess was measured on weighted rows (the rows near
+    rest weighted down, :mod:`lwrlab.identification.rest_weights`); it is taken relative to their
+    in-sample error and applied to the unweighted one (``gap_scale`` = unweighted / weighted in-sample
+    mean square), as the logs' residual is.
     """
     error_variance = ResidualSums.of(fit_predictions).mean_square
     held_out = getattr(estimator, "cv_joint_rms_", None)
@@ -70,7 +76,8 @@ def prediction_interval(
     if held_out_logs is not None:
         held_out_square = np.maximum(held_out_logs, 0.0 if held_out_square is None else held_out_square)
     if held_out_square is not None:
-        error_variance = error_variance + np.clip(held_out_square - in_sample, 0.0, None)
+        gap = np.clip(held_out_square - in_sample, 0.0, None)
+        error_variance = error_variance + (gap if gap_scale is None else gap * gap_scale)
     interval = PredictionInterval(np.sqrt(error_variance), level)
     n_joints = len(error_variance)
     scores = [
@@ -86,6 +93,11 @@ def _as_chosen(processing: dict[str, Any], data: ProcessedData) -> dict[str, Any
         "cutoff_hz": data.cutoff_hz,
         "velocity": "logged" if data.velocity.logged else "differentiated",
     }
+
+
+def _in_sample(statistics: RowStatistics, phi: np.ndarray) -> np.ndarray:
+    """(N_J,) mean square residual per joint of the rows behind ``statistics`` at ``phi`` (N²·m²)."""
+    return statistics.residual_squares(phi).sum(axis=0) / (statistics.rows // statistics.n_joints)
 
 
 @dataclass(frozen=True)
@@ -132,13 +144,18 @@ def predict(
         )
         for m, data in zip(measured.measurements, processed, strict=True)
     ]
-    in_sample = rows.statistics.residual_squares(estimator.phi_).sum(axis=0) / (
-        rows.statistics.rows // robot.n_joints
-    )
+    in_sample = _in_sample(rows.statistics, estimator.phi_)
+    gap_scale = None
+    if rows.rest is not None and rows.classed is not None:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = _in_sample(rows.classed.combined(), estimator.phi_) / in_sample
+        gap_scale = np.where(np.isfinite(ratio), ratio, 1.0)
     held_out_logs = held_out_log_error(rows.log_grams, rows.log_samples, estimator.phi_)
     if held_out_logs is not None and fitted is not None:
         held_out_logs = np.where(fitted, held_out_logs, 0.0)
-    band = prediction_interval(estimator, fit_predictions, in_sample, held_out_logs=held_out_logs)
+    band = prediction_interval(
+        estimator, fit_predictions, in_sample, held_out_logs=held_out_logs, gap_scale=gap_scale
+    )
     fit_predictions = [band.around(p) for p in fit_predictions]
     validation_predictions = [
         band.around(

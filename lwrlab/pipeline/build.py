@@ -11,7 +11,7 @@ from an installed wheel as from the source tree.
 Examples
 --------
 >>> build("estimator", "wls", n_joints=2)
-WeightedLeastSquares(min_relative_std=1e-06, n_joints=2, reweight_steps=2)
+WeightedLeastSquares(min_relative_std=1e-06, n_joints=2, near_rest='weighted', reweight_steps=2)
 >>> build("trajectory", "optimal", duration=4.0, constraints={"torque": False}).constraints.torque
 False
 """

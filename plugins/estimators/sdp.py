@@ -84,6 +84,7 @@ from lwrlab.identification.prior_weight import (
     posterior_covariance,
     prior_share,
 )
+from lwrlab.identification.rest_weights import checked_near_rest
 from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.identification.solid_prior import ProjectedBody, solid_prior
 from lwrlab.numerics.threads import dense_algebra
@@ -119,6 +120,8 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
     compress : QR-compress the regressor before the solver (False only to measure the gain).
     solver, fallback_solver : cvxpy solver names.
     solver_options : keyword arguments of the primary solver.
+    near_rest : ``weighted``: the pipeline weights each joint's rows near rest by their own residual
+        before this fit (:mod:`lwrlab.identification.rest_weights`); ``equal``: every row alike.
 
     :meth:`fit` needs the identification context (regrouping K, CAD prior, friction layout), which
     the pipeline passes as ``fit(W, tau, context=...)``.
@@ -171,6 +174,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         solver: str,
         fallback_solver: str | None,
         solver_options: dict | None,
+        near_rest: str,
     ) -> None:
         self.regularization = regularization
         self.weight = weight
@@ -184,6 +188,7 @@ class PhysicallyConsistentSDP(HyperParameters, LearnedAttributes):
         self.solver = solver
         self.fallback_solver = fallback_solver
         self.solver_options = solver_options
+        self.near_rest = checked_near_rest(near_rest)
 
     def _check(self, context: IdentificationContext | None) -> IdentificationContext:
         if context is None:

@@ -18,6 +18,7 @@ from lwrlab.identification.least_squares import (
     joint_weighted_least_squares,
     set_learned_attributes_from_statistics,
 )
+from lwrlab.identification.rest_weights import checked_near_rest
 from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.numerics.threads import dense_algebra
 
@@ -35,6 +36,8 @@ class WeightedLeastSquares(HyperParameters, LearnedAttributes):
     reweight_steps : σ_j estimated from the OLS residual, then re-estimated from each weighted
         fit's residual this many times in all (the OLS residual of a quiet joint carries the
         parameter error caused by the noisy ones; a second pass removes most of it).
+    near_rest : ``weighted``: the pipeline weights each joint's rows near rest by their own residual
+        before this fit (:mod:`lwrlab.identification.rest_weights`); ``equal``: every row alike.
 
     Learned attributes: those of the protocol plus ``joint_std_`` (N_J,) σ_j (N·m) and ``weights_``
     (N_J,) the weights ``1/σ_j²``.
@@ -52,10 +55,13 @@ class WeightedLeastSquares(HyperParameters, LearnedAttributes):
     joint_std_: np.ndarray
     weights_: np.ndarray
 
-    def __init__(self, *, n_joints: int | None, min_relative_std: float, reweight_steps: int) -> None:
+    def __init__(
+        self, *, n_joints: int | None, min_relative_std: float, reweight_steps: int, near_rest: str
+    ) -> None:
         self.n_joints = n_joints
         self.min_relative_std = min_relative_std
         self.reweight_steps = reweight_steps
+        self.near_rest = checked_near_rest(near_rest)
 
     @dense_algebra()
     def fit(self, W: np.ndarray, tau: np.ndarray, *, context: IdentificationContext | None = None) -> Self:

@@ -90,6 +90,7 @@ def known_information(
             processing_settings(cfg),
             None if known is None else known.noise_density,
             None if known is None else known.noise_source,
+            near_rest=str(cfg.get("estimator", {}).get("near_rest", "weighted")) == "weighted",
         )
         known = from_logs if known is None else known.plus(from_logs)
     return known

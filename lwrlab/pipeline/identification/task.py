@@ -32,6 +32,7 @@ from lwrlab.identification.friction_drift import friction_drift
 from lwrlab.identification.measuring import measure, process_measurements
 from lwrlab.identification.notes import notes
 from lwrlab.identification.prediction_error import FRICTION_DRIFT, FRICTION_DRIFT_PRIOR
+from lwrlab.identification.rest_weights import rest_notes
 from lwrlab.identification.result import IdentificationReport
 from lwrlab.identification.scoring import (
     coverage_checks,
@@ -124,18 +125,22 @@ def identify(
     )
     causes = likely_causes_of_poor_validation(robot, measured, rows)
     extrapolation = extrapolate(robot, base, estimator, causes)
-    metrics = score(
-        robot,
-        base,
-        estimator,
-        rows,
-        fitting,
-        predictions,
-        tables,
-        identifiability,
-        friction_choice,
-        extrapolation,
-    ) | {"friction_drift": drift.value}
+    metrics = (
+        score(
+            robot,
+            base,
+            estimator,
+            rows,
+            fitting,
+            predictions,
+            tables,
+            identifiability,
+            friction_choice,
+            extrapolation,
+        )
+        | {"friction_drift": drift.value}
+        | ({} if rows.rest is None else rows.rest.metrics())
+    )
     share = getattr(estimator, "prior_share_", None)
     return IdentificationReport(
         robot=robot,
@@ -162,6 +167,11 @@ def identify(
                 share,
             ),
             *projection_notes(robot, getattr(estimator, "prior_projections_", ())),
+            *(
+                []
+                if rows.rest is None
+                else rest_notes(rows.rest, [m.name for m in measured.measurements], rows.log_class_rows)
+            ),
             drift.describe(),
             *([] if states is None else [states.describe()]),
             *coverage_checks(measured, predictions),

@@ -111,6 +111,18 @@ CATALOGUE: tuple[MetricFamily, ...] = (
         IDENTIFICATION,
     ),
     MetricFamily(
+        "rows_near_rest_share",
+        "1",
+        "share of the identification rows where a joint stands, starts or stops (estimator.near_rest)",
+        IDENTIFICATION,
+    ),
+    MetricFamily(
+        "rows_near_rest_weight",
+        "1",
+        "mean weight of those rows, from their residual (1: as a moving row)",
+        IDENTIFICATION,
+    ),
+    MetricFamily(
         "prediction_spread",
         "1",
         "predicted-torque spread across the joint limits, over the fit's residual σ (warned above 3)",
