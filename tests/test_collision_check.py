@@ -17,6 +17,7 @@ from lwrlab.excitation.collision_check import check_collisions
 from lwrlab.excitation.collision_scene import posed_meshes
 from lwrlab.excitation.constraints import ConstraintSet
 from lwrlab.excitation.sphere_distances import SphereDistances
+from lwrlab.excitation.sphere_layout import nearest_pairs
 from lwrlab.model.collision_geometry import package_search_path
 from lwrlab.pipeline.build import build
 
@@ -479,6 +480,60 @@ def test_distances_past_a_horizon_are_the_full_ones_within_it_lower_bounds_past_
             bounded = spheres.pair_distances(family, pairs, poses, horizon=horizon)[0]
             np.testing.assert_allclose(bounded[near], full[near], rtol=0, atol=1e-12)
             assert np.all(bounded <= full + 1e-12) and np.all(bounded[~near] >= horizon - 1e-12)
+
+
+def test_a_body_s_fixed_objects_are_one_column_whose_window_minima_are_exact(ur10) -> None:
+    """A moving body's pairs with two or more fixed boxes, cylinders or spheres are one column, the
+    smallest of their distances; measured only where it may be its window's smallest, its windows'
+    minima and where they are reached are those of every pair at every sample (to the last bit)."""
+    robot, settings, scene, _ = ur10
+    constraints = ConstraintSet(robot, settings, scene=scene)
+    columns = constraints.distance_columns["world"]
+    merged = [c for c, members in enumerate(columns.columns) if len(members) > 1]
+    assert merged and all(
+        len(members) == 1 for members in constraints.distance_columns["self_collision"].columns
+    )
+    assert sorted(p for members in columns.columns for p in members) == sorted(scene.world_pairs)
+    labels = constraints.column_labels("world")
+    assert all(labels[c].endswith(f"{len(columns.columns[c])} fixed objects") for c in merged)
+    q = random_configurations(robot, 120, seed=5)
+    zeros = np.zeros_like(q)
+    each = SphereDistances(scene)
+    each.use_hulls = True
+    pairs = each.pair_distances("world", scene.world_pairs, scene.poses(q), q)[0]
+    dense = constraints.slacks(q, zeros, zeros)["world"]
+    offset = settings.clearance + settings.distance_margin
+    for c, members in enumerate(columns.columns):  # a column is its pairs' smallest distance
+        picked = [scene.world_pairs.index(p) for p in members]
+        np.testing.assert_array_equal(dense[:, c], pairs[:, picked].min(axis=1) - offset)
+    for windows in (np.arange(0, 119, 10), np.arange(0, 119, 40), np.array([0])):
+        pruned = constraints.slacks(q, zeros, zeros, windows=windows)["world"]
+        assert np.all(pruned <= dense)
+        for w, start in enumerate(windows):
+            stop = windows[w + 1] if w + 1 < len(windows) else len(q)
+            np.testing.assert_array_equal(pruned[start:stop].min(axis=0), dense[start:stop].min(axis=0))
+            np.testing.assert_array_equal(pruned[start:stop].argmin(axis=0), dense[start:stop].argmin(axis=0))
+    # no object beside the surface: one column per pair, as for an arm on a table
+    bare = replace(settings, world={"mounting_surface": {"height": 0.0}})
+    alone = ConstraintSet(robot, bare)
+    assert all(len(m) == 1 for m in alone.distance_columns["world"].columns)
+
+
+def test_the_nearest_sphere_pairs_of_many_columns_at_once_are_each_column_s_argmin(ur10) -> None:
+    """The derivatives take every sphere column's nearest sphere pair in one batch: the same pair,
+    the first of equals, as the argmin over that column's pairs alone."""
+    robot, _, scene, _ = ur10
+    spheres = SphereDistances(scene)
+    centres = spheres._centres(scene.poses(random_configurations(robot, 40, seed=7)))
+    pairs = scene.checked_self_pairs
+    layout = spheres._flat_layout("self", pairs)
+    rng = np.random.default_rng(0)
+    run, sample = rng.integers(0, len(pairs), 200), rng.integers(0, 40, 200)
+    first, second = nearest_pairs(layout, centres, spheres.all_radii, run, sample)
+    for r, k, a, b in zip(run, sample, first, second, strict=True):
+        own = spheres._flat_layout("self", (pairs[r],))
+        at = np.argmin(spheres._sphere_gaps(own.first, own.second, centres[:, [k]])[:, 0])
+        assert (a, b) == (own.first[at], own.second[at])
 
 
 # --- derivatives ----------------------------------------------------------------------------------

@@ -33,6 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from lwrlab.excitation.collision_scene import CollisionScene, build_scene
+from lwrlab.excitation.distance_columns import column_derivatives, column_distances, distance_columns
 from lwrlab.excitation.mounting import describe_surface, resolve_surface
 from lwrlab.excitation.sphere_distances import SphereDistances
 from lwrlab.model.position_ranges import range_center, range_span, unbounded
@@ -151,6 +152,11 @@ class ConstraintSet:
             )
         self.distances = SphereDistances(self.scene)
         self.distances.use_hulls = True
+        self.distance_columns = {
+            "world": distance_columns(self.scene, "world"),
+            "self_collision": distance_columns(self.scene, "self"),
+        }
+        """The columns of the distance families (:mod:`lwrlab.excitation.distance_columns`)."""
         lim = robot.limits
         keep = 1.0 - settings.limit_margin
         free = unbounded(lim.position_lower, lim.position_upper)
@@ -190,10 +196,7 @@ class ConstraintSet:
             return [f"joint {j + 1} {side}" for side in ("lower", "upper") for j in self.bounded_joints]
         if family in ("velocity", "acceleration", "torque"):
             return [f"joint {j + 1} {side}" for side in ("lower", "upper") for j in range(n)]
-        return [self.scene.pair_label(family, pair) for pair in self._pairs(family)]
-
-    def _pairs(self, family: str) -> tuple[tuple[int, int], ...]:
-        return self.scene.world_pairs if family == "world" else self.scene.self_pairs
+        return self.distance_columns[family].labels(self.scene)
 
     def scales(self, family: str) -> np.ndarray:
         """Per-column scale dividing the slacks (the limit, or 1 m for distances), so all are O(1)."""
@@ -226,10 +229,14 @@ class ConstraintSet:
         ddq: np.ndarray,
         torque: np.ndarray | None = None,
         collisions: bool = True,
+        windows: np.ndarray | None = None,
     ) -> dict[str, np.ndarray]:
         """Slack of every family at every sample, (N, columns) each, in physical units (≥ 0: satisfied).
 
         ``torque`` (N, N_J) may be passed when already known (e.g. ``W·φ``); otherwise it is computed.
+        With ``windows`` (the first sample of each), a distance column that merges pairs is exact only
+        where it may be its window's smallest, and a lower bound above that elsewhere: its windows'
+        minima and where they are reached are exact (:mod:`lwrlab.excitation.distance_columns`).
         """
         lim, keep = self.robot.limits, 1.0 - self.settings.limit_margin
         low, high = (bound[self.bounded_joints] for bound in self.position_bounds)
@@ -245,11 +252,10 @@ class ConstraintSet:
         if collisions and (self.scene.world_pairs or self.scene.self_pairs):
             poses = self.scene.poses(q)
             offset = self.settings.clearance + self.settings.distance_margin
-            for family in ("world", "self_collision"):
-                pairs = self._pairs(family)
-                if pairs:
-                    kind = "world" if family == "world" else "self"
-                    out[family] = self.distances.pair_distances(kind, pairs, poses, q)[0] - offset
+            for family, columns in self.distance_columns.items():
+                if columns.columns:
+                    distances = column_distances(self.distances, columns, poses, q, windows)
+                    out[family] = distances - offset
         return out
 
     # --- derivatives ----------------------------------------------------------------------------
@@ -281,8 +287,7 @@ class ConstraintSet:
             )
         if family == "torque":
             return self._torque_derivatives(q, dq, ddq, samples, columns)
-        kind = "world" if family == "world" else "self"
-        d_q = self.distances.derivatives(kind, self._pairs(family), q, samples, columns)
+        d_q = column_derivatives(self.distances, self.distance_columns[family], q, samples, columns)
         return d_q, zeros, zeros
 
     def _torque_derivatives(

@@ -288,7 +288,7 @@ class ExcitationProblem:
     def _slacks(self, ev: _Evaluation) -> dict[str, np.ndarray]:
         if ev.slacks is None:
             torque = ev.full_regressor @ self.parameters
-            ev.slacks = self.constraint_set.slacks(ev.q, ev.dq, ev.ddq, torque)
+            ev.slacks = self.constraint_set.slacks(ev.q, ev.dq, ev.ddq, torque, windows=self.window_starts)
         return ev.slacks
 
     def windowed_slacks(self, x: np.ndarray) -> list[WindowedSlack]:

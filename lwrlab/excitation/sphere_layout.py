@@ -82,5 +82,24 @@ def gaps_within(
     first, second = layout.first[flat], layout.second[flat]
     samples = np.repeat(sample, counts)
     gap = centres[first, samples] - centres[second, samples]
-    gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - radii[first] - radii[second]
+    # the radii summed first, as SphereDistances._sphere_gaps: the same gaps to the last bit
+    gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - (radii[first] + radii[second])
     out[layout.sphere_columns[run], sample] = np.minimum.reduceat(gaps, offsets)
+
+
+def nearest_pairs(
+    layout: SphereLayout, centres: np.ndarray, radii: np.ndarray, run: np.ndarray, sample: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The sphere pair (first, second sphere indices, (E,) each) with the smallest gap of the sphere
+    column ``run`` (E,) at sample ``sample`` (E,) of ``centres`` (S, N, 3): the first of equals, as
+    ``argmin`` over the column's pairs picks it."""
+    counts = layout.lengths[run]
+    offsets = np.cumsum(counts) - counts
+    flat = np.repeat(layout.starts[run] - offsets, counts) + np.arange(int(counts.sum()))
+    first, second = layout.first[flat], layout.second[flat]
+    samples = np.repeat(sample, counts)
+    gap = centres[first, samples] - centres[second, samples]
+    gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - (radii[first] + radii[second])
+    smallest = np.repeat(np.minimum.reduceat(gaps, offsets), counts)
+    at = np.minimum.reduceat(np.where(gaps == smallest, np.arange(len(gaps)), len(gaps)), offsets)
+    return first[at], second[at]
