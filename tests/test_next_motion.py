@@ -22,7 +22,7 @@ from test_criteria import central_difference_gradient, regressor_like
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
-from lwrlab.excitation.criteria import DesignSpace
+from lwrlab.excitation.criteria import DesignSpace, column_scales
 from lwrlab.excitation.known_data import measurement_information, model_information
 from lwrlab.excitation.known_information import (
     ConditionedCriterion,
@@ -34,7 +34,6 @@ from lwrlab.excitation.known_information import (
     statistics_noise_density,
     torque_std,
 )
-from lwrlab.excitation.problem import column_scales
 from lwrlab.identification.identified import IdentifiedModel
 from lwrlab.identification.row_statistics import RowStatistics
 from lwrlab.io.artifacts import load_identified_model, save_identified_model

@@ -5,7 +5,7 @@ the lower, the better the motion excites the parameters. It returns its value an
 ``∂J/∂W_b`` (same shape as ``W_b``); the excitation problem chains that gradient back to the motion.
 
 Column scaling: the problem hands criteria ``W_b·diag(s)``, with ``s_g`` the inverse RMS of column g
-over random states within the joint limits (:func:`lwrlab.excitation.problem.column_scales`), so that
+over random states within the joint limits (:func:`column_scales`), so that
 every column is unit-free and of order 1 per row. The gradient is scaled back by the problem.
 ``logdet`` and ``hadamard`` change only by a constant under any fixed column scaling (their optimum
 does not depend on it); ``cond``, ``logcond``, ``a_optimality`` and ``e_optimality`` do.
@@ -24,9 +24,20 @@ from typing import Protocol
 
 import numpy as np
 
-from lwrlab.dynamics.base_parameters import BaseParameters
+from lwrlab.dynamics.base_parameters import BaseParameters, random_states
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.model.robot import RobotModel
+
+
+def column_scales(robot: RobotModel, base: BaseParameters, n_samples: int = 400, seed: int = 0) -> np.ndarray:
+    """(N_B,) inverse RMS of each base-regressor column over random states within the limits.
+
+    Multiplying ``W_b`` by ``diag(s)`` makes every column unit-free with an RMS of 1 per row over
+    the robot's whole state space, whatever its units (kg·m², kg·m, N·m); the module's
+    docstring says which criteria depend on it.
+    """
+    w = base.base_regressor(regressor(robot, *random_states(robot, n_samples, np.random.default_rng(seed))))
+    return 1.0 / np.sqrt(np.mean(w**2, axis=0))
 
 
 class Criterion(Protocol):

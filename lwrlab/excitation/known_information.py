@@ -192,7 +192,7 @@ def _own_scales(information: np.ndarray) -> np.ndarray:
 def expected_std(information: np.ndarray, scales: np.ndarray | None = None) -> np.ndarray:
     """(N_B,) standard deviation of each parameter under ``information`` (inf where it is open).
 
-    ``scales``: a column scaling (:func:`lwrlab.excitation.problem.column_scales`) that makes the
+    ``scales``: a column scaling (:func:`lwrlab.excitation.criteria.column_scales`) that makes the
     eigenvalue test unit-free (default: each parameter's own information, where non-zero).
     """
     scales = _own_scales(information) if scales is None else scales

@@ -24,27 +24,16 @@ from typing import Any
 
 import numpy as np
 
-from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters, random_states
+from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.dynamics.regressor_vjp import regressor_vjp
 from lwrlab.errors import ConfigError
 from lwrlab.excitation.constraints import ConstraintSet, ConstraintSettings
-from lwrlab.excitation.criteria import Criterion, DesignSpace, bound_criterion
+from lwrlab.excitation.criteria import Criterion, DesignSpace, bound_criterion, column_scales
 from lwrlab.excitation.known_information import ConditionedCriterion, KnownInformation
 from lwrlab.model.position_ranges import finite_range, range_center
 from lwrlab.model.robot import RobotModel
 from lwrlab.trajectory.parameterisation import LinearParameterisation
-
-
-def column_scales(robot: RobotModel, base: BaseParameters, n_samples: int = 400, seed: int = 0) -> np.ndarray:
-    """(N_B,) inverse RMS of each base-regressor column over random states within the limits.
-
-    Multiplying ``W_b`` by ``diag(s)`` makes every column unit-free with an RMS of 1 per row over
-    the robot's whole state space, whatever its units (kg·m², kg·m, N·m); see
-    :mod:`lwrlab.excitation.criteria` for which criteria depend on it.
-    """
-    w = base.base_regressor(regressor(robot, *random_states(robot, n_samples, np.random.default_rng(seed))))
-    return 1.0 / np.sqrt(np.mean(w**2, axis=0))
 
 
 def require_motion_limits(robot: RobotModel) -> None:

@@ -5,7 +5,7 @@ differ in size, and a parameter near zero has an infinite relative std whatever 
 user sees is the torque, so each σ_g is also given as its **torque effect** ``σ_g·rms(w_g)`` (N·m):
 the RMS, over random states within the robot's limits, of the torque an error of σ_g in that
 parameter makes (``rms(w_g) = 1/s_g``, the column scaling of
-:func:`lwrlab.excitation.problem.column_scales`). A parameter is **poorly known** when its torque
+:func:`lwrlab.excitation.criteria.column_scales`). A parameter is **poorly known** when its torque
 effect exceeds :data:`POORLY_KNOWN_SHARE` of the robot's own torque RMS over the same states.
 """
 

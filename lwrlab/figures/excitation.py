@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from lwrlab.figures.backend import subplots
+from lwrlab.figures.backend import set_margins, subplots
 from lwrlab.figures.decimation import envelope
 
 
@@ -32,7 +32,8 @@ def motion_figure(
     fig.legend(handles, labels, ncol=values.shape[1], fontsize=8, loc="lower center")
     fig.suptitle(title)
     axes[-1].set_xlabel("time [s]")
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    # the margins tight_layout gives (it lays every tick label out once more: a fifth of the drawing)
+    set_margins(fig, left=0.75, right=0.15, top=0.47, bottom=0.86, hspace=0.11)
     fig.savefig(path, dpi=120)
     return path
 
@@ -113,6 +114,26 @@ def criteria_figure(summary: pd.DataFrame, path: Path) -> Path:
     return path
 
 
+_SUPERSCRIPTS = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def power_of_ten(value: float, _position: int | None = None) -> str:
+    """A log axis's label of a power of ten, ``10⁻²``, in plain text (empty between powers).
+
+    Matplotlib's default writes ``10^{-2}`` as mathtext, whose parser costs a tenth of a second to
+    build in a process that draws no other mathtext.
+
+    Examples
+    --------
+    >>> power_of_ten(0.01), power_of_ten(1.0), power_of_ten(1e3), power_of_ten(2e3)
+    ('10⁻²', '10⁰', '10³', '')
+    """
+    exponent = round(float(np.log10(value))) if value > 0 else 0
+    if value <= 0 or not np.isclose(value, 10.0**exponent, rtol=1e-9):
+        return ""
+    return "10" + str(exponent).translate(_SUPERSCRIPTS)
+
+
 def uncertainty_figure(
     names: Sequence[str], before: np.ndarray, after: np.ndarray, threshold: float, path: Path, title: str
 ) -> Path:
@@ -136,6 +157,9 @@ def uncertainty_figure(
         )
     ax.axhline(threshold, color="C3", lw=1, ls="--", label=f"poorly known above {threshold:.2g} N·m")
     ax.set_yscale("log")
+    from matplotlib.ticker import FuncFormatter  # matplotlib is imported when a figure is drawn
+
+    ax.yaxis.set_major_formatter(FuncFormatter(power_of_ten))
     ax.set_ylim(bottom, 1.5 * top)
     ax.set_xticks(x, names, rotation=90, fontsize=7)
     ax.set(xlim=(-0.7, len(names) - 0.3), ylabel="torque effect of a one-σ error [N·m]")

@@ -32,9 +32,7 @@ import numpy as np
 import pandas as pd
 
 from lwrlab.errors import ConfigError
-from lwrlab.io.logs import load_log
 from lwrlab.model.drive_train import DriveTrain
-from lwrlab.signal.processing import process
 
 _MOTION_SUFFIXES = (".csv", ".parquet", ".pq")
 
@@ -96,6 +94,10 @@ def _from_file(
     motion = _motion_file(path, n_joints)
     if motion is not None:
         return motion
+    # a log's readers and processing, imported for a target given as a log only (most runs have none)
+    from lwrlab.io.logs import load_log
+    from lwrlab.signal.processing import process
+
     log = load_log(path, n_joints, joint_names=joint_names, drive=drive)
     processed = process(log.t, log.q, log.tau, log.dq)
     return processed.q, processed.dq, processed.ddq

@@ -12,18 +12,19 @@ parameters (:mod:`lwrlab.excitation.known_data`); with both, the model's noise d
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters, compute_base_parameters, random_states
 from lwrlab.dynamics.regressor import regressor
 from lwrlab.errors import ConfigError
-from lwrlab.excitation.known_data import measurement_information, model_information
-from lwrlab.excitation.known_information import KnownInformation
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.config_nodes import processing_settings, read_logs, tracking_uri
-from lwrlab.tracking.models.identified_model import ReadModel, read_identified_model
+
+if TYPE_CHECKING:
+    from lwrlab.excitation.known_information import KnownInformation
+    from lwrlab.tracking.models.identified_model import ReadModel
 
 STRUCTURE_TOLERANCE = 1e-6
 """Largest relative difference between the design's and the model's regressor column of a shared
@@ -72,7 +73,13 @@ def known_information(
     known_model: str | None,
 ) -> KnownInformation | None:
     """What the logs and the model of ``task.known_logs`` and ``task.known_model`` tell about ``base``
-    (None when neither is given)."""
+    (None when neither is given). The readers of logs and models are imported when one is given: a motion
+    designed alone (the default) does not pay for them."""
+    if not known_model and not known_logs:
+        return None
+    from lwrlab.excitation.known_data import measurement_information, model_information
+    from lwrlab.tracking.models.identified_model import read_identified_model
+
     known: KnownInformation | None = None
     if known_model:
         model = read_identified_model(str(known_model), tracking_uri(cfg), setting="task.known_model")

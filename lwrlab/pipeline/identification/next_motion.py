@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters
-from lwrlab.excitation.problem import column_scales
+from lwrlab.excitation.criteria import column_scales
 from lwrlab.excitation.uncertainty import POORLY_KNOWN_SHARE, poorly_known, workspace_torque_rms
 from lwrlab.identification.prior_weight import PRIOR_DOMINATED_SHARE, prior_given
 from lwrlab.model.robot import RobotModel

@@ -45,6 +45,12 @@ _URI_PASSWORD = re.compile(
 _QUERY_SECRET = re.compile(
     r"(?i)(?P<head>\b(?:password|passwd|pwd|token|secret|api_key|access_key)=)(?P<password>[^&\s'\"]+)"
 )
+# _QUERY_SECRET's words (lower case) and their '=', for a quick test on raw bytes.
+_QUERY_SECRET_LITERALS = tuple(
+    f"{word}=".encode() for word in ("password", "passwd", "pwd", "token", "secret", "api_key", "access_key")
+)
+# ASCII whitespace (which no URI password match holds) as one byte, for finding a match's stretch.
+_WHITESPACE_TO_SPACE = bytes.maketrans(b"\t\n\r\x0b\x0c", b"     ")
 # Environment variables whose values are secrets (MLFLOW_TRACKING_PASSWORD, AWS_SECRET_ACCESS_KEY, …).
 SECRET_ENVIRONMENT_NAME = re.compile(
     r"(?i)(PASSWORD|PASSWD|SECRET|TOKEN|API_?KEY|ACCESS_KEY|PRIVATE_KEY|CREDENTIAL)"
@@ -230,10 +236,11 @@ class Redactor:
         """Whether ``data`` holds a known secret, a URI password or a secret-key assignment."""
         if any(secret.encode("utf-8") in data for secret in self.secrets):
             return True
-        if b"://" in data and passwords_in(data.decode("utf-8", errors="replace")):
+        folded = _folded(data)
+        if b"://" in data and (_uri_password_in(data) or _query_secret_in(data, folded)):
             return True
-        if not _may_name_a_secret_key(data):  # most artifacts (numbers, images): no regex over megabytes
-            return False
+        if not any(word in folded for word in _SECRET_KEY_WORD_LITERALS):  # most artifacts (numbers,
+            return False  # images): no regex over megabytes
         text = data.decode("utf-8", errors="replace")
         return redact_secret_assignments(text) != text
 
@@ -243,16 +250,52 @@ class Redactor:
         return {self.redact(key): self.redact(value) for key, value in values.items()}
 
 
-def _may_name_a_secret_key(data: bytes) -> bool:
-    """A necessary condition for a match of :data:`SECRET_KEY_WORD` in ``data`` decoded: one of its words,
-    once ASCII letters are lowered and the non-ASCII letters that Python's case-insensitive matching
-    equates with ASCII ones are replaced by them. Byte searches, far faster than the regex on a decoded
-    binary file (a Parquet table, an image)."""
+def _folded(data: bytes) -> bytes:
+    """``data`` with ASCII letters lowered and the non-ASCII letters that Python's case-insensitive
+    matching equates with ASCII ones replaced by them: a word the regexes match in any case is found
+    in it by a byte search."""
     for letter, ascii_letter in _ASCII_CASE_FOLDINGS:
         if letter in data:  # rare: a search spares a copy of a large file
             data = data.replace(letter, ascii_letter)
-    lowered = data.lower()  # ASCII letters only
-    return any(word in lowered for word in _SECRET_KEY_WORD_LITERALS)
+    return data.lower()  # ASCII letters only
+
+
+def _may_name_a_secret_key(data: bytes) -> bool:
+    """A necessary condition for a match of :data:`SECRET_KEY_WORD` in ``data`` decoded: one of its words
+    in :func:`_folded` ``data``. Byte searches, far faster than the regex on a decoded binary file (a
+    Parquet table, an image)."""
+    folded = _folded(data)
+    return any(word in folded for word in _SECRET_KEY_WORD_LITERALS)
+
+
+def _uri_password_in(data: bytes) -> bool:
+    """Whether :data:`_URI_PASSWORD` finds a password (not already redacted) in ``data`` decoded.
+
+    A match holds ``://`` and no whitespace, so it lies within the stretch between ASCII whitespace
+    around one ``://``; only those stretches are decoded and searched (ASCII bytes decode alone, so a
+    stretch decodes as it does within the whole). A binary artifact holds ``://`` by chance (a 7 MB
+    Parquet table of floats about every other time): the regex over all of it took most of a second.
+    """
+    spaced = data.translate(_WHITESPACE_TO_SPACE)
+    searched = 0  # the stretches before are searched
+    while (separator := spaced.find(b"://", searched)) >= 0:
+        start = max(spaced.rfind(b" ", searched, separator) + 1, searched)
+        end = spaced.find(b" ", separator)
+        end = len(spaced) if end < 0 else end
+        text = data[start:end].decode("utf-8", errors="replace")
+        if any(match.group("password") != REDACTED for match in _URI_PASSWORD.finditer(text)):
+            return True
+        searched = end + 1
+    return False
+
+
+def _query_secret_in(data: bytes, folded: bytes) -> bool:
+    """Whether :data:`_QUERY_SECRET` finds a value (not already redacted) in ``data`` decoded; the regex
+    runs only where one of its words and its '=' are in ``folded`` (:func:`_folded` ``data``)."""
+    if not any(word in folded for word in _QUERY_SECRET_LITERALS):
+        return False
+    text = data.decode("utf-8", errors="replace")
+    return any(match.group("password") != REDACTED for match in _QUERY_SECRET.finditer(text))
 
 
 def _files_needing_redaction(folder: Path, redactor: Redactor) -> Iterator[Path]:
