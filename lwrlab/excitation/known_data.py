@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from lwrlab.dynamics.base_parameters import BaseParameters
-from lwrlab.dynamics.regressor import LogRegressor
 from lwrlab.errors import ConfigError
 from lwrlab.excitation.known_information import (
     KnownInformation,
@@ -28,8 +27,7 @@ from lwrlab.excitation.known_information import (
     statistics_noise_density,
 )
 from lwrlab.identification.identified import IdentifiedModel
-from lwrlab.identification.rest_weights import CLASSES, reach_rows, rest_weights, speed_classes, speed_scale
-from lwrlab.identification.row_statistics import RowAccumulator
+from lwrlab.identification.rows import accumulated_rows
 from lwrlab.model.robot import RobotModel
 from lwrlab.plants.core import Measurement
 from lwrlab.signal.processing import process
@@ -65,16 +63,7 @@ def measurement_information(
             f"the known logs give {samples} samples after processing: fewer rows than the {base.count} "
             "base parameters"
         )
-    accumulator = RowAccumulator(samples, robot.n_joints, base.count, classes=CLASSES if near_rest else 1)
-    scale = speed_scale(processed)
-    for data in processed:
-        rows = LogRegressor.of(robot, data.velocities, data.working_rate_hz, base.columns)
-        for block in data.row_blocks(rows):
-            classes = speed_classes(block.dq, scale, reach_rows(data)) if near_rest else None
-            accumulator.add(block.w, block.tau, classes)
-            del block  # freed before the next block is built
-    classed = accumulator.by_class()
-    statistics = classed.combined(rest_weights(classed).weights if near_rest else None)
+    statistics = accumulated_rows(robot, base, processed, near_rest=near_rest).weighted_near_rest().statistics
     seconds = sum(len(data.index) / data.rate_hz for data in processed)
     rows_rate = samples / seconds
     if noise_density is None:

@@ -63,12 +63,20 @@ class IdentificationRows:
     classes: np.ndarray | None = None
     """(samples, N_J) the class of each joint's row
     (:func:`~lwrlab.identification.rest_weights.speed_classes`)."""
-    log_class_rows: np.ndarray | None = None
-    """(logs, N_J, C) rows of each log in each joint's classes."""
     log_class_grams: np.ndarray | None = None
     """(logs, N_J, C, N_B+1, N_B+1) :attr:`log_grams` per class (several logs with classes)."""
     rest: RestWeights | None = None
     """The weights the rows near rest were given (None: unweighted)."""
+
+    @property
+    def log_class_rows(self) -> np.ndarray | None:
+        """(logs, N_J, C) rows of each log in each joint's classes (None: the rows not told apart)."""
+        if self.classes is None or self.log_samples is None:
+            return None
+        logs = np.split(self.classes.astype(int), np.cumsum(self.log_samples)[:-1])
+        return np.stack(
+            [np.stack([np.bincount(joint, minlength=CLASSES) for joint in part.T]) for part in logs]
+        )
 
     def only_joints(self, joints: np.ndarray) -> IdentificationRows:
         """The rows with those of the joints outside ``joints`` (N_J,) bool set to zero: left out of
@@ -147,17 +155,37 @@ def identification_rows(
             f"exceed {MAX_STACKED_VALUES:.3g} values; use estimator=ols|wls|sdp (fitted from QR factors) "
             "without the bootstrap, or shorter logs"
         )
-    near_rest = getattr(estimator, "near_rest", "equal") == "weighted"
-    classes = CLASSES if near_rest else 1
-    accumulator = RowAccumulator(
-        samples, n_joints, base.count, int(getattr(estimator, "statistics_folds", 1)), classes
+    return accumulated_rows(
+        robot,
+        base,
+        processed,
+        folds=int(getattr(estimator, "statistics_folds", 1)),
+        near_rest=getattr(estimator, "near_rest", "equal") == "weighted",
+        keep=keep,
     )
+
+
+def accumulated_rows(
+    robot: RobotModel,
+    base: BaseParameters,
+    processed: Sequence[ProcessedData],
+    *,
+    folds: int = 1,
+    near_rest: bool = False,
+    keep: bool = False,
+) -> IdentificationRows:
+    """The base regressor rows of every processed log in ``folds`` folds, accumulated block by block in
+    log order (:func:`identification_rows` chooses the settings from the estimator): ``near_rest``,
+    each joint's rows kept apart by how near rest they are; ``keep``, the stacked rows kept too."""
+    n_joints = robot.n_joints
+    samples = sum(len(data.index) for data in processed)
+    classes = CLASSES if near_rest else 1
+    accumulator = RowAccumulator(samples, n_joints, base.count, folds, classes)
     kept: list[tuple[np.ndarray, np.ndarray]] = []
     states: list[list[np.ndarray]] = [[], [], [], []]
     width = base.count + 1
     several = len(processed) > 1
     grams = np.zeros((len(processed), n_joints, classes, width, width)) if several else None
-    log_class_rows = np.zeros((len(processed), n_joints, classes), dtype=int)
     scale = speed_scale(processed) if near_rest else None
 
     for k, data in enumerate(processed):
@@ -169,14 +197,11 @@ def identification_rows(
                 else speed_classes(block.dq, scale, reach_rows(data))
             )
             accumulator.add(block.w, block.tau, labels)
-            for joint in range(n_joints):
-                log_class_rows[k, joint] += np.bincount(labels[:, joint], minlength=classes)
             if grams is not None:  # per log, joint and class: the friction drift between logs
-                rows = np.column_stack([block.w, block.tau]).reshape(-1, n_joints, width)
-                for joint in range(n_joints):
-                    for label in np.unique(labels[:, joint]):
-                        chosen = rows[labels[:, joint] == label, joint]
-                        grams[k, joint, label] += chosen.T @ chosen
+                rows = np.column_stack([block.w, block.tau]).reshape(-1, n_joints, width).transpose(1, 0, 2)
+                for label in range(classes):
+                    chosen = rows if classes == 1 else rows * np.equal(labels.T, label)[:, :, None]
+                    grams[k, :, label] += chosen.transpose(0, 2, 1) @ chosen
             if keep:
                 kept.append((block.w, block.tau))
             for values, part in zip(states, (block.q, block.dq, block.ddq, labels), strict=True):
@@ -194,6 +219,5 @@ def identification_rows(
         log_samples=np.array([len(data.index) for data in processed]),
         classed=classed if near_rest else None,
         classes=np.vstack(states[3]) if near_rest else None,
-        log_class_rows=log_class_rows if near_rest else None,
         log_class_grams=grams if near_rest else None,
     )

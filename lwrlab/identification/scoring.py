@@ -146,9 +146,11 @@ def predict(
     ]
     in_sample = _in_sample(rows.statistics, estimator.phi_)
     gap_scale = None
-    if rows.rest is not None and rows.classed is not None:
+    if rows.rest is not None and rows.classed is not None:  # every row alike: the classes' sums
+        samples = rows.statistics.rows // rows.statistics.n_joints
+        unweighted = rows.classed.residual_squares(estimator.phi_).sum(axis=1) / samples
         with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = _in_sample(rows.classed.combined(), estimator.phi_) / in_sample
+            ratio = unweighted / in_sample
         gap_scale = np.where(np.isfinite(ratio), ratio, 1.0)
     held_out_logs = held_out_log_error(rows.log_grams, rows.log_samples, estimator.phi_)
     if held_out_logs is not None and fitted is not None:
