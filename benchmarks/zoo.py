@@ -19,6 +19,9 @@ subject, with the ratios the defaults are held to (default ≤ 1.05 × simplest,
 - ``prior``: the SDP's weight toward the description's inertials (``estimator.weight: auto``);
 - ``near_rest``: the rows near rest weighted by their residual (``estimator.near_rest: weighted``)
   against every row alike (``equal``);
+- ``operation``: what a robot in operation logs, against the two fit logs: one exciting log, that log
+  with a point-to-point cycle with rests (the cell's cycle) added, and the cycle alone, judged on the
+  faster and slower new motions (the cycle is fit data here), with the error where they stand still;
 - ``cutoff``: the processing's low-pass cut-offs (``measurement.processing.cutoff_hz`` and
   ``state_cutoff_hz``, both ``auto``) against one fixed filter on q, τ and W, and against the rows'
   automatic cut-off used on the states too (``auto, one filter``).
@@ -56,6 +59,7 @@ sys.path.insert(0, str(REPOSITORY))
 
 from benchmarks.zoo_members import (  # noqa: E402
     CACHE,
+    FIT,
     MEMBERS,
     NEW_MOTIONS,
     ZOO_VERSION,
@@ -67,7 +71,11 @@ from benchmarks.zoo_members import (  # noqa: E402
 REAL_LWR4 = REPOSITORY.parent / "shared" / "data" / "kuka_lwr4_hw"
 REAL_SPLITS = {"2→3": (2, 3), "3→1": (3, 1), "3→2": (3, 2)}
 """The real LWR4+'s new-motion splits: fit run → validation run (run 3 is another, faster motion)."""
-CHOICES = ("friction", "intervals", "thresholds", "prior", "cutoff", "near_rest")
+CHOICES = ("friction", "intervals", "thresholds", "prior", "cutoff", "near_rest", "operation")
+OPERATION_CHECKS = ("faster", "slower")
+"""The new motions the ``operation`` choice judges on: the cycle (``p2p``) is fit data there."""
+STANDING_SPEED = 0.01
+"""rad/s: a sample of a new motion stands still where every joint's true speed is below this."""
 PUSH_NOISE_FACTOR = 3.0
 """Pushes counted as detectable: a true external torque of at least this many times the observer's
 RMS at rest without contact, on some joint."""
@@ -83,6 +91,8 @@ class Option:
     """The drive's ``rotor_inertia`` columns: on, off, or None: as the description says (auto)."""
     thresholds: str | None = None
     """``thresholds`` only: the monitor's ``task.thresholds``."""
+    fit_logs: tuple[str, ...] | None = None
+    """``operation`` only: the member's logs fitted on (judged on :data:`OPERATION_CHECKS`)."""
 
 
 OPTIONS: dict[str, tuple[Option, ...]] = {
@@ -122,6 +132,12 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
         Option("auto, one filter", ("measurement.processing.state_cutoff_hz=null",)),
     ),
     "near_rest": (Option("equal", ("estimator.near_rest=equal",)),),
+    "operation": (
+        Option("two logs", fit_logs=FIT),
+        Option("one log", fit_logs=("fit",)),
+        Option("one log + cycle", fit_logs=("fit", "p2p")),
+        Option("cycle alone", fit_logs=("p2p",)),
+    ),
 }
 """Each choice's options besides the default; the first is the simplest."""
 DEFAULT = Option("default")
@@ -142,6 +158,8 @@ class Subject:
         """The command line's overrides for ``option`` (``rest``: the pushed log among the validation
         logs, for the monitor)."""
         overrides = list(self.overrides)
+        if option.fit_logs is not None and self.logs is not None:
+            overrides = self.logs.overrides(fit=option.fit_logs, validation=OPERATION_CHECKS)
         if rest and self.logs is not None:
             overrides = self.logs.overrides(validation=(*NEW_MOTIONS, "rest"))
         if option.rotor is not None:
@@ -155,6 +173,13 @@ class Subject:
         if self.logs is None:
             return None
         return self.logs.truth(name)[[f"tau{j + 1}" for j in range(n_joints)]].to_numpy()
+
+    def standing(self, name: str, n_joints: int) -> np.ndarray | None:
+        """(M,) where validation log ``name`` truly stands still (None: a real run)."""
+        if self.logs is None:
+            return None
+        speed = self.logs.truth(name)[[f"dq{j + 1}" for j in range(n_joints)]].to_numpy()
+        return np.all(np.abs(speed) < STANDING_SPEED, axis=1)
 
 
 def member_subject(logs: MemberLogs) -> Subject:
@@ -223,6 +248,8 @@ def prediction_scores(subject: Subject, report: Any) -> dict[str, Any]:
     95 % interval's coverage (overall and worst joint, of the measured torques, as the product
     reports it), on the subject's new motions."""
     errors, floors, inside, counted = [], [], None, None
+    squares = {"standing": 0.0, "moving": 0.0, "standing floor": 0.0}  # Σ error², over every log
+    torques = {"standing": 0.0, "moving": 0.0}  # Σ true torque²
     n = report.robot.n_joints
     for p in report.validation_predictions:
         if p.name not in subject.validation:
@@ -233,6 +260,11 @@ def prediction_scores(subject: Subject, report: Any) -> dict[str, Any]:
         errors.append(np.linalg.norm((reference - p.predicted)[scored]) / np.linalg.norm(reference[scored]))
         if truth is not None:
             floors.append(np.linalg.norm((p.measured - truth)[scored]) / np.linalg.norm(truth[scored]))
+            still = subject.standing(p.name, n)
+            for part, rows in (("standing", scored & still), ("moving", scored & ~still)):
+                squares[part] += float(np.sum((truth - p.predicted)[rows] ** 2))
+                torques[part] += float(np.sum(truth[rows] ** 2))
+            squares["standing floor"] += float(np.sum((p.measured - truth)[scored & still] ** 2))
         if p.half_width is not None:
             hits = (np.abs(p.measured - p.predicted) <= p.half_width)[scored]
             inside = hits.sum(axis=0) if inside is None else inside + hits.sum(axis=0)
@@ -240,6 +272,10 @@ def prediction_scores(subject: Subject, report: Any) -> dict[str, Any]:
     row: dict[str, Any] = {"error %": 100 * float(np.mean(errors))}
     if floors:
         row["noise floor %"] = 100 * float(np.mean(floors))
+    if torques["standing"] > 0 and torques["moving"] > 0:  # each part relative to its own torque
+        row["standing error %"] = 100 * float(np.sqrt(squares["standing"] / torques["standing"]))
+        row["moving error %"] = 100 * float(np.sqrt(squares["moving"] / torques["moving"]))
+        row["standing noise floor %"] = 100 * float(np.sqrt(squares["standing floor"] / torques["standing"]))
     if inside is not None and counted:
         joints = inside / counted
         row["coverage %"] = 100 * float(joints.mean())
@@ -447,6 +483,37 @@ def threshold_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
+def operation_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
+    """Per member: the error on the faster and slower new motions (% of the true torque) fitted on the
+    two fit logs, on one, on one with the cycle added, on the cycle alone; what adding the cycle does;
+    the error where the new motions stand still beside the moving error and the noise floor there
+    (one log); the 95 % intervals' coverage with one log and with the cycle added."""
+    out = []
+    for subject, results in rows.items():
+        one, added = results["one log"], results["one log + cycle"]
+        out.append(
+            {
+                "subject": subject,
+                "two logs %": results["two logs"]["error %"],
+                "one log %": one["error %"],
+                "one log + cycle %": added["error %"],
+                "cycle alone %": results["cycle alone"]["error %"],
+                "+ cycle / one log": _ratio(added["error %"], one["error %"]),
+                "standing / moving": _ratio(
+                    one.get("standing error %", np.nan), one.get("moving error %", np.nan)
+                ),
+                "standing / its noise floor": _ratio(
+                    one.get("standing error %", np.nan), one.get("standing noise floor %", np.nan)
+                ),
+                "coverage one log %": one.get("coverage %", np.nan),
+                "worst joint %": one.get("worst joint coverage %", np.nan),
+                "coverage + cycle %": added.get("coverage %", np.nan),
+                "worst joint + cycle %": added.get("worst joint coverage %", np.nan),
+            }
+        )
+    return pd.DataFrame(out)
+
+
 def _rest_ratio(result: dict[str, Any]) -> str:
     if "threshold at rest N·m" not in result:
         return ""
@@ -460,6 +527,9 @@ def table(choice: str, subjects: list[Subject], store: Path) -> pd.DataFrame:
     options = [DEFAULT, *OPTIONS[choice]]
     if choice == "thresholds":
         options = [*OPTIONS[choice], DEFAULT]
+    if choice == "operation":  # every option names its fit logs; the real runs have no cycle
+        options = list(OPTIONS[choice])
+        subjects = [subject for subject in subjects if subject.logs is not None]
     for subject in subjects:
         rows[subject.name] = {}
         for option in options:
@@ -476,6 +546,8 @@ def table(choice: str, subjects: list[Subject], store: Path) -> pd.DataFrame:
         return coverage_table(rows)
     if choice == "thresholds":
         return threshold_table(rows)
+    if choice == "operation":
+        return operation_table(rows)
     return error_table(rows, choice)
 
 
