@@ -22,6 +22,8 @@ subject, with the ratios the defaults are held to (default ≤ 1.05 × simplest,
 - ``operation``: what a robot in operation logs, against the two fit logs: one exciting log, that log
   with a point-to-point cycle with rests (the cell's cycle) added, and the cycle alone, judged on the
   faster and slower new motions (the cycle is fit data here), with the error where they stand still;
+- ``realisations``: one fit log recorded five times (the same motion and truth, the sensors' noise,
+  quantisation and stamps drawn anew): the error on the new motions of each and the law each chooses;
 - ``cutoff``: the processing's low-pass cut-offs (``measurement.processing.cutoff_hz`` and
   ``state_cutoff_hz``, both ``auto``) against one fixed filter on q, τ and W, and against the rows'
   automatic cut-off used on the states too (``auto, one filter``).
@@ -65,13 +67,16 @@ from benchmarks.zoo_members import (  # noqa: E402
     ZOO_VERSION,
     MemberLogs,
     build_member,
+    noise_realisation,
     robot_settings,
 )
 
 REAL_LWR4 = REPOSITORY.parent / "shared" / "data" / "kuka_lwr4_hw"
 REAL_SPLITS = {"2→3": (2, 3), "3→1": (3, 1), "3→2": (3, 2)}
 """The real LWR4+'s new-motion splits: fit run → validation run (run 3 is another, faster motion)."""
-CHOICES = ("friction", "intervals", "thresholds", "prior", "cutoff", "near_rest", "operation")
+CHOICES = ("friction", "intervals", "thresholds", "prior", "cutoff", "near_rest", "operation", "realisations")
+REALISATIONS = 5
+"""``realisations``: how many times the fit log is recorded (the log itself and as many less one anew)."""
 OPERATION_CHECKS = ("faster", "slower")
 """The new motions the ``operation`` choice judges on: the cycle (``p2p``) is fit data there."""
 STANDING_SPEED = 0.01
@@ -93,6 +98,8 @@ class Option:
     """``thresholds`` only: the monitor's ``task.thresholds``."""
     fit_logs: tuple[str, ...] | None = None
     """``operation`` only: the member's logs fitted on (judged on :data:`OPERATION_CHECKS`)."""
+    realisation: int | None = None
+    """``realisations`` only: the fit log alone, recorded anew (≥ 1; 0: as built)."""
 
 
 OPTIONS: dict[str, tuple[Option, ...]] = {
@@ -138,6 +145,7 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
         Option("one log + cycle", fit_logs=("fit", "p2p")),
         Option("cycle alone", fit_logs=("p2p",)),
     ),
+    "realisations": tuple(Option(f"record {k + 1}", realisation=k) for k in range(REALISATIONS)),
 }
 """Each choice's options besides the default; the first is the simplest."""
 DEFAULT = Option("default")
@@ -160,6 +168,9 @@ class Subject:
         overrides = list(self.overrides)
         if option.fit_logs is not None and self.logs is not None:
             overrides = self.logs.overrides(fit=option.fit_logs, validation=OPERATION_CHECKS)
+        if option.realisation is not None and self.logs is not None:
+            fit = noise_realisation(self.logs, option.realisation) if option.realisation else "fit"
+            overrides = self.logs.overrides(fit=(fit,))
         if rest and self.logs is not None:
             overrides = self.logs.overrides(validation=(*NEW_MOTIONS, "rest"))
         if option.rotor is not None:
@@ -514,6 +525,29 @@ def operation_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
+def realisation_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
+    """Per member: the error on the new motions (% of the true torque) of the model fitted on each
+    record of one fit log, the median, the worst over the median, and the laws chosen."""
+    out = []
+    for subject, results in rows.items():
+        errors = np.array([result["error %"] for result in results.values()])
+        laws = [str(result["law"]) for result in results.values()]
+        median = float(np.median(errors))
+        out.append(
+            {
+                "subject": subject,
+                "errors %": " / ".join(f"{e:.3g}" for e in errors),
+                "median %": median,
+                "worst / median": _ratio(float(errors.max()), median),
+                "laws": " / ".join(sorted(set(laws), key=laws.index)),
+                "records per law": " / ".join(
+                    str(laws.count(law)) for law in sorted(set(laws), key=laws.index)
+                ),
+            }
+        )
+    return pd.DataFrame(out)
+
+
 def _rest_ratio(result: dict[str, Any]) -> str:
     if "threshold at rest N·m" not in result:
         return ""
@@ -527,7 +561,7 @@ def table(choice: str, subjects: list[Subject], store: Path) -> pd.DataFrame:
     options = [DEFAULT, *OPTIONS[choice]]
     if choice == "thresholds":
         options = [*OPTIONS[choice], DEFAULT]
-    if choice == "operation":  # every option names its fit logs; the real runs have no cycle
+    if choice in ("operation", "realisations"):  # every option names its fit logs; members only
         options = list(OPTIONS[choice])
         subjects = [subject for subject in subjects if subject.logs is not None]
     for subject in subjects:
@@ -548,6 +582,8 @@ def table(choice: str, subjects: list[Subject], store: Path) -> pd.DataFrame:
         return threshold_table(rows)
     if choice == "operation":
         return operation_table(rows)
+    if choice == "realisations":
+        return realisation_table(rows)
     return error_table(rows, choice)
 
 

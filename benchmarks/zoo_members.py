@@ -651,6 +651,23 @@ def _write_truth(path: Path, t: np.ndarray, blocks: dict[str, np.ndarray]) -> No
     pd.DataFrame(columns).to_parquet(path, index=False)
 
 
+def _joint_readings(
+    sensors: Sensors,
+    scale: np.ndarray,
+    t: np.ndarray,
+    q: np.ndarray,
+    reading: np.ndarray,
+    rng: np.random.Generator,
+) -> dict[str, np.ndarray]:
+    """What joint encoders and torque sensors log of true positions ``q`` and noise-free readings
+    ``reading`` (offsets included) at times ``t``: noisy quantised angles, noisy torques, stamps."""
+    resolution = sensors.encoder_resolution
+    noise = rng.normal(scale=sensors.encoder_noise * resolution, size=q.shape)
+    q_log = np.round((q + noise) / resolution) * resolution
+    tau_log = reading + rng.normal(size=reading.shape) * sensors.noise_share * scale
+    return {"t": _stamps(t, sensors.jitter, rng), "q": q_log, "tau": tau_log}
+
+
 def _joint_side_member(
     member: Member,
     nominal: RobotModel,
@@ -672,14 +689,10 @@ def _joint_side_member(
         rows = slice(None, None, keep)
         t, q, tau, external = run["t"][rows], run["q"][rows], run["tau"][rows], run["external"][rows]
         state = {"q": q, "dq": run["dq"][rows], "ddq": run["ddq"][rows]}
-        resolution = sensors.encoder_resolution
-        noise = rng.normal(scale=sensors.encoder_noise * resolution, size=q.shape)
-        q_log = np.round((q + noise) / resolution) * resolution
         reading = tau + offset
-        tau_log = reading + rng.normal(size=tau.shape) * sensors.noise_share * scale
         paths[name] = _write(
             folder / f"{name}.{sensors.log_format}",
-            {"t": _stamps(t, sensors.jitter, rng), "q": q_log, "tau": tau_log},
+            _joint_readings(sensors, scale, t, q, reading, rng),
             sensors.log_format,
         )
         _write_truth(folder / f"{name}_truth.parquet", t, {"tau": reading, "tau_ext": external} | state)
@@ -714,20 +727,12 @@ def _drive_friction(member: Member, truth: RobotModel, scale: np.ndarray) -> Any
     )
 
 
-def _motor_side_member(
-    member: Member,
-    truth: RobotModel,
-    scale: np.ndarray,
-    motions: dict[str, PlannedMotion],
-    forces: list[ExternalForce],
-    folder: Path,
-    seed: int,
-) -> dict[str, Path]:
-    """A geared member's logs (encoders and currents or torques at the motors) and their truths."""
+def _geared_arm(
+    member: Member, truth: RobotModel, scale: np.ndarray, rng: np.random.Generator
+) -> tuple[GearedArm, np.ndarray]:
+    """The geared member's arm and its sensors' effort offsets (drawn from ``rng``, logged units)."""
     sensors, spec = member.sensors, member.truth
-    drive = truth.drive_train
-    rng = np.random.default_rng([seed, 11])
-    gears = np.abs(drive.gear_ratios)
+    gears = np.abs(truth.drive_train.gear_ratios)
     per_unit = gears * (TORQUE_CONSTANT if sensors.effort == "current" else 1.0)  # joint N·m per logged unit
     offset = sensors.offset_share * scale * rng.choice([-1.0, 1.0], size=scale.size) / per_unit
     motor_sensors = MotorSensors(
@@ -744,6 +749,23 @@ def _motor_side_member(
         rate_hz=sensors.rate_hz,
         substeps=max(20, int(10_000 / sensors.rate_hz)),
     )
+    return arm, offset
+
+
+def _motor_side_member(
+    member: Member,
+    truth: RobotModel,
+    scale: np.ndarray,
+    motions: dict[str, PlannedMotion],
+    forces: list[ExternalForce],
+    folder: Path,
+    seed: int,
+) -> dict[str, Path]:
+    """A geared member's logs (encoders and currents or torques at the motors) and their truths."""
+    sensors = member.sensors
+    drive = truth.drive_train
+    rng = np.random.default_rng([seed, 11])
+    arm, offset = _geared_arm(member, truth, scale, rng)
     paths = {}
     for name, motion in motions.items():
         samples = int(np.floor(motion.duration * sensors.rate_hz + 1e-9)) + 1
@@ -763,6 +785,45 @@ def _motor_side_member(
         state = {"q": run.q, "dq": run.dq, "ddq": run.ddq}
         _write_truth(folder / f"{name}_truth.parquet", t, {"tau": reading, "tau_ext": external} | state)
     return paths
+
+
+def noise_realisation(logs: MemberLogs, k: int, name: str = "fit") -> str:
+    """Log ``name`` of a built member recorded again (realisation ``k`` ≥ 1): the same truth and motion,
+    the sensors' noise, quantisation and stamps drawn anew (the offsets are the arm's and stay). Kept
+    beside the member's logs (built once) and added to ``logs.paths``; returns its name there."""
+    if k < 1:
+        raise ValueError(f"a realisation is numbered from 1 (0 is the log itself), got {k}")
+    member, sensors = logs.member, logs.member.sensors
+    key = f"{name}-noise{k}"
+    path = logs.folder / f"{key}.{sensors.log_format}"
+    if not path.is_file():
+        if member.truth.engine == "mujoco":
+            truth = logs.truth(name)
+            n = logs.scale.size
+            q = truth[[f"q{j + 1}" for j in range(n)]].to_numpy()
+            reading = truth[[f"tau{j + 1}" for j in range(n)]].to_numpy()
+            rng = np.random.default_rng([logs.seed, 7, k])
+            columns = _joint_readings(sensors, logs.scale, truth["t"].to_numpy(), q, reading, rng)
+        else:  # the motion played again: the motor-side sensors are the arm's
+            nominal = nominal_robot(member)
+            rng = np.random.default_rng(logs.seed)
+            truth_robot = true_robot(member, nominal, rng)
+            quick = logs.folder.name.endswith("-quick")
+            fit = quick_motion(nominal) if quick else exciting_motion(member, nominal, logs.folder.parents[1])
+            motion = member_motions(fit, rng, quick)[name]
+            arm, _ = _geared_arm(member, truth_robot, logs.scale, np.random.default_rng([logs.seed, 11]))
+            rng = np.random.default_rng([logs.seed, 11, k])
+            run = arm.play(motion, rng)
+            t = np.arange(run.measured_angles.shape[0]) / sensors.rate_hz
+            column = "current" if sensors.effort == "current" else "tau"
+            columns = {
+                "t": _stamps(t, sensors.jitter, rng),
+                "q": run.measured_angles,
+                column: run.measured_effort,
+            }
+        _write(path, columns, sensors.log_format)
+    logs.paths[key] = path
+    return key
 
 
 def quick_motion(robot: RobotModel) -> WarpedMotion:
