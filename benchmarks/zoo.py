@@ -42,6 +42,7 @@ import argparse
 import hashlib
 import json
 import os
+import re
 import sys
 import tempfile
 import time
@@ -527,11 +528,12 @@ def operation_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
 
 def realisation_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFrame:
     """Per member: the error on the new motions (% of the true torque) of the model fitted on each
-    record of one fit log, the median, the worst over the median, and the laws chosen."""
+    record of one fit log, the median, the worst over the median, and the laws chosen (by name: their
+    fitted widths and speeds may differ)."""
     out = []
     for subject, results in rows.items():
         errors = np.array([result["error %"] for result in results.values()])
-        laws = [str(result["law"]) for result in results.values()]
+        laws = [re.sub(r" \([^)]*\)", "", str(result["law"])) for result in results.values()]  # by name
         median = float(np.median(errors))
         out.append(
             {

@@ -229,7 +229,16 @@ SOURCES = {
             _printed_table(f"## {choice}"),
             15.0,
         )
-        for choice in ("friction", "intervals", "thresholds", "prior", "cutoff", "near_rest")
+        for choice in (
+            "friction",
+            "intervals",
+            "thresholds",
+            "prior",
+            "cutoff",
+            "near_rest",
+            "operation",
+            "realisations",
+        )
     },
     "cutoff_cycles": Source(
         (("python", str(REPOSITORY / "benchmarks" / "cutoff_cycles.py")),),
