@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 from composing import compose_config
 
-from lwrlab.identification.coverage_check import COVERAGE_WARNING, coverage_warning, novelty
 from lwrlab.dynamics.base_parameters import compute_base_parameters
+from lwrlab.identification.coverage_check import COVERAGE_WARNING, coverage_warning, novelty
+from lwrlab.identification.holding_band import HELD_VARIANCE_SHARE, HoldingBand
 from lwrlab.identification.log_predictions import (
     LogPrediction,
     PredictionInterval,
@@ -25,6 +26,7 @@ from lwrlab.identification.log_predictions import (
     predict_measurement,
 )
 from lwrlab.identification.prediction_error import conformal_scale, drift_parameters
+from lwrlab.model.drive_train import DriveTrain
 from lwrlab.model.friction_laws import SignCoulomb, drifting_terms
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
@@ -79,6 +81,44 @@ def test_the_variance_widens_by_the_drifting_friction_torque_and_only_there(lwr4
     assert band.half_width is not None and band.prediction_variance is None  # consumed in place
     np.testing.assert_allclose(
         band.half_width, 1.959964 * np.sqrt(plain.prediction_variance + widening + 0.01), rtol=1e-6
+    )
+
+
+def test_a_joint_that_does_not_slide_may_hold_any_friction_within_its_band(lwr4: RobotModel) -> None:
+    """Where a joint stands, the interval widens by the variance of a torque spread over its friction
+    band (``F²/12``, F its Coulomb level); where it slides, not at all; the prediction is unchanged."""
+    base = compute_base_parameters(lwr4)
+    phi = base.base_values(lwr4.parameters)
+    motion = build("trajectory", "multisine", duration=3.0, harmonics=4, seed=3).sample(lwr4, 500.0)
+    q, dq, ddq = motion.q.copy(), motion.dq.copy(), motion.ddq.copy()
+    q[:, 0], dq[:, 0], ddq[:, 0] = q[0, 0], 0.0, 0.0  # joint 1 stands all along
+    log = Measurement(motion.t, q, lwr4.inverse_dynamics(q, dq, ddq), {"name": "log"})
+    holding = HoldingBand.of(lwr4, base.names, phi)
+    assert holding is not None
+    np.testing.assert_allclose(holding.band, np.abs(lwr4.friction.coulomb))
+    covariance = np.diag((1e-3 * (1.0 + np.abs(phi))) ** 2)
+    settings = {"velocity": "differentiated"}
+    plain = predict_measurement(lwr4, base, phi, log, settings, covariance)
+    held = predict_measurement(lwr4, base, phi, log, settings, covariance, holding=holding)
+    assert plain.prediction_variance is not None and held.prediction_variance is not None
+    np.testing.assert_array_equal(held.predicted, plain.predicted)
+    widening = held.prediction_variance - plain.prediction_variance
+    full = HELD_VARIANCE_SHARE * lwr4.friction.coulomb**2
+    np.testing.assert_allclose(widening[:, 0], full[0], rtol=1e-9)
+    sliding = np.abs(dq) > 2 * holding.speed
+    assert sliding[:, 1:].mean() > 0.8
+    np.testing.assert_allclose(widening[sliding], 0.0, atol=1e-12)
+    assert np.all(widening <= full + 1e-12) and np.all(widening >= -1e-12)
+
+
+def test_a_coupled_drive_that_does_not_slide_widens_every_joint_it_turns() -> None:
+    """Drive 2 turns joints 1 and 2 (``θ₂ = q₁ + q₂``): its band reaches both, drive 1's only joint 1."""
+    drive = DriveTrain(gear_ratios=np.ones(2), coupling=np.array([[1.0, 0.0], [1.0, 1.0]]))
+    holding = HoldingBand(np.array([2.0, 3.0]), 0.01, drive)
+    variance = holding.variance(np.array([[0.0, 1.0], [1.0, -1.0], [1.0, 1.0], [0.0, 0.0]]))
+    np.testing.assert_allclose(
+        variance / HELD_VARIANCE_SHARE,
+        [[2.0**2, 0.0], [3.0**2, 3.0**2], [0.0, 0.0], [5.0**2, 3.0**2]],
     )
 
 

@@ -17,6 +17,7 @@ import pandas as pd
 
 from lwrlab.dynamics.base_parameters import BaseParameters
 from lwrlab.dynamics.regressor import LogRegressor
+from lwrlab.identification.holding_band import HoldingBand
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.threads import dense_algebra
 from lwrlab.plants.core import Measurement
@@ -229,13 +230,16 @@ def predict_measurement(
     processing: dict[str, Any],
     covariance: np.ndarray | None = None,
     friction: np.ndarray | None = None,
+    holding: HoldingBand | None = None,
 ) -> LogPrediction:
     """τ̂ = W(q, q̇, q̈)·φ at every sample of ``measurement`` as logged (states filtered as for the fit).
 
     With the base parameters' ``covariance``, also the variance of τ̂ at every sample: ``wᵀ·Σ·w``, plus
     with ``friction`` the square of the torque it gives (base values of the drifting friction terms
-    alone, times the drift ρ: ``(ρ·τ̂_f)²``), added here rather than kept as a third array of a long
-    log (:class:`PredictionInterval` turns the variance into an interval).
+    alone, times the drift ρ: ``(ρ·τ̂_f)²``), plus with ``holding`` the variance of the friction a
+    joint that does not slide may hold (:mod:`lwrlab.identification.holding_band`), added here rather
+    than kept as further arrays of a long log (:class:`PredictionInterval` turns the variance into an
+    interval).
     """
     data = process_measurement(measurement, processing, every_sample=True)
     predicted = np.empty((data.n_working, robot.n_joints))
@@ -257,6 +261,8 @@ def predict_measurement(
                     variance[samples] = _parameter_variance(base.base_regressor(full), covariance)
                     if friction is not None:
                         variance[samples] += base.torques(full, friction) ** 2
+                    if holding is not None:
+                        variance[samples] += holding.variance(block.dq[part][: full.shape[0]])
     t, measured = measurement.as_logged()
     on_grid = t  # the times the trimmed span is compared with
     grid_t = None

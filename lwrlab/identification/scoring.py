@@ -25,6 +25,7 @@ from lwrlab.identification.coverage_check import FitMotion, coverage_warning
 from lwrlab.identification.extrapolation import ExtrapolationReport, assess_extrapolation, likely_causes
 from lwrlab.identification.fitting import Fit
 from lwrlab.identification.friction_choice import FrictionChoice
+from lwrlab.identification.holding_band import HoldingBand
 from lwrlab.identification.identifiability import IdentifiabilityReport
 from lwrlab.identification.log_predictions import (
     LogPrediction,
@@ -134,10 +135,11 @@ def predict(
     drifting = drifting_terms(robot.friction_law)
     drifting_values = drift_parameters(base.names, estimator.phi_, drifting) if friction_drift > 0 else None
     friction = None if drifting_values is None else friction_drift * drifting_values  # ρ·φ_f: ρ·τ̂_f
+    holding = HoldingBand.of(robot, base.names, estimator.phi_)
     fit_predictions = [
         replace(
             predict_measurement(
-                robot, base, estimator.phi_, m, _as_chosen(processing, data), covariance, friction
+                robot, base, estimator.phi_, m, _as_chosen(processing, data), covariance, friction, holding
             ),
             role="identification",
             joints=fitted,
@@ -162,7 +164,9 @@ def predict(
     validation_predictions = [
         band.around(
             replace(
-                predict_measurement(robot, base, estimator.phi_, m, processing, covariance, friction),
+                predict_measurement(
+                    robot, base, estimator.phi_, m, processing, covariance, friction, holding
+                ),
                 role="validation",
                 joints=fitted,
             )
