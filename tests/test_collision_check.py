@@ -506,17 +506,83 @@ def test_a_body_s_fixed_objects_are_one_column_whose_window_minima_are_exact(ur1
     for c, members in enumerate(columns.columns):  # a column is its pairs' smallest distance
         picked = [scene.world_pairs.index(p) for p in members]
         np.testing.assert_array_equal(dense[:, c], pairs[:, picked].min(axis=1) - offset)
-    for windows in (np.arange(0, 119, 10), np.arange(0, 119, 40), np.array([0])):
-        pruned = constraints.slacks(q, zeros, zeros, windows=windows)["world"]
-        assert np.all(pruned <= dense)
-        for w, start in enumerate(windows):
-            stop = windows[w + 1] if w + 1 < len(windows) else len(q)
-            np.testing.assert_array_equal(pruned[start:stop].min(axis=0), dense[start:stop].min(axis=0))
-            np.testing.assert_array_equal(pruned[start:stop].argmin(axis=0), dense[start:stop].argmin(axis=0))
+    assert_window_minima_exact(constraints, q)
     # no object beside the surface: one column per pair, as for an arm on a table
     bare = replace(settings, world={"mounting_surface": {"height": 0.0}})
     alone = ConstraintSet(robot, bare)
     assert all(len(m) == 1 for m in alone.distance_columns["world"].columns)
+
+
+def assert_window_minima_exact(constraints: ConstraintSet, q: np.ndarray) -> None:
+    """Measured only where a window's smallest can be, every distance column's window minima and
+    where they are reached are those of every pair at every sample, to the last bit; elsewhere its
+    values are lower bounds."""
+    zeros = np.zeros_like(q)
+    dense = constraints.slacks(q, zeros, zeros)
+    for windows in (np.arange(0, len(q) - 1, 10), np.arange(0, len(q) - 1, 40), np.array([0])):
+        pruned = constraints.slacks(q, zeros, zeros, windows=windows)
+        for family in ("world", "self_collision"):
+            assert np.all(pruned[family] <= dense[family])
+            for w, start in enumerate(windows):
+                stop = windows[w + 1] if w + 1 < len(windows) else len(q)
+                whole, measured = dense[family][start:stop], pruned[family][start:stop]
+                np.testing.assert_array_equal(measured.min(axis=0), whole.min(axis=0))
+                np.testing.assert_array_equal(measured.argmin(axis=0), whole.argmin(axis=0))
+
+
+def test_the_bodies_one_joint_moves_are_one_side_of_a_bigger_robot_s_columns(panda) -> None:
+    """For the arm of a bigger robot (here the Panda as if it hung from a torso), the bodies one joint
+    moves (its last link, hand and fingers) are one side of a column: each column the smallest of its
+    pairs' distances, every pair in one column, fewer columns; an arm alone keeps a column per body
+    pair. Windows' minima exact; a column's derivative is its nearest pair's (central differences)."""
+    robot, settings, scene, _ = panda
+    alone = ConstraintSet(robot, settings, scene=scene)
+    assert all(len(m) == 1 for m in alone.distance_columns["self_collision"].columns)
+    hanging = replace(robot, mounted_on="panda_link0")
+    constraints = ConstraintSet(hanging, settings, scene=replace(scene, robot=hanging))
+    columns = constraints.distance_columns["self_collision"]
+    assert sorted(p for members in columns.columns for p in members) == sorted(scene.self_pairs)
+    assert len(columns.columns) < len(scene.self_pairs)
+    joints = scene.body_joints
+    for members, label in zip(columns.columns, columns.labels, strict=True):
+        sides = {frozenset(int(joints[b]) for b in pair) for pair in members}
+        assert len(sides) == 1, f"{label}: pairs between other joints {sides}"
+        assert (len(members) > 1) == (" more" in label)
+    q = random_configurations(robot, 120, seed=6)
+    zeros = np.zeros_like(q)
+    each = SphereDistances(scene)
+    each.use_hulls = True
+    pairs = each.pair_distances("self", scene.self_pairs, scene.poses(q), q)[0]
+    dense = constraints.slacks(q, zeros, zeros)["self_collision"]
+    offset = settings.clearance + settings.distance_margin
+    for c, members in enumerate(columns.columns):
+        picked = [scene.self_pairs.index(p) for p in members]
+        np.testing.assert_array_equal(dense[:, c], pairs[:, picked].min(axis=1) - offset)
+    assert_window_minima_exact(constraints, q)
+    merged = np.array([c for c, members in enumerate(columns.columns) if len(members) > 1])
+    samples = np.repeat(np.arange(8), len(merged))
+    d_q = constraints.slack_derivatives("self_collision", q, zeros, zeros, samples, np.tile(merged, 8))[0]
+    h = 1e-5
+    for j in range(robot.n_joints):
+        step = np.zeros_like(q[:8])
+        step[:, j] = h
+        numeric = (
+            constraints.slacks(q[:8] + step, zeros[:8], zeros[:8])["self_collision"][:, merged]
+            - constraints.slacks(q[:8] - step, zeros[:8], zeros[:8])["self_collision"][:, merged]
+        ) / (2 * h)
+        assert np.abs(d_q[:, j] - numeric.ravel()).max() < 3e-4
+
+
+def test_a_hull_distance_does_not_depend_on_the_calls_before_it(ur10) -> None:
+    """GJK starts where the last configuration's ended: each call starts it afresh, so the same
+    configurations give the same distances whatever was measured before."""
+    robot, _, scene, _ = ur10
+    hulls = SphereDistances(scene)
+    q = random_configurations(robot, 30, seed=8)
+    first = hulls.hull_distances(q)
+    hulls.hull_distances(random_configurations(robot, 7, seed=9))
+    again = hulls.hull_distances(q)
+    assert first and all(np.array_equal(first[key][0], again[key][0]) for key in first)
 
 
 def test_the_nearest_sphere_pairs_of_many_columns_at_once_are_each_column_s_argmin(ur10) -> None:

@@ -196,7 +196,7 @@ class ConstraintSet:
             return [f"joint {j + 1} {side}" for side in ("lower", "upper") for j in self.bounded_joints]
         if family in ("velocity", "acceleration", "torque"):
             return [f"joint {j + 1} {side}" for side in ("lower", "upper") for j in range(n)]
-        return self.distance_columns[family].labels(self.scene)
+        return list(self.distance_columns[family].labels)
 
     def scales(self, family: str) -> np.ndarray:
         """Per-column scale dividing the slacks (the limit, or 1 m for distances), so all are O(1)."""
@@ -251,10 +251,11 @@ class ConstraintSet:
             out["torque"] = np.hstack([keep * lim.torque + torque, keep * lim.torque - torque])
         if collisions and (self.scene.world_pairs or self.scene.self_pairs):
             poses = self.scene.poses(q)
+            centres = self.distances._centres(poses) if windows is not None else None  # both families'
             offset = self.settings.clearance + self.settings.distance_margin
             for family, columns in self.distance_columns.items():
                 if columns.columns:
-                    distances = column_distances(self.distances, columns, poses, q, windows)
+                    distances = column_distances(self.distances, columns, poses, q, windows, centres)
                     out[family] = distances - offset
         return out
 

@@ -276,17 +276,23 @@ class SphereDistances:
         geometry_model, geometry_data, pair_index = self._hull_model(keys)
         model, data = self.scene.robot.model, self._pin_data
         n = q.shape[0]
-        out = {key: (np.empty(n), np.empty((n, 3)), np.empty((n, 3))) for key in pair_index}
+        keys_in_order, indices = list(pair_index), list(pair_index.values())
+        values = np.empty((n, len(indices)))
+        points = np.empty((2, n, len(indices), 3))
+        for request in geometry_data.distanceRequests:
+            # GJK starts from the guess where the last sample's ended: from the same one at the first
+            # sample, so that a call's distances depend on its configurations only (not on the calls
+            # before it)
+            request.cached_gjk_guess = np.array([1.0, 0.0, 0.0])
+        results = geometry_data.distanceResults
         for k in range(n):
             pin.computeDistances(model, data, geometry_model, geometry_data, q[k])
-            results = geometry_data.distanceResults
-            for key, i in pair_index.items():
-                result = results[i]
-                out[key][0][k] = result.min_distance
-                if with_points:
-                    out[key][1][k] = result.getNearestPoint1()
-                    out[key][2][k] = result.getNearestPoint2()
-        return out
+            values[k] = [results[i].min_distance for i in indices]
+            if with_points:
+                for c, i in enumerate(indices):
+                    points[0, k, c] = results[i].getNearestPoint1()
+                    points[1, k, c] = results[i].getNearestPoint2()
+        return {key: (values[:, c], points[0, :, c], points[1, :, c]) for c, key in enumerate(keys_in_order)}
 
     def _plane_points(self, body: int) -> tuple[np.ndarray, float]:
         """At most PLANE_POINTS of the body's hull vertices (farthest-point sampling) and the largest

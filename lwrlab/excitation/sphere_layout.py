@@ -67,24 +67,32 @@ def sphere_layout(
 
 
 def gaps_within(
-    layout: SphereLayout, centres: np.ndarray, radii: np.ndarray, chosen: np.ndarray, out: np.ndarray
+    layout: SphereLayout,
+    centres: np.ndarray,
+    radii: np.ndarray,
+    chosen: np.ndarray,
+    out: np.ndarray,
+    rows: np.ndarray | None = None,
 ) -> None:
     """Write into ``out`` (C, N) the smallest gap ``‖c_a − c_b‖ − r_a − r_b`` over each sphere
     column's sphere pairs, at the (run, sample) entries ``chosen`` (R, N) only (``centres``
-    (S, N, 3), ``radii`` (S,))."""
-    run, sample = np.nonzero(chosen)
-    if not run.size:
-        return
-    counts = layout.lengths[run]
-    offsets = np.cumsum(counts) - counts
-    within = np.arange(int(counts.sum())) - np.repeat(offsets, counts)
-    flat = np.repeat(layout.starts[run], counts) + within
-    first, second = layout.first[flat], layout.second[flat]
-    samples = np.repeat(sample, counts)
-    gap = centres[first, samples] - centres[second, samples]
-    # the radii summed first, as SphereDistances._sphere_gaps: the same gaps to the last bit
-    gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)) - (radii[first] + radii[second])
-    out[layout.sphere_columns[run], sample] = np.minimum.reduceat(gaps, offsets)
+    (S, N, 3), ``radii`` (S,)); ``rows``: the row of ``out`` of each of the layout's columns (default:
+    the column itself)."""
+    n = centres.shape[1]
+    flat = np.ascontiguousarray(centres).reshape(-1, 3)
+    for run in np.flatnonzero(chosen.any(axis=1)):
+        samples = np.flatnonzero(chosen[run])
+        pairs = slice(layout.starts[run], layout.starts[run] + layout.lengths[run])
+        first, second = layout.first[pairs], layout.second[pairs]
+        # a run's sphere pairs at its samples, gathered from the flattened centres (rows of 3)
+        gap = np.take(flat, (first[:, None] * n + samples).ravel(), axis=0)
+        gap -= np.take(flat, (second[:, None] * n + samples).ravel(), axis=0)
+        # the radii summed first, as SphereDistances._sphere_gaps: the same gaps to the last bit
+        gaps = np.sqrt(np.einsum("mk,mk->m", gap, gap)).reshape(len(first), len(samples))
+        column = layout.sphere_columns[run]
+        out[column if rows is None else rows[column], samples] = np.min(
+            gaps - (radii[first] + radii[second])[:, None], axis=0
+        )
 
 
 def nearest_pairs(
