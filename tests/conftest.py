@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
+from parsed_configs import parse_each_file_once
 
 import lwrlab.conf  # noqa: F401  (registers the schemas conf/'s YAML files link, for compose from CONF)
 from lwrlab.model.robot import RobotModel
@@ -13,6 +15,13 @@ from plugins.robots.mdh import load_robot_yaml
 
 REPOSITORY = Path(__file__).resolve().parents[1]
 CONF = REPOSITORY / "conf"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _config_files_parsed_once() -> Iterator[None]:
+    """The suite composes the same conf/ files hundreds of times: each is parsed once (parsed_configs)."""
+    with parse_each_file_once():
+        yield
 
 
 @pytest.fixture

@@ -9,7 +9,9 @@ the one-line message and the exit status.
 
 from __future__ import annotations
 
+import functools
 import os
+import re
 import subprocess
 import sys
 from collections.abc import Callable
@@ -483,6 +485,25 @@ def test_a_rank_deficient_fit_fails_naming_what_the_data_cannot_determine(
     assert "come mostly from the prior" in summary
 
 
+@functools.cache
+def _lwrlab_failing(overrides: tuple[str, ...], run_dir: Path) -> subprocess.CompletedProcess[str]:
+    """``lwrlab`` run once per set of overrides (two fragments of one message share the run)."""
+    environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
+    return subprocess.run(
+        [sys.executable, "-m", "lwrlab.cli", f"hydra.run.dir={run_dir}", "tracking=none", *overrides],
+        cwd=REPOSITORY,
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+@pytest.fixture(scope="module")
+def failing_run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("failing_run")
+
+
 @pytest.mark.parametrize(
     "overrides, fragment",
     [
@@ -511,17 +532,9 @@ def test_a_rank_deficient_fit_fails_naming_what_the_data_cannot_determine(
     ],
 )
 def test_lwrlab_prints_a_clear_message_and_exits_non_zero(
-    tmp_path: Path, overrides: tuple[str, ...], fragment: str
+    failing_run_dir: Path, overrides: tuple[str, ...], fragment: str
 ) -> None:
-    environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
-    completed = subprocess.run(
-        [sys.executable, "-m", "lwrlab.cli", f"hydra.run.dir={tmp_path}", "tracking=none", *overrides],
-        cwd=REPOSITORY,
-        env=environment,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    completed = _lwrlab_failing(overrides, failing_run_dir / re.sub(r"\W", "_", "_".join(overrides)))
     assert completed.returncode == 1
     assert fragment in completed.stderr
     assert "Traceback" not in completed.stderr

@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 from mlflow.exceptions import MlflowException
 from mlflow.tracking import MlflowClient
+from tracking_apps import new_store
 
 from lwrlab.tracking.job_config.metric_sections import sectioned_name
 from lwrlab.tracking.reports.compare import (
@@ -212,7 +213,7 @@ def test_compare_saves_its_view_on_the_experiment_once_and_prints_the_link_that_
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(tmp_path)
-    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    uri = new_store(tmp_path / "mlflow.db")
     client = MlflowClient(tracking_uri=uri)
     experiment_id = client.create_experiment("shared_view", str(tmp_path / "artifacts"))
     for estimator, seed, rms in (("ols", 0, 0.2), ("ols", 1, 0.3), ("wls", 0, 0.1), ("wls", 1, 0.15)):
@@ -252,7 +253,7 @@ def test_compare_saves_its_view_on_the_experiment_once_and_prints_the_link_that_
 def test_a_store_that_refuses_the_view_still_gets_the_link_to_the_browsers_own_view(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    uri = new_store(tmp_path / "mlflow.db")
     client = MlflowClient(tracking_uri=uri)
     experiment_id = client.create_experiment("read_only")
 
@@ -303,7 +304,7 @@ def test_compare_on_an_experiment_of_simulated_runs_and_logs_of_several_robots_i
     column map), another robot. The comparison keeps them apart (never one pooled row), its metric
     names stay within MLflow's 250 characters, one per group, and the full labels are in its table."""
     monkeypatch.chdir(tmp_path)
-    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    uri = new_store(tmp_path / "mlflow.db")
     client = MlflowClient(tracking_uri=uri)
     experiment_id = client.create_experiment("identification", str(tmp_path / "artifacts"))
     logs = "/home/someone/robot_logs/2024_calibration_campaign/kuka_lwr4_hw/measurements"

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from mlflow.tracking import MlflowClient
+from tracking_apps import new_store
 
 from lwrlab.tracking.reports.compare import MLFLOW_UI_ADDRESS, main, runs_view_hint
 from lwrlab.tracking.runs.runs_view import mlflow_executable, share_key, view_name
@@ -48,7 +49,7 @@ def test_compare_prints_the_hint_after_its_table_with_the_experiment_id(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(tmp_path)
-    client = MlflowClient(tracking_uri=f"sqlite:///{tmp_path / 'store' / 'mlflow.db'}")
+    client = MlflowClient(tracking_uri=new_store(tmp_path / "store" / "mlflow.db"))
     client.create_experiment("other")  # so that the compared experiment's id is not the first one
     experiment_id = client.create_experiment("ui_link")
     for seed in (0, 1):
@@ -75,7 +76,7 @@ def test_compare_links_the_port_given_and_logs_its_table_as_metrics_and_a_table(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(tmp_path)
-    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    uri = new_store(tmp_path / "mlflow.db")
     client = MlflowClient(tracking_uri=uri)
     experiment_id = client.create_experiment("ui_port", str(tmp_path / "artifacts"))
     for estimator, rms in (("ols", 0.2), ("wls", 0.1)):

@@ -126,6 +126,19 @@ def release_held_jobs(folder: Path) -> None:
     (folder / HOLD_RELEASE_FILE).touch()
 
 
+def new_store(database: Path) -> str:
+    """The tracking URI of a new SQLite store at ``database``, made as ``lwrlab`` makes one.
+
+    Its schema is lwrlab's copy of MLflow's migrated empty store (lwrlab.tracking.store.schema_template)
+    rather than the sixty migrations a bare ``MlflowClient`` replays on a new file (~2 s each time);
+    without a template (a read-only cache folder), MLflow migrates it when it is first opened.
+    """
+    from lwrlab.tracking.store.schema_template import copy_schema_template
+
+    copy_schema_template(database)
+    return f"sqlite:///{database}"
+
+
 def runs_of(tracking_uri: str, experiment: str) -> list[Run]:
     """All runs of an experiment, oldest first."""
     client = MlflowClient(tracking_uri=tracking_uri)
