@@ -33,7 +33,7 @@ HELD_VARIANCE_SHARE = 1.0 / 12.0
 """The held torque's variance per F² (F the band at rest): that of a torque spread evenly over
 ``[−F/2, F/2]``. Measured on the zoo's new motions with two fit logs (``benchmarks/zoo.py``), the
 standing samples' coverage of the 95 % intervals, worst joint: 75–98 % without it, 90–100 % with it,
-the whole band (1/3) 98–100 %; overall 92.4–95.7 % → 95.3–97.0 %."""
+the whole band (1/3) 97–100 %; overall 92.4–95.7 % → 95.3–97.0 %."""
 
 
 @dataclass(frozen=True)
