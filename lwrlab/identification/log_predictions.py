@@ -150,12 +150,14 @@ class ResidualSums:
 class PredictionInterval:
     """What makes a prediction on a new motion uncertain beyond its parameters: the model's error.
 
-    The interval of τ̂_j at a sample x is ``τ̂_j ± z·c_j·√(wᵀ·Σ·w + s_j² + (ρ·τ̂_f,j(x))²)``:
+    The interval of τ̂_j at a sample x is ``τ̂_j ± z·c_j·√(wᵀ·Σ·w + s_j² + (ρ·τ̂_f,j(x))² + h_j(x)²)``:
     ``wᵀ·Σ·w`` the parameters' part (from the base parameters' covariance Σ at the sample's regressor
     row w), ``ρ·τ̂_f,j(x)`` the friction drift (friction changes between motions with temperature and
-    speed range by a share ρ of the friction torque τ̂_f at the state) — the two known at the
-    prediction (:attr:`LogPrediction.prediction_variance`) —, ``s_j`` the torque error the model makes
-    on joint j on samples it was not fitted on (sensor noise, unmodelled dynamics), ``z`` the normal
+    speed range by a share ρ of the friction torque τ̂_f at the state), ``h_j(x)²`` what a joint that
+    does not slide may hold within its friction band (:mod:`lwrlab.identification.holding_band`) —
+    the three known at the prediction (:attr:`LogPrediction.prediction_variance`) —, ``s_j`` the
+    torque error the model makes on joint j on samples it was not fitted on (sensor noise,
+    unmodelled dynamics), ``z`` the normal
     quantile of ``level`` and ``c_j ≥ 1`` the conformal scale that makes the identification logs'
     residuals fall inside at ``level`` (heavy tails).
     """
@@ -175,7 +177,7 @@ class PredictionInterval:
         return float(ndtri(0.5 + self.level / 2))
 
     def variance(self, prediction: LogPrediction, out: np.ndarray | None = None) -> np.ndarray:
-        """(M, N_J) ``wᵀ·Σ·w + (ρ·τ̂_f)² + s_j²`` of ``prediction`` (written into ``out`` if given)."""
+        """(M, N_J) ``wᵀ·Σ·w + (ρ·τ̂_f)² + h² + s_j²`` of ``prediction`` (written into ``out`` if given)."""
         if prediction.prediction_variance is None:
             raise ValueError(f"{prediction.name}: predicted without the parameters' covariance")
         return np.add(prediction.prediction_variance, self.error_std**2, out=out)
