@@ -14,14 +14,14 @@ turns, as the monitor's friction band does (:mod:`lwrlab.monitoring.spread`).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from lwrlab.identification.prediction_error import term_columns
 from lwrlab.model.drive_train import DriveTrain
-from lwrlab.model.friction_laws import STANDARD_TERMS, FrictionLaw, has_load
+from lwrlab.model.friction_laws import STANDARD_TERMS, FrictionLaw, has_load, largest_basis
 from lwrlab.model.robot import RobotModel
 from lwrlab.monitoring.spread import sliding_speed
 
@@ -60,8 +60,8 @@ class HoldingBand:
         band = np.zeros(n_drives)
         found = False
         for term, basis in _static_terms(law, speed, n_drives):
-            for drive, value in _levels(names, phi, term).items():
-                band[drive] += abs(value) * basis[drive]
+            for drive, column in term_columns(names, term).items():
+                band[drive] += abs(phi[column]) * basis[drive]
                 found = True
         return cls(band, speed, robot.drive_train) if found else None
 
@@ -85,18 +85,5 @@ def _static_terms(law: FrictionLaw, speed: float, n_drives: int) -> list[tuple[s
     at = np.full((1, n_drives), speed)
     for term in law.extra_terms:
         if term.drifts:
-            basis = np.maximum(
-                np.abs(law.extra_basis(term.name, at)), np.abs(law.extra_basis(term.name, -at))
-            )
-            terms.append((term.prefix, basis[0]))
+            terms.append((term.prefix, largest_basis(law, term.name, at)[0]))
     return terms
-
-
-def _levels(names: Sequence[str], phi: np.ndarray, prefix: str) -> dict[int, float]:
-    """The values of ``phi`` named ``<prefix><drive>`` (``FC3``), by drive index from 0."""
-    pattern = re.compile(rf"^{prefix}(\d+)$")
-    return {
-        int(match.group(1)) - 1: float(value)
-        for name, value in zip(names, phi, strict=True)
-        if (match := pattern.match(name))
-    }

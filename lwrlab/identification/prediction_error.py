@@ -31,10 +31,17 @@ FLOORED_TERMS = (STANDARD_TERMS["coulomb"].prefix, STANDARD_TERMS["viscous"].pre
 """Terms raised to the median of the robot's joints where a joint's fit found less."""
 
 
-def _term_indices(names: Sequence[str], term: str) -> np.ndarray:
-    """Indices of ``names`` that are the per-drive parameters of ``term`` (``FC1``, ``FC2`` …)."""
-    pattern = re.compile(rf"^{term}\d+$")
-    return np.array([i for i, name in enumerate(names) if pattern.match(name)], dtype=int)
+def term_columns(names: Sequence[str], prefix: str) -> dict[int, int]:
+    """Where in ``names`` the per-drive parameters of a term are (``FC1``, ``FC2`` … for ``FC``): the
+    position of each, by drive index from 0, in the order of ``names``.
+
+    Examples
+    --------
+    >>> term_columns(["XX1", "FC1", "FV1", "FC3"], "FC")
+    {0: 1, 2: 3}
+    """
+    pattern = re.compile(rf"^{prefix}(\d+)$")
+    return {int(match.group(1)) - 1: i for i, name in enumerate(names) if (match := pattern.match(name))}
 
 
 def drift_parameters(names: Sequence[str], phi: np.ndarray, terms: Iterable[DriveTerm]) -> np.ndarray | None:
@@ -52,7 +59,7 @@ def drift_parameters(names: Sequence[str], phi: np.ndarray, terms: Iterable[Driv
     values = np.zeros_like(np.asarray(phi, dtype=float))
     found = False
     for term in (t.prefix for t in terms):
-        index = _term_indices(names, term)
+        index = np.array(list(term_columns(names, term).values()), dtype=int)
         if index.size == 0:
             continue
         found = True

@@ -241,6 +241,12 @@ def history_columns(law: FrictionLaw, v: np.ndarray, dt: float) -> dict[str, np.
     return columns
 
 
+def largest_basis(law: FrictionLaw, term: str, speed: np.ndarray) -> np.ndarray:
+    """The magnitude of the law's own ``term`` column at the drive speeds ``±speed`` (…, N_D), whichever
+    direction is larger: what the term may hold at that speed (a Stribeck or breakaway excess)."""
+    return np.maximum(np.abs(law.extra_basis(term, speed)), np.abs(law.extra_basis(term, -speed)))
+
+
 def has_load(law: FrictionLaw) -> bool:
     """Whether the law has terms that grow with the torque each drive transmits (a Coulomb level that
     rises with the load of the gears): such a law offers ``load_basis(term, v, load) -> (N, N_D)``

@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.ndimage import median_filter
 
-from lwrlab.model.friction_laws import drive_basis, drive_loads, has_load, term_definitions
+from lwrlab.model.friction_laws import drive_basis, drive_loads, has_load, largest_basis, term_definitions
 from lwrlab.model.robot import RobotModel
 from lwrlab.numerics.recursion import first_order_recursion
 from lwrlab.plants.core import Measurement
@@ -100,10 +100,7 @@ class FrictionBand:
                 )
                 band += coefficient * basis
             else:
-                basis = np.maximum(
-                    np.abs(law.extra_basis(term, speed)), np.abs(law.extra_basis(term, -speed))
-                )
-                band += coefficient * basis
+                band += coefficient * largest_basis(law, term, speed)
         return band if self._spread is None else band @ self._spread
 
 
