@@ -180,18 +180,16 @@ class Subject:
             overrides.append("robot.drive=" + json.dumps(drive).replace('"', ""))
         return overrides + list(option.overrides)
 
-    def truth(self, name: str, n_joints: int) -> np.ndarray | None:
-        """(M, N_J) the noise-free readings of validation log ``name`` (None: a real run)."""
+    def truth(self, name: str, n_joints: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The noise-free readings (M, N_J) of validation log ``name`` and where it truly stands still
+        (M,), read at once (None: a real run)."""
         if self.logs is None:
             return None
-        return self.logs.truth(name)[[f"tau{j + 1}" for j in range(n_joints)]].to_numpy()
-
-    def standing(self, name: str, n_joints: int) -> np.ndarray | None:
-        """(M,) where validation log ``name`` truly stands still (None: a real run)."""
-        if self.logs is None:
-            return None
-        speed = self.logs.truth(name)[[f"dq{j + 1}" for j in range(n_joints)]].to_numpy()
-        return np.all(np.abs(speed) < STANDING_SPEED, axis=1)
+        frame = self.logs.truth(name)
+        speed = frame[[f"dq{j + 1}" for j in range(n_joints)]].to_numpy()
+        return frame[[f"tau{j + 1}" for j in range(n_joints)]].to_numpy(), np.all(
+            np.abs(speed) < STANDING_SPEED, axis=1
+        )
 
 
 def member_subject(logs: MemberLogs) -> Subject:
@@ -267,12 +265,12 @@ def prediction_scores(subject: Subject, report: Any) -> dict[str, Any]:
         if p.name not in subject.validation:
             continue
         scored = p.scored
-        truth = subject.truth(p.name, n)
+        known = subject.truth(p.name, n)
+        truth, still = (None, None) if known is None else known
         reference = p.measured if truth is None else truth
         errors.append(np.linalg.norm((reference - p.predicted)[scored]) / np.linalg.norm(reference[scored]))
         if truth is not None:
             floors.append(np.linalg.norm((p.measured - truth)[scored]) / np.linalg.norm(truth[scored]))
-            still = subject.standing(p.name, n)
             for part, rows in (("standing", scored & still), ("moving", scored & ~still)):
                 squares[part] += float(np.sum((truth - p.predicted)[rows] ** 2))
                 torques[part] += float(np.sum(truth[rows] ** 2))
@@ -534,6 +532,7 @@ def realisation_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFram
     for subject, results in rows.items():
         errors = np.array([result["error %"] for result in results.values()])
         laws = [re.sub(r" \([^)]*\)", "", str(result["law"])) for result in results.values()]  # by name
+        distinct = list(dict.fromkeys(laws))  # in the order first chosen
         median = float(np.median(errors))
         out.append(
             {
@@ -541,10 +540,8 @@ def realisation_table(rows: dict[str, dict[str, dict[str, Any]]]) -> pd.DataFram
                 "errors %": " / ".join(f"{e:.3g}" for e in errors),
                 "median %": median,
                 "worst / median": _ratio(float(errors.max()), median),
-                "laws": " / ".join(sorted(set(laws), key=laws.index)),
-                "records per law": " / ".join(
-                    str(laws.count(law)) for law in sorted(set(laws), key=laws.index)
-                ),
+                "laws": " / ".join(distinct),
+                "records per law": " / ".join(str(laws.count(law)) for law in distinct),
             }
         )
     return pd.DataFrame(out)

@@ -787,6 +787,17 @@ def _motor_side_member(
     return paths
 
 
+def _truth_and_motions(
+    member: Member, nominal: RobotModel, seed: int, cache: Path, quick: bool
+) -> tuple[RobotModel, dict[str, PlannedMotion], np.random.Generator]:
+    """The member's true arm and its motions as :func:`build_member` draws them from ``seed``, and the
+    generator where they left it (the pushes come next)."""
+    rng = np.random.default_rng(seed)
+    truth = true_robot(member, nominal, rng)
+    fit = quick_motion(nominal) if quick else exciting_motion(member, nominal, cache)
+    return truth, member_motions(fit, rng, quick), rng
+
+
 def noise_realisation(logs: MemberLogs, k: int, name: str = "fit") -> str:
     """Log ``name`` of a built member recorded again (realisation ``k`` ≥ 1): the same truth and motion,
     the sensors' noise, quantisation and stamps drawn anew (the offsets are the arm's and stay). Kept
@@ -805,12 +816,11 @@ def noise_realisation(logs: MemberLogs, k: int, name: str = "fit") -> str:
             rng = np.random.default_rng([logs.seed, 7, k])
             columns = _joint_readings(sensors, logs.scale, truth["t"].to_numpy(), q, reading, rng)
         else:  # the motion played again: the motor-side sensors are the arm's
-            nominal = nominal_robot(member)
-            rng = np.random.default_rng(logs.seed)
-            truth_robot = true_robot(member, nominal, rng)
             quick = logs.folder.name.endswith("-quick")
-            fit = quick_motion(nominal) if quick else exciting_motion(member, nominal, logs.folder.parents[1])
-            motion = member_motions(fit, rng, quick)[name]
+            truth_robot, motions, _ = _truth_and_motions(
+                member, nominal_robot(member), logs.seed, logs.folder.parents[1], quick
+            )
+            motion = motions[name]
             arm, _ = _geared_arm(member, truth_robot, logs.scale, np.random.default_rng([logs.seed, 11]))
             rng = np.random.default_rng([logs.seed, 11, k])
             run = arm.play(motion, rng)
@@ -861,10 +871,7 @@ def build_member(member: Member, seed: int = 0, cache: Path | None = None, quick
             return logs
     folder.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    rng = np.random.default_rng(seed)
-    truth = true_robot(member, nominal, rng)
-    fit = quick_motion(nominal) if quick else exciting_motion(member, nominal, cache)
-    motions = member_motions(fit, rng, quick)
+    truth, motions, rng = _truth_and_motions(member, nominal, seed, cache, quick)
     forces = pushes(member, truth, motions["rest"], rng)
     if member.truth.engine == "mujoco":
         logs.paths = _joint_side_member(member, nominal, truth, scale, motions, forces, folder, seed)
