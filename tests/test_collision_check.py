@@ -14,7 +14,7 @@ import pinocchio as pin
 import pytest
 
 from lwrlab.excitation.collision_check import check_collisions
-from lwrlab.excitation.collision_scene import posed_meshes
+from lwrlab.excitation.collision_scene import CollisionScene, posed_meshes
 from lwrlab.excitation.constraints import ConstraintSet
 from lwrlab.excitation.sphere_distances import SphereDistances
 from lwrlab.excitation.sphere_layout import nearest_pairs
@@ -497,20 +497,30 @@ def test_a_body_s_fixed_objects_are_one_column_whose_window_minima_are_exact(ur1
     labels = constraints.column_labels("world")
     assert all(labels[c].endswith(f"{len(columns.columns[c])} fixed objects") for c in merged)
     q = random_configurations(robot, 120, seed=5)
-    zeros = np.zeros_like(q)
-    each = SphereDistances(scene)
-    each.use_hulls = True
-    pairs = each.pair_distances("world", scene.world_pairs, scene.poses(q), q)[0]
-    dense = constraints.slacks(q, zeros, zeros)["world"]
-    offset = settings.clearance + settings.distance_margin
-    for c, members in enumerate(columns.columns):  # a column is its pairs' smallest distance
-        picked = [scene.world_pairs.index(p) for p in members]
-        np.testing.assert_array_equal(dense[:, c], pairs[:, picked].min(axis=1) - offset)
+    assert_each_column_is_its_pairs_smallest(constraints, scene, "world", q)
     assert_window_minima_exact(constraints, q)
     # no object beside the surface: one column per pair, as for an arm on a table
     bare = replace(settings, world={"mounting_surface": {"height": 0.0}})
     alone = ConstraintSet(robot, bare)
     assert all(len(m) == 1 for m in alone.distance_columns["world"].columns)
+
+
+def assert_each_column_is_its_pairs_smallest(
+    constraints: ConstraintSet, scene: CollisionScene, family: str, q: np.ndarray
+) -> None:
+    """Every distance column of ``family`` ("world" or "self"), measured at every sample, is the
+    smallest of its member pairs' distances measured one by one, to the last bit."""
+    pairs = scene.world_pairs if family == "world" else scene.self_pairs
+    each = SphereDistances(scene)
+    each.use_hulls = True
+    distances = each.pair_distances(family, pairs, scene.poses(q), q)[0]
+    zeros = np.zeros_like(q)
+    key = "world" if family == "world" else "self_collision"
+    dense = constraints.slacks(q, zeros, zeros)[key]
+    offset = constraints.settings.clearance + constraints.settings.distance_margin
+    for c, members in enumerate(constraints.distance_columns[key].columns):
+        picked = [pairs.index(p) for p in members]
+        np.testing.assert_array_equal(dense[:, c], distances[:, picked].min(axis=1) - offset)
 
 
 def assert_window_minima_exact(constraints: ConstraintSet, q: np.ndarray) -> None:
@@ -550,14 +560,7 @@ def test_the_bodies_one_joint_moves_are_one_side_of_a_bigger_robot_s_columns(pan
         assert (len(members) > 1) == (" more" in label)
     q = random_configurations(robot, 120, seed=6)
     zeros = np.zeros_like(q)
-    each = SphereDistances(scene)
-    each.use_hulls = True
-    pairs = each.pair_distances("self", scene.self_pairs, scene.poses(q), q)[0]
-    dense = constraints.slacks(q, zeros, zeros)["self_collision"]
-    offset = settings.clearance + settings.distance_margin
-    for c, members in enumerate(columns.columns):
-        picked = [scene.self_pairs.index(p) for p in members]
-        np.testing.assert_array_equal(dense[:, c], pairs[:, picked].min(axis=1) - offset)
+    assert_each_column_is_its_pairs_smallest(constraints, scene, "self", q)
     assert_window_minima_exact(constraints, q)
     merged = np.array([c for c, members in enumerate(columns.columns) if len(members) > 1])
     samples = np.repeat(np.arange(8), len(merged))
