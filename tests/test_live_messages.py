@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import socket
+import sys
 import time
 
 import numpy as np
@@ -181,6 +183,28 @@ def test_a_subscription_counts_the_writers_of_its_topic() -> None:
         while states.publishers < 2 and time.monotonic() < deadline:
             time.sleep(0.01)
         assert states.publishers == len(robots)
+    finally:
+        node.close()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="sockets read from Linux's /proc")
+def test_a_loopback_node_receives_on_loopback_only() -> None:
+    """Every UDP socket the node's participant opened is bound to 127.0.0.1 or to the loopback device
+    (Cyclone binds its receiving sockets to every address; the node confines them)."""
+    before = dds._socket_descriptors()
+    node = dds.Node(domain=200 + (os.getpid() + 7) % 30, localhost=True)
+    try:
+        opened = sorted(dds._socket_descriptors() - before)
+        listening = []
+        for fd in opened:
+            with socket.socket(fileno=os.dup(fd)) as sock:
+                if sock.type != socket.SOCK_DGRAM:
+                    continue
+                device = sock.getsockopt(socket.SOL_SOCKET, socket.SO_BINDTODEVICE, 16).rstrip(b"\0")
+                listening.append((sock.getsockname()[0], device))
+        assert len(listening) >= 2  # discovery and data
+        assert all(address == "127.0.0.1" or device == b"lo" for address, device in listening), listening
+        assert len(node.confined) == sum(device == b"lo" for _, device in listening)
     finally:
         node.close()
 

@@ -21,8 +21,11 @@ Cyclone's C layer as its Python ``DataReader.take`` and ``DataWriter.write`` do,
 from __future__ import annotations
 
 import os
+import socket
+import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -207,6 +210,56 @@ class Publisher:
         return len(self.writer.get_matched_subscriptions())
 
 
+def _socket_descriptors() -> set[int]:
+    """This process's file descriptors that are sockets (Linux's ``/proc``; empty elsewhere)."""
+    try:
+        names = os.listdir("/proc/self/fd")
+    except OSError:
+        return set()
+    found = set()
+    for name in names:
+        try:
+            if os.readlink(f"/proc/self/fd/{name}").startswith("socket:"):
+                found.add(int(name))
+        except OSError:  # closed since the listing
+            continue
+    return found
+
+
+def _confine_to_loopback(descriptors: set[int]) -> list[tuple[str, int]]:
+    """Bind to the loopback device the UDP sockets among ``descriptors`` that listen on every address.
+
+    Cyclone binds its receiving sockets to the wildcard address whatever its interface setting; the
+    device binding (``SO_BINDTODEVICE``, Linux) makes the kernel hand them only what arrives on
+    loopback. Returns the (address, port) of each socket confined.
+    """
+    if not sys.platform.startswith("linux"):
+        return []
+    confined = []
+    for fd in sorted(descriptors):
+        try:
+            sock = socket.socket(fileno=os.dup(fd))
+        except OSError:
+            continue
+        with sock:
+            if sock.type != socket.SOCK_DGRAM or sock.family not in (socket.AF_INET, socket.AF_INET6):
+                continue
+            address, port = sock.getsockname()[:2]
+            if address not in ("0.0.0.0", "::"):
+                continue
+            try:
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_BINDTODEVICE, b"lo")
+            except OSError as error:  # a kernel before 5.7 asks for CAP_NET_RAW
+                warnings.warn(
+                    f"the DDS socket on port {port} also listens beyond loopback ({error}): "
+                    "sending and discovery stay on 127.0.0.1; a firewall keeps other hosts out",
+                    stacklevel=3,
+                )
+                continue
+            confined.append((address, port))
+    return confined
+
+
 class Node:
     """A ROS 2 node's DDS side: one participant, its publishers and subscriptions.
 
@@ -226,9 +279,14 @@ class Node:
     def __init__(self, domain: int | None = None, localhost: bool | None = None) -> None:
         self.domain_id = domain_id() if domain is None else int(domain)
         self.localhost = localhost_only() if localhost is None else bool(localhost)
+        before = _socket_descriptors() if self.localhost else set()
         # a Domain made before the participant sets its configuration; kept alive with the node
         self._domain = Domain(self.domain_id, LOCALHOST_CONFIG) if self.localhost else None
         self.participant = DomainParticipant(self.domain_id)
+        self.confined: list[tuple[str, int]] = []
+        """The receiving sockets the participant opened on every address, confined to loopback."""
+        if self.localhost:
+            self.confined = _confine_to_loopback(_socket_descriptors() - before)
         self._topics: dict[str, Topic[Any]] = {}
         self._subscriptions: list[Subscription] = []
 
