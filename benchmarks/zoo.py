@@ -28,12 +28,17 @@ subject, with the ratios the defaults are held to (default ≤ 1.05 × simplest,
   ``state_cutoff_hz``, both ``auto``) against one fixed filter on q, τ and W, and against the rows'
   automatic cut-off used on the states too (``auto, one filter``).
 
+``--fit-logs fit p2p`` fits every member on one exciting log and its point-to-point cycle with rests,
+as a robot in operation logs, and judges it on the faster and slower new motions (``friction``,
+``intervals``, ``prior``, ``cutoff``, ``near_rest``; kept apart from the two fit logs' results).
+
 Results are kept in ``outputs/zoo/results/<code hash>/`` (the hash of lwrlab/, plugins/ and conf/):
 a table is rebuilt at once while the code is unchanged.
 
     .venv/bin/python benchmarks/zoo.py --choice friction            # one table (first run: minutes)
     .venv/bin/python benchmarks/zoo.py --choice friction --members panda_sign z1_sign
     .venv/bin/python benchmarks/zoo.py --all                        # every table
+    .venv/bin/python benchmarks/zoo.py --choice friction --fit-logs fit p2p --no-real
 """
 
 from __future__ import annotations
@@ -78,6 +83,8 @@ REAL_SPLITS = {"2→3": (2, 3), "3→1": (3, 1), "3→2": (3, 2)}
 CHOICES = ("friction", "intervals", "thresholds", "prior", "cutoff", "near_rest", "operation", "realisations")
 REALISATIONS = 5
 """``realisations``: how many times the fit log is recorded (the log itself and as many less one anew)."""
+OWN_LOGS = ("thresholds", "operation", "realisations")
+"""The choices that pick the logs they fit on themselves (``--fit-logs`` does not apply)."""
 OPERATION_CHECKS = ("faster", "slower")
 """The new motions the ``operation`` choice judges on: the cycle (``p2p``) is fit data there."""
 STANDING_SPEED = 0.01
@@ -162,6 +169,8 @@ class Subject:
     drive: dict[str, Any] | None = None
     validation: tuple[str, ...] = NEW_MOTIONS
     notes: list[str] = field(default_factory=list)
+    fit_logs: tuple[str, ...] = FIT
+    """A member's logs it is fitted on (``--fit-logs``); results kept apart from the two fit logs'."""
 
     def with_option(self, option: Option, rest: bool = False) -> list[str]:
         """The command line's overrides for ``option`` (``rest``: the pushed log among the validation
@@ -192,10 +201,18 @@ class Subject:
         )
 
 
-def member_subject(logs: MemberLogs) -> Subject:
-    """A zoo member as a subject."""
+def member_subject(logs: MemberLogs, fit: tuple[str, ...] = FIT) -> Subject:
+    """A zoo member as a subject, fitted on its logs ``fit`` (judged on the new motions not among them)."""
     settings = robot_settings(logs.member)
-    return Subject(logs.member.name, logs.overrides(), logs, settings.get("drive"))
+    checks = tuple(name for name in NEW_MOTIONS if name not in fit)
+    return Subject(
+        logs.member.name,
+        logs.overrides(fit=fit, validation=checks),
+        logs,
+        settings.get("drive"),
+        checks,
+        fit_logs=fit,
+    )
 
 
 def real_subjects() -> list[Subject]:
@@ -392,7 +409,8 @@ def code_hash() -> str:
 
 def evaluate(subject: Subject, choice: str, option: Option, store: Path) -> dict[str, Any]:
     """One subject under one option of ``choice`` (kept in ``store``)."""
-    key = f"{subject.name}__{choice}__{option.label}".replace(" ", "_").replace("/", "-")
+    scenario = "" if subject.fit_logs == FIT else "__fit-" + "-".join(subject.fit_logs)
+    key = f"{subject.name}{scenario}__{choice}__{option.label}".replace(" ", "_").replace("/", "-")
     path = store / f"{key}.json"
     if path.is_file():
         return dict(json.loads(path.read_text()))
@@ -586,14 +604,15 @@ def table(choice: str, subjects: list[Subject], store: Path) -> pd.DataFrame:
     return error_table(rows, choice)
 
 
-def subjects(names: list[str] | None, seed: int, real: bool) -> list[Subject]:
-    """The members (built or read back) and the real runs' splits."""
+def subjects(names: list[str] | None, seed: int, real: bool, fit: tuple[str, ...] = FIT) -> list[Subject]:
+    """The members (built or read back), each fitted on its logs ``fit``, and the real runs' splits
+    (each fitted on one run)."""
     chosen = []
     for name in names or list(MEMBERS):
         started = time.perf_counter()
         logs = build_member(MEMBERS[name], seed)
         print(f"{name}: {logs.folder} ({time.perf_counter() - started:.1f} s)", flush=True)
-        chosen.append(member_subject(logs))
+        chosen.append(member_subject(logs, fit))
     return chosen + (real_subjects() if real else [])
 
 
@@ -631,6 +650,14 @@ def main() -> None:
     parser.add_argument("--all", action="store_true", help="every choice")
     parser.add_argument("--members", nargs="*", help=f"some members only (default all: {', '.join(MEMBERS)})")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--fit-logs",
+        nargs="+",
+        choices=(*FIT, "p2p"),
+        default=list(FIT),
+        help="the members' logs fitted on (default: the two exciting logs; 'fit p2p': one exciting log and "
+        "the point-to-point cycle, as a robot in operation logs); judged on the new motions not among them",
+    )
     parser.add_argument("--no-real", action="store_true", help="leave the real LWR4+ runs out")
     parser.add_argument("--list", action="store_true", help="print the members' table and stop")
     args = parser.parse_args()
@@ -641,13 +668,19 @@ def main() -> None:
     choices = list(CHOICES) if args.all else args.choice
     if not choices:
         parser.error("give --choice …, --all or --list")
-    chosen = subjects(args.members, args.seed, not args.no_real)
+    fit = tuple(args.fit_logs)
+    scenario = "" if fit == FIT else f" (fitted on {' + '.join(fit)})"
+    if scenario and set(choices) & set(OWN_LOGS):
+        parser.error(
+            f"--fit-logs does not apply to {sorted(set(choices) & set(OWN_LOGS))}: they choose their own logs"
+        )
+    chosen = subjects(args.members, args.seed, not args.no_real, fit)
     store = CACHE / "results" / code_hash()
     print(f"results kept in {store}", flush=True)
     for choice in choices:
         print(f"\n{choice}:", flush=True)
         result = table(choice, chosen, store)
-        print(f"\n## {choice}\n")
+        print(f"\n## {choice}{scenario}\n")
         print(result.to_markdown(index=False, floatfmt=".3g"))
 
 

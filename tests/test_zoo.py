@@ -135,6 +135,21 @@ def test_the_zoo_scores_coverage_and_error_as_the_product_does(geared):
     assert abs(scores["error %"] - 100 * measured) <= scores["noise floor %"] + 1e-9
 
 
+def test_a_member_fitted_on_its_cycle_is_judged_on_the_other_new_motions_and_kept_apart(geared, tmp_path):
+    """``--fit-logs fit p2p``: the cycle is fit data, the faster and slower motions judge it, and its
+    results never answer for the two fit logs' (another file in the store)."""
+    usual, cycle = zoo.member_subject(geared), zoo.member_subject(geared, ("fit", "p2p"))
+    assert usual.validation == zoo_members.NEW_MOTIONS and cycle.validation == ("faster", "slower")
+    fitted = next(o for o in cycle.overrides if o.startswith("data.paths="))
+    judged = next(o for o in cycle.overrides if o.startswith("data.validation_paths="))
+    assert str(geared.paths["p2p"]) in fitted and str(geared.paths["fit_slow"]) not in fitted
+    assert str(geared.paths["p2p"]) not in judged and str(geared.paths["faster"]) in judged
+    zoo.evaluate(cycle, "near_rest", zoo.DEFAULT, tmp_path)
+    assert [path.name for path in tmp_path.iterdir()] == [
+        f"{geared.member.name}__fit-fit-p2p__near_rest__default.json"
+    ]
+
+
 SLOW_MEMBERS = ("z1_sign", "panda_sign")
 """The slow test's subset of the zoo: a geared arm logged at its motors at 100 Hz and a MuJoCo arm with
 joint torque sensors at 1 kHz (``benchmarks/zoo.py`` runs every member)."""

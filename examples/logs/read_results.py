@@ -65,13 +65,16 @@ def main() -> None:
 
     choice_file = run / "friction_choice.csv"
     if choice_file.is_file():
-        choice = pd.read_csv(choice_file).sort_values("cv_nrms_percent")
-        chosen = choice[choice["chosen"]].iloc[0]
+        choice = pd.read_csv(choice_file).sort_values("cv_nrms_percent", ignore_index=True)
+        rank = int(choice.index[choice["chosen"]][0])
+        chosen = choice.iloc[rank]
+        # the candidates that scored as well or better, down to the chosen one (simpler than they are)
+        shown = pd.concat([choice.iloc[: min(rank, 7)], choice.iloc[[rank]]])
         print(
             f"\nfriction law chosen among {len(choice)} candidates: {chosen['candidate']} "
-            f"(held-out NRMS {chosen['cv_nrms_percent']:.3f} %); the five best:\n"
+            f"(held-out NRMS {chosen['cv_nrms_percent']:.3f} %, rank {rank + 1}); the best down to it:\n"
         )
-        print(choice.head(5).to_markdown(index=False, floatfmt=".4g"))
+        print(shown.to_markdown(index=False, floatfmt=".4g"))
 
 
 if __name__ == "__main__":
