@@ -240,6 +240,25 @@ SOURCES = {
             "realisations",
         )
     },
+    **{
+        f"zoo_{choice}_cycle": Source(
+            (
+                (
+                    "python",
+                    str(REPOSITORY / "benchmarks" / "zoo.py"),
+                    "--choice",
+                    choice,
+                    "--no-real",
+                    "--fit-logs",
+                    "fit",
+                    "p2p",
+                ),
+            ),
+            _printed_table(f"## {choice} (fitted on fit + p2p)"),
+            15.0,
+        )
+        for choice in ("friction",)
+    },
     "cutoff_cycles": Source(
         (("python", str(REPOSITORY / "benchmarks" / "cutoff_cycles.py")),),
         _printed_table("## Cut-offs on point-to-point cycles, against the default"),
