@@ -257,7 +257,7 @@ SOURCES = {
             _printed_table(f"## {choice} (fitted on fit + p2p)"),
             15.0,
         )
-        for choice in ("friction",)
+        for choice in ("friction", "intervals", "prior", "cutoff", "near_rest")
     },
     "cutoff_cycles": Source(
         (("python", str(REPOSITORY / "benchmarks" / "cutoff_cycles.py")),),
