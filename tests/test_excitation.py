@@ -14,7 +14,14 @@ import pytest
 from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.excitation.collision_scene import CollisionScene
 from lwrlab.excitation.problem import ExcitationProblem
-from lwrlab.excitation.solver import InfeasibleExcitationError, SlsqpOptimizer, verify_motion
+from lwrlab.excitation.solver import (
+    InfeasibleExcitationError,
+    SlsqpOptimizer,
+    feasible_first_step,
+    first_step_point,
+    verify_motion,
+    within_margins,
+)
 from lwrlab.io.exciting_motion import load_motion_description
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
@@ -177,6 +184,34 @@ def test_short_optimisation_is_feasible_and_improves_the_criterion(lwr4: RobotMo
     assert result.cost < problem.objective(start)
     assert all(not r.violated for r in result.reports)
     assert "| velocity |" in result.summary()
+
+
+def test_the_first_step_from_a_narrow_region_is_the_longest_halving_within_the_margins(
+    lwr_problem: ExcitationProblem, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """From a start moved near the safest pose, the LWR4 (a wide feasible region: its safest pose is
+    far from every constraint) keeps the configured first step; where the safest pose rested within
+    the distance margin, the step would be the longest halving whose point keeps every true limit and
+    the clearance, its double not."""
+    optimizer = quiet_optimizer(1, seed=0)
+    x0, near_still = optimizer._start(lwr_problem, np.random.default_rng(0))
+    assert near_still
+    gradient = lwr_problem.objective_gradient(x0)
+    constraints, rest = lwr_problem.constraint_set, np.zeros((1, lwr_problem.robot.n_joints))
+    slacks = constraints.slacks(lwr_problem.safe_pose()[None], rest, rest)
+    smallest = min(float(np.min(v / constraints.scales(f))) for f, v in slacks.items())
+    assert lwr_problem.safe_pose_slack() == pytest.approx(smallest, abs=1e-12)
+    assert lwr_problem.safe_pose_slack() > constraints.settings.distance_margin
+    assert optimizer.first_step_bound(lwr_problem, x0, gradient) == optimizer.first_step
+    assert not within_margins(lwr_problem, first_step_point(lwr_problem, x0, gradient, optimizer.first_step))
+    step = feasible_first_step(lwr_problem, x0, gradient, optimizer.first_step)
+    assert step < optimizer.first_step
+    assert within_margins(lwr_problem, first_step_point(lwr_problem, x0, gradient, step))
+    assert not within_margins(lwr_problem, first_step_point(lwr_problem, x0, gradient, 2 * step))
+    point = first_step_point(lwr_problem, x0, gradient, step)
+    assert np.abs(point - x0).max() <= step + 1e-12
+    monkeypatch.setattr(lwr_problem, "safe_pose_slack", lambda: 0.0)
+    assert optimizer.first_step_bound(lwr_problem, x0, gradient) == step
 
 
 def test_infeasible_problem_names_the_violated_constraint(lwr4: RobotModel, lwr_base) -> None:
