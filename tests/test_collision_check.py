@@ -466,9 +466,9 @@ def test_sphere_and_hull_distances_are_lower_bounds_of_the_exact_distance(robot_
 def test_distances_past_a_horizon_are_the_full_ones_within_it_lower_bounds_past_it(
     robot_fixture, request
 ) -> None:
-    """Past a horizon, the exact check bounds a pair by its bodies' bounding spheres, no sphere pair
-    computed: the same values as every sphere pair within the horizon, lower bounds past it (and past
-    it only)."""
+    """Past a horizon, the exact check bounds a pair by its bodies' bounding spheres (a body against a
+    fixed box, cylinder or sphere: by its bounding sphere), no sphere pair computed: the same values
+    as every sphere pair within the horizon, lower bounds past it (and past it only)."""
     robot, _, scene, _ = request.getfixturevalue(robot_fixture)
     q = random_configurations(robot, 150, seed=3)
     poses = scene.poses(q)
@@ -481,6 +481,12 @@ def test_distances_past_a_horizon_are_the_full_ones_within_it_lower_bounds_past_
             bounded = spheres.pair_distances(family, pairs, poses, horizon=horizon)[0]
             np.testing.assert_allclose(bounded[near], full[near], rtol=0, atol=1e-12)
             assert np.all(bounded <= full + 1e-12) and np.all(bounded[~near] >= horizon - 1e-12)
+            # the bodies' bounding spheres stand in past the horizon, against a box or cylinder too
+            kinds = [scene.world[p[1]].shape if family == "world" else "body" for p in pairs]
+            for kind in set(kinds) & {"body", "box", "cylinder"}:
+                of_kind = np.array(kinds) == kind
+                past = ~near & of_kind
+                assert np.any(bounded[past] < full[past] - 1e-9), f"{kind}: bounded past {horizon} m"
 
 
 def test_a_body_s_fixed_objects_are_one_column_whose_window_minima_are_exact(ur10) -> None:

@@ -14,8 +14,8 @@ to find the samples near contact: an arm on a humanoid has five hundred pairs wi
 other arm, most of them far apart at most samples. Each body's spheres lie inside one bounding
 sphere; given a ``horizon`` (m; :data:`CHECK_HORIZON` past the clearance), where two bodies' bounding
 spheres are further apart than it, the pair's bound is the gap between the bounding spheres (a lower
-bound too, looser) and no sphere pair is measured; within it, the spheres' distance as without a
-horizon (tested equal).
+bound too, looser) and no sphere pair is measured, and likewise a body's bounding sphere against a
+fixed box, cylinder or sphere; within it, the spheres' distance as without a horizon (tested equal).
 
 Spheres overshoot a link's surface by a centimetre or two: too much for links that are always close
 (a wrist next to the forearm, an upper arm next to the base), where the spheres would overlap in
@@ -183,9 +183,26 @@ class SphereDistances:
                 part = slice(start, start + GATHER_CHUNK)
                 gaps = self._sphere_gaps(layout.first, layout.second, centres[:, part])
                 out[layout.sphere_columns, part] = np.minimum.reduceat(gaps, layout.starts, axis=0)
-        for c, w, spheres in layout.analytic:
-            out[c] = np.min(self._object_gaps(w, spheres, centres), axis=0)
+        if layout.analytic and horizon is not None:
+            self._object_distances_within(layout, poses, centres, horizon, out)
+        else:
+            for c, w, spheres, _ in layout.analytic:
+                out[c] = np.min(self._object_gaps(w, spheres, centres), axis=0)
         return out
+
+    def _object_distances_within(
+        self, layout: SphereLayout, poses: np.ndarray, centres: np.ndarray, horizon: float, out: np.ndarray
+    ) -> None:
+        """Fill ``out`` (C, N) for the analytic world columns: the body's spheres' smallest signed
+        distance to the object where its bounding sphere's is within the ``horizon``, the bounding
+        sphere's past it (a signed distance is 1-Lipschitz: a lower bound)."""
+        bound_centres = posed_points(self._bound_centres, self._bound_joints, poses)  # (G, N, 3)
+        for c, w, spheres, body in layout.analytic:
+            obj = self.scene.world[w]
+            out[c] = obj.signed_distance(bound_centres[body])[0] - self._bound_radii[body]
+            near = np.flatnonzero(out[c] < horizon)
+            if near.size:
+                out[c, near] = np.min(self._object_gaps(w, spheres, centres[:, near]), axis=0)
 
     def _bounding_gaps(self, groups: np.ndarray, poses: np.ndarray) -> np.ndarray:
         """Gaps (R, N) between the bounding spheres of the (R, 2) ``groups`` at joint poses
