@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 import pytest
+from example_robots import example_robot_files
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.excitation.collision_scene import CollisionScene
@@ -17,6 +18,7 @@ from lwrlab.excitation.problem import ExcitationProblem
 from lwrlab.excitation.solver import (
     InfeasibleExcitationError,
     SlsqpOptimizer,
+    check_motion_at,
     feasible_first_step,
     first_step_point,
     verify_motion,
@@ -25,8 +27,8 @@ from lwrlab.excitation.solver import (
 from lwrlab.io.exciting_motion import load_motion_description
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.studies.duration_study import knee_duration, recommended_duration
 from lwrlab.pipeline.excitation import regressor_condition
+from lwrlab.pipeline.studies.duration_study import knee_duration, recommended_duration
 from plugins.criteria.logdet import LogDet
 from plugins.trajectories.fourier import FourierMotion
 from plugins.trajectories.optimal import OptimalExcitingMotion
@@ -294,3 +296,24 @@ def test_recommended_duration_is_the_median_knee_in_whole_seconds() -> None:
     assert recommended_duration({"cond": 5.0, "logdet": 9.0, "hadamard": 14.0}) == 9.0
     assert recommended_duration({"cond": 5.0, "logdet": 8.0, "bad": float("nan")}) == 7.0
     assert np.isnan(recommended_duration({"cond": float("nan")}))
+
+
+@pytest.mark.slow
+def test_talos_left_arm_in_its_narrow_region_converges_from_its_first_start() -> None:
+    """TALOS's shoulder stays within millimetres of the clearance and margin from its torso over most
+    of its first joint's range: even the safest pose rests within the distance margin. The first
+    step halved to stay within the margins, SLSQP converges from its first start (none abandoned),
+    and the motion passes the exact mesh check with no contact."""
+    urdf, srdf = example_robot_files("talos_data/robots/talos_full_v2.urdf", "talos_data/srdf/talos.srdf")
+    chain = ["torso_2_link", "arm_left_7_link"]
+    robot = build("robot", "urdf", path=urdf, srdf=srdf, chain=chain, acceleration_limits=10.0)
+    source = optimal(duration=4.0, optimizer=quiet_optimizer(200, seed=0))
+    problem = source.problem(robot)
+    assert problem.safe_pose_slack() < problem.constraint_set.settings.distance_margin
+    result = source.optimizer.solve(problem)
+    assert "stalled" not in result.message and len(result.start_costs) == 1
+    assert all(not r.violated for r in result.reports)
+    check = check_motion_at(
+        robot, problem.parameterisation.with_coefficients(result.coefficients), source.constraints, 1000.0
+    )
+    assert check.passed and check.collisions is not None and not check.collisions.contacts
