@@ -173,7 +173,8 @@ class SphereDistances:
         horizon: float | None = None,
     ) -> np.ndarray:
         """(C, N) smallest gap per column from the flattened sphere pairs (and analytic objects), at
-        joint poses (N_J, N, 4, 4); past a ``horizon`` (m), the bounding spheres' gap."""
+        joint poses (N_J, N, 4, 4); past a ``horizon`` (m), the bounding spheres' gap, or a body's
+        bounding sphere's signed distance to an analytic object."""
         centres = self._centres(poses)
         out = np.full((layout.n_columns, centres.shape[1]), np.inf)
         if len(layout.first) and horizon is not None:
@@ -183,26 +184,16 @@ class SphereDistances:
                 part = slice(start, start + GATHER_CHUNK)
                 gaps = self._sphere_gaps(layout.first, layout.second, centres[:, part])
                 out[layout.sphere_columns, part] = np.minimum.reduceat(gaps, layout.starts, axis=0)
-        if layout.analytic and horizon is not None:
-            self._object_distances_within(layout, poses, centres, horizon, out)
-        else:
-            for c, w, spheres, _ in layout.analytic:
-                out[c] = np.min(self._object_gaps(w, spheres, centres), axis=0)
-        return out
-
-    def _object_distances_within(
-        self, layout: SphereLayout, poses: np.ndarray, centres: np.ndarray, horizon: float, out: np.ndarray
-    ) -> None:
-        """Fill ``out`` (C, N) for the analytic world columns: the body's spheres' smallest signed
-        distance to the object where its bounding sphere's is within the ``horizon``, the bounding
-        sphere's past it (a signed distance is 1-Lipschitz: a lower bound)."""
-        bound_centres = posed_points(self._bound_centres, self._bound_joints, poses)  # (G, N, 3)
+        # past a horizon, a body's bounding sphere bounds its distance to an object (1-Lipschitz)
+        far = horizon is not None and layout.analytic
+        bound = posed_points(self._bound_centres, self._bound_joints, poses) if far else None
         for c, w, spheres, body in layout.analytic:
-            obj = self.scene.world[w]
-            out[c] = obj.signed_distance(bound_centres[body])[0] - self._bound_radii[body]
-            near = np.flatnonzero(out[c] < horizon)
-            if near.size:
-                out[c, near] = np.min(self._object_gaps(w, spheres, centres[:, near]), axis=0)
+            near: slice | np.ndarray = slice(None)
+            if bound is not None:
+                out[c] = self.scene.world[w].signed_distance(bound[body])[0] - self._bound_radii[body]
+                near = np.flatnonzero(out[c] < horizon)
+            out[c, near] = np.min(self._object_gaps(w, spheres, centres[:, near]), axis=0)
+        return out
 
     def _bounding_gaps(self, groups: np.ndarray, poses: np.ndarray) -> np.ndarray:
         """Gaps (R, N) between the bounding spheres of the (R, 2) ``groups`` at joint poses
