@@ -4,6 +4,7 @@ brute force: coal queries on Pinocchio's own placement of the URDF's collision g
 
 from __future__ import annotations
 
+import itertools
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -465,9 +466,9 @@ def test_sphere_and_hull_distances_are_lower_bounds_of_the_exact_distance(robot_
 def test_distances_past_a_horizon_are_the_full_ones_within_it_lower_bounds_past_it(
     robot_fixture, request
 ) -> None:
-    """Past a horizon, the exact check bounds a pair by its bodies' bounding spheres, no sphere pair
-    computed: the same values as every sphere pair within the horizon, lower bounds past it (and past
-    it only)."""
+    """Past a horizon, the exact check bounds a pair by its bodies' bounding spheres (a body against a
+    fixed box, cylinder or sphere: by its bounding sphere), no sphere pair computed: the same values
+    as every sphere pair within the horizon, lower bounds past it (and past it only)."""
     robot, _, scene, _ = request.getfixturevalue(robot_fixture)
     q = random_configurations(robot, 150, seed=3)
     poses = scene.poses(q)
@@ -480,6 +481,12 @@ def test_distances_past_a_horizon_are_the_full_ones_within_it_lower_bounds_past_
             bounded = spheres.pair_distances(family, pairs, poses, horizon=horizon)[0]
             np.testing.assert_allclose(bounded[near], full[near], rtol=0, atol=1e-12)
             assert np.all(bounded <= full + 1e-12) and np.all(bounded[~near] >= horizon - 1e-12)
+            # the bodies' bounding spheres stand in past the horizon, against a box or cylinder too
+            kinds = [scene.world[p[1]].shape if family == "world" else "body" for p in pairs]
+            for kind in set(kinds) & {"body", "box", "cylinder"}:
+                of_kind = np.array(kinds) == kind
+                past = ~near & of_kind
+                assert np.any(bounded[past] < full[past] - 1e-9), f"{kind}: bounded past {horizon} m"
 
 
 def test_a_body_s_fixed_objects_are_one_column_whose_window_minima_are_exact(ur10) -> None:
@@ -574,6 +581,37 @@ def test_the_bodies_one_joint_moves_are_one_side_of_a_bigger_robot_s_columns(pan
             - constraints.slacks(q[:8] - step, zeros[:8], zeros[:8])["self_collision"][:, merged]
         ) / (2 * h)
         assert np.abs(d_q[:, j] - numeric.ravel()).max() < 3e-4
+
+
+def test_a_column_s_derivative_at_its_window_minimum_takes_the_pair_its_distances_found(panda) -> None:
+    """After the windowed distances, the derivatives at each window's smallest take the nearest member
+    pair those distances found (not measured again): the same derivatives as a constraint set that
+    measures them afresh, to the last bit; at other configurations, measured again."""
+    robot, settings, scene, _ = panda
+    hanging = replace(robot, mounted_on="panda_link0")
+    constraints = ConstraintSet(hanging, settings, scene=replace(scene, robot=hanging))
+    fresh = ConstraintSet(hanging, settings, scene=replace(scene, robot=hanging))
+    merged = [c for c, m in enumerate(constraints.distance_columns["self_collision"].columns) if len(m) > 1]
+    q = random_configurations(robot, 120, seed=11)
+    zeros = np.zeros_like(q)
+    windows = np.arange(0, len(q) - 1, 10)
+    values = constraints.slacks(q, zeros, zeros, windows=windows)["self_collision"]
+    starts = np.append(windows, len(q))
+    samples = np.concatenate(
+        [start + np.argmin(values[start:stop], axis=0) for start, stop in itertools.pairwise(starts)]
+    )
+    columns = np.tile(np.arange(values.shape[1]), len(windows))
+    nearest = constraints._nearest["self_collision"]
+    assert nearest.known[samples, columns].all()
+    assert merged
+    cached = constraints.slack_derivatives("self_collision", q, zeros, zeros, samples, columns)[0]
+    measured = fresh.slack_derivatives("self_collision", q, zeros, zeros, samples, columns)[0]
+    np.testing.assert_array_equal(cached, measured)
+    other = q + 0.01
+    np.testing.assert_array_equal(
+        constraints.slack_derivatives("self_collision", other, zeros, zeros, samples, columns)[0],
+        fresh.slack_derivatives("self_collision", other, zeros, zeros, samples, columns)[0],
+    )
 
 
 def test_a_hull_distance_does_not_depend_on_the_calls_before_it(ur10) -> None:

@@ -10,16 +10,25 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 import pytest
+from example_robots import example_robot_files
 
 from lwrlab.dynamics.base_parameters import compute_base_parameters
 from lwrlab.excitation.collision_scene import CollisionScene
 from lwrlab.excitation.problem import ExcitationProblem
-from lwrlab.excitation.solver import InfeasibleExcitationError, SlsqpOptimizer, verify_motion
+from lwrlab.excitation.solver import (
+    InfeasibleExcitationError,
+    SlsqpOptimizer,
+    check_motion_at,
+    feasible_first_step,
+    first_step_point,
+    verify_motion,
+    within_margins,
+)
 from lwrlab.io.exciting_motion import load_motion_description
 from lwrlab.model.robot import RobotModel
 from lwrlab.pipeline.build import build
-from lwrlab.pipeline.studies.duration_study import knee_duration, recommended_duration
 from lwrlab.pipeline.excitation import regressor_condition
+from lwrlab.pipeline.studies.duration_study import knee_duration, recommended_duration
 from plugins.criteria.logdet import LogDet
 from plugins.trajectories.fourier import FourierMotion
 from plugins.trajectories.optimal import OptimalExcitingMotion
@@ -179,6 +188,34 @@ def test_short_optimisation_is_feasible_and_improves_the_criterion(lwr4: RobotMo
     assert "| velocity |" in result.summary()
 
 
+def test_the_first_step_from_a_narrow_region_is_the_longest_halving_within_the_margins(
+    lwr_problem: ExcitationProblem, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """From a start moved near the safest pose, the LWR4 (a wide feasible region: its safest pose is
+    far from every constraint) keeps the configured first step; where the safest pose rested within
+    the distance margin, the step would be the longest halving whose point keeps every true limit and
+    the clearance, its double not."""
+    optimizer = quiet_optimizer(1, seed=0)
+    x0, near_still = optimizer._start(lwr_problem, np.random.default_rng(0))
+    assert near_still
+    gradient = lwr_problem.objective_gradient(x0)
+    constraints, rest = lwr_problem.constraint_set, np.zeros((1, lwr_problem.robot.n_joints))
+    slacks = constraints.slacks(lwr_problem.safe_pose()[None], rest, rest)
+    smallest = min(float(np.min(v / constraints.scales(f))) for f, v in slacks.items())
+    assert lwr_problem.safe_pose_slack() == pytest.approx(smallest, abs=1e-12)
+    assert lwr_problem.safe_pose_slack() > constraints.settings.distance_margin
+    assert optimizer.first_step_bound(lwr_problem, x0, gradient) == optimizer.first_step
+    assert not within_margins(lwr_problem, first_step_point(lwr_problem, x0, gradient, optimizer.first_step))
+    step = feasible_first_step(lwr_problem, x0, gradient, optimizer.first_step)
+    assert step < optimizer.first_step
+    assert within_margins(lwr_problem, first_step_point(lwr_problem, x0, gradient, step))
+    assert not within_margins(lwr_problem, first_step_point(lwr_problem, x0, gradient, 2 * step))
+    point = first_step_point(lwr_problem, x0, gradient, step)
+    assert np.abs(point - x0).max() <= step + 1e-12
+    monkeypatch.setattr(lwr_problem, "safe_pose_slack", lambda: 0.0)
+    assert optimizer.first_step_bound(lwr_problem, x0, gradient) == step
+
+
 def test_infeasible_problem_names_the_violated_constraint(lwr4: RobotModel, lwr_base) -> None:
     """The wrist cannot stay above a floor at 1.5 m: the error says so, with a time."""
     constraints = {"world": {"mounting_surface": {"height": 1.5}}}
@@ -259,3 +296,24 @@ def test_recommended_duration_is_the_median_knee_in_whole_seconds() -> None:
     assert recommended_duration({"cond": 5.0, "logdet": 9.0, "hadamard": 14.0}) == 9.0
     assert recommended_duration({"cond": 5.0, "logdet": 8.0, "bad": float("nan")}) == 7.0
     assert np.isnan(recommended_duration({"cond": float("nan")}))
+
+
+@pytest.mark.slow
+def test_talos_left_arm_in_its_narrow_region_converges_from_its_first_start() -> None:
+    """TALOS's shoulder stays within millimetres of the clearance and margin from its torso over most
+    of its first joint's range: even the safest pose rests within the distance margin. The first
+    step halved to stay within the margins, SLSQP converges from its first start (none abandoned),
+    and the motion passes the exact mesh check with no contact."""
+    urdf, srdf = example_robot_files("talos_data/robots/talos_full_v2.urdf", "talos_data/srdf/talos.srdf")
+    chain = ["torso_2_link", "arm_left_7_link"]
+    robot = build("robot", "urdf", path=urdf, srdf=srdf, chain=chain, acceleration_limits=10.0)
+    source = optimal(duration=4.0, optimizer=quiet_optimizer(200, seed=0))
+    problem = source.problem(robot)
+    assert problem.safe_pose_slack() < problem.constraint_set.settings.distance_margin
+    result = source.optimizer.solve(problem)
+    assert "stalled" not in result.message and len(result.start_costs) == 1
+    assert all(not r.violated for r in result.reports)
+    check = check_motion_at(
+        robot, problem.parameterisation.with_coefficients(result.coefficients), source.constraints, 1000.0
+    )
+    assert check.passed and check.collisions is not None and not check.collisions.contacts

@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
+from example_robots import example_robot_files
 from hydra.utils import instantiate
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -429,13 +430,11 @@ def test_mdh_yaml_errors_name_the_problem(tmp_path: Path) -> None:
 def test_the_arm_of_a_bigger_robot_by_its_chain_or_its_planning_group() -> None:
     """TALOS (legs, torso, two arms, grippers, a head) and TIAGo Pro (wheels, torso, two arms): the
     left arm by its links or by the SRDF's group, every other joint locked, none listed by hand."""
-    example = pytest.importorskip("plugins.robots.example_robot")
-    try:
-        talos = example.example_robot_file("talos_data/robots/talos_full_v2.urdf")
-        srdf = example.example_robot_file("talos_data/srdf/talos.srdf")
-        tiago = example.example_robot_file("tiago_pro_description/robots/tiago_pro.urdf")
-    except (FileNotFoundError, ImportError) as error:
-        pytest.skip(f"example-robot-data is not installed ({error})")
+    talos, srdf, tiago = example_robot_files(
+        "talos_data/robots/talos_full_v2.urdf",
+        "talos_data/srdf/talos.srdf",
+        "tiago_pro_description/robots/tiago_pro.urdf",
+    )
     arm = tuple(f"arm_left_{j}_joint" for j in range(1, 8))
     by_chain = build(
         "robot", "urdf", path=talos, collision_geometry=False, chain=["torso_2_link", "arm_left_7_link"]
@@ -473,14 +472,11 @@ def test_the_arm_of_a_bigger_robot_keeps_clear_of_the_floor_under_it_not_of_a_ta
     """TALOS's base frame is its pelvis: a table there would cut through its legs and the arm's reach.
     The arm by its chain stands, by default, on the floor under its feet; TIAGo Pro's base frame is on
     the ground (its wheels touch the plane z = 0); an arm alone keeps the table at its base."""
-    example = pytest.importorskip("plugins.robots.example_robot")
     from lwrlab.model.collision_geometry import load_robot_geometry
 
-    try:
-        talos_urdf = example.example_robot_file("talos_data/robots/talos_full_v2.urdf")
-        tiago_urdf = example.example_robot_file("tiago_pro_description/robots/tiago_pro.urdf")
-    except (FileNotFoundError, ImportError) as error:
-        pytest.skip(f"example-robot-data is not installed ({error})")
+    talos_urdf, tiago_urdf = example_robot_files(
+        "talos_data/robots/talos_full_v2.urdf", "tiago_pro_description/robots/tiago_pro.urdf"
+    )
     settings = build("trajectory", "optimal", from_file=None).constraints
     assert settings.world["mounting_surface"] == "auto"
     talos = build("robot", "urdf", path=talos_urdf, chain=["torso_2_link", "arm_left_7_link"])

@@ -33,7 +33,12 @@ import numpy as np
 import pinocchio as pin
 
 from lwrlab.excitation.collision_scene import CollisionScene, build_scene
-from lwrlab.excitation.distance_columns import column_derivatives, column_distances, distance_columns
+from lwrlab.excitation.distance_columns import (
+    NearestMembers,
+    column_derivatives,
+    column_distances,
+    distance_columns,
+)
 from lwrlab.excitation.mounting import describe_surface, resolve_surface
 from lwrlab.excitation.sphere_distances import SphereDistances
 from lwrlab.model.position_ranges import range_center, range_span, unbounded
@@ -174,6 +179,9 @@ class ConstraintSet:
             robot.friction.viscous if "viscous" in robot.friction_terms else np.zeros(robot.n_joints)
         )
         self._data = robot.model.createData()
+        self._nearest: dict[str, NearestMembers] = {}
+        """Each distance family's nearest member pairs as its last slacks found them: the derivatives at
+        the same configurations need not measure them again."""
 
     # --- layout ---------------------------------------------------------------------------------
 
@@ -210,6 +218,13 @@ class ConstraintSet:
         if family in per_joint:
             return np.tile(per_joint[family], 2)
         return np.ones(len(self.column_labels(family)))
+
+    def margin(self, family: str) -> float:
+        """The margin of a family's scaled slacks: a scaled slack above minus it keeps the true limit
+        (a fraction of it) or the clearance itself (m)."""
+        if family in ("world", "self_collision"):
+            return self.settings.distance_margin
+        return self.settings.limit_margin
 
     UNITS: ClassVar[dict[str, str]] = {
         "position": "rad",
@@ -255,7 +270,9 @@ class ConstraintSet:
             offset = self.settings.clearance + self.settings.distance_margin
             for family, columns in self.distance_columns.items():
                 if columns.columns:
-                    distances = column_distances(self.distances, columns, poses, q, windows, centres)
+                    distances, self._nearest[family] = column_distances(
+                        self.distances, columns, poses, q, windows, centres
+                    )
                     out[family] = distances - offset
         return out
 
@@ -288,7 +305,9 @@ class ConstraintSet:
             )
         if family == "torque":
             return self._torque_derivatives(q, dq, ddq, samples, columns)
-        d_q = column_derivatives(self.distances, self.distance_columns[family], q, samples, columns)
+        d_q = column_derivatives(
+            self.distances, self.distance_columns[family], q, samples, columns, self._nearest.get(family)
+        )
         return d_q, zeros, zeros
 
     def _torque_derivatives(

@@ -235,6 +235,19 @@ class _Members:
             gaps_within(layout, self.centres, distances.all_radii, chosen[rows], out, rows)
 
 
+@dataclass(frozen=True)
+class NearestMembers:
+    """Which member pair is nearest, where a :func:`column_distances` call knows it for sure: at the
+    (sample, column) entries ``known`` (N, C), the index ``member`` (N, C) into the columns' pairs
+    (all columns' pairs in order) of the first of the nearest, as
+    :func:`column_derivatives` would find by measuring them again."""
+
+    q: np.ndarray
+    """(N, N_J) the configurations they were measured at."""
+    member: np.ndarray
+    known: np.ndarray
+
+
 def column_distances(
     distances: SphereDistances,
     columns: DistanceColumns,
@@ -242,15 +255,17 @@ def column_distances(
     q: np.ndarray,
     windows: np.ndarray | None = None,
     centres: np.ndarray | None = None,
-) -> np.ndarray:
-    """Each column's distance (N, C) at joint poses (N_J, N, 4, 4), configurations q (N, N_J). With
-    ``windows`` (the first sample of each), exact where it can be its window's smallest and a lower
-    bound above that elsewhere (module docstring); ``centres``: the sphere centres at the poses, when
-    the caller has them."""
+) -> tuple[np.ndarray, NearestMembers]:
+    """Each column's distance (N, C) at joint poses (N_J, N, 4, 4), configurations q (N, N_J), and its
+    nearest member pair wherever that is certain. With ``windows`` (the first sample of each), exact
+    where it can be its window's smallest and a lower bound above that elsewhere (module docstring);
+    ``centres``: the sphere centres at the poses, when the caller has them. The nearest member is
+    certain where every member left unmeasured has a lower bound above the column's value (every
+    window's smallest among them): there :func:`column_derivatives` need not measure them again."""
     members, starts = _members(columns)
     if windows is None:
-        values = distances.pair_distances(columns.family, members, poses, q)[0]
-        return np.minimum.reduceat(values, starts, axis=1)
+        values = distances.pair_distances(columns.family, members, poses, q)[0].T
+        return _reduced(values, starts, np.ones(values.shape, dtype=bool), q)
     n = poses.shape[1]
     measure = _Members(distances, columns.family, members, poses, q, centres)
     bound = measure.bounds()  # (M, N)
@@ -273,7 +288,23 @@ def column_distances(
     window_of = np.searchsorted(windows, np.arange(n), side="right") - 1
     chosen = (bound <= reach[column_of][:, window_of] + TOLERANCE) & ~probed & ~measure.dense[:, None]
     measure.exact(chosen, values)
-    return np.minimum.reduceat(values, starts, axis=0).T
+    return _reduced(values, starts, probed | chosen | measure.dense[:, None], q)
+
+
+def _reduced(
+    values: np.ndarray, starts: np.ndarray, exact: np.ndarray, q: np.ndarray
+) -> tuple[np.ndarray, NearestMembers]:
+    """Each column's smallest (N, C) of the members' ``values`` (M, N), some ``exact`` (M, N) and the
+    others lower bounds, and its nearest member where no bound can undercut it."""
+    smallest = np.minimum.reduceat(values, starts, axis=0)  # (C, N)
+    index = np.arange(len(values))[:, None]
+    # the first member reaching the column's smallest, as argmin over a column's members picks it
+    sizes = np.diff(np.append(starts, len(values)))
+    reaching = values == np.repeat(smallest, sizes, axis=0)
+    member = np.minimum.reduceat(np.where(reaching, index, len(values)), starts, axis=0)
+    # no member measured only by its bound may be nearer, nor tie: a bound is at most its distance
+    unmeasured = np.minimum.reduceat(np.where(exact, np.inf, values), starts, axis=0)
+    return smallest.T, NearestMembers(q.copy(), member.T, (smallest < unmeasured).T)
 
 
 def column_derivatives(
@@ -282,13 +313,20 @@ def column_derivatives(
     q: np.ndarray,
     samples: np.ndarray,
     chosen: np.ndarray,
+    nearest: NearestMembers | None = None,
 ) -> np.ndarray:
     """∂distance/∂q (m, N_J) of the (sample, column) entries: a column of several pairs takes that of
-    its member pair nearest at the sample, the first of equals (:meth:`SphereDistances.derivatives`)."""
+    its member pair nearest at the sample, the first of equals (:meth:`SphereDistances.derivatives`);
+    ``nearest``: what a :func:`column_distances` call at these ``q`` found, used where it
+    is certain (those members are not measured again)."""
     members, starts = _members(columns)
     sizes = np.diff(np.append(starts, len(members)))
     pair_of = starts[chosen]
     several = np.flatnonzero(sizes[chosen] > 1)
+    if nearest is not None and several.size and np.array_equal(nearest.q, q):
+        known = nearest.known[samples[several], chosen[several]]
+        pair_of[several[known]] = nearest.member[samples[several[known]], chosen[several[known]]]
+        several = several[~known]
     if several.size:
         unique, inverse = np.unique(samples[several], return_inverse=True)
         measure = _Members(distances, columns.family, members, distances.scene.poses(q[unique]), q[unique])

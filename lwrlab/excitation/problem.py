@@ -153,6 +153,7 @@ class ExcitationProblem:
         self.window_starts = np.arange(0, max(len(self.times) - 1, 1), samples_per_window)
         self._cache: _Evaluation | None = None
         self._safe_poses: dict[tuple[int, int], np.ndarray] = {}
+        self._safe_slacks: dict[tuple[int, int], float] = {}
 
     # --- variables ------------------------------------------------------------------------------
 
@@ -211,8 +212,17 @@ class ExcitationProblem:
             [np.min(slack / self.constraint_set.scales(family), axis=1) for family, slack in slacks.items()],
             axis=0,
         )
-        self._safe_poses[(n_candidates, seed)] = poses[int(np.argmax(worst))]
+        best = int(np.argmax(worst))
+        self._safe_poses[(n_candidates, seed)] = poses[best]
+        self._safe_slacks[(n_candidates, seed)] = float(worst[best])
         return self._safe_poses[(n_candidates, seed)]
+
+    def safe_pose_slack(self, n_candidates: int = 500, seed: int = 0) -> float:
+        """The smallest scaled slack of :meth:`safe_pose` at rest (distances in metres, the limits as
+        fractions of them): below the distance margin, even the safest pose rests against a
+        constraint, and the feasible region around any still motion is narrow."""
+        self.safe_pose(n_candidates, seed)
+        return self._safe_slacks[(n_candidates, seed)]
 
     # --- evaluation -----------------------------------------------------------------------------
 

@@ -56,6 +56,49 @@ STALL_IMPROVEMENT = 1.0
 det W_bᵀW_b) counts as stalled when SLSQP stopped on a failure."""
 
 
+FIRST_STEP_HALVINGS = 8
+"""The first step is halved at most this many times in search of one that stays within the margins."""
+
+
+def first_step_point(
+    problem: ExcitationProblem, x0: np.ndarray, gradient: np.ndarray, step: float
+) -> np.ndarray:
+    """The point ``step`` (rad per via point, the largest coordinate) along the steepest descent of the
+    criterion from ``x0``, within the variables' bounds."""
+    point = x0 - step * gradient / np.max(np.abs(gradient))
+    for k, (low, high) in enumerate(problem.bounds() or []):
+        point[k] = min(max(point[k], -np.inf if low is None else low), np.inf if high is None else high)
+    return point
+
+
+def within_margins(problem: ExcitationProblem, x: np.ndarray) -> bool:
+    """Whether the motion ``x`` keeps every true limit and the clearance: each constraint may use up its
+    margin (:meth:`~lwrlab.excitation.constraints.ConstraintSet.margin`), no more."""
+    margin = problem.constraint_set.margin
+    return all(w.values.min() >= -margin(w.family) for w in problem.windowed_slacks(x))
+
+
+def feasible_first_step(
+    problem: ExcitationProblem, x0: np.ndarray, gradient: np.ndarray, first_step: float
+) -> float:
+    """The longest of ``first_step``, its half, its quarter, … (at most :data:`FIRST_STEP_HALVINGS`
+    halvings) whose :func:`first_step_point` stays :func:`within_margins`; the shortest when none does.
+
+    SLSQP's first step is the scaled criterion's gradient (``first_step`` of :class:`SlsqpOptimizer`).
+    Where the feasible region around every still motion is narrow (TALOS's shoulder stays 14–16 mm
+    from its torso over most of its first joint's range, 15 mm being the clearance and margin), a
+    first step that leaves it sends SLSQP far outside the windowed constraints, and from there it
+    ends on "Inequality constraints incompatible". A few constraint evaluations find the step that
+    stays inside the true limits and the clearance.
+    """
+    step = first_step
+    for _ in range(FIRST_STEP_HALVINGS):
+        if within_margins(problem, first_step_point(problem, x0, gradient, step)):
+            return step
+        step /= 2
+    return step
+
+
 def _stalled(run: _StartRun, start_cost: float) -> bool:
     """SLSQP stopped on a failure (not convergence, not the iteration limit) without improving."""
     failed = int(run.result.status) not in (0, 9)
@@ -81,7 +124,10 @@ class SlsqpOptimizer:
         divided by the gradient's largest entry over ``first_step`` when that is larger than 1 (None:
         never). The usual random start keeps the criterion as it is. Measured over the LWR4, Panda,
         UR3/5/10, xArm7 and Z1: 3 rad converges on every one; without it SLSQP leaves the UR arms'
-        feasible region at once and does not return (``benchmarks/own_robot_motion.py``).
+        feasible region at once and does not return (``benchmarks/own_robot_motion.py``). Where even
+        the safest pose rests within the distance margin of a constraint (the arm of a bigger robot,
+        its shoulder beside the torso), the step is halved until it stays within the margins
+        (:meth:`first_step_bound`).
     blas_threads : BLAS threads while solving (None: leave as is). The matrices are small (about
         7000×57): one thread is faster than several, and much faster on a loaded machine, where
         BLAS threads wait for each other (``benchmarks/threads.py``, :mod:`lwrlab.numerics.threads`).
@@ -232,9 +278,11 @@ class SlsqpOptimizer:
         # J. When that is coarser than the accuracy relative to J itself (tolerance·|J|: cond, whose
         # gradient from a still motion is in the thousands while J ends near 6, not logdet, near −480),
         # a second phase on the criterion itself continues from where the first converged.
-        gradient_size = float(np.max(np.abs(problem.objective_gradient(x0))))
-        bounded = bound_first_step and self.first_step is not None
-        scales = [max(1.0, gradient_size / self.first_step)] if bounded and self.first_step else []
+        start_gradient = problem.objective_gradient(x0)
+        gradient_size = float(np.max(np.abs(start_gradient)))
+        bounded = bound_first_step and self.first_step is not None and gradient_size > 0
+        step = self.first_step_bound(problem, x0, start_gradient) if bounded else None
+        scales = [max(1.0, gradient_size / step)] if step else []
         scales.append(1.0)
         scale = scales[0]
 
@@ -279,6 +327,17 @@ class SlsqpOptimizer:
                 x = run.best_feasible if run.best_feasible is not None else result.x
             run.result["nit"] = iterations
         return run
+
+    def first_step_bound(self, problem: ExcitationProblem, x0: np.ndarray, gradient: np.ndarray) -> float:
+        """The largest first step (rad per via point) from a start moved near the safest pose:
+        ``first_step``, or, where even the safest pose rests closer to a constraint than the distance
+        margin (:meth:`~lwrlab.excitation.problem.ExcitationProblem.safe_pose_slack`: a narrow
+        feasible region), the longest halving of it that stays within the margins
+        (:func:`feasible_first_step`). An arm on a table keeps ``first_step``."""
+        assert self.first_step is not None
+        if problem.safe_pose_slack() < problem.constraint_set.settings.distance_margin:
+            return feasible_first_step(problem, x0, gradient, self.first_step)
+        return self.first_step
 
     @staticmethod
     def reports(problem: ExcitationProblem, x: np.ndarray) -> list[FamilyReport]:

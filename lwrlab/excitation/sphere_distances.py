@@ -14,8 +14,8 @@ to find the samples near contact: an arm on a humanoid has five hundred pairs wi
 other arm, most of them far apart at most samples. Each body's spheres lie inside one bounding
 sphere; given a ``horizon`` (m; :data:`CHECK_HORIZON` past the clearance), where two bodies' bounding
 spheres are further apart than it, the pair's bound is the gap between the bounding spheres (a lower
-bound too, looser) and no sphere pair is measured; within it, the spheres' distance as without a
-horizon (tested equal).
+bound too, looser) and no sphere pair is measured, and likewise a body's bounding sphere against a
+fixed box, cylinder or sphere; within it, the spheres' distance as without a horizon (tested equal).
 
 Spheres overshoot a link's surface by a centimetre or two: too much for links that are always close
 (a wrist next to the forearm, an upper arm next to the base), where the spheres would overlap in
@@ -173,7 +173,8 @@ class SphereDistances:
         horizon: float | None = None,
     ) -> np.ndarray:
         """(C, N) smallest gap per column from the flattened sphere pairs (and analytic objects), at
-        joint poses (N_J, N, 4, 4); past a ``horizon`` (m), the bounding spheres' gap."""
+        joint poses (N_J, N, 4, 4); past a ``horizon`` (m), the bounding spheres' gap, or a body's
+        bounding sphere's signed distance to an analytic object."""
         centres = self._centres(poses)
         out = np.full((layout.n_columns, centres.shape[1]), np.inf)
         if len(layout.first) and horizon is not None:
@@ -183,8 +184,15 @@ class SphereDistances:
                 part = slice(start, start + GATHER_CHUNK)
                 gaps = self._sphere_gaps(layout.first, layout.second, centres[:, part])
                 out[layout.sphere_columns, part] = np.minimum.reduceat(gaps, layout.starts, axis=0)
-        for c, w, spheres in layout.analytic:
-            out[c] = np.min(self._object_gaps(w, spheres, centres), axis=0)
+        # past a horizon, a body's bounding sphere bounds its distance to an object (1-Lipschitz)
+        far = horizon is not None and layout.analytic
+        bound = posed_points(self._bound_centres, self._bound_joints, poses) if far else None
+        for c, w, spheres, body in layout.analytic:
+            near: slice | np.ndarray = slice(None)
+            if bound is not None:
+                out[c] = self.scene.world[w].signed_distance(bound[body])[0] - self._bound_radii[body]
+                near = np.flatnonzero(out[c] < horizon)
+            out[c, near] = np.min(self._object_gaps(w, spheres, centres[:, near]), axis=0)
         return out
 
     def _bounding_gaps(self, groups: np.ndarray, poses: np.ndarray) -> np.ndarray:

@@ -15,7 +15,7 @@ import numpy as np
 class SphereLayout:
     """Every sphere pair of some columns (pairs of one family), flattened: column ``sphere_columns[i]``
     is the run ``first, second [starts[i] : starts[i] + lengths[i]]`` of sphere indices, between the
-    bounding spheres ``groups[i]``; analytic world columns are (column, world object, spheres)."""
+    bounding spheres ``groups[i]``; analytic world columns are (column, world object, spheres, body)."""
 
     first: np.ndarray
     second: np.ndarray
@@ -23,7 +23,7 @@ class SphereLayout:
     starts: np.ndarray
     lengths: np.ndarray
     groups: np.ndarray
-    analytic: list[tuple[int, int, np.ndarray]]
+    analytic: list[tuple[int, int, np.ndarray, int]]
 
     @property
     def n_columns(self) -> int:
@@ -45,7 +45,7 @@ def sphere_layout(
     for c, (a, b) in enumerate(pairs):
         first = body_spheres[a]
         if family == "world" and b not in world_spheres:
-            analytic.append((c, b, first))
+            analytic.append((c, b, first, a))
             continue
         second = body_spheres[b] if family == "self" else world_spheres[b]
         ia, ib = np.meshgrid(first, second, indexing="ij")
