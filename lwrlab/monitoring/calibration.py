@@ -243,8 +243,9 @@ class StateCalibration:
             thresholds[still] = self.rest_threshold(np.asarray(friction)[still])
         thresholds += self.margin * np.asarray(stamps)
         if displacement is not None and self.count_share is not None and self.position_step is not None:
-            moved = counted(displacement, self.position_step).astype(float)
-            thresholds += self.margin * np.sqrt(moved @ (self.count_share**2).T)
+            moved = counted(displacement, self.position_step)
+            if moved.any():  # an arm that stood for the window: nothing to add
+                thresholds += self.margin * np.sqrt(moved.astype(float) @ np.square(self.count_share).T)
         return thresholds
 
     def static_torque(self, band: np.ndarray) -> np.ndarray:
@@ -263,10 +264,10 @@ class StateCalibration:
         ``release``, and where the arm stands still (``resting``, (N,)) at least the static torque it
         may hold, ``margin·static/threshold``: a push moves the friction a standing joint holds, and
         the residual settles anywhere within that band after it, not back to zero."""
-        if resting is None or self.rest_noise is None:
+        still = None if resting is None else np.asarray(resting, dtype=bool)
+        if still is None or self.rest_noise is None or not still.any():
             return release
         shares = np.full(np.shape(thresholds), float(release))
-        still = np.asarray(resting, dtype=bool)
         held = self.margin * self.static_torque(np.asarray(friction)[still])
         shares[still] = np.clip(held / np.asarray(thresholds)[still], release, 1.0)
         return shares

@@ -233,8 +233,8 @@ def estimate_external_torques(
     monitored = (elapsed >= settings.start_skip) & (elapsed <= elapsed[-1] - settings.end_skip)
     rest = friction_band(robot, np.zeros((1, robot.n_joints)))[0]
     settle = SETTLING_TIME_CONSTANTS / settings.observer_gain
-    observer_model = MomentumObserver(robot, settings.observer_gain, settings.coulomb_smoothing)
-    inertia = inertia_bound(robot.model, q, observer_model.rotor_inertia)
+    rotor = MomentumObserver(robot, settings.observer_gain, settings.coulomb_smoothing).rotor_inertia
+    inertia = inertia_bound(robot.model, q, rotor)
     disagreeing = np.zeros(len(t), dtype=bool)
     if measurement.dq is not None:
         disagreeing = disagreeing_samples(t, measurement.dq, dq)

@@ -7,9 +7,9 @@ through the same filter, :mod:`~lwrlab.monitoring.observer_inputs`), the momentu
 (:func:`~lwrlab.monitoring.observer.observer_step`), the friction band through the observer's
 filter (:mod:`~lwrlab.monitoring.spread`), whether the arm stands still, how far each joint moved
 over the last half second (the encoder counts' share, :mod:`~lwrlab.monitoring.counts`), and the
-contact detector
-(:class:`ContactDetector`). Each step makes a few small arrays and no I/O: a source (a log read in
-blocks, a topic) feeds it and sinks (artifacts, topics, a bag) take its output.
+contact detector (:class:`ContactDetector`). Each step makes a few small arrays and no I/O: a
+source (a log read in blocks, a topic) feeds it and sinks (artifacts, topics, a bag) take its
+output.
 
 The offline monitor (:func:`~lwrlab.monitoring.estimates.estimate_external_torques`,
 :func:`~lwrlab.monitoring.estimates.detect`) is the same computation vectorised over a log; a test
