@@ -91,7 +91,7 @@ def count_gain(period: float, cutoff_hz: float, observer_gain: float) -> float:
     for k in range(1, GAIN_SAMPLES):
         r = alpha * r + (1.0 - alpha) * (velocity[k] - velocity[k - 1]) / period
         peak = max(peak, abs(r))
-    return peak
+    return float(peak)
 
 
 def inertia_bound(model: pin.Model, q: np.ndarray, rotor: np.ndarray | None = None) -> np.ndarray:
