@@ -51,7 +51,7 @@ from scipy.optimize import minimize
 from scipy.special import ndtri
 
 from lwrlab.monitoring.counts import counted
-from lwrlab.numerics.stretches import true_stretches
+from lwrlab.monitoring.rest_residual import rest_terms
 
 MIN_TAIL_SAMPLES = 10
 """Samples beyond an empirical quantile for it to be trusted; fewer: the largest |r| is used."""
@@ -431,37 +431,3 @@ def calibrate_state_thresholds(
         samples=int(n_samples),
         duration_s=duration,
     )
-
-
-def rest_terms(
-    residuals: Sequence[np.ndarray], rests: Sequence[np.ndarray], band: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """``(s_rest, e_rest)`` (N_J,) of contact-free residuals (N, N_J) per log at their samples at rest
-    (``rests``, (N,) bool per log): the noise within the stretches at rest (each stretch's mean
-    removed: the friction held there and the gravity model's error are constant while the arm stands
-    still), and the largest stretch mean beyond the friction ``band`` (N·m).
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> r = np.concatenate([0.3 + 0.01 * rng.normal(size=(500, 1)), -0.5 + 0.01 * rng.normal(size=(500, 1))])
-    >>> noise, error = rest_terms([r], [np.ones(1000, dtype=bool)], np.array([0.4]))
-    >>> round(float(noise[0]), 2), round(float(error[0]), 2)  # one stretch: the means mix
-    (0.4, 0.0)
-    >>> still = np.ones(1000, dtype=bool)
-    >>> still[500] = False  # two stretches
-    >>> noise, error = rest_terms([r], [still], np.array([0.4]))
-    >>> round(float(noise[0]), 3), round(float(error[0]), 2)
-    (0.01, 0.1)
-    """
-    squares, count = 0.0, 0
-    error = np.zeros_like(np.asarray(band, dtype=float))
-    for residual, still in zip(residuals, rests, strict=True):
-        r = np.asarray(residual, dtype=float)
-        for start, end in zip(*true_stretches(np.asarray(still, dtype=bool)), strict=True):
-            part = r[start:end]
-            mean = part.mean(axis=0)
-            squares = squares + np.sum((part - mean) ** 2, axis=0)
-            count += end - start - 1
-            error = np.maximum(error, np.abs(mean) - band)
-    return np.sqrt(squares / max(count, 1)), error

@@ -91,7 +91,7 @@ class MonitorSettings:
     rest_thresholds: str = "model"
     """``state`` only, where the arm stands still: ``model`` (the model at rest: the residual's noise
     within the calibration's rests, the friction band, the gravity model's error;
-    :func:`~lwrlab.monitoring.calibration.rest_terms`) or ``moving`` (the formula of a moving arm at
+    :func:`~lwrlab.monitoring.rest_residual.rest_terms`) or ``moving`` (the formula of a moving arm at
     the band at rest)."""
 
     def __post_init__(self) -> None:

@@ -32,6 +32,7 @@ CALIBRATING_MODULES = (
     "estimates",
     "observer",
     "observer_inputs",
+    "rest_residual",
     "spread",
     "direct_residual",
 )
