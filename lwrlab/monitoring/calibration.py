@@ -45,12 +45,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.optimize import minimize
 from scipy.special import ndtri
 
-from lwrlab.monitoring.counts import counted
+from lwrlab.monitoring.counts import count_limit
 from lwrlab.monitoring.rest_residual import rest_terms
 
 MIN_TAIL_SAMPLES = 10
@@ -242,11 +243,20 @@ class StateCalibration:
             still = np.asarray(resting, dtype=bool)
             thresholds[still] = self.rest_threshold(np.asarray(friction)[still])
         thresholds += self.margin * np.asarray(stamps)
-        if displacement is not None and self.count_share is not None and self.position_step is not None:
-            moved = counted(displacement, self.position_step)
+        if displacement is not None and self._counts is not None:
+            limit, squared = self._counts
+            moved = np.asarray(displacement) > limit
             if moved.any():  # an arm that stood for the window: nothing to add
-                thresholds += self.margin * np.sqrt(moved.astype(float) @ np.square(self.count_share).T)
+                thresholds += self.margin * np.sqrt(moved @ squared)
         return thresholds
+
+    @cached_property
+    def _counts(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The displacement beyond which a joint counts (rad) and the squared shares, transposed:
+        made once, read at every sample."""
+        if self.count_share is None or self.position_step is None:
+            return None
+        return count_limit(self.position_step), np.square(self.count_share).T.copy()
 
     def static_torque(self, band: np.ndarray) -> np.ndarray:
         """(…, N_J) what a standing arm's residual may hold with friction bands ``band`` (N·m): the band

@@ -138,10 +138,17 @@ def displacement(q: np.ndarray, samples: int) -> np.ndarray:
     return np.abs(q - before)
 
 
+def count_limit(step: np.ndarray) -> np.ndarray:
+    """(N_J,) the displacement (rad) beyond which a joint of encoder step ``step`` (N_J,) counts:
+    :data:`NET_COUNTS` steps; infinite for a joint that never moved (no step)."""
+    step = np.asarray(step, dtype=float)
+    return NET_COUNTS * np.where(step > 0, step, np.inf)
+
+
 def counted(displacement: np.ndarray, step: np.ndarray) -> np.ndarray:
     """(N, N_J) True where a joint moved more than :data:`NET_COUNTS` steps ``step`` (N_J,) over the
     window (a reading flickering between two steps never does; a joint that stands has no step)."""
-    return np.asarray(displacement) > NET_COUNTS * np.where(np.asarray(step) > 0, step, np.inf)
+    return np.asarray(displacement) > count_limit(step)
 
 
 class DisplacementTracker:
@@ -180,6 +187,7 @@ class DisplacementTracker:
 __all__ = [
     "DisplacementTracker",
     "count_gain",
+    "count_limit",
     "count_share",
     "counted",
     "displacement",
