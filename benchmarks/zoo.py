@@ -105,7 +105,8 @@ class Option:
     thresholds: str | None = None
     """``thresholds`` only: the monitor's ``task.thresholds``."""
     fit_logs: tuple[str, ...] | None = None
-    """``operation`` only: the member's logs fitted on (judged on :data:`OPERATION_CHECKS`)."""
+    """``operation``: the member's logs fitted on (judged on :data:`OPERATION_CHECKS`); ``thresholds``: the
+    logs the model and its thresholds come from (None: the two fit logs)."""
     realisation: int | None = None
     """``realisations`` only: the fit log alone, recorded anew (≥ 1; 0: as built)."""
 
@@ -126,8 +127,9 @@ OPTIONS: dict[str, tuple[Option, ...]] = {
     ),
     "thresholds": (
         Option("constant", thresholds="constant"),
-        Option("state, at rest from the model", thresholds="state at rest from the model"),
+        Option("state, at rest as moving", thresholds="state at rest as moving"),
         Option("state, the model's drift", thresholds="state with the model's drift"),
+        Option("state, one fit log", thresholds="state", fit_logs=("fit",)),
     ),
     "prior": (
         Option("ols", ("estimator=ols",)),
@@ -182,7 +184,7 @@ class Subject:
             fit = noise_realisation(self.logs, option.realisation) if option.realisation else "fit"
             overrides = self.logs.overrides(fit=(fit,))
         if rest and self.logs is not None:
-            overrides = self.logs.overrides(validation=(*NEW_MOTIONS, "rest"))
+            overrides = self.logs.overrides(fit=option.fit_logs or FIT, validation=(*NEW_MOTIONS, "rest"))
         if option.rotor is not None:
             drive = {**(self.drive or {}), "rotor_inertia": option.rotor}
             overrides = [o for o in overrides if not o.startswith("robot.drive=")]
@@ -331,8 +333,8 @@ def monitor_scores(subject: Subject, cfg: Any, report: Any, kind: str) -> dict[s
     from lwrlab.pipeline.config_nodes import resolved_mapping
 
     settings = replace_settings(monitor_settings(), thresholds="state" if kind.startswith("state") else kind)
-    if kind == "state at rest from the model":
-        settings = replace_settings(settings, rest_thresholds="model")
+    if kind == "state at rest as moving":
+        settings = replace_settings(settings, rest_thresholds="moving")
     if kind == "state with the model's drift":  # what its identification measured between its logs
         settings = replace_settings(settings, friction_drift=float(report.identified.friction_drift))
 
@@ -417,7 +419,7 @@ def evaluate(subject: Subject, choice: str, option: Option, store: Path) -> dict
     started = time.process_time()
     if choice == "thresholds":
         kind = option.thresholds or "state"
-        cfg, report = identify(subject.with_option(DEFAULT, rest=subject.logs is not None))
+        cfg, report = identify(subject.with_option(option, rest=subject.logs is not None))
         row = {**prediction_scores(subject, report), **monitor_scores(subject, cfg, report, kind)}
     else:
         _, report = identify(subject.with_option(option))

@@ -24,6 +24,7 @@ from lwrlab.monitoring.estimates import (
     thresholds_of,
 )
 from lwrlab.monitoring.stream import CausalLowpass, ContactDetector, MonitorStream, replay
+from lwrlab.plants.core import Measurement
 from lwrlab.plants.pushed_arm import ExternalForce
 
 
@@ -83,10 +84,20 @@ def _assert_same_detections(got: list, expected: list) -> None:
         )
 
 
-@pytest.mark.parametrize("thresholds", ["state", "constant"])
-def test_the_stream_equals_the_offline_monitor(lwr4: RobotModel, pushed, thresholds: str) -> None:
+def _coarse(measurement: Measurement, step: float) -> Measurement:
+    """The log read by encoders of ``step`` rad."""
+    return replace(measurement, q=np.round(measurement.q / step) * step)
+
+
+@pytest.mark.parametrize(("thresholds", "step"), [("state", 0.0), ("constant", 0.0), ("state", 1e-4)])
+def test_the_stream_equals_the_offline_monitor(
+    lwr4: RobotModel, pushed, thresholds: str, step: float
+) -> None:
+    """Also on coarse encoders (0.1 mrad), where the counts' share moves the thresholds."""
     settings = replace(SETTINGS, thresholds=thresholds)
     free, monitored = pushed
+    if step:
+        free, monitored = _coarse(free, step), _coarse(monitored, step)
     calibrations = calibrate([estimate_external_torques(lwr4, free, settings)], settings)
     offline = estimate_external_torques(lwr4, monitored, settings)
     found = detect(offline, calibrations, settings)["observer"]
@@ -100,6 +111,11 @@ def test_the_stream_equals_the_offline_monitor(lwr4: RobotModel, pushed, thresho
     np.testing.assert_allclose(record.external_torque, expected, rtol=0, atol=1e-9 * scale)
     limits = thresholds_of(offline, calibrations, "observer")
     np.testing.assert_allclose(record.thresholds, limits, rtol=1e-9)
+    if step:  # the counts' share is in both
+        unshared = replace(calibrations["observer"], count_share=None)
+        assert np.any(
+            limits > 1.01 * unshared.thresholds_at(*offline.state_terms("observer"), offline.resting)
+        )
     assert len(found) == 3
     _assert_same_detections(record.detections, found)
     assert record.in_contact[found[0].start_index + 5] and not record.in_contact[found[0].end_index]

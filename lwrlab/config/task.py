@@ -212,9 +212,9 @@ class MonitorTask(Instantiable):
     friction_drift: float
     """``state`` only: share of its friction a run may differ by from the calibration's."""
     rest_thresholds: str
-    """``state`` only, where the arm stands still: ``moving`` (a moving arm's formula at the band at
-    rest) or ``model`` (the model at rest: noise within the calibration's rests, friction band, gravity
-    error)."""
+    """``state`` only, where the arm stands still: ``model`` (the model at rest: noise within the
+    calibration's rests, friction band, gravity error) or ``moving`` (a moving arm's formula at the
+    band at rest)."""
     frame: str | None
     """Frame of the robot where the contact load is mapped; null: the flange, else the last link's."""
     point: list[float] | None

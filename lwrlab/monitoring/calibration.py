@@ -32,7 +32,11 @@ times ``margin`` (≥ 1), which covers motions the calibration did not contain. 
   ``s_rest`` the noise of the contact-free residual within each stretch the calibration logs stand
   still, the band as friction may hold it on another run, ``e_rest`` what the model's static torque
   (gravity and the friction band) left at rest beyond the band, when the logs stand still for at
-  least :data:`MIN_REST_S` seconds; else ``√a`` as while moving.
+  least :data:`MIN_REST_S` seconds; else ``√a`` as while moving. There a contact ends once every
+  joint is back within what the standing arm may hold (:meth:`StateCalibration.release_shares`): a
+  push moves the friction a standing joint holds, and its residual settles anywhere in that band.
+  Where joints' encoders counted, the thresholds add what a count does to the observer's estimate
+  (``margin·κ``, :mod:`lwrlab.monitoring.counts`).
 
 Either way the calibration data themselves raise no alarm.
 """
@@ -41,12 +45,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.optimize import minimize
 from scipy.special import ndtri
 
-from lwrlab.numerics.stretches import true_stretches
+from lwrlab.monitoring.counts import count_limit
+from lwrlab.monitoring.rest_residual import rest_terms
 
 MIN_TAIL_SAMPLES = 10
 """Samples beyond an empirical quantile for it to be trusted; fewer: the largest |r| is used."""
@@ -102,10 +108,20 @@ class Calibration:
     kind = "constant"
 
     def thresholds_at(
-        self, friction: np.ndarray, stamps: np.ndarray, resting: np.ndarray | None = None
+        self,
+        friction: np.ndarray,
+        stamps: np.ndarray,
+        resting: np.ndarray | None = None,
+        displacement: np.ndarray | None = None,
     ) -> np.ndarray:
         """(N, N_J) the thresholds at samples of (N, N_J) state terms: the same at every sample."""
         return np.broadcast_to(self.thresholds, np.shape(friction)).copy()
+
+    def release_shares(
+        self, thresholds: np.ndarray, friction: np.ndarray, resting: np.ndarray | None, release: float
+    ) -> np.ndarray | float:
+        """The share of each threshold a contact's joints must fall below to end it: ``release``."""
+        return release
 
     def table(self) -> dict[str, np.ndarray]:
         """Per joint: the threshold, the contact-free RMS and peak (N·m)."""
@@ -190,6 +206,11 @@ class StateCalibration:
     """The stated rate (alarms per hour)."""
     margin: float
     """Safety factor on the levels."""
+    count_share: np.ndarray | None
+    """(N_J, N_J) the most an encoder count of joint k (column) moves joint j's estimate (N·m,
+    :mod:`lwrlab.monitoring.counts`), or None: not known (no share added)."""
+    position_step: np.ndarray | None
+    """(N_J,) δ, the encoders' step measured on the calibration logs (rad), or None."""
     friction_drift: float
     """Share of its friction by which a run may differ from the calibration's."""
     samples: int
@@ -204,17 +225,62 @@ class StateCalibration:
         return np.sqrt(self.noise**2 + (self.friction_share * np.asarray(friction)) ** 2)
 
     def thresholds_at(
-        self, friction: np.ndarray, stamps: np.ndarray, resting: np.ndarray | None = None
+        self,
+        friction: np.ndarray,
+        stamps: np.ndarray,
+        resting: np.ndarray | None = None,
+        displacement: np.ndarray | None = None,
     ) -> np.ndarray:
         """(N, N_J) the thresholds (N·m) at samples of friction bands φ and stamps' shares ε (N·m):
         ``max(margin·level·spread, floor) + margin·ε``; at the samples ``resting`` (N,) marks (the arm
-        standing still), ``margin·√((level·s_rest)² + band²) + margin·ε`` where s_rest is known."""
+        standing still), ``margin·√((level·s_rest)² + static²) + margin·ε`` where s_rest is known;
+        plus ``margin·κ``, κ the encoder counts' share of the joints whose positions moved more than
+        a step over the observer's settling time (``displacement`` (N, N_J), rad;
+        :mod:`lwrlab.monitoring.counts`)."""
         spread = self.margin * self.level * self.spread(friction)
         thresholds = np.maximum(spread, self.floor)
         if resting is not None and self.rest_noise is not None:
             still = np.asarray(resting, dtype=bool)
             thresholds[still] = self.rest_threshold(np.asarray(friction)[still])
-        return thresholds + self.margin * np.asarray(stamps)
+        thresholds += self.margin * np.asarray(stamps)
+        if displacement is not None and self._counts is not None:
+            limit, squared = self._counts
+            moved = np.asarray(displacement) > limit
+            if moved.any():  # an arm that stood for the window: nothing to add
+                thresholds += self.margin * np.sqrt(moved @ squared)
+        return thresholds
+
+    @cached_property
+    def _counts(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The displacement beyond which a joint counts (rad) and the squared shares, transposed:
+        made once, read at every sample."""
+        if self.count_share is None or self.position_step is None:
+            return None
+        return count_limit(self.position_step), np.square(self.count_share).T.copy()
+
+    def static_torque(self, band: np.ndarray) -> np.ndarray:
+        """(…, N_J) what a standing arm's residual may hold with friction bands ``band`` (N·m): the band
+        as another run may hold it and the gravity model's error at rest; zeros where the calibration
+        did not measure the arm at rest."""
+        if self.rest_noise is None:
+            return np.zeros(np.shape(band))
+        error = 0.0 if self.rest_error is None else self.rest_error
+        return (1.0 + self.friction_drift) * np.asarray(band) + error
+
+    def release_shares(
+        self, thresholds: np.ndarray, friction: np.ndarray, resting: np.ndarray | None, release: float
+    ) -> np.ndarray | float:
+        """(N, N_J) the share of each threshold (N, N_J) a contact's joints must fall below to end it:
+        ``release``, and where the arm stands still (``resting``, (N,)) at least the static torque it
+        may hold, ``margin·static/threshold``: a push moves the friction a standing joint holds, and
+        the residual settles anywhere within that band after it, not back to zero."""
+        still = None if resting is None else np.asarray(resting, dtype=bool)
+        if still is None or self.rest_noise is None or not still.any():
+            return release
+        shares = np.full(np.shape(thresholds), float(release))
+        held = self.margin * self.static_torque(np.asarray(friction)[still])
+        shares[still] = np.clip(held / np.asarray(thresholds)[still], release, 1.0)
+        return shares
 
     def rest_threshold(self, band: np.ndarray) -> np.ndarray:
         """(…, N_J) the thresholds where the arm stands still with friction bands ``band`` (…, N_J; the
@@ -223,8 +289,7 @@ class StateCalibration:
         floor."""
         if self.rest_noise is None:
             return np.broadcast_to(self.floor, np.shape(band)).copy()
-        error = 0.0 if self.rest_error is None else self.rest_error
-        static = (1.0 + self.friction_drift) * np.asarray(band) + error
+        static = self.static_torque(band)
         return self.margin * np.sqrt((self.level * self.rest_noise) ** 2 + static**2)
 
     @property
@@ -235,7 +300,8 @@ class StateCalibration:
 
     def table(self) -> dict[str, np.ndarray]:
         """Per joint: the threshold at rest and the floor (N·m), √a (N·m), ρ, the level, the friction
-        band at rest, the contact-free RMS and peak (N·m)."""
+        band at rest, the noise and the static model's error at rest, the most every joint's encoder
+        count together moves its estimate, the contact-free RMS and peak (N·m)."""
         return {
             "threshold_at_rest": self.at_rest,
             "floor": self.floor,
@@ -249,6 +315,9 @@ class StateCalibration:
             "rest_error": np.full_like(self.rest_band, np.nan)
             if self.rest_error is None
             else self.rest_error,
+            "count_share": np.full_like(self.rest_band, np.nan)
+            if self.count_share is None
+            else np.sqrt(np.sum(self.count_share**2, axis=1)),
             "rms": self.rms,
             "peak": self.peak,
         }
@@ -291,6 +360,8 @@ def calibrate_state_thresholds(
     friction_drift: float = 0.0,
     rest_friction: np.ndarray | None = None,
     rests: Sequence[np.ndarray] | None = None,
+    count_share: np.ndarray | None = None,
+    position_step: np.ndarray | None = None,
 ) -> StateCalibration:
     """State-dependent thresholds from contact-free residuals and their state terms (see the module).
 
@@ -306,6 +377,9 @@ def calibrate_state_thresholds(
     rest_friction : (N_J,) the friction band at rest (N·m), for the floor; None: the smallest φ seen.
     rests : (N,) bool per log, the samples where the arm stands still
         (:func:`lwrlab.monitoring.spread.resting`); None: none known.
+    count_share : (N_J, N_J) the most an encoder count of joint k moves joint j's estimate (N·m,
+        :func:`lwrlab.monitoring.counts.count_share`); None: no share.
+    position_step : (N_J,) the encoders' step δ (rad, :func:`lwrlab.monitoring.counts.position_step`).
 
     Examples
     --------
@@ -361,41 +435,9 @@ def calibrate_state_thresholds(
         exceedance_probability=float(probability),
         false_alarm_rate=float(false_alarm_rate),
         margin=float(margin),
+        count_share=None if count_share is None else np.asarray(count_share, dtype=float),
+        position_step=None if position_step is None else np.asarray(position_step, dtype=float),
         friction_drift=float(friction_drift),
         samples=int(n_samples),
         duration_s=duration,
     )
-
-
-def rest_terms(
-    residuals: Sequence[np.ndarray], rests: Sequence[np.ndarray], band: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """``(s_rest, e_rest)`` (N_J,) of contact-free residuals (N, N_J) per log at their samples at rest
-    (``rests``, (N,) bool per log): the noise within the stretches at rest (each stretch's mean
-    removed: the friction held there and the gravity model's error are constant while the arm stands
-    still), and the largest stretch mean beyond the friction ``band`` (N·m).
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> r = np.concatenate([0.3 + 0.01 * rng.normal(size=(500, 1)), -0.5 + 0.01 * rng.normal(size=(500, 1))])
-    >>> noise, error = rest_terms([r], [np.ones(1000, dtype=bool)], np.array([0.4]))
-    >>> round(float(noise[0]), 2), round(float(error[0]), 2)  # one stretch: the means mix
-    (0.4, 0.0)
-    >>> still = np.ones(1000, dtype=bool)
-    >>> still[500] = False  # two stretches
-    >>> noise, error = rest_terms([r], [still], np.array([0.4]))
-    >>> round(float(noise[0]), 3), round(float(error[0]), 2)
-    (0.01, 0.1)
-    """
-    squares, count = 0.0, 0
-    error = np.zeros_like(np.asarray(band, dtype=float))
-    for residual, still in zip(residuals, rests, strict=True):
-        r = np.asarray(residual, dtype=float)
-        for start, end in zip(*true_stretches(np.asarray(still, dtype=bool)), strict=True):
-            part = r[start:end]
-            mean = part.mean(axis=0)
-            squares = squares + np.sum((part - mean) ** 2, axis=0)
-            count += end - start - 1
-            error = np.maximum(error, np.abs(mean) - band)
-    return np.sqrt(squares / max(count, 1)), error

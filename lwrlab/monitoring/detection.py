@@ -51,7 +51,7 @@ def detect_contacts(
     thresholds: np.ndarray,
     *,
     min_duration: float,
-    release: float = 0.5,
+    release: float | np.ndarray = 0.5,
 ) -> list[Detection]:
     """The contacts in a log's external torque estimates.
 
@@ -61,7 +61,8 @@ def detect_contacts(
     external_torque : (N, N_J) estimates (N·m).
     thresholds : (N_J,) thresholds, or (N, N_J) one per sample (state-dependent) (N·m, > 0).
     min_duration : time above threshold before an alarm is raised (s, ≥ 0; 0: the first sample).
-    release : share (0, 1] of the threshold every joint must fall below to end a contact.
+    release : share (0, 1] of the threshold every joint must fall below to end a contact; or one
+        per joint and sample (N, N_J) (where a standing arm may hold more, the state thresholds').
 
     Examples
     --------
@@ -74,13 +75,14 @@ def detect_contacts(
     thresholds = np.asarray(thresholds, dtype=float)
     if np.any(thresholds <= 0):
         raise ValueError(f"thresholds must be positive, got {thresholds}")
-    if not 0 < release <= 1:
+    release = np.asarray(release, dtype=float)
+    if not np.all((release > 0) & (release <= 1)):
         raise ValueError(f"release must lie in (0, 1], got {release}")
     if min_duration < 0:
         raise ValueError(f"min_duration must be ≥ 0, got {min_duration}")
     ratio = np.abs(external_torque) / thresholds
     above = ratio.max(axis=1) > 1.0
-    quiet = np.flatnonzero(ratio.max(axis=1) < release)
+    quiet = np.flatnonzero(np.all(ratio < release, axis=1))
     starts, ends = true_stretches(above)
     detections: list[Detection] = []
     resume = 0  # samples before this belong to the previous contact

@@ -21,6 +21,15 @@ from lwrlab.monitoring.calibration import (
     calibrate_state_thresholds,
     calibrate_thresholds,
 )
+from lwrlab.monitoring.counts import (
+    COUNT_WINDOW_S,
+    count_gain,
+    count_share,
+    displacement,
+    inertia_bound,
+    position_step,
+    window_samples,
+)
 from lwrlab.monitoring.detection import Detection, detect_contacts
 from lwrlab.monitoring.direct_residual import joint_motion, model_torque, smooth, uniform_period
 from lwrlab.monitoring.observer import MomentumObserver
@@ -46,9 +55,9 @@ SETTLING_TIME_CONSTANTS = 5.0
 FILTER_EDGE_PERIODS = 2.0
 """The zero-phase filter's first and last 2/f_c seconds are edge transients: not monitored."""
 THRESHOLD_KINDS = ("state", "constant")
-REST_THRESHOLDS = ("moving", "model")
-"""Where state thresholds stand still: as a moving arm's, or from the model at rest."""
 """State-dependent thresholds (the friction band, the stamps) or one constant per joint."""
+REST_THRESHOLDS = ("model", "moving")
+"""Where state thresholds stand still: from the model at rest, or as a moving arm's."""
 
 
 @dataclass(frozen=True)
@@ -79,10 +88,11 @@ class MonitorSettings:
     :func:`~lwrlab.monitoring.calibration.calibrate_state_thresholds`) or ``constant`` (one per joint)."""
     friction_drift: float
     """Share of its friction by which a run may differ from the calibration's (``state`` only)."""
-    rest_thresholds: str = "moving"
-    """``state`` only, where the arm stands still: ``moving`` (the formula of a moving arm at the band at
-    rest) or ``model`` (the model at rest: the residual's noise within the calibration's rests, the
-    friction band, the gravity model's error; :func:`~lwrlab.monitoring.calibration.rest_terms`)."""
+    rest_thresholds: str = "model"
+    """``state`` only, where the arm stands still: ``model`` (the model at rest: the residual's noise
+    within the calibration's rests, the friction band, the gravity model's error;
+    :func:`~lwrlab.monitoring.rest_residual.rest_terms`) or ``moving`` (the formula of a moving arm at
+    the band at rest)."""
 
     def __post_init__(self) -> None:
         if self.thresholds not in THRESHOLD_KINDS:
@@ -141,6 +151,11 @@ class ExternalTorques:
     """(N,) True once the observer's start-up is over: where its contacts are detected (a causal
     estimate has no edge at a log's end, unlike the direct residual's zero-phase filter; the live
     monitor, :mod:`lwrlab.monitoring.stream`, sees the same samples); None: ``monitored``."""
+    displacement: np.ndarray | None = None
+    """(N, N_J) how far each joint's raw position moved over the last ``COUNT_WINDOW_S`` seconds (rad,
+    :func:`~lwrlab.monitoring.counts.displacement`), or None: not known."""
+    inertia: np.ndarray | None = None
+    """(N_J, N_J) the largest |M_jk| over the log's postures, rotor inertia included (kg·m²), or None."""
 
     def watched(self, estimator: str) -> np.ndarray:
         """(N,) the samples whose contacts ``estimator`` detects."""
@@ -217,6 +232,9 @@ def estimate_external_torques(
     elapsed = t - t[0]
     monitored = (elapsed >= settings.start_skip) & (elapsed <= elapsed[-1] - settings.end_skip)
     rest = friction_band(robot, np.zeros((1, robot.n_joints)))[0]
+    settle = SETTLING_TIME_CONSTANTS / settings.observer_gain
+    rotor = MomentumObserver(robot, settings.observer_gain, settings.coulomb_smoothing).rotor_inertia
+    inertia = inertia_bound(robot.model, q, rotor)
     disagreeing = np.zeros(len(t), dtype=bool)
     if measurement.dq is not None:
         disagreeing = disagreeing_samples(t, measurement.dq, dq)
@@ -238,8 +256,10 @@ def estimate_external_torques(
         stamps,
         rest,
         disagreeing,
-        resting(t, velocity, settings.coulomb_smoothing, SETTLING_TIME_CONSTANTS / settings.observer_gain),
+        resting(t, velocity, settings.coulomb_smoothing, settle),
         elapsed >= settings.start_skip,
+        displacement(q, window_samples(COUNT_WINDOW_S, float(np.mean(np.diff(t))))),
+        inertia,
     )
 
 
@@ -269,8 +289,25 @@ def calibrate(
             settings.friction_drift,
             contact_free[0].rest_friction,
             _rests(contact_free) if settings.rest_thresholds == "model" else None,
+            *(_count_share(contact_free, settings) if estimator == "observer" else (None, None)),
         )
     return calibrations
+
+
+def _count_share(
+    contact_free: Sequence[ExternalTorques], settings: MonitorSettings
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(N_J, N_J) what an encoder count of each joint does to the observer's estimate and (N_J,) the
+    encoders' step, from the calibration logs' positions and postures
+    (:mod:`lwrlab.monitoring.counts`); None where a log does not carry its postures' inertia."""
+    inertias = [e.inertia for e in contact_free]
+    if any(x is None for x in inertias):
+        return None, None
+    inertia = np.max(np.stack([np.asarray(x) for x in inertias]), axis=0)
+    step = position_step([e.q for e in contact_free])
+    period = float(np.mean([e.period for e in contact_free]))
+    gain = count_gain(period, settings.velocity_cutoff_hz, settings.observer_gain)
+    return count_share(inertia, step, gain), step
 
 
 def _rests(contact_free: Sequence[ExternalTorques]) -> list[np.ndarray] | None:
@@ -285,7 +322,8 @@ def thresholds_of(
     estimates: ExternalTorques, calibrations: dict[str, Calibration | StateCalibration], estimator: str
 ) -> np.ndarray:
     """(N, N_J) ``estimator``'s thresholds at every sample of a log (N·m)."""
-    return calibrations[estimator].thresholds_at(*estimates.state_terms(estimator), estimates.resting)
+    moved = estimates.displacement if estimator == "observer" else None
+    return calibrations[estimator].thresholds_at(*estimates.state_terms(estimator), estimates.resting, moved)
 
 
 def detect(
@@ -298,12 +336,15 @@ def detect(
     found = {}
     for estimator in ESTIMATORS:
         estimate = np.where(estimates.watched(estimator)[:, None], estimates.estimate(estimator), 0.0)
+        thresholds = thresholds_of(estimates, calibrations, estimator)
         detections = detect_contacts(
             estimates.t,
             estimate,
-            thresholds_of(estimates, calibrations, estimator),
+            thresholds,
             min_duration=settings.min_duration,
-            release=settings.release,
+            release=calibrations[estimator].release_shares(
+                thresholds, estimates.friction[estimator], estimates.resting, settings.release
+            ),
         )
         found[estimator] = [
             replace(d, signals_disagree=True)

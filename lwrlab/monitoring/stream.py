@@ -5,9 +5,11 @@ state out — what a live loop runs, and what the offline monitor computes over 
 filter's state (the velocity from backward differences, positions and torques at the same instants
 through the same filter, :mod:`~lwrlab.monitoring.observer_inputs`), the momentum observer's state
 (:func:`~lwrlab.monitoring.observer.observer_step`), the friction band through the observer's
-filter (:mod:`~lwrlab.monitoring.spread`), whether the arm stands still, and the contact detector
-(:class:`ContactDetector`). Each step makes a few small arrays and no I/O: a source (a log read in
-blocks, a topic) feeds it and sinks (artifacts, topics, a bag) take its output.
+filter (:mod:`~lwrlab.monitoring.spread`), whether the arm stands still, how far each joint moved
+over the last half second (the encoder counts' share, :mod:`~lwrlab.monitoring.counts`), and the
+contact detector (:class:`ContactDetector`). Each step makes a few small arrays and no I/O: a
+source (a log read in blocks, a topic) feeds it and sinks (artifacts, topics, a bag) take its
+output.
 
 The offline monitor (:func:`~lwrlab.monitoring.estimates.estimate_external_torques`,
 :func:`~lwrlab.monitoring.estimates.detect`) is the same computation vectorised over a log; a test
@@ -28,6 +30,7 @@ from scipy.signal import butter, sosfilt_zi
 
 from lwrlab.model.robot import RobotModel
 from lwrlab.monitoring.calibration import Calibration, StateCalibration
+from lwrlab.monitoring.counts import COUNT_WINDOW_S, DisplacementTracker, window_samples
 from lwrlab.monitoring.detection import Detection
 from lwrlab.monitoring.observer import MomentumObserver, ObserverState, observer_step
 from lwrlab.monitoring.observer_inputs import VELOCITY_FILTER_ORDER
@@ -104,13 +107,21 @@ class ContactDetector:
         """A contact is raised and not yet ended."""
         return self._raised is not None
 
-    def update(self, index: int, t: float, ratio: np.ndarray, torque: np.ndarray) -> Detection | None:
-        """Feed sample ``index`` (stamp ``t``, ratios and torques per joint); the contact raised or
-        ended at it, else None."""
+    def update(
+        self,
+        index: int,
+        t: float,
+        ratio: np.ndarray,
+        torque: np.ndarray,
+        release: np.ndarray | float | None = None,
+    ) -> Detection | None:
+        """Feed sample ``index`` (stamp ``t``, ratios and torques per joint, and the share of each
+        threshold its joint must fall below to end a contact: None, :attr:`release`); the contact
+        raised or ended at it, else None."""
         joint = int(np.argmax(ratio))
         highest = float(ratio[joint])
         if self._raised is not None:
-            if highest < self.release:
+            if np.all(ratio < (self.release if release is None else release)):
                 return self._end(index, t)
             self._track(highest, index, joint, torque)
             return None
@@ -207,6 +218,7 @@ class MonitorStream:
         self.settle = 5.0 / float(observer_gain)
         self.detector = ContactDetector(min_duration, release)
         n = robot.n_joints
+        self.displacement = DisplacementTracker(n, window_samples(COUNT_WINDOW_S, self.period))
         self._zero_stamps = np.zeros((1, n))
         self._negative_gain = -float(observer_gain)
         self._index = 0
@@ -237,6 +249,7 @@ class MonitorStream:
         """Start anew: the next sample is a first one (after a stall the filter cannot bridge); a
         contact raised before is ended at the last sample."""
         self.detector.finish(self._index, self._last_t)
+        self.displacement.reset()
         self._first: tuple[float, np.ndarray, np.ndarray] | None = None
         self._state: ObserverState | None = None
         self._t0 = float("nan")
@@ -313,10 +326,15 @@ class MonitorStream:
             self._last_fast = t
         since = t - (self._t0 if np.isnan(self._last_fast) else self._last_fast)
         still = np.array([slow and since >= self.settle - RESTING_TOLERANCE_S])
-        thresholds = self.calibration.thresholds_at(self._filtered_band[None], self._zero_stamps, still)[0]
+        band = self._filtered_band[None]
+        moved = self.displacement.update(q)[None]
+        thresholds = self.calibration.thresholds_at(band, self._zero_stamps, still, moved)
+        release = self.calibration.release_shares(thresholds, band, still, self.detector.release)
+        thresholds = thresholds[0]
         monitored = t - self._t0 >= self.start_skip
         estimate = r if monitored else np.zeros_like(r)
-        event = self.detector.update(self._index, t, np.abs(estimate) / thresholds, estimate)
+        shares = release if isinstance(release, float) else release[0]
+        event = self.detector.update(self._index, t, np.abs(estimate) / thresholds, estimate, shares)
         self._index, self._last_t = self._index + 1, t
         return SampleEstimate(t, q, estimate, thresholds, monitored, self.detector.in_contact, event)
 

@@ -26,7 +26,16 @@ from lwrlab.tracking.store.schema_template import cache_folder
 
 log = logging.getLogger(__name__)
 
-CALIBRATING_MODULES = ("calibration", "estimates", "observer", "observer_inputs", "spread", "direct_residual")
+CALIBRATING_MODULES = (
+    "calibration",
+    "counts",
+    "estimates",
+    "observer",
+    "observer_inputs",
+    "rest_residual",
+    "spread",
+    "direct_residual",
+)
 """The modules of :mod:`lwrlab.monitoring` whose code a calibration depends on."""
 
 
