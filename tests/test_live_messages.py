@@ -13,6 +13,8 @@ import time
 
 import numpy as np
 import pytest
+import ros_domains
+from ros_domains import ros_domain
 from rosbags.typesys import Stores, get_typestore
 
 from lwrlab.live import dds
@@ -173,8 +175,27 @@ def test_the_node_follows_ros2s_conventions() -> None:
     assert "BestEffort" in str(dds.qos_profile("sensor_data"))
 
 
+def test_test_processes_side_by_side_get_domains_of_their_own() -> None:
+    """The suite's ROS domains (tests/ros_domains.py): pytest-xdist workers of one run, and of two runs,
+    never share a domain unless the runs' slots coincide; each in 1…100, this process on its first."""
+    run = {"PYTEST_XDIST_WORKER_COUNT": "2", "PYTEST_XDIST_TESTRUNUID": "run-a"}
+    blocks = [
+        {ros_domain(k, {**run, "PYTEST_XDIST_WORKER": worker}) for k in range(ros_domains.BLOCK)}
+        for worker in ("gw0", "gw1")
+    ]
+    assert len(blocks[0] | blocks[1]) == 2 * ros_domains.BLOCK
+    assert all(ros_domains.FIRST <= d <= ros_domains.LAST for block in blocks for d in block)
+    other = {"PYTEST_XDIST_WORKER_COUNT": "2", "PYTEST_XDIST_TESTRUNUID": "run-b"}
+    assert ros_domain(0, {**other, "PYTEST_XDIST_WORKER": "gw0"}) != ros_domain(
+        0, {**run, "PYTEST_XDIST_WORKER": "gw0"}
+    )
+    assert dds.domain_id() == ros_domain(0) and dds.localhost_only()  # what a Node without arguments takes
+    with pytest.raises(RuntimeError, match="at most 25"):
+        ros_domain(0, {"PYTEST_XDIST_WORKER": "gw0", "PYTEST_XDIST_WORKER_COUNT": "26"})
+
+
 def test_a_subscription_counts_the_writers_of_its_topic() -> None:
-    node = dds.Node(domain=200 + os.getpid() % 30, localhost=True)  # a domain of this test's own
+    node = dds.Node(domain=ros_domain(1), localhost=True)  # a domain of this test's own
     try:
         states = node.subscribe("/joint_states", JointState, lambda received: None, "default")
         assert states.publishers == 0
@@ -192,7 +213,7 @@ def test_a_loopback_node_receives_on_loopback_only() -> None:
     """Every UDP socket the node's participant opened is bound to 127.0.0.1 or to the loopback device
     (Cyclone binds its receiving sockets to every address; the node confines them)."""
     before = dds._socket_descriptors()
-    node = dds.Node(domain=200 + (os.getpid() + 7) % 30, localhost=True)
+    node = dds.Node(domain=ros_domain(2), localhost=True)  # a domain of this test's own
     try:
         opened = sorted(dds._socket_descriptors() - before)
         listening = []

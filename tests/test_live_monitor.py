@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from pushed_logs import SETTINGS, pushed_log
+from ros_domains import ros_domain
 
 from lwrlab.live.dds import Node, Received
 from lwrlab.live.joint_states import JointSample, JointStateReader, Refusal
@@ -256,7 +257,7 @@ def identified(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.mark.slow
 def test_the_simulated_robot_and_the_live_monitor_over_dds(tmp_path: Path, identified: Path) -> None:
-    env = {**os.environ, **LOOPBACK, "ROS_DOMAIN_ID": str(40 + os.getpid() % 100)}
+    env = {**os.environ, **LOOPBACK, "ROS_DOMAIN_ID": str(ros_domain(2))}
     store = f"sqlite:///{tmp_path / 'mlflow.db'}"
     monitor_dir, robot_dir = tmp_path / "monitor", tmp_path / "robot"
     monitor = _lwrlab(
@@ -338,7 +339,7 @@ def test_the_simulated_robot_and_the_live_monitor_over_dds(tmp_path: Path, ident
 
 @pytest.mark.slow
 def test_a_live_monitor_without_joint_states_fails_in_mlflow(tmp_path: Path, identified: Path) -> None:
-    env = {**os.environ, **LOOPBACK, "ROS_DOMAIN_ID": str(140 + os.getpid() % 80)}
+    env = {**os.environ, **LOOPBACK, "ROS_DOMAIN_ID": str(ros_domain(3))}
     store = f"sqlite:///{tmp_path / 'mlflow.db'}"
     done = subprocess.run(
         [

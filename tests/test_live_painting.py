@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 import pinocchio as pin
 import pytest
+from ros_domains import ros_domain
 
 from lwrlab.control.command_safety import CommandLimiter, ForceGuard, StateWatch
 from lwrlab.control.force_estimation import ExternalForceEstimator, StateEstimate
@@ -337,7 +338,7 @@ def test_two_processes_paint_with_the_in_process_force_error(tmp_path: Path) -> 
     # of ms at times, which the force loop on a stiff contact does not bear): one period of delay, as in
     # process; the real-time loop and its guards have the drill below and the unit tests above
     lockstep = ["task.robot.lockstep_s=0.5", "task.safety.max_state_age_s=1.0"]
-    robot, live, reason = _pair(tmp_path, 150 + os.getpid() % 40, *lockstep)
+    robot, live, reason = _pair(tmp_path, ros_domain(1), *lockstep)
     assert reason.startswith("painted the whole path"), reason
     assert live["path_progress"] == 1.0 and robot["commands_received"] == live["commands"]
     assert live[key] < 2.0 * in_process[key] + 0.1, (live[key], in_process[key])
@@ -357,7 +358,7 @@ def test_two_processes_paint_with_the_in_process_force_error(tmp_path: Path) -> 
 def test_a_stalled_state_stream_stops_the_controller_with_its_reason(tmp_path: Path) -> None:
     robot, live, reason = _pair(
         tmp_path,
-        190 + os.getpid() % 40,
+        ros_domain(2),
         "task.safety.max_state_age_s=0.03",
         "task.safety.force_limit_n=10000",  # a force loop held up by the machine's load may bounce:
         "task.safety.contact_lost_s=10",  # this drill is the stall's
@@ -375,7 +376,7 @@ def test_a_stalled_state_stream_stops_the_controller_with_its_reason(tmp_path: P
 
 @pytest.mark.slow
 def test_a_second_robot_on_the_joint_states_topic_stops_the_controller(tmp_path: Path) -> None:
-    _, live, reason = _pair(tmp_path, 1 + os.getpid() % 39, robots=2)
+    _, live, reason = _pair(tmp_path, ros_domain(3), robots=2)
     # whichever guard sees it first: the interleaved stamps going back, or the count of writers
     assert "two robots publish" in reason or "2 publishers of /joint_states" in reason, reason
     assert live["stopped_on_fault"] == 1.0 and live["path_progress"] < 0.1

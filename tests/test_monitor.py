@@ -269,8 +269,14 @@ def _pushed_logs(lwr4: RobotModel, folder: Path) -> dict[str, Path]:
     }
 
 
-def test_monitor_task_end_to_end(lwr4: RobotModel, tmp_path: Path) -> None:
-    logs = _pushed_logs(lwr4, tmp_path)
+@pytest.fixture(scope="module")
+def pushed_logs(lwr4: RobotModel, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """:func:`_pushed_logs` simulated once for the tests that only read them."""
+    return _pushed_logs(lwr4, tmp_path_factory.mktemp("pushed_logs"))
+
+
+def test_monitor_task_end_to_end(pushed_logs: dict[str, Path], tmp_path: Path) -> None:
+    logs = pushed_logs
     cfg = compose_config(
         "task=monitor",
         "plant=log",
@@ -310,13 +316,15 @@ def test_monitor_task_end_to_end(lwr4: RobotModel, tmp_path: Path) -> None:
     assert json.loads((out / "metrics.json").read_text())["detections"] == 1
 
 
-def test_the_model_carries_its_friction_drift_to_the_monitor(lwr4: RobotModel, tmp_path: Path) -> None:
+def test_the_model_carries_its_friction_drift_to_the_monitor(
+    pushed_logs: dict[str, Path], tmp_path: Path
+) -> None:
     """An identification from two logs measures how far friction differs between them and writes it
     into its model; the monitor reading that model says it beside the drift its thresholds cover."""
     from lwrlab.io.artifacts import load_identified_model
     from lwrlab.pipeline.monitor.scenario import identify_logs
 
-    logs = _pushed_logs(lwr4, tmp_path)
+    logs = pushed_logs
     model = identify_logs(tmp_path / "identified_model.yaml", [logs["free"], logs["pushed"]], [logs["free"]])
     identified, _ = load_identified_model(model)
     assert identified.friction_drift_source == "logs"
