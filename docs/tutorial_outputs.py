@@ -275,12 +275,13 @@ def fresh_clone(folder: Path) -> tuple[Path, Path]:
 def run_page(page: Path, folder: Path) -> Run:
     """Run ``page``'s commands in a fresh clone under ``folder``: what each bash block printed."""
     clone, home = fresh_clone(folder)
-    # a reader's shell: no MLflow or venv settings, nor what an enclosing `make test ARGS=…` exports
-    # (make puts its command line's variables into the environment, which `make run` would read)
+    # a reader's shell: no MLflow, venv or ROS 2 settings (the test suite's own domain), nor what an
+    # enclosing `make test ARGS=…` exports (make puts its command line's variables into the environment,
+    # which `make run` would read)
     environment = {
         k: v
         for k, v in os.environ.items()
-        if not k.startswith(("MLFLOW_", "VIRTUAL_ENV")) and k not in MAKE_VARIABLES
+        if not k.startswith(("MLFLOW_", "VIRTUAL_ENV", "ROS_")) and k not in MAKE_VARIABLES
     }
     real_home = Path.home()
     environment |= {
